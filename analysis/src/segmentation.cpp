@@ -1,0 +1,295 @@
+#include "circtest/analysis/segmentation.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "circtest/analysis/circle_fit.hpp"
+#include "circtest/core/error.hpp"
+
+namespace circtest {
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+int find_column(const Trace& trace, const std::string& name) {
+  const int i = trace.column_index(name);
+  if (i < 0) {
+    std::string have;
+    for (const auto& c : trace.columns) have += (have.empty() ? "" : ",") + c;
+    throw ParseError(trace.source, trace.header_line,
+                     fmt::format("missing column '{}': expected it in the header (found: {})", name,
+                                 have));
+  }
+  return i;
+}
+
+struct Span {
+  std::size_t begin, end;
+};
+
+// Signed swept angle (rad) of rows [begin, end) about a centre.
+double swept_angle(const double* a, const double* b, std::size_t begin, std::size_t end,
+                   double ca, double cb) {
+  double total = 0.0;
+  double pa = a[begin] - ca, pb = b[begin] - cb;
+  for (std::size_t i = begin + 1; i < end; ++i) {
+    const double qa = a[i] - ca, qb = b[i] - cb;
+    total += std::atan2(pa * qb - pb * qa, pa * qa + pb * qb);
+    pa = qa;
+    pb = qb;
+  }
+  return total;
+}
+
+Circle centre_of(const double* a, const double* b, Span s, const SegmentationOptions& o) {
+  if (o.centre_a_mm && o.centre_b_mm) {
+    return {*o.centre_a_mm, *o.centre_b_mm, o.radius_mm.value_or(0.0)};
+  }
+  return fit_lsc_algebraic(std::span<const double>(a + s.begin, s.end - s.begin),
+                           std::span<const double>(b + s.begin, s.end - s.begin));
+}
+
+Run make_run(const double* a, const double* b, Span s, const Circle& c) {
+  Run r;
+  r.begin = s.begin;
+  r.end = s.end;
+  const double sweep = swept_angle(a, b, s.begin, s.end, c.centre_a_mm, c.centre_b_mm);
+  r.direction = sweep >= 0 ? Direction::CCW : Direction::CW;
+  r.sweep_deg = std::abs(sweep) * kRadToDeg;
+  r.start_deg = std::atan2(b[s.begin] - c.centre_b_mm, a[s.begin] - c.centre_a_mm) * kRadToDeg;
+  return r;
+}
+
+// Finds the arcs at constant radius inside [lo, hi): moving samples near the circle,
+// split where the rotation changes sign; stretches under min_sweep are dropped (lead arcs,
+// feed-in moves), overtravel beyond 360 deg is trimmed evenly.
+std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
+                                const SegmentationOptions& o) {
+  std::vector<Run> out;
+  const std::size_t n = range.end - range.begin;
+  if (n < o.min_points) return out;
+  constexpr std::size_t w = 5;
+  std::vector<double> chord(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t i0 = range.begin + (k >= w ? k - w : 0);
+    const std::size_t i1 = range.begin + std::min(n - 1, k + w);
+    chord[k] = std::hypot(a[i1] - a[i0], b[i1] - b[i0]);
+  }
+  std::vector<double> moving_chords;
+  moving_chords.reserve(n);
+  for (double c : chord) {
+    if (c > 1e-4) moving_chords.push_back(c);
+  }
+  if (moving_chords.empty()) return out;
+  auto mid = moving_chords.begin() + static_cast<std::ptrdiff_t>(moving_chords.size() / 2);
+  std::nth_element(moving_chords.begin(), mid, moving_chords.end());
+  const double moving_threshold = 0.3 * *mid;
+
+  std::vector<char> keep(n, 0);
+  std::vector<double> sa, sb;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (chord[k] > moving_threshold) {
+      keep[k] = 1;
+      sa.push_back(a[range.begin + k]);
+      sb.push_back(b[range.begin + k]);
+    }
+  }
+  if (sa.size() < o.min_points) return out;
+
+  Circle c;
+  if (o.centre_a_mm && o.centre_b_mm && o.radius_mm) {
+    c = {*o.centre_a_mm, *o.centre_b_mm, *o.radius_mm};
+  } else {
+    // Refit on the samples near the first estimate: feed-in lines and lead arcs of another
+    // radius pull the first algebraic fit away from the test circle.
+    c = fit_lsc_algebraic(sa, sb);
+    for (int pass = 0; pass < 3; ++pass) {
+      const double tol = std::max(0.05 * c.radius_mm, 0.2);
+      std::vector<double> ta, tb;
+      for (std::size_t i = 0; i < sa.size(); ++i) {
+        if (std::abs(std::hypot(sa[i] - c.centre_a_mm, sb[i] - c.centre_b_mm) - c.radius_mm) < tol) {
+          ta.push_back(sa[i]);
+          tb.push_back(sb[i]);
+        }
+      }
+      if (ta.size() < o.min_points) break;
+      c = fit_lsc_algebraic(ta, tb);
+    }
+  }
+  const double tol = std::max(0.01 * c.radius_mm, 0.2);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!keep[k]) continue;
+    const std::size_t i = range.begin + k;
+    if (std::abs(std::hypot(a[i] - c.centre_a_mm, b[i] - c.centre_b_mm) - c.radius_mm) > tol) {
+      keep[k] = 0;
+    }
+  }
+
+  auto close_stretch = [&](std::size_t s, std::size_t e) {
+    if (e - s < o.min_points) return;
+    const double sweep = swept_angle(a, b, s, e, c.centre_a_mm, c.centre_b_mm);
+    if (std::abs(sweep) * kRadToDeg < o.min_sweep_deg) return;
+    Span sp{s, e};
+    const double over = std::abs(sweep) * kRadToDeg - 360.0;
+    if (over > 0.5) {
+      // Trim evenly: walk in from both ends until each has lost half the overtravel.
+      const double half = over / 2.0 / kRadToDeg;
+      double acc = 0.0;
+      while (sp.begin + 1 < sp.end && acc < half) {
+        acc += std::abs(swept_angle(a, b, sp.begin, sp.begin + 2, c.centre_a_mm, c.centre_b_mm));
+        ++sp.begin;
+      }
+      acc = 0.0;
+      while (sp.end > sp.begin + 1 && acc < half) {
+        acc += std::abs(swept_angle(a, b, sp.end - 2, sp.end, c.centre_a_mm, c.centre_b_mm));
+        --sp.end;
+      }
+    }
+    out.push_back(make_run(a, b, sp, c));
+  };
+
+  // Split kept stretches where the rotation reverses; a short window smooths jitter.
+  std::size_t start = 0;
+  bool open = false;
+  int dir = 0;
+  for (std::size_t k = 0; k <= n; ++k) {
+    const bool kept = k < n && keep[k];
+    if (!kept) {
+      if (open) close_stretch(range.begin + start, range.begin + k);
+      open = false;
+      dir = 0;
+      continue;
+    }
+    const std::size_t i = range.begin + k;
+    int d = 0;
+    if (k + w < n && keep[k + w]) {
+      const double s = swept_angle(a, b, i, i + w + 1, c.centre_a_mm, c.centre_b_mm);
+      d = s > 0 ? 1 : (s < 0 ? -1 : 0);
+    }
+    if (!open) {
+      open = true;
+      start = k;
+      dir = d;
+    } else if (d != 0 && dir != 0 && d != dir) {
+      close_stretch(range.begin + start, i);
+      start = k;
+      dir = d;
+    } else if (dir == 0) {
+      dir = d;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* segmentation_method_name(SegmentationMethod method) noexcept {
+  switch (method) {
+    case SegmentationMethod::marker: return "marker";
+    case SegmentationMethod::segment: return "segment";
+    case SegmentationMethod::automatic: return "automatic";
+  }
+  return "automatic";
+}
+
+PlaneColumns plane_columns(const Trace& trace, Plane plane, const std::string& a_name,
+                           const std::string& b_name) {
+  const PlaneAxes axes = plane_axes(plane);
+  PlaneColumns c;
+  c.a = find_column(trace, a_name.empty() ? std::string(1, axes.first) : a_name);
+  c.b = find_column(trace, b_name.empty() ? std::string(1, axes.second) : b_name);
+  return c;
+}
+
+Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
+                           const SegmentationOptions& options) {
+  Segmentation result;
+  const std::size_t n = trace.rows();
+  const double* a = trace.values[static_cast<std::size_t>(columns.a)].data();
+  const double* b = trace.values[static_cast<std::size_t>(columns.b)].data();
+  const std::vector<double>* marker = trace.column("marker");
+  const std::vector<double>* segment = trace.column("segment");
+  auto line = [&](std::size_t row) -> std::size_t {
+    return row < trace.line_of_row.size() ? trace.line_of_row[row] : 0;
+  };
+  if (n < 3) {
+    throw DataError(trace.source, n == 0 ? trace.header_line : line(n - 1),
+                    fmt::format("too few points: {} rows, expected at least 3 per run", n));
+  }
+  auto seg_id = [&](std::size_t row) -> long {
+    return segment ? std::lround((*segment)[row]) : 0;
+  };
+
+  std::vector<Span> spans;
+  if (marker) {
+    result.method = SegmentationMethod::marker;
+    std::size_t i = 0;
+    while (i < n) {
+      if ((*marker)[i] < 0.5) {
+        ++i;
+        continue;
+      }
+      std::size_t j = i + 1;
+      while (j < n && (*marker)[j] >= 0.5 && seg_id(j) == seg_id(i)) ++j;
+      spans.push_back({i, j});
+      i = j;
+    }
+  } else if (segment) {
+    result.method = SegmentationMethod::segment;
+    std::size_t i = 0;
+    while (i < n) {
+      if (seg_id(i) == 0) {
+        ++i;
+        continue;
+      }
+      std::size_t j = i + 1;
+      while (j < n && seg_id(j) == seg_id(i)) ++j;
+      spans.push_back({i, j});
+      i = j;
+    }
+  } else {
+    result.method = SegmentationMethod::automatic;
+    spans.push_back({0, n});
+  }
+
+  for (const Span& s : spans) {
+    if (result.method == SegmentationMethod::marker) {
+      const std::size_t number = result.runs.size() + 1;
+      if (s.end - s.begin < options.min_points) {
+        throw DataError(trace.source, line(s.begin),
+                        fmt::format("run {} (lines {}-{}): too few points ({}), expected at least {}",
+                                    number, line(s.begin), line(s.end - 1), s.end - s.begin,
+                                    options.min_points));
+      }
+      Run r = make_run(a, b, s, centre_of(a, b, s, options));
+      r.segment_id = seg_id(s.begin);
+      if (r.sweep_deg < options.min_sweep_deg) {
+        throw DataError(trace.source, line(s.begin),
+                        fmt::format("run {} (lines {}-{}) sweeps {:.1f} deg: expected an arc of at "
+                                    "least {:.0f} deg (ISO 230-4 clause 3.1)",
+                                    number, line(s.begin), line(s.end - 1), r.sweep_deg,
+                                    options.min_sweep_deg));
+      }
+      result.runs.push_back(r);
+    } else {
+      for (Run r : automatic_runs(a, b, s, options)) {
+        r.segment_id = seg_id(r.begin);
+        result.runs.push_back(r);
+      }
+    }
+  }
+  if (result.runs.empty()) {
+    throw DataError(trace.source, 0,
+                    fmt::format("no run found ({} segmentation): expected a circular arc of at "
+                                "least {:.0f} deg with at least {} points",
+                                segmentation_method_name(result.method), options.min_sweep_deg,
+                                options.min_points));
+  }
+  return result;
+}
+
+}  // namespace circtest

@@ -1,0 +1,102 @@
+#pragma once
+// The trace: what circlog-record writes and circana reads (docs/trace-format.md).
+// Text form: "# key: value" metadata lines, a header row of comma-separated column names,
+// then one comma-separated row per sample; mm and s.
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+namespace circtest {
+
+// Ordered key/value pairs; a key given twice keeps both, and lookups return the last one
+// (so trailer metadata written at the end of a recording overrides the header).
+class TraceMetadata {
+ public:
+  void set(std::string key, std::string value);
+  const std::string* find(std::string_view key) const;
+  // The value as a number; nullopt if absent. Throws ParseError (naming `source` and the
+  // metadata line) if present but not a finite number.
+  std::optional<double> number(std::string_view key, const std::string& source = {}) const;
+  std::size_t line_of(std::string_view key) const;  // 0 if unknown
+  const std::vector<std::pair<std::string, std::string>>& entries() const { return entries_; }
+  void set_line(std::size_t index, std::size_t line);
+
+ private:
+  std::vector<std::pair<std::string, std::string>> entries_;
+  std::vector<std::size_t> lines_;
+};
+
+struct Trace {
+  std::string source;  // file name, for messages
+  TraceMetadata metadata;
+  std::vector<std::string> columns;              // kept columns, in file order
+  std::vector<std::vector<double>> values;       // values[column][row]
+  std::vector<std::uint32_t> line_of_row;        // 1-based file line of each row
+  std::size_t header_line = 0;
+
+  std::size_t rows() const { return line_of_row.size(); }
+  // Index into columns/values, or -1 when the trace has no such column.
+  int column_index(std::string_view name) const;
+  const std::vector<double>* column(std::string_view name) const;
+};
+
+struct TraceReadOptions {
+  std::vector<std::string> keep;      // columns to keep (empty: keep all)
+  std::vector<std::string> required;  // columns that must exist (else ParseError at the header)
+  // When the trace has a `t` column: reject time going backwards (DataError at that row).
+  bool check_time_monotonic = true;
+};
+
+// Reads a text trace (or a binary one, see docs/trace-format.md; detected by its magic).
+// Throws IoError, ParseError or DataError with the file and line.
+Trace read_trace(const std::string& path, const TraceReadOptions& options = {});
+Trace parse_trace(std::string_view text, const std::string& source,
+                  const TraceReadOptions& options = {});
+
+enum class ColumnKind { real, integer };
+
+struct TraceColumn {
+  std::string name;
+  ColumnKind kind = ColumnKind::real;
+  int decimals = 6;  // for real columns: 6 decimals of mm is 1 nm
+};
+
+// Streams a text trace to "<path>.part" and renames it to <path> on commit(), after
+// fsync, so a reader never sees a half-written trace. Destroying an uncommitted writer
+// removes the partial file.
+class TraceWriter {
+ public:
+  TraceWriter(std::string path, const TraceMetadata& header, std::vector<TraceColumn> columns);
+  ~TraceWriter();
+  TraceWriter(const TraceWriter&) = delete;
+  TraceWriter& operator=(const TraceWriter&) = delete;
+
+  // One value per column, in column order.
+  void write_row(const double* values);
+  // Metadata written after the last row (counts known only at the end of a recording).
+  void add_trailer(std::string key, std::string value);
+  void commit();
+  std::size_t rows_written() const { return rows_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  void flush_buffer();
+  std::string path_;
+  std::string part_path_;
+  std::vector<TraceColumn> columns_;
+  TraceMetadata trailer_;
+  std::string buffer_;
+  std::FILE* file_ = nullptr;
+  std::size_t rows_ = 0;
+  bool committed_ = false;
+};
+
+// Writes a whole trace with TraceWriter.
+void write_trace(const std::string& path, const Trace& trace);
+
+}  // namespace circtest

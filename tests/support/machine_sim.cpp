@@ -1,0 +1,129 @@
+#include "machine_sim.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace circtest::sim {
+
+namespace {
+
+struct AxisState {
+  double motor = 0.0;
+  double table = 0.0;  // screw side, after the backlash play
+  bool initialised = false;
+};
+
+int axis_index(char letter) { return letter - 'x'; }
+
+}  // namespace
+
+Trace simulate(const MachineModel& machine, const CircleProgram& program) {
+  const PlaneAxes axes = plane_axes(program.plane);
+  const int ia = axis_index(axes.first);
+  const int ib = axis_index(axes.second);
+  const AxisModel* models[3] = {&machine.x, &machine.y, &machine.z};
+  const double T = program.period_s;
+  const double R = program.radius_mm;
+  const double omega = program.feed_mm_per_min / 60.0 / R;  // rad/s
+  const double deg = std::numbers::pi / 180.0;
+
+  Trace trace;
+  trace.source = "<simulated>";
+  trace.metadata.set("plane", std::string(plane_name(program.plane)));
+  trace.metadata.set("radius_mm", fmt::format("{}", R));
+  trace.metadata.set("centre_mm", fmt::format("{},{},{}", program.centre_mm[0],
+                                              program.centre_mm[1], program.centre_mm[2]));
+  trace.metadata.set("feed_mm_per_min", fmt::format("{}", program.feed_mm_per_min));
+  trace.metadata.set("sample_period_s", fmt::format("{}", T));
+  trace.columns = {"t", "x", "y", "z", "x_cmd", "y_cmd", "z_cmd", "marker", "segment"};
+  trace.values.assign(trace.columns.size(), {});
+
+  std::mt19937_64 rng(machine.seed);
+  std::normal_distribution<double> noise(0.0, machine.noise_mm > 0 ? machine.noise_mm : 1.0);
+  AxisState state[3];
+  std::size_t k = 0;
+
+  auto emit = [&](const double cmd[3], double marker, double segment) {
+    double table[3];
+    for (int i = 0; i < 3; ++i) {
+      const AxisModel& m = *models[i];
+      AxisState& s = state[i];
+      if (!s.initialised) {
+        s.motor = cmd[i];
+        s.table = cmd[i];
+        s.initialised = true;
+      }
+      if (m.kv_per_s > 0.0) {
+        s.motor += (1.0 - std::exp(-m.kv_per_s * T)) * (cmd[i] - s.motor);
+      } else {
+        s.motor = cmd[i];
+      }
+      const double half = 0.5 * m.backlash_mm;
+      if (s.motor - s.table > half) s.table = s.motor - half;
+      if (s.motor - s.table < -half) s.table = s.motor + half;
+      double p = s.table * (1.0 + m.scale);
+      if (m.cyclic_pitch_mm > 0.0) {
+        p += m.cyclic_amplitude_mm *
+             std::sin(2.0 * std::numbers::pi * s.table / m.cyclic_pitch_mm + m.cyclic_phase_rad);
+      }
+      table[i] = p;
+    }
+    table[ia] += machine.squareness_rad * table[ib];
+    if (machine.noise_mm > 0.0) {
+      for (double& v : table) v += noise(rng);
+    }
+    const double row[9] = {static_cast<double>(k) * T, table[0], table[1], table[2],
+                           cmd[0], cmd[1], cmd[2], marker, segment};
+    for (std::size_t c = 0; c < 9; ++c) trace.values[c].push_back(row[c]);
+    trace.line_of_row.push_back(static_cast<std::uint32_t>(k + 2));
+    ++k;
+  };
+
+  auto point = [&](double angle_rad, double out[3]) {
+    out[0] = program.centre_mm[0];
+    out[1] = program.centre_mm[1];
+    out[2] = program.centre_mm[2];
+    out[ia] += R * std::cos(angle_rad);
+    out[ib] += R * std::sin(angle_rad);
+  };
+
+  auto dwell = [&](double angle_rad) {
+    double cmd[3];
+    point(angle_rad, cmd);
+    const auto n = static_cast<std::size_t>(std::llround(program.dwell_s / T));
+    for (std::size_t i = 0; i < n; ++i) emit(cmd, 0.0, 0.0);
+  };
+
+  const double start = program.start_deg * deg;
+  const double lead = program.lead_deg * deg;
+  const double arc = program.arc_deg * deg;
+  int segment = 0;
+  double angle = start;
+  for (Direction dir : program.runs) {
+    const double sign = dir == Direction::CCW ? 1.0 : -1.0;
+    // Each run starts at the measured arc's start, reached by its lead-in on the circle.
+    const double run_start = dir == Direction::CCW ? start : start + arc;
+    const double lead_start = run_start - sign * lead;
+    angle = lead_start;
+    dwell(angle);
+    ++segment;
+    const double total = 2.0 * lead + arc;
+    const double steps = total / (omega * T);
+    const auto n = static_cast<std::size_t>(std::ceil(steps));
+    for (std::size_t i = 0; i <= n; ++i) {
+      const double s = std::min(static_cast<double>(i) * omega * T, total);
+      angle = lead_start + sign * s;
+      const bool measured = s >= lead && s <= lead + arc;
+      double cmd[3];
+      point(angle, cmd);
+      emit(cmd, measured ? 1.0 : 0.0, segment);
+    }
+  }
+  dwell(angle);
+  return trace;
+}
+
+}  // namespace circtest::sim

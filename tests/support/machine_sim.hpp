@@ -1,0 +1,48 @@
+#pragma once
+// A machine simulator for tests: the commanded circle of an ISO 230-4 program through a
+// per-axis model (first-order position loop, backlash play, scale, cyclic error) and the
+// squareness of the first plane axis to the second, sampled every period like circlog.
+// Its injected errors are the independent truth the analysis is checked against.
+#include <cstdint>
+#include <vector>
+
+#include "circtest/core/plane.hpp"
+#include "circtest/core/trace.hpp"
+
+namespace circtest::sim {
+
+struct AxisModel {
+  double kv_per_s = 0.0;             // position-loop gain; 0 = ideal (no lag)
+  double backlash_mm = 0.0;          // play between motor and table
+  double scale = 0.0;                // relative scale error: table = motor * (1 + scale)
+  double cyclic_amplitude_mm = 0.0;  // waviness tied to axis position
+  double cyclic_pitch_mm = 0.0;
+  double cyclic_phase_rad = 0.0;
+};
+
+struct MachineModel {
+  AxisModel x, y, z;
+  // Squareness of the plane's first axis to its second: a_actual = a + squareness * b.
+  double squareness_rad = 0.0;
+  double noise_mm = 0.0;  // Gaussian noise on the measured positions (standard deviation)
+  std::uint64_t seed = 1;
+};
+
+struct CircleProgram {
+  Plane plane = Plane::XY;
+  double radius_mm = 75.0;
+  double centre_mm[3] = {0.0, 0.0, 0.0};  // x, y, z
+  double feed_mm_per_min = 1000.0;
+  std::vector<Direction> runs = {Direction::CCW, Direction::CW};
+  double arc_deg = 360.0;
+  double start_deg = 0.0;
+  double lead_deg = 30.0;  // lead-in and lead-out arcs on the same circle, marker off
+  double dwell_s = 0.2;    // at rest before the first run and between runs
+  double period_s = 0.001;
+};
+
+// Columns: t, x, y, z (measured), x_cmd, y_cmd, z_cmd, marker, segment (1, 2, ... per run).
+// Metadata: plane, radius, centre, feed.
+Trace simulate(const MachineModel& machine, const CircleProgram& program);
+
+}  // namespace circtest::sim
