@@ -1,5 +1,7 @@
 #include "circtest/core/error.hpp"
 
+#include <fmt/format.h>
+
 namespace circtest {
 
 const char* exit_code_name(ExitCode code) noexcept {
@@ -19,9 +21,8 @@ const char* exit_code_name(ExitCode code) noexcept {
 
 namespace {
 std::string place(const std::string& file, std::size_t line) {
-  std::string out = file.empty() ? std::string("<input>") : file;
-  if (line > 0) out += ":" + std::to_string(line);
-  return out;
+  const std::string& name = file.empty() ? std::string("<input>") : file;
+  return line > 0 ? fmt::format("{}:{}", name, line) : name;
 }
 }  // namespace
 

@@ -1,0 +1,148 @@
+// circana: ISO 230-4 evaluation of circular-test traces. Parses options, calls the library.
+#include <boost/program_options.hpp>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "circtest/analysis/commands.hpp"
+#include "circtest/core/cli.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
+
+namespace po = boost::program_options;
+using namespace circtest;
+
+namespace {
+
+const char* kUsage =
+    "usage: circana analyze TRACE [--radius MM] [--centre A,B] [--plane XY|YZ|ZX]\n"
+    "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
+    "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
+    "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
+    "       circana fit POINTS.csv [--columns A,B] [--json]\n";
+
+po::variables_map parse(const po::options_description& desc,
+                        const po::positional_options_description& pos,
+                        const std::vector<std::string>& args) {
+  po::variables_map vm;
+  try {
+    po::store(po::command_line_parser(args).options(desc).positional(pos).run(), vm);
+    po::notify(vm);
+  } catch (const po::error& e) {
+    throw UsageError(e.what());
+  }
+  return vm;
+}
+
+std::pair<std::string, std::string> column_pair(const std::string& text) {
+  const auto comma = text.find(',');
+  if (comma == std::string::npos || comma == 0 || comma + 1 >= text.size() ||
+      text.find(',', comma + 1) != std::string::npos) {
+    throw UsageError("--columns: expected two column names A,B, got '" + text + "'");
+  }
+  return {text.substr(0, comma), text.substr(comma + 1)};
+}
+
+int analyze(const std::vector<std::string>& args) {
+  po::options_description desc("analyze");
+  desc.add_options()("trace", po::value<std::string>()->required(), "trace file")(
+      "radius", po::value<std::string>(), "nominal radius, mm")(
+      "centre", po::value<std::string>(), "nominal (set-up) centre A,B, mm")(
+      "plane", po::value<std::string>(), "XY, YZ or ZX")(
+      "g-method", po::value<std::string>()->default_value("min-zone"), "")(
+      "f-centre", po::value<std::string>()->default_value("auto"), "")(
+      "columns", po::value<std::string>(), "position columns A,B")(
+      "t-machine", po::value<std::string>(), "")("t-instrument", po::value<std::string>(), "")(
+      "alpha-machine", po::value<std::string>(), "")(
+      "alpha-instrument", po::value<std::string>(), "")("json", "JSON on stdout");
+  po::positional_options_description pos;
+  pos.add("trace", 1);
+  const auto vm = parse(desc, pos, args);
+
+  AnalyzeRequest req;
+  req.trace_path = vm["trace"].as<std::string>();
+  req.json = vm.count("json") > 0;
+  auto& o = req.options;
+  if (vm.count("radius")) {
+    o.nominal_radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>());
+    if (*o.nominal_radius_mm <= 0) throw UsageError("--radius: expected a positive number");
+  }
+  if (vm.count("centre")) {
+    const auto c = parse_option_list("--centre", vm["centre"].as<std::string>(), 2);
+    o.centre_a_mm = c[0];
+    o.centre_b_mm = c[1];
+  }
+  if (vm.count("plane")) {
+    o.plane = parse_plane(vm["plane"].as<std::string>());
+    if (!o.plane) {
+      throw UsageError("--plane: expected XY, YZ or ZX, got '" + vm["plane"].as<std::string>() +
+                       "'");
+    }
+  }
+  const std::string g = vm["g-method"].as<std::string>();
+  if (g == "min-zone") {
+    o.g_method = GMethod::min_zone;
+  } else if (g == "least-squares") {
+    o.g_method = GMethod::least_squares;
+  } else {
+    throw UsageError("--g-method: expected min-zone or least-squares, got '" + g + "'");
+  }
+  const std::string f = vm["f-centre"].as<std::string>();
+  if (f == "auto") {
+    o.f_centre = FCentre::automatic;
+  } else if (f == "nominal") {
+    o.f_centre = FCentre::nominal;
+  } else if (f == "lsc") {
+    o.f_centre = FCentre::lsc;
+  } else {
+    throw UsageError("--f-centre: expected auto, nominal or lsc, got '" + f + "'");
+  }
+  if (vm.count("columns")) std::tie(o.column_a, o.column_b) = column_pair(vm["columns"].as<std::string>());
+  if (vm.count("t-machine")) {
+    o.temperatures.machine_C = parse_option_number("--t-machine", vm["t-machine"].as<std::string>());
+  }
+  if (vm.count("t-instrument")) {
+    o.temperatures.instrument_C =
+        parse_option_number("--t-instrument", vm["t-instrument"].as<std::string>());
+  }
+  if (vm.count("alpha-machine")) {
+    o.temperatures.machine_expansion_per_K =
+        parse_option_number("--alpha-machine", vm["alpha-machine"].as<std::string>());
+  }
+  if (vm.count("alpha-instrument")) {
+    o.temperatures.instrument_expansion_per_K =
+        parse_option_number("--alpha-instrument", vm["alpha-instrument"].as<std::string>());
+  }
+  return run_analyze(req, std::cout);
+}
+
+int fit(const std::vector<std::string>& args) {
+  po::options_description desc("fit");
+  desc.add_options()("points", po::value<std::string>()->required(), "points file")(
+      "columns", po::value<std::string>(), "coordinate columns A,B (default x,y)")("json", "");
+  po::positional_options_description pos;
+  pos.add("points", 1);
+  const auto vm = parse(desc, pos, args);
+  FitRequest req;
+  req.points_path = vm["points"].as<std::string>();
+  req.json = vm.count("json") > 0;
+  if (vm.count("columns")) std::tie(req.column_a, req.column_b) = column_pair(vm["columns"].as<std::string>());
+  return run_fit(req, std::cout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return run_cli("circana", [&]() -> int {
+    if (argc < 2) throw UsageError("missing command: expected analyze or fit (see circana --help)");
+    const std::string command = argv[1];
+    const std::vector<std::string> args(argv + 2, argv + argc);
+    if (command == "--help" || command == "-h" || command == "help") {
+      std::cout << kUsage;
+      return 0;
+    }
+    if (command == "analyze") return analyze(args);
+    if (command == "fit") return fit(args);
+    throw UsageError("unknown command '" + command + "': expected analyze or fit");
+  });
+}

@@ -1,0 +1,27 @@
+#pragma once
+// The circana commands as library calls: main.cpp only parses options.
+#include <ostream>
+#include <string>
+
+#include "circtest/analysis/evaluation.hpp"
+
+namespace circtest {
+
+struct AnalyzeRequest {
+  std::string trace_path;
+  EvaluationOptions options;
+  bool json = false;
+};
+// Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
+// nothing reaches stdout when an error is thrown. Returns the exit code.
+int run_analyze(const AnalyzeRequest& request, std::ostream& out);
+
+struct FitRequest {
+  std::string points_path;
+  std::string column_a = "x";
+  std::string column_b = "y";
+  bool json = false;
+};
+int run_fit(const FitRequest& request, std::ostream& out);
+
+}  // namespace circtest

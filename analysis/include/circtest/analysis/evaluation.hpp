@@ -1,0 +1,102 @@
+#pragma once
+// The results of ISO 230-4 clause 3 for a trace: H, G and F per direction.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "circtest/analysis/circle_fit.hpp"
+#include "circtest/analysis/segmentation.hpp"
+#include "circtest/core/plane.hpp"
+#include "circtest/core/trace.hpp"
+
+namespace circtest {
+
+enum class GMethod { min_zone, least_squares };
+enum class FCentre { automatic, nominal, lsc };
+
+// Clause 4.1: F is reported at 20 deg C. The instrument's reading is scaled by its own
+// expansion and the machine's: r_20 = r * (1 + a_i (T_i - 20) - a_m (T_m - 20)).
+struct Temperatures {
+  std::optional<double> machine_C;
+  std::optional<double> instrument_C;
+  double machine_expansion_per_K = 11.5e-6;  // steel scales / ball screws
+  double instrument_expansion_per_K = 0.0;   // e.g. a glass-ceramic grid encoder
+  bool available() const { return machine_C.has_value() || instrument_C.has_value(); }
+  double radius_factor() const;  // 1 + a_i (T_i - 20) - a_m (T_m - 20)
+};
+
+struct EvaluationOptions {
+  std::optional<Plane> plane;  // default: the trace's `plane` metadata, else XY
+  std::string column_a;  // explicit position columns (default: the plane's axis letters)
+  std::string column_b;
+  std::optional<double> nominal_radius_mm;
+  std::optional<double> centre_a_mm;  // nominal / set-up centre
+  std::optional<double> centre_b_mm;
+  GMethod g_method = GMethod::min_zone;
+  FCentre f_centre = FCentre::automatic;
+  Temperatures temperatures;
+  double min_arc_deg = 90.0;
+};
+
+struct RunResult {
+  Run run;
+  std::string label;  // clause 3.7, e.g. "XY" for CCW in the XY plane
+  std::size_t first_line = 0;
+  std::size_t last_line = 0;
+  Circle lsc;             // least-squares circle of this run
+  MinimumZone mzc;        // minimum-zone circles of this run
+  double g_mzc_mm = 0.0;  // G by minimum zone
+  double g_lsc_mm = 0.0;  // G about the LSC centre (max - min radius)
+  // F against the nominal radius (corrected to 20 deg C when temperatures are known).
+  std::optional<double> f_max_mm;
+  std::optional<double> f_min_mm;
+  std::string f_centre_method;  // "lsc" or "nominal"
+  double f_centre_a_mm = 0.0;
+  double f_centre_b_mm = 0.0;
+  std::optional<double> feed_mm_per_min;  // from the time column, when present
+  double g_mm(GMethod m) const { return m == GMethod::min_zone ? g_mzc_mm : g_lsc_mm; }
+};
+
+// H for one CCW/CW pair: both runs about the LSC centre of the two together.
+struct HysteresisResult {
+  std::size_t run_ccw = 0;  // indices into Evaluation::runs
+  std::size_t run_cw = 0;
+  double h_mm = 0.0;
+  double at_angle_deg = 0.0;  // where the largest difference occurs
+  Circle common_lsc;
+  double overlap_deg = 0.0;  // angular range both runs cover
+};
+
+struct Evaluation {
+  std::string source;
+  Plane plane = Plane::XY;
+  SegmentationMethod segmentation = SegmentationMethod::automatic;
+  GMethod g_method = GMethod::min_zone;
+  std::optional<double> nominal_radius_mm;
+  std::string nominal_radius_source;  // "option", "metadata", "commanded", or empty
+  std::optional<double> centre_a_mm;
+  std::optional<double> centre_b_mm;
+  std::string centre_source;
+  Temperatures temperatures;
+  double temperature_factor = 1.0;
+  std::vector<RunResult> runs;
+  std::vector<HysteresisResult> hysteresis;  // one per adjacent CCW/CW pair
+  std::vector<std::string> notes;            // warnings worth showing the user
+};
+
+// Runs the whole evaluation. Options left empty are taken from the trace's metadata
+// (plane, radius_mm / diameter_mm, centre_mm, temperatures) or commanded columns.
+Evaluation evaluate(const Trace& trace, EvaluationOptions options);
+
+// Largest |r1(theta) - r2(theta)| over the angles both paths cover, about a centre,
+// with each path's radius linearly interpolated in angle at the other's samples.
+struct RadialDifference {
+  double max_mm = 0.0;
+  double at_angle_deg = 0.0;
+  double overlap_deg = 0.0;
+};
+RadialDifference max_radial_difference(std::span<const double> a1, std::span<const double> b1,
+                                       std::span<const double> a2, std::span<const double> b2,
+                                       double centre_a_mm, double centre_b_mm);
+
+}  // namespace circtest

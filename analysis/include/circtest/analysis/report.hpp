@@ -1,0 +1,29 @@
+#pragma once
+// The result model as JSON (shared by the CLI, the report and later the compensation
+// planner) and the clause 6 text report.
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "circtest/analysis/circle_fit.hpp"
+#include "circtest/analysis/evaluation.hpp"
+
+namespace circtest {
+
+nlohmann::json to_json(const Evaluation& evaluation);
+std::string text_report(const Evaluation& evaluation);
+
+struct FitReport {
+  std::string source;
+  std::size_t points = 0;
+  Circle lsc;
+  MinimumZone mzc;
+  ContactCircle mcc;
+  ContactCircle mic;
+};
+FitReport fit_all(const std::string& source, std::span<const double> a, std::span<const double> b);
+nlohmann::json to_json(const FitReport& report);
+std::string text_report(const FitReport& report);
+
+const char* g_method_name(GMethod method) noexcept;  // "min-zone", "least-squares"
+
+}  // namespace circtest

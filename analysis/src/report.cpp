@@ -1,0 +1,212 @@
+#include "circtest/analysis/report.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <iterator>
+
+namespace circtest {
+
+namespace {
+
+using nlohmann::json;
+
+json opt(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+// Micrometres for the text report: the unit people read circular-test results in.
+std::string um(double mm) { return fmt::format("{:+.1f} um", mm * 1000.0); }
+std::string um_abs(double mm) { return fmt::format("{:.1f} um", mm * 1000.0); }
+
+}  // namespace
+
+const char* g_method_name(GMethod method) noexcept {
+  return method == GMethod::min_zone ? "min-zone" : "least-squares";
+}
+
+json to_json(const Evaluation& ev) {
+  json j;
+  j["units"] = "mm";
+  j["source"] = ev.source;
+  j["plane"] = std::string(plane_name(ev.plane));
+  j["segmentation"] = segmentation_method_name(ev.segmentation);
+  j["g_method"] = g_method_name(ev.g_method);
+  j["nominal_radius"] = opt(ev.nominal_radius_mm);
+  j["nominal_radius_source"] = ev.nominal_radius_source;
+  j["nominal_centre"] =
+      ev.centre_a_mm ? json::array({*ev.centre_a_mm, *ev.centre_b_mm}) : json(nullptr);
+  j["nominal_centre_source"] = ev.centre_source;
+  j["temperature"] = {{"corrected", ev.temperatures.available()},
+                      {"machine_C", opt(ev.temperatures.machine_C)},
+                      {"instrument_C", opt(ev.temperatures.instrument_C)},
+                      {"machine_expansion_per_K", ev.temperatures.machine_expansion_per_K},
+                      {"instrument_expansion_per_K", ev.temperatures.instrument_expansion_per_K},
+                      {"radius_factor", ev.temperature_factor}};
+  j["H"] = ev.hysteresis.empty() ? json(nullptr) : json(ev.hysteresis.front().h_mm);
+  json pairs = json::array();
+  for (const auto& h : ev.hysteresis) {
+    pairs.push_back({{"runs", {h.run_ccw, h.run_cw}},
+                     {"H", h.h_mm},
+                     {"angle_deg", h.at_angle_deg},
+                     {"overlap_deg", h.overlap_deg},
+                     {"centre", {h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm}}});
+  }
+  j["pairs"] = pairs;
+  json runs = json::array();
+  for (const auto& r : ev.runs) {
+    json contacts_outer = r.mzc.outer_contacts;
+    json contacts_inner = r.mzc.inner_contacts;
+    runs.push_back({
+        {"direction", std::string(direction_name(r.run.direction))},
+        {"label", r.label},
+        {"segment", r.run.segment_id},
+        {"G", r.g_mzc_mm},
+        {"G_lsc", r.g_lsc_mm},
+        {"F_max", opt(r.f_max_mm)},
+        {"F_min", opt(r.f_min_mm)},
+        {"F_centre", r.f_centre_method},
+        {"F_centre_point", {r.f_centre_a_mm, r.f_centre_b_mm}},
+        {"centre", {r.lsc.centre_a_mm, r.lsc.centre_b_mm}},
+        {"radius", r.lsc.radius_mm},
+        {"points", r.run.size()},
+        {"arc_deg", r.run.sweep_deg},
+        {"start_deg", r.run.start_deg},
+        {"lines", {r.first_line, r.last_line}},
+        {"feed_mm_per_min", opt(r.feed_mm_per_min)},
+        {"mzc",
+         {{"centre", {r.mzc.centre_a_mm, r.mzc.centre_b_mm}},
+          {"inner_radius", r.mzc.inner_radius_mm},
+          {"outer_radius", r.mzc.outer_radius_mm},
+          {"zone_width", r.mzc.zone_width_mm},
+          {"certified", r.mzc.certified},
+          {"outer_contacts", contacts_outer},
+          {"inner_contacts", contacts_inner}}},
+    });
+  }
+  j["runs"] = runs;
+  j["notes"] = ev.notes;
+  return j;
+}
+
+std::string text_report(const Evaluation& ev) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
+  fmt::format_to(out, "Plane {} ({} runs found by {} segmentation)\n", plane_name(ev.plane),
+                 ev.runs.size(), segmentation_method_name(ev.segmentation));
+  if (ev.nominal_radius_mm) {
+    fmt::format_to(out, "Nominal path: radius {:.4f} mm (diameter {:.4f} mm, from {})", 
+                   *ev.nominal_radius_mm, 2 * *ev.nominal_radius_mm, ev.nominal_radius_source);
+    if (ev.centre_a_mm) {
+      fmt::format_to(out, ", centre {:.4f}, {:.4f} mm (from {})", *ev.centre_a_mm,
+                     *ev.centre_b_mm, ev.centre_source);
+    }
+    s += '\n';
+  }
+  if (ev.temperatures.available()) {
+    fmt::format_to(out, "F corrected to 20 deg C: machine {} deg C, instrument {} deg C, factor "
+                        "{:.8f}\n",
+                   ev.temperatures.machine_C ? fmt::format("{:.2f}", *ev.temperatures.machine_C)
+                                             : std::string("-"),
+                   ev.temperatures.instrument_C
+                       ? fmt::format("{:.2f}", *ev.temperatures.instrument_C)
+                       : std::string("-"),
+                   ev.temperature_factor);
+  } else {
+    s += "F not temperature-corrected (no temperatures recorded; taken as 20 deg C)\n";
+  }
+  s += "\n";
+  for (const auto& h : ev.hysteresis) {
+    fmt::format_to(out, "a) Circular hysteresis H_{} = {}  (largest at {:.1f} deg, runs {}/{})\n",
+                   ev.runs[h.run_ccw].label, um_abs(h.h_mm), h.at_angle_deg, h.run_ccw + 1,
+                   h.run_cw + 1);
+  }
+  if (ev.hysteresis.empty()) s += "a) Circular hysteresis H: not available\n";
+  fmt::format_to(out, "b) Circular deviation G ({})\n", g_method_name(ev.g_method));
+  for (std::size_t i = 0; i < ev.runs.size(); ++i) {
+    const auto& r = ev.runs[i];
+    fmt::format_to(out, "   run {} {:>3} G_{} = {}   (other method: {})\n", i + 1,
+                   direction_name(r.run.direction), r.label, um_abs(r.g_mm(ev.g_method)),
+                   um_abs(r.g_mm(ev.g_method == GMethod::min_zone ? GMethod::least_squares
+                                                                   : GMethod::min_zone)));
+  }
+  s += "c) Radial deviation F (centre: lsc = least-squares centre, nominal = set-up centre)\n";
+  for (std::size_t i = 0; i < ev.runs.size(); ++i) {
+    const auto& r = ev.runs[i];
+    if (r.f_max_mm) {
+      fmt::format_to(out, "   run {} {:>3} F_{},max = {}  F_{},min = {}  (centre: {})\n", i + 1,
+                     direction_name(r.run.direction), r.label, um(*r.f_max_mm), r.label,
+                     um(*r.f_min_mm), r.f_centre_method);
+    } else {
+      fmt::format_to(out, "   run {} {:>3} F: not available\n", i + 1,
+                     direction_name(r.run.direction));
+    }
+  }
+  s += "\nData capture (clause 4.4 g)\n";
+  for (std::size_t i = 0; i < ev.runs.size(); ++i) {
+    const auto& r = ev.runs[i];
+    fmt::format_to(out,
+                   "   run {} {:>3}: segment {}, lines {}-{}, {} samples, arc {:.2f} deg from "
+                   "{:.2f} deg, LSC centre {:.4f}, {:.4f} mm, radius {:.4f} mm",
+                   i + 1, direction_name(r.run.direction), r.run.segment_id, r.first_line,
+                   r.last_line, r.run.size(), r.run.sweep_deg, r.run.start_deg, r.lsc.centre_a_mm,
+                   r.lsc.centre_b_mm, r.lsc.radius_mm);
+    if (r.feed_mm_per_min) fmt::format_to(out, ", feed {:.0f} mm/min", *r.feed_mm_per_min);
+    s += ", no smoothing\n";
+  }
+  for (const auto& n : ev.notes) fmt::format_to(out, "Note: {}\n", n);
+  return s;
+}
+
+FitReport fit_all(const std::string& source, std::span<const double> a,
+                  std::span<const double> b) {
+  FitReport r;
+  r.source = source;
+  r.points = a.size();
+  r.lsc = fit_lsc(a, b);
+  r.mzc = fit_mzc(a, b);
+  r.mcc = fit_mcc(a, b);
+  r.mic = fit_mic(a, b);
+  return r;
+}
+
+nlohmann::json to_json(const FitReport& r) {
+  auto circle = [](const ContactCircle& c) {
+    return json{{"centre", {c.circle.centre_a_mm, c.circle.centre_b_mm}},
+                {"radius", c.circle.radius_mm},
+                {"contacts", c.contacts}};
+  };
+  json j;
+  j["units"] = "mm";
+  j["source"] = r.source;
+  j["points"] = r.points;
+  j["lsc"] = {{"centre", {r.lsc.centre_a_mm, r.lsc.centre_b_mm}}, {"radius", r.lsc.radius_mm}};
+  j["mzc"] = {{"centre", {r.mzc.centre_a_mm, r.mzc.centre_b_mm}},
+              {"radius", r.mzc.mean_radius_mm()},
+              {"inner_radius", r.mzc.inner_radius_mm},
+              {"outer_radius", r.mzc.outer_radius_mm},
+              {"zone_width", r.mzc.zone_width_mm},
+              {"certified", r.mzc.certified},
+              {"outer_contacts", r.mzc.outer_contacts},
+              {"inner_contacts", r.mzc.inner_contacts}};
+  j["mcc"] = circle(r.mcc);
+  j["mic"] = circle(r.mic);
+  return j;
+}
+
+std::string text_report(const FitReport& r) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out, "Circle fits of {} ({} points), mm\n", r.source, r.points);
+  fmt::format_to(out, "LSC  centre {:.9f}, {:.9f}  radius {:.9f}\n", r.lsc.centre_a_mm,
+                 r.lsc.centre_b_mm, r.lsc.radius_mm);
+  fmt::format_to(out, "MZC  centre {:.9f}, {:.9f}  radius {:.9f}  zone width {:.9f} ({})\n",
+                 r.mzc.centre_a_mm, r.mzc.centre_b_mm, r.mzc.mean_radius_mm(), r.mzc.zone_width_mm,
+                 r.mzc.certified ? "certified optimal" : "NOT certified");
+  fmt::format_to(out, "MCC  centre {:.9f}, {:.9f}  radius {:.9f}\n", r.mcc.circle.centre_a_mm,
+                 r.mcc.circle.centre_b_mm, r.mcc.circle.radius_mm);
+  fmt::format_to(out, "MIC  centre {:.9f}, {:.9f}  radius {:.9f}\n", r.mic.circle.centre_a_mm,
+                 r.mic.circle.centre_b_mm, r.mic.circle.radius_mm);
+  return s;
+}
+
+}  // namespace circtest

@@ -1,0 +1,18 @@
+#pragma once
+// Strict number parsing for command-line values and text formats (fast_float underneath).
+#include <optional>
+#include <string_view>
+#include <vector>
+
+namespace circtest {
+
+// The whole text as one finite number (leading '+' and surrounding blanks allowed).
+std::optional<double> parse_finite(std::string_view text);
+
+// For option values: throws UsageError "--name: expected <what>, got '<text>'".
+double parse_option_number(std::string_view option, std::string_view text);
+// "a,b,c" with exactly `count` numbers (count 0: any number, at least one).
+std::vector<double> parse_option_list(std::string_view option, std::string_view text,
+                                      std::size_t count = 0);
+
+}  // namespace circtest
