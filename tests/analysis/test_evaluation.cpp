@@ -1,0 +1,244 @@
+// The ISO 230-4 results of simulated machines against the first-order closed forms of
+// the summary (docs/iso230-4-summary.md "Physical relations"): the injected errors are the truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "circtest/analysis/evaluation.hpp"
+#include "circtest/core/error.hpp"
+#include "machine_sim.hpp"
+
+using namespace circtest;
+using sim::CircleProgram;
+using sim::MachineModel;
+
+namespace {
+
+constexpr double kR = 75.0;
+
+Evaluation run(const MachineModel& m, CircleProgram p = {}, EvaluationOptions o = {}) {
+  return evaluate(sim::simulate(m, p), o);
+}
+
+// Coefficients of r(theta) = c0 + c2 cos 2theta + s2 sin 2theta about a centre, over a run.
+struct TwoLobe {
+  double c0, c2, s2;
+};
+TwoLobe two_lobe(const Trace& trace, const RunResult& r, double ca, double cb) {
+  const auto& x = *trace.column("x");
+  const auto& y = *trace.column("y");
+  double s0 = 0, sc = 0, ss = 0;
+  const std::size_t n = r.run.size();
+  for (std::size_t i = r.run.begin; i < r.run.end; ++i) {
+    const double th = std::atan2(y[i] - cb, x[i] - ca);
+    const double rad = std::hypot(x[i] - ca, y[i] - cb);
+    s0 += rad;
+    sc += rad * std::cos(2 * th);
+    ss += rad * std::sin(2 * th);
+  }
+  return {s0 / n, 2 * sc / n, 2 * ss / n};
+}
+
+}  // namespace
+
+TEST(Evaluation, PerfectMachineGivesZeroErrors) {
+  const Evaluation ev = run({});
+  ASSERT_EQ(ev.runs.size(), 2u);
+  EXPECT_EQ(ev.segmentation, SegmentationMethod::marker);
+  EXPECT_EQ(ev.runs[0].run.direction, Direction::CCW);
+  EXPECT_EQ(ev.runs[0].label, "XY");
+  EXPECT_EQ(ev.runs[1].run.direction, Direction::CW);
+  EXPECT_EQ(ev.runs[1].label, "YX");
+  for (const auto& r : ev.runs) {
+    EXPECT_NEAR(r.run.sweep_deg, 360.0, 0.2);
+    EXPECT_LT(r.g_mzc_mm, 1e-9);
+    EXPECT_NEAR(*r.f_max_mm, 0.0, 1e-9);
+    EXPECT_NEAR(*r.f_min_mm, 0.0, 1e-9);
+    EXPECT_NEAR(*r.feed_mm_per_min, 1000.0, 5.0);
+  }
+  ASSERT_EQ(ev.hysteresis.size(), 1u);
+  EXPECT_LT(ev.hysteresis[0].h_mm, 1e-9);
+  EXPECT_EQ(ev.nominal_radius_source, "metadata");
+}
+
+TEST(Evaluation, BacklashGivesHEqualToThePlay) {
+  MachineModel m;
+  m.x.backlash_mm = 0.020;
+  const Evaluation ev = run(m);
+  ASSERT_EQ(ev.hysteresis.size(), 1u);
+  EXPECT_NEAR(ev.hysteresis[0].h_mm, 0.020, 0.01 * 0.020);
+  // The step sits at the X reversals, 0 or 180 deg.
+  const double at = ev.hysteresis[0].at_angle_deg;
+  EXPECT_TRUE(std::min({std::abs(at), std::abs(at - 180.0), std::abs(at - 360.0)}) < 5.0) << at;
+}
+
+TEST(Evaluation, SquarenessGivesGOfAlphaTimesR) {
+  MachineModel m;
+  m.squareness_rad = 100e-6;
+  const Evaluation ev = run(m);
+  const double g = 100e-6 * kR;  // dr = (alpha R / 2) sin 2theta: zone alpha R
+  for (const auto& r : ev.runs) {
+    EXPECT_NEAR(r.g_mzc_mm, g, 0.01 * g) << r.label;
+    EXPECT_NEAR(r.g_lsc_mm, g, 0.01 * g) << r.label;
+    EXPECT_NEAR(*r.f_max_mm, g / 2, 0.01 * g) << r.label;
+    EXPECT_NEAR(*r.f_min_mm, -g / 2, 0.01 * g) << r.label;
+  }
+  EXPECT_LT(ev.hysteresis[0].h_mm, 0.01 * g);  // the same ellipse in both directions
+}
+
+TEST(Evaluation, ScaleErrorsGiveEllipseAndRadiusChange) {
+  MachineModel m;
+  m.x.scale = 50e-6;
+  m.y.scale = -30e-6;
+  const Evaluation ev = run(m);
+  const double mean = kR * (50e-6 - 30e-6) / 2, half = kR * (50e-6 + 30e-6) / 2;
+  for (const auto& r : ev.runs) {
+    EXPECT_NEAR(r.g_mzc_mm, 2 * half, 0.01 * 2 * half);
+    EXPECT_NEAR(*r.f_max_mm, mean + half, 0.01 * 2 * half);
+    EXPECT_NEAR(*r.f_min_mm, mean - half, 0.01 * 2 * half);
+  }
+}
+
+TEST(Evaluation, FollowingErrorShrinksTheRadiusWithFeed) {
+  MachineModel m;
+  m.x.kv_per_s = m.y.kv_per_s = 30.0;
+  for (double feed : {1000.0, 2000.0}) {
+    CircleProgram p;
+    p.feed_mm_per_min = feed;
+    const Evaluation ev = run(m, p);
+    const double v = feed / 60.0;
+    const double loss = -v * v / (2 * kR * 30.0 * 30.0);
+    for (const auto& r : ev.runs) {
+      EXPECT_NEAR(*r.f_max_mm, loss, 0.01 * std::abs(loss)) << feed;
+      EXPECT_NEAR(*r.f_min_mm, loss, 0.01 * std::abs(loss)) << feed;
+      EXPECT_LT(r.g_mzc_mm, 0.01 * std::abs(loss));
+    }
+  }
+}
+
+TEST(Evaluation, GainMismatchTiltFlipsWithDirection) {
+  MachineModel m;
+  m.x.kv_per_s = 30.0;
+  m.y.kv_per_s = 32.0;
+  CircleProgram p;
+  const Trace trace = sim::simulate(m, p);
+  const Evaluation ev = evaluate(trace, {});
+  const double v = p.feed_mm_per_min / 60.0;
+  const double amp = v / 2 * (1 / 30.0 - 1 / 32.0);  // of sin 2theta, CCW
+  for (const auto& r : ev.runs) {
+    EXPECT_NEAR(r.g_mzc_mm, 2 * amp, 0.01 * 2 * amp) << r.label;
+    const TwoLobe f = two_lobe(trace, r, r.lsc.centre_a_mm, r.lsc.centre_b_mm);
+    const double expect = r.run.direction == Direction::CCW ? amp : -amp;
+    EXPECT_NEAR(f.s2, expect, 0.01 * amp) << r.label;
+  }
+  // Opposite tilts: the two paths differ by twice the lobe at 45 deg.
+  EXPECT_NEAR(ev.hysteresis[0].h_mm, 4 * amp, 0.02 * 4 * amp);
+}
+
+TEST(Evaluation, TemperatureCorrectionTo20Degrees) {
+  EvaluationOptions o;
+  o.temperatures.machine_C = 25.0;
+  o.temperatures.instrument_C = 22.0;
+  o.temperatures.instrument_expansion_per_K = 1e-6;
+  const Evaluation ev = run({}, {}, o);
+  const double f = kR * (1e-6 * 2.0 - 11.5e-6 * 5.0);
+  EXPECT_NEAR(*ev.runs[0].f_max_mm, f, 1e-9);
+  EXPECT_NEAR(*ev.runs[0].f_min_mm, f, 1e-9);
+  EXPECT_NEAR(ev.runs[0].g_mzc_mm, 0.0, 1e-9);  // G needs no calibrated radius
+}
+
+TEST(Evaluation, PartialArcUsesTheNominalCentre) {
+  MachineModel m;
+  m.x.scale = m.y.scale = 40e-6;
+  CircleProgram p;
+  p.arc_deg = 120.0;
+  p.start_deg = 30.0;
+  p.centre_mm[0] = 0.0;
+  const Evaluation ev = run(m, p);
+  ASSERT_EQ(ev.runs.size(), 2u);
+  for (const auto& r : ev.runs) {
+    EXPECT_NEAR(r.run.sweep_deg, 120.0, 0.2);
+    EXPECT_EQ(r.f_centre_method, "nominal");
+    EXPECT_NEAR(*r.f_max_mm, kR * 40e-6, 1e-7);
+    EXPECT_NEAR(*r.f_min_mm, kR * 40e-6, 1e-7);
+  }
+}
+
+TEST(Evaluation, ArcShorterThan90DegreesIsRefused) {
+  CircleProgram p;
+  p.arc_deg = 60.0;
+  try {
+    run({}, p);
+    FAIL() << "expected an error";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("sweeps 60.0 deg: expected an arc of at least 90 deg"),
+              std::string::npos)
+        << e.what();
+    EXPECT_GT(e.line(), 0u);
+  }
+}
+
+TEST(Evaluation, PlanesAndLabels) {
+  MachineModel m;
+  m.squareness_rad = 100e-6;
+  for (Plane plane : {Plane::YZ, Plane::ZX}) {
+    CircleProgram p;
+    p.plane = plane;
+    p.centre_mm[0] = 100;
+    p.centre_mm[1] = -50;
+    p.centre_mm[2] = 200;
+    const Evaluation ev = run(m, p);
+    ASSERT_EQ(ev.runs.size(), 2u);
+    EXPECT_EQ(ev.plane, plane);
+    EXPECT_EQ(ev.runs[0].label, direction_label(plane, Direction::CCW));
+    EXPECT_EQ(ev.runs[1].label, direction_label(plane, Direction::CW));
+    EXPECT_NEAR(ev.runs[0].g_mzc_mm, 100e-6 * kR, 0.01 * 100e-6 * kR);
+  }
+}
+
+TEST(Evaluation, AutomaticSegmentationFindsTheMeasuredArcs) {
+  MachineModel m;
+  m.x.backlash_mm = 0.010;
+  m.squareness_rad = 50e-6;
+  CircleProgram p;
+  p.centre_mm[0] = 1200.0;  // far from the origin
+  p.centre_mm[1] = -800.0;
+  Trace with = sim::simulate(m, p);
+  Trace without = with;
+  for (const char* name : {"marker", "segment"}) {
+    const int i = without.column_index(name);
+    without.columns.erase(without.columns.begin() + i);
+    without.values.erase(without.values.begin() + i);
+  }
+  const Evaluation a = evaluate(with, {});
+  const Evaluation b = evaluate(without, {});
+  EXPECT_EQ(b.segmentation, SegmentationMethod::automatic);
+  ASSERT_EQ(b.runs.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(b.runs[i].run.direction, a.runs[i].run.direction);
+    EXPECT_NEAR(b.runs[i].run.sweep_deg, 360.0, 1.0);
+    EXPECT_NEAR(b.runs[i].g_mzc_mm, a.runs[i].g_mzc_mm, 0.02 * a.runs[i].g_mzc_mm);
+  }
+  EXPECT_NEAR(b.hysteresis[0].h_mm, a.hysteresis[0].h_mm, 0.02 * a.hysteresis[0].h_mm);
+}
+
+TEST(Evaluation, FeedSweepPairsEachCcwWithItsCw) {
+  CircleProgram p;
+  p.runs = {Direction::CCW, Direction::CW, Direction::CCW, Direction::CW};
+  MachineModel m;
+  m.y.backlash_mm = 0.008;
+  const Evaluation ev = run(m, p);
+  ASSERT_EQ(ev.runs.size(), 4u);
+  ASSERT_EQ(ev.hysteresis.size(), 2u);
+  for (const auto& h : ev.hysteresis) EXPECT_NEAR(h.h_mm, 0.008, 0.01 * 0.008);
+  EXPECT_EQ(ev.runs[2].run.segment_id, 3);
+}
+
+TEST(Evaluation, RadiusAndCentreFromCommandedColumnsWhenNoMetadata) {
+  Trace t = sim::simulate({}, {});
+  t.metadata = {};
+  const Evaluation ev = evaluate(t, {});
+  EXPECT_EQ(ev.nominal_radius_source, "commanded");
+  EXPECT_NEAR(*ev.nominal_radius_mm, kR, 1e-9);
+}
