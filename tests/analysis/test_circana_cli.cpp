@@ -1,0 +1,163 @@
+// circana as a user runs it: exit codes, one-line errors naming file and line, nothing on
+// stdout on error, and the JSON document.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+class CircanaCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           (std::string("circana-cli-") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string write(const std::string& name, const std::string& text) {
+    const fs::path p = dir_ / name;
+    std::ofstream(p) << text;
+    return p.string();
+  }
+
+  static std::string slurp(const fs::path& p) {
+    std::ifstream in(p);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+
+  Result run(const std::string& args) {
+    const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
+    const std::string cmd = std::string(CIRCANA_PATH) + " " + args + " >" + out.string() + " 2>" +
+                            err.string();
+    const int status = std::system(cmd.c_str());
+    Result r;
+    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  // A bad input: the given exit code, exactly one line on stderr, nothing on stdout.
+  void expect_error(const std::string& args, int code, const std::string& message) {
+    const Result r = run(args);
+    EXPECT_EQ(r.code, code) << args << "\n" << r.err;
+    EXPECT_EQ(r.out, "") << args;
+    EXPECT_EQ(r.err, "circana: error: " + message + "\n") << args;
+  }
+
+  fs::path dir_;
+};
+
+}  // namespace
+
+TEST_F(CircanaCli, BadTraces) {
+  const std::string empty = write("empty.csv", "");
+  expect_error("analyze " + empty, 4, empty + ":1: empty file: expected a header row of column names");
+
+  const std::string nox = write("nox.csv", "t,y\n0,1\n");
+  expect_error("analyze " + nox, 4,
+               nox + ":1: missing column 'x': expected it in the header (found: t,y)");
+
+  const std::string word = write("word.csv", "# plane: XY\nt,x,y\n0,1,2\n0.001,one,2\n");
+  expect_error("analyze " + word, 4, word + ":4: column 'x': expected a number, got 'one'");
+
+  const std::string nan = write("nan.csv", "t,x,y\n0,1,2\n0.001,1,NaN\n");
+  expect_error("analyze " + nan, 4, nan + ":3: column 'y': expected a finite number, got 'NaN'");
+
+  const std::string inf = write("inf.csv", "t,x,y\n0,inf,2\n");
+  expect_error("analyze " + inf, 4, inf + ":2: column 'x': expected a finite number, got 'inf'");
+
+  const std::string back = write("back.csv", "t,x,y\n0,1,2\n0.002,1,2\n0.001,1,2\n");
+  expect_error("analyze " + back, 5,
+               back + ":4: time goes backwards: t = 0.001 after t = 0.002; expected "
+                      "non-decreasing time");
+
+  const std::string few = write("few.csv", "t,x,y\n0,1,2\n0.001,1,2\n");
+  expect_error("analyze " + few, 5, few + ":3: too few points: 2 rows, expected at least 3 per run");
+
+  const std::string quote = write("quote.csv", "t,x,y\n0,\"1,2\n");
+  expect_error("analyze " + quote, 4,
+               quote + ":2: field 2: unterminated quoted field: expected a closing '\"'");
+
+  const std::string missing = (dir_ / "missing.csv").string();
+  const Result r = run("analyze " + missing);
+  EXPECT_EQ(r.code, 3);
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err, "circana: error: " + missing + ": cannot open: No such file or directory\n");
+}
+
+TEST_F(CircanaCli, ShortArcIsRefusedWithItsLines) {
+  const std::string trace = (dir_ / "arc60.csv").string();
+  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace + " --arc 60").c_str()), 0);
+  const Result r = run("analyze " + trace);
+  EXPECT_EQ(r.code, 5);
+  EXPECT_EQ(r.out, "");
+  EXPECT_NE(r.err.find(trace + ":"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("sweeps 60.0 deg: expected an arc of at least 90 deg (ISO 230-4 clause 3.1)"),
+            std::string::npos)
+      << r.err;
+}
+
+TEST_F(CircanaCli, BadOptions) {
+  const std::string t = write("t.csv", "t,x,y\n0,1,2\n");
+  expect_error("analyze " + t + " --radius abc", 2, "--radius: expected a number, got 'abc'");
+  expect_error("analyze " + t + " --centre 1", 2,
+               "--centre: expected 2 comma-separated numbers, got '1'");
+  expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
+  expect_error("frobnicate", 2, "unknown command 'frobnicate': expected analyze or fit");
+}
+
+TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
+  const std::string trace = (dir_ / "sq.csv").string();
+  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
+                         " --squareness 100e-6 --backlash-x 0.02 --period 0.002")
+                            .c_str()),
+            0);
+  const Result r = run("analyze " + trace + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["units"], "mm");
+  ASSERT_EQ(j["runs"].size(), 2u);
+  EXPECT_EQ(j["runs"][0]["direction"], "CCW");
+  EXPECT_EQ(j["runs"][0]["label"], "XY");
+  EXPECT_EQ(j["runs"][1]["direction"], "CW");
+  EXPECT_EQ(j["runs"][1]["label"], "YX");
+  EXPECT_NEAR(j["H"].get<double>(), 0.020, 0.0005);
+  for (const auto& run : j["runs"]) {
+    for (const char* key : {"G", "G_lsc", "F_max", "F_min", "radius", "points", "arc_deg"}) {
+      EXPECT_TRUE(run.contains(key)) << key;
+    }
+    EXPECT_EQ(run["centre"].size(), 2u);
+    EXPECT_NEAR(run["arc_deg"].get<double>(), 360.0, 0.5);
+  }
+}
+
+TEST_F(CircanaCli, FitOfTheCertifiedCaseC09) {
+  const std::string c09 = std::string(CIRCTEST_SOURCE_DIR) + "/../shared/reference/tracim-circle-2d/C09.csv";
+  if (!fs::exists(c09)) GTEST_SKIP() << "shared reference data not present";
+  const Result r = run("fit " + c09 + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j["mzc"]["zone_width"].get<double>(), 0.05, 1e-9);
+  EXPECT_NEAR(j["mzc"]["centre"][0].get<double>(), 400.0, 1e-6);
+  EXPECT_NEAR(j["mzc"]["centre"][1].get<double>(), 390.0, 1e-6);
+  EXPECT_NEAR(j["mzc"]["radius"].get<double>(), 20.0, 1e-6);
+}
