@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
     std::string out, plane = "XY";
     double d = 150.0;
     po::options_description desc("circtest-simtrace");
-    desc.add_options()("help", "")("o", po::value(&out)->required(), "output trace")(
+    desc.add_options()("help", "")("output,o", po::value(&out)->required(), "output trace")(
         "d", po::value(&d), "diameter mm")("f", po::value(&p.feed_mm_per_min), "feed mm/min")(
         "plane", po::value(&plane), "XY|YZ|ZX")("period", po::value(&p.period_s), "s")(
         "lead", po::value(&p.lead_deg), "deg")("arc", po::value(&p.arc_deg), "deg")(
