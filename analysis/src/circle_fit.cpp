@@ -1,0 +1,217 @@
+// Least-squares, radial-range and shared numerics of the circle fits. The minimum-zone,
+// circumscribed and inscribed fits live in circle_fit_zone.cpp.
+#include "circtest/analysis/circle_fit.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "circle_fit_detail.hpp"
+#include "circtest/core/error.hpp"
+
+namespace circtest {
+namespace fit_detail {
+
+void check_points(std::span<const double> a, std::span<const double> b, const char* what) {
+  if (a.size() != b.size()) {
+    throw DataError("", 0,
+                    std::string(what) + ": coordinate arrays differ in length (" +
+                        std::to_string(a.size()) + " vs " + std::to_string(b.size()) + ")");
+  }
+  if (a.size() < 3) {
+    throw DataError(
+        "", 0, std::string(what) + ": needs at least 3 points, got " + std::to_string(a.size()));
+  }
+}
+
+Vec2 mean_point(const double* a, const double* b, std::size_t n) {
+  // Blocked sums feed a Neumaier accumulator: the inner loop stays plain (and vectorisable)
+  // while the error no longer grows with n.
+  Neumaier sa, sb;
+  bool finite = true;
+  for (std::size_t start = 0; start < n; start += kBlock) {
+    const std::size_t stop = std::min(n, start + kBlock);
+    double ba = 0.0, bb = 0.0;
+    for (std::size_t i = start; i < stop; ++i) {
+      ba += a[i];
+      bb += b[i];
+    }
+    finite = finite && std::isfinite(ba) && std::isfinite(bb);
+    sa.add(ba);
+    sb.add(bb);
+  }
+  if (!finite) throw DataError("", 0, "circle fit: a coordinate is not a finite number");
+  const double inv = 1.0 / static_cast<double>(n);
+  return {sa.value() * inv, sb.value() * inv};
+}
+
+Circle kasa_about(const double* a, const double* b, std::size_t n, Vec2 origin) {
+  // Moments of the data relative to `origin` (the mean, or a point near the data), so that
+  // |p|^2 does not carry the absolute position of the circle and cancel catastrophically.
+  Neumaier sxx, sxy, syy, sxz, syz, sz, sx, sy;
+  for (std::size_t start = 0; start < n; start += kBlock) {
+    const std::size_t stop = std::min(n, start + kBlock);
+    double bxx = 0, bxy = 0, byy = 0, bxz = 0, byz = 0, bz = 0, bx = 0, by = 0;
+    for (std::size_t i = start; i < stop; ++i) {
+      const double x = a[i] - origin.x;
+      const double y = b[i] - origin.y;
+      const double z = x * x + y * y;
+      bxx += x * x;
+      bxy += x * y;
+      byy += y * y;
+      bxz += x * z;
+      byz += y * z;
+      bz += z;
+      bx += x;
+      by += y;
+    }
+    sxx.add(bxx), sxy.add(bxy), syy.add(byy), sxz.add(bxz), syz.add(byz), sz.add(bz);
+    sx.add(bx), sy.add(by);
+  }
+  const double nn = static_cast<double>(n);
+  const double mx = sx.value() / nn, my = sy.value() / nn, mz = sz.value() / nn;
+  // Central moments: the model z = 2 cx x + 2 cy y + k decouples once x and y have zero mean.
+  const double cxx = sxx.value() / nn - mx * mx;
+  const double cxy = sxy.value() / nn - mx * my;
+  const double cyy = syy.value() / nn - my * my;
+  const double cxz = sxz.value() / nn - mx * mz;
+  const double cyz = syz.value() / nn - my * mz;
+  const double det = cxx * cyy - cxy * cxy;
+  const double scale = cxx + cyy;
+  // Rounding leaves det near 1e-32 scale^2 for collinear data; real arcs of 90 deg or more
+  // are many orders above 1e-20.
+  if (!(scale > 0.0) || !(det > 1e-20 * scale * scale)) {
+    throw DataError("", 0, "circle fit: the points are collinear or coincident");
+  }
+  const double ux = 0.5 * (cxz * cyy - cyz * cxy) / det;
+  const double uy = 0.5 * (cyz * cxx - cxz * cxy) / det;
+  // Radius from the mean of |p - c|^2 over the data (relative to the data mean).
+  const double r2 = cxx + cyy + (ux - mx) * (ux - mx) + (uy - my) * (uy - my);
+  return {origin.x + ux, origin.y + uy, std::sqrt(r2)};
+}
+
+}  // namespace fit_detail
+
+using fit_detail::kBlock;
+using fit_detail::Neumaier;
+using fit_detail::Vec2;
+
+RadialRange radial_range(std::span<const double> a, std::span<const double> b, double centre_a_mm,
+                         double centre_b_mm) {
+  fit_detail::check_points(a, b, "radial_range");
+  double lo = INFINITY, hi = 0.0;
+  const std::size_t n = a.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = a[i] - centre_a_mm;
+    const double dy = b[i] - centre_b_mm;
+    const double d2 = dx * dx + dy * dy;
+    lo = std::min(lo, d2);
+    hi = std::max(hi, d2);
+  }
+  return {std::sqrt(lo), std::sqrt(hi)};
+}
+
+Circle fit_lsc_algebraic(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_lsc_algebraic");
+  const Vec2 m = fit_detail::mean_point(a.data(), b.data(), a.size());
+  return fit_detail::kasa_about(a.data(), b.data(), a.size(), m);
+}
+
+Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_lsc");
+  const std::size_t n = a.size();
+  const double* pa = a.data();
+  const double* pb = b.data();
+  const Vec2 m = fit_detail::mean_point(pa, pb, n);
+  const Circle start = fit_detail::kasa_about(pa, pb, n, m);
+
+  // Levenberg-Marquardt in coordinates relative to the mean. Each pass evaluates the cost,
+  // J^T J and J^T e at the trial parameters; a trial that does not lower the cost is rejected
+  // and retried with a larger damping, reusing the stored normal equations.
+  struct Eval {
+    double jtj[6];  // xx, xy, xr, yy, yr, rr
+    double jte[3];
+    double cost;
+  };
+  auto evaluate = [&](double cx, double cy, double r) {
+    Neumaier acc[10];
+    for (std::size_t start_i = 0; start_i < n; start_i += kBlock) {
+      const std::size_t stop = std::min(n, start_i + kBlock);
+      double s[10] = {};
+      for (std::size_t i = start_i; i < stop; ++i) {
+        const double dx = pa[i] - m.x - cx;
+        const double dy = pb[i] - m.y - cy;
+        // sqrt instead of std::hypot in the hot loop: the data are centred, so dx^2 + dy^2
+        // cannot overflow or underflow for any coordinate in mm, and hypot is ~10x slower.
+        const double d = std::sqrt(dx * dx + dy * dy);
+        const double inv = d > 0.0 ? 1.0 / d : 0.0;
+        const double ux = dx * inv, uy = dy * inv;
+        const double e = d - r;
+        // Jacobian row is (-ux, -uy, -1); signs are folded into the step below.
+        s[0] += ux * ux;
+        s[1] += ux * uy;
+        s[2] += ux;
+        s[3] += uy * uy;
+        s[4] += uy;
+        s[5] += 1.0;
+        s[6] += ux * e;
+        s[7] += uy * e;
+        s[8] += e;
+        s[9] += e * e;
+      }
+      for (int k = 0; k < 10; ++k) acc[k].add(s[k]);
+    }
+    Eval ev{};
+    for (int k = 0; k < 6; ++k) ev.jtj[k] = acc[k].value();
+    for (int k = 0; k < 3; ++k) ev.jte[k] = acc[6 + k].value();
+    ev.cost = acc[9].value();
+    return ev;
+  };
+
+  double cx = start.centre_a_mm - m.x, cy = start.centre_b_mm - m.y, r = start.radius_mm;
+  Eval cur = evaluate(cx, cy, r);
+  double lambda = 1e-6;
+  const double scale = r + std::hypot(cx, cy);
+  for (int iter = 0; iter < 200; ++iter) {
+    // Normal equations (J^T J + lambda diag) delta = -J^T e with J = -(ux, uy, 1).
+    const double d0 = cur.jtj[0] * (1 + lambda), d3 = cur.jtj[3] * (1 + lambda),
+                 d5 = cur.jtj[5] * (1 + lambda);
+    const double A[3][3] = {
+        {d0, cur.jtj[1], cur.jtj[2]}, {cur.jtj[1], d3, cur.jtj[4]}, {cur.jtj[2], cur.jtj[4], d5}};
+    const double g[3] = {cur.jte[0], cur.jte[1], cur.jte[2]};
+    // J = -(u, 1) so J^T e = -g and the step solves A delta = g.
+    const double det = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) -
+                       A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) +
+                       A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
+    if (!(std::abs(det) > 0.0)) break;
+    double delta[3];
+    for (int k = 0; k < 3; ++k) {
+      double M[3][3];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) M[i][j] = (j == k) ? g[i] : A[i][j];
+      delta[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
+                  M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
+                  M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) /
+                 det;
+    }
+    const double step = std::abs(delta[0]) + std::abs(delta[1]) + std::abs(delta[2]);
+    const double ncx = cx + delta[0], ncy = cy + delta[1], nr = r + delta[2];
+    const Eval trial = evaluate(ncx, ncy, nr);
+    // The slack admits steps whose cost change is rounding noise: near the optimum of an
+    // ill-conditioned (short-arc) fit the Gauss-Newton step is still right while the cost
+    // differences it causes are below the resolution of the summed squares.
+    if (trial.cost <= cur.cost * (1.0 + 1e-11)) {
+      cx = ncx, cy = ncy, r = nr;
+      cur = trial;
+      lambda = std::max(lambda * 0.1, 1e-12);
+      if (step <= 1e-15 * scale) break;
+    } else {
+      // A rejected step this small means the cost is flat to rounding: converged.
+      if (step <= 1e-13 * scale) break;
+      lambda *= 10.0;
+      if (lambda > 1e12) break;
+    }
+  }
+  return {m.x + cx, m.y + cy, r};
+}
+
+}  // namespace circtest

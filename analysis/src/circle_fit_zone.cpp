@@ -1,0 +1,573 @@
+// Minimum-zone (MZC), minimum circumscribed (MCC) and maximum inscribed (MIC) circles.
+//
+// MZC: an exact exchange (Remez-type) algorithm on a 4-point reference. Linearised about a
+// centre, d_i(c) ~ d_i(c0) - u_i . (c - c0) is a trigonometric polynomial of degree 1 in the
+// point's angle, a Haar system, so the minimax solution is levelled on 4 points whose
+// roles alternate outer/inner around the centre. For a reference the exact (nonlinear)
+// levelled centre is the intersection of the perpendicular bisectors of the two outer and the
+// two inner points: a 2x2 linear solve. The worst violator is then swapped in for the
+// neighbour of the same role, which keeps the alternation; the level grows until no point
+// lies outside the zone. Large inputs are solved on a subsample first (recursively); a full
+// pass over all points then collects the few candidates near the extreme radii and the
+// violators, and the exact solve on candidates is repeated until a full pass finds none.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "circle_fit_detail.hpp"
+#include "circtest/analysis/circle_fit.hpp"
+#include "circtest/core/error.hpp"
+
+namespace circtest {
+namespace {
+
+using fit_detail::Vec2;
+constexpr double kPi = std::numbers::pi;
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// Inputs up to this size are solved directly (every point is a candidate).
+constexpr std::size_t kBaseSize = 4096;
+// Subsample stride of the recursion: one point per 64 touches one cache line per point and
+// keeps the subsample gather at about 1/8 of a full pass.
+constexpr std::size_t kStride = 64;
+// Exchange tolerance relative to the radius: far above rounding (1e-16) so that ties in
+// degenerate data cannot make the exchange cycle, far below the 1e-12 of the certificate.
+constexpr double kSolveTol = 1e-13;
+constexpr double kCertTol = 1e-12;
+
+double wrap_angle(double t) {
+  t = std::fmod(t, kTwoPi);
+  return t < 0.0 ? t + kTwoPi : t;
+}
+
+// Candidate points relative to a local origin near the centre (keeps |p|^2 small and exact
+// differences for centres far from the coordinate origin), with their indices in the level.
+struct Candidates {
+  std::vector<double> x, y;
+  std::vector<std::size_t> idx;
+  std::size_t size() const { return idx.size(); }
+  void clear() {
+    x.clear();
+    y.clear();
+    idx.clear();
+  }
+  void push(double px, double py, std::size_t i) {
+    x.push_back(px);
+    y.push_back(py);
+    idx.push_back(i);
+  }
+};
+
+// Reference positions (into the candidates), counter-clockwise, roles outer, inner, outer,
+// inner.
+using Reference = std::array<std::size_t, 4>;
+
+struct ZoneSolve {
+  Vec2 c;  // relative to the candidates' origin
+  double r_out = 0.0;
+  double r_in = 0.0;
+  Reference ref{};
+};
+
+// Centre equidistant from o1, o2 and from i1, i2: the crossing of the two perpendicular
+// bisectors, solved relative to the outer midpoint so that no term carries |p|^2.
+bool bisector_centre(Vec2 o1, Vec2 o2, Vec2 i1, Vec2 i2, Vec2& c) {
+  const Vec2 n1{o2.x - o1.x, o2.y - o1.y};
+  const Vec2 n2{i2.x - i1.x, i2.y - i1.y};
+  const Vec2 m1{0.5 * (o1.x + o2.x), 0.5 * (o1.y + o2.y)};
+  const Vec2 m2{0.5 * (i1.x + i2.x), 0.5 * (i1.y + i2.y)};
+  const double det = n1.x * n2.y - n1.y * n2.x;
+  const double norm = std::hypot(n1.x, n1.y) * std::hypot(n2.x, n2.y);
+  if (!(std::abs(det) > 1e-14 * norm)) return false;
+  // Unknown y = c - m1 with n1.y = 0 and n2.y = n2.(m2 - m1).
+  const double rhs = n2.x * (m2.x - m1.x) + n2.y * (m2.y - m1.y);
+  c = {m1.x - rhs * n1.y / det, m1.y + rhs * n1.x / det};
+  return std::isfinite(c.x) && std::isfinite(c.y);
+}
+
+// An alternating start reference about centre c: the farthest and the nearest point, then
+// the best outer/inner pair in the arc that lets the four alternate.
+bool initial_reference(const Candidates& cd, Vec2 c, Reference& ref) {
+  const std::size_t m = cd.size();
+  if (m < 4) return false;
+  std::vector<double> d2(m), th(m);
+  std::vector<std::size_t> order(m);
+  std::size_t o1 = 0, i1 = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    const double dx = cd.x[k] - c.x, dy = cd.y[k] - c.y;
+    d2[k] = dx * dx + dy * dy;
+    th[k] = std::atan2(dy, dx);
+    order[k] = k;
+    if (d2[k] > d2[o1]) o1 = k;
+    if (d2[k] < d2[i1]) i1 = k;
+  }
+  if (o1 == i1) i1 = (o1 + 1) % m;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t p, std::size_t q) { return th[p] < th[q]; });
+  std::size_t po = 0, pi = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    if (order[k] == o1) po = k;
+    if (order[k] == i1) pi = k;
+  }
+  auto same = [&](std::size_t p, std::size_t q) {
+    return cd.x[p] == cd.x[q] && cd.y[p] == cd.y[q];
+  };
+  double best = -INFINITY;
+  // Option 1, ccw order o1, i1, o2, i2: o2 then i2 in the arc from i1 round to o1.
+  {
+    bool have = false;
+    std::size_t run = 0;
+    for (std::size_t s = (pi + 1) % m; s != po; s = (s + 1) % m) {
+      const std::size_t k = order[s];
+      if (have && !same(k, i1) && d2[run] - d2[k] > best) {
+        best = d2[run] - d2[k];
+        ref = {o1, i1, run, k};
+      }
+      if (!same(k, o1) && (!have || d2[k] > d2[run])) run = k, have = true;
+    }
+  }
+  // Option 2, ccw order o1, i2, o2, i1: i2 then o2 in the arc from o1 round to i1.
+  {
+    bool have = false;
+    std::size_t run = 0;
+    for (std::size_t s = (po + 1) % m; s != pi; s = (s + 1) % m) {
+      const std::size_t k = order[s];
+      if (have && !same(k, o1) && d2[k] - d2[run] > best) {
+        best = d2[k] - d2[run];
+        ref = {o1, run, k, i1};
+      }
+      if (!same(k, i1) && (!have || d2[k] < d2[run])) run = k, have = true;
+    }
+  }
+  if (best > -INFINITY) return true;
+  // Tiny or clustered inputs: four consecutive points in angle, roles alternating.
+  ref = {order[po], order[(po + 1) % m], order[(po + 2) % m], order[(po + 3) % m]};
+  return true;
+}
+
+// Exchange iterations on the candidates from a start reference about c0.
+bool exchange(const Candidates& cd, Vec2 c0, ZoneSolve& out) {
+  Reference ref{};
+  if (!initial_reference(cd, c0, ref)) return false;
+  const std::size_t m = cd.size();
+  const double* x = cd.x.data();
+  const double* y = cd.y.data();
+  auto pt = [&](std::size_t k) { return Vec2{x[k], y[k]}; };
+  const std::size_t max_iter = 100 + 4 * m;
+  for (std::size_t iter = 0; iter < max_iter; ++iter) {
+    Vec2 c;
+    if (!bisector_centre(pt(ref[0]), pt(ref[2]), pt(ref[1]), pt(ref[3]), c)) return false;
+    const double ro = 0.5 * (std::hypot(x[ref[0]] - c.x, y[ref[0]] - c.y) +
+                             std::hypot(x[ref[2]] - c.x, y[ref[2]] - c.y));
+    const double ri = 0.5 * (std::hypot(x[ref[1]] - c.x, y[ref[1]] - c.y) +
+                             std::hypot(x[ref[3]] - c.x, y[ref[3]] - c.y));
+    if (ro < ri) {
+      // The roles are upside down (a poor start on nearly perfect data): swap them by
+      // rotating the reference one place, which keeps it counter-clockwise.
+      ref = {ref[1], ref[2], ref[3], ref[0]};
+      continue;
+    }
+    const double ro2 = ro * ro, ri2 = ri * ri;
+    const double inv_o = 0.5 / ro, inv_i = ri > 0.0 ? 0.5 / ri : 0.0;
+    // (d^2 - R^2) / 2R equals d - R to first order in the zone over the radius, which
+    // is all the ranking and the tolerance need; it spares a sqrt per point.
+    double worst = 0.0;
+    std::size_t v = m;
+    bool v_outer = false;
+    for (std::size_t k = 0; k < m; ++k) {
+      const double dx = x[k] - c.x, dy = y[k] - c.y;
+      const double d2 = dx * dx + dy * dy;
+      const double so = (d2 - ro2) * inv_o;
+      const double si = (ri2 - d2) * inv_i;
+      if (so > worst) worst = so, v = k, v_outer = true;
+      if (si > worst) worst = si, v = k, v_outer = false;
+    }
+    if (v == m || worst <= kSolveTol * ro) {
+      out.c = c;
+      out.r_out = ro;
+      out.r_in = ri;
+      out.ref = ref;
+      return true;
+    }
+    double delta[4];
+    const double t0 = std::atan2(y[ref[0]] - c.y, x[ref[0]] - c.x);
+    for (int j = 0; j < 4; ++j) {
+      delta[j] = j == 0 ? 0.0 : wrap_angle(std::atan2(y[ref[j]] - c.y, x[ref[j]] - c.x) - t0);
+    }
+    if (!(delta[1] < delta[2] && delta[2] < delta[3])) return false;  // alternation lost
+    const double dv = wrap_angle(std::atan2(y[v] - c.y, x[v] - c.x) - t0);
+    int slot = 3;
+    while (slot > 0 && dv < delta[slot]) --slot;
+    const int next = (slot + 1) % 4;
+    const bool slot_outer = slot % 2 == 0;
+    ref[slot_outer == v_outer ? slot : next] = v;
+  }
+  return false;
+}
+
+// Exact MZC of the candidates, starting about c0; retries from the latest centre with a new
+// start reference if the exchange loses its alternation.
+ZoneSolve solve_candidates(const Candidates& cd, Vec2 c0) {
+  ZoneSolve s;
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    if (exchange(cd, c0, s)) return s;
+    c0 = s.c;
+  }
+  throw Error(ExitCode::internal, "fit_mzc: the exchange algorithm did not converge on " +
+                                      std::to_string(cd.size()) + " candidate points");
+}
+
+struct LevelResult {
+  Vec2 c;  // absolute
+  double r_out = 0.0;
+  double r_in = 0.0;
+  std::array<std::size_t, 4> ref{};  // indices into the level's points
+  double shift = 0.0;                // how far this level moved the centre it started from
+  bool three_points = false;         // exactly three distinct points: zero zone, no reference
+};
+
+// Three distinct points (possibly repeated): the circle through them, zone width zero.
+bool three_distinct(const double* a, const double* b, std::size_t n, LevelResult& out) {
+  std::size_t u[3];
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    bool seen = false;
+    for (std::size_t k = 0; k < count; ++k) seen = seen || (a[u[k]] == a[i] && b[u[k]] == b[i]);
+    if (seen) continue;
+    if (count == 3) return false;
+    u[count++] = i;
+  }
+  if (count < 3) throw DataError("", 0, "fit_mzc: fewer than 3 distinct points");
+  const double bx = a[u[1]] - a[u[0]], by = b[u[1]] - b[u[0]];
+  const double cx = a[u[2]] - a[u[0]], cy = b[u[2]] - b[u[0]];
+  const double det = 2.0 * (bx * cy - by * cx);
+  if (!(std::abs(det) > 1e-14 * (bx * bx + by * by + cx * cx + cy * cy))) {
+    throw DataError("", 0, "circle fit: the points are collinear or coincident");
+  }
+  const double b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+  out.c = {a[u[0]] + (cy * b2 - by * c2) / det, b[u[0]] + (bx * c2 - cx * b2) / det};
+  out.r_out = out.r_in = std::hypot(a[u[0]] - out.c.x, b[u[0]] - out.c.y);
+  out.ref = {u[0], u[0], u[0], u[0]};
+  out.three_points = true;
+  return true;
+}
+
+LevelResult solve_base(const double* a, const double* b, std::size_t n) {
+  LevelResult res;
+  if (three_distinct(a, b, n, res)) return res;
+  const Vec2 mean = fit_detail::mean_point(a, b, n);
+  const Circle start = fit_detail::kasa_about(a, b, n, mean);
+  const Vec2 z{start.centre_a_mm, start.centre_b_mm};
+  Candidates cd;
+  cd.x.reserve(n), cd.y.reserve(n), cd.idx.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) cd.push(a[i] - z.x, b[i] - z.y, i);
+  const ZoneSolve s = solve_candidates(cd, Vec2{0.0, 0.0});
+  res.c = {z.x + s.c.x, z.y + s.c.y};
+  res.r_out = s.r_out;
+  res.r_in = s.r_in;
+  for (int j = 0; j < 4; ++j) res.ref[j] = cd.idx[s.ref[j]];
+  res.shift = std::hypot(s.c.x, s.c.y);
+  return res;
+}
+
+LevelResult solve_level(const double* a, const double* b, std::size_t n) {
+  if (n <= kBaseSize) return solve_base(a, b, n);
+  // Every kStride-th point: spread evenly over the path, so the subsample's zone is close.
+  const std::size_t ns = (n + kStride - 1) / kStride;
+  std::vector<double> sa(ns), sb(ns);
+  for (std::size_t k = 0; k < ns; ++k) sa[k] = a[k * kStride], sb[k] = b[k * kStride];
+  LevelResult sub;
+  try {
+    sub = solve_level(sa.data(), sb.data(), ns);
+  } catch (const DataError&) {
+    return solve_base(a, b, n);  // a degenerate subsample (e.g. collinear) of valid data
+  }
+  if (sub.three_points) return solve_base(a, b, n);
+
+  LevelResult res;
+  res.c = sub.c;
+  res.r_out = sub.r_out;
+  res.r_in = sub.r_in;
+  for (int j = 0; j < 4; ++j) res.ref[j] = sub.ref[j] * kStride;
+  const Vec2 start = res.c;
+  // Band half-width for candidates: the centre still moves by about as much as it moved on
+  // the level below, and moving it by d changes every radius by at most d.
+  double margin = 4.0 * sub.shift + kSolveTol * res.r_out;
+  std::vector<std::size_t> keep;  // candidates accumulate over passes, so no exchange repeats
+  Candidates cd;
+  for (int pass = 0; pass < 64; ++pass) {
+    const double cx = res.c.x, cy = res.c.y;
+    const double tol = kSolveTol * res.r_out;
+    const double band_hi = std::max(0.0, res.r_out - margin);
+    const double hi_c = band_hi * band_hi;
+    const double lo_c = (res.r_in + margin) * (res.r_in + margin);
+    const double hi_v = (res.r_out + tol) * (res.r_out + tol);
+    const double lo_v = std::max(0.0, res.r_in - tol) * std::max(0.0, res.r_in - tol);
+    std::size_t violators = 0;
+    const std::size_t before = keep.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = a[i] - cx;
+      const double dy = b[i] - cy;
+      const double d2 = dx * dx + dy * dy;
+      if (d2 >= hi_c || d2 <= lo_c) [[unlikely]] {
+        keep.push_back(i);
+        violators += static_cast<std::size_t>((d2 > hi_v) | (d2 < lo_v));
+      }
+    }
+    if (violators == 0) {
+      res.shift = std::hypot(res.c.x - start.x, res.c.y - start.y);
+      return res;
+    }
+    std::inplace_merge(keep.begin(), keep.begin() + static_cast<std::ptrdiff_t>(before),
+                       keep.end());
+    keep.erase(std::unique(keep.begin(), keep.end()), keep.end());
+    cd.clear();
+    for (std::size_t i : keep) cd.push(a[i] - cx, b[i] - cy, i);
+    const ZoneSolve s = solve_candidates(cd, Vec2{0.0, 0.0});
+    res.c = {cx + s.c.x, cy + s.c.y};
+    res.r_out = s.r_out;
+    res.r_in = s.r_in;
+    for (int j = 0; j < 4; ++j) res.ref[j] = cd.idx[s.ref[j]];
+    margin = 4.0 * std::hypot(s.c.x, s.c.y) + kSolveTol * res.r_out;
+  }
+  throw Error(ExitCode::internal, "fit_mzc: candidate passes did not converge");
+}
+
+}  // namespace
+
+MinimumZone fit_mzc(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_mzc");
+  const std::size_t n = a.size();
+  const double* pa = a.data();
+  const double* pb = b.data();
+  const LevelResult lr = solve_level(pa, pb, n);
+
+  // The zone about the final centre, measured on every point (not taken from the solver).
+  double lo2 = INFINITY, hi2 = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = pa[i] - lr.c.x, dy = pb[i] - lr.c.y;
+    const double d2 = dx * dx + dy * dy;
+    lo2 = std::min(lo2, d2);
+    hi2 = std::max(hi2, d2);
+  }
+  if (!std::isfinite(hi2)) throw DataError("", 0, "fit_mzc: a coordinate is not a finite number");
+  MinimumZone z;
+  z.centre_a_mm = lr.c.x;
+  z.centre_b_mm = lr.c.y;
+  z.outer_radius_mm = std::sqrt(hi2);
+  z.inner_radius_mm = std::sqrt(lo2);
+  z.zone_width_mm = z.outer_radius_mm - z.inner_radius_mm;
+  const double tol = kCertTol * z.outer_radius_mm;
+  auto dist = [&](std::size_t i) { return std::hypot(pa[i] - lr.c.x, pb[i] - lr.c.y); };
+
+  if (lr.three_points) {
+    // Every point on one circle: the zone width 0 is the global minimum. One point serves as
+    // both an outer and an inner contact, whose unit vectors cancel with equal weights.
+    z.outer_contacts = {lr.ref[0]};
+    z.inner_contacts = {lr.ref[0]};
+    z.multipliers = {0.5, 0.5};
+    z.certified = z.zone_width_mm <= tol;
+    return z;
+  }
+  const std::size_t o1 = lr.ref[0], i1 = lr.ref[1], o2 = lr.ref[2], i2 = lr.ref[3];
+  z.outer_contacts = {o1, o2};
+  z.inner_contacts = {i1, i2};
+  auto unit = [&](std::size_t i) {
+    const double d = dist(i);
+    return Vec2{(pa[i] - lr.c.x) / d, (pb[i] - lr.c.y) / d};
+  };
+  const Vec2 uo1 = unit(o1), uo2 = unit(o2), ui1 = unit(i1), ui2 = unit(i2);
+  // The chords uo1-uo2 and ui1-ui2 cross at uo1 + s (uo2 - uo1) = ui1 + t (ui2 - ui1): the
+  // crossing is the common point of both convex hulls, i.e. the first-order condition.
+  const Vec2 e{uo2.x - uo1.x, uo2.y - uo1.y};
+  const Vec2 f{ui2.x - ui1.x, ui2.y - ui1.y};
+  const Vec2 g{ui1.x - uo1.x, ui1.y - uo1.y};
+  const double det = -e.x * f.y + e.y * f.x;
+  double s = -1.0, t = -1.0;
+  if (det != 0.0) {
+    s = (-g.x * f.y + g.y * f.x) / det;
+    t = (e.x * g.y - e.y * g.x) / det;
+  }
+  const bool crossing = s >= -1e-9 && s <= 1.0 + 1e-9 && t >= -1e-9 && t <= 1.0 + 1e-9;
+  s = std::clamp(s, 0.0, 1.0);
+  t = std::clamp(t, 0.0, 1.0);
+  z.multipliers = {0.5 * (1.0 - s), 0.5 * s, 0.5 * (1.0 - t), 0.5 * t};
+  const bool on_zone = std::abs(dist(o1) - z.outer_radius_mm) <= tol &&
+                       std::abs(dist(o2) - z.outer_radius_mm) <= tol &&
+                       std::abs(dist(i1) - z.inner_radius_mm) <= tol &&
+                       std::abs(dist(i2) - z.inner_radius_mm) <= tol;
+  z.certified = on_zone && (crossing || z.zone_width_mm <= tol);
+  return z;
+}
+
+// ----------------------------------------------------------------------------------------
+// Minimum circumscribed circle: Welzl's algorithm in its iterative move-to-front form on a
+// shuffled copy (expected linear time), in coordinates relative to the mean.
+
+namespace {
+
+struct Disc {
+  Vec2 c;
+  double r2 = -1.0;
+};
+
+Disc disc2(Vec2 p, Vec2 q) {
+  const Vec2 c{0.5 * (p.x + q.x), 0.5 * (p.y + q.y)};
+  const double dx = p.x - c.x, dy = p.y - c.y;
+  return {c, dx * dx + dy * dy};
+}
+
+Disc disc3(Vec2 p, Vec2 q, Vec2 w) {
+  const double bx = q.x - p.x, by = q.y - p.y, cx = w.x - p.x, cy = w.y - p.y;
+  const double det = 2.0 * (bx * cy - by * cx);
+  const double b2 = bx * bx + by * by, c2 = cx * cx + cy * cy;
+  if (!(std::abs(det) > 1e-14 * (b2 + c2))) {
+    // Collinear: the circle on the farthest pair contains the third point.
+    Disc best = disc2(p, q);
+    for (const Disc& d : {disc2(p, w), disc2(q, w)}) {
+      if (d.r2 > best.r2) best = d;
+    }
+    return best;
+  }
+  const Vec2 c{p.x + (cy * b2 - by * c2) / det, p.y + (bx * c2 - cx * b2) / det};
+  const double dx = p.x - c.x, dy = p.y - c.y;
+  return {c, dx * dx + dy * dy};
+}
+
+bool outside(const Disc& d, Vec2 p) {
+  const double dx = p.x - d.c.x, dy = p.y - d.c.y;
+  return dx * dx + dy * dy > d.r2 * (1.0 + 1e-13);
+}
+
+// Indices of the points within kCertTol of the circle's radius.
+std::vector<std::size_t> on_circle(std::span<const double> a, std::span<const double> b,
+                                   const Circle& c) {
+  std::vector<std::size_t> out;
+  const double tol = kCertTol * c.radius_mm;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const double d = std::hypot(a[i] - c.centre_a_mm, b[i] - c.centre_b_mm);
+    if (std::abs(d - c.radius_mm) <= tol) out.push_back(i);
+  }
+  return out;
+}
+
+}  // namespace
+
+ContactCircle fit_mcc(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_mcc");
+  const std::size_t n = a.size();
+  const Vec2 m = fit_detail::mean_point(a.data(), b.data(), n);
+  std::vector<Vec2> p(n);
+  for (std::size_t i = 0; i < n; ++i) p[i] = {a[i] - m.x, b[i] - m.y};
+  // Fixed seed: the result must not depend on the run.
+  std::mt19937_64 rng(0x5eedc1cULL);
+  std::shuffle(p.begin(), p.end(), rng);
+  Disc d{p[0], 0.0};
+  for (std::size_t i = 1; i < n; ++i) {
+    if (!outside(d, p[i])) continue;
+    d = {p[i], 0.0};
+    for (std::size_t j = 0; j < i; ++j) {
+      if (!outside(d, p[j])) continue;
+      d = disc2(p[i], p[j]);
+      for (std::size_t k = 0; k < j; ++k) {
+        if (outside(d, p[k])) d = disc3(p[i], p[j], p[k]);
+      }
+    }
+  }
+  ContactCircle out;
+  out.circle = {m.x + d.c.x, m.y + d.c.y, std::sqrt(d.r2)};
+  // The radius as the largest distance of any point, so every point is inside by definition.
+  double hi2 = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = a[i] - out.circle.centre_a_mm, dy = b[i] - out.circle.centre_b_mm;
+    hi2 = std::max(hi2, dx * dx + dy * dy);
+  }
+  out.circle.radius_mm = std::sqrt(hi2);
+  out.contacts = on_circle(a, b, out.circle);
+  return out;
+}
+
+// ----------------------------------------------------------------------------------------
+// Maximum inscribed circle: a monotone walk on the nearest-point Voronoi diagram. From the
+// algebraic centre the empty circle grows: the centre moves away from its nearest points
+// (along the bisector of the two that bound the largest angular gap) until another point
+// touches, and stops where the touching points surround the centre (no gap of pi or more),
+// the first-order condition of max_c min_i |p_i - c|. For points along a closed path
+// around the centre that local maximum is the largest empty circle inside the path.
+
+ContactCircle fit_mic(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_mic");
+  const std::size_t n = a.size();
+  const Circle start = fit_lsc_algebraic(a, b);
+  const Vec2 z{start.centre_a_mm, start.centre_b_mm};
+  std::vector<double> x(n), y(n), d2(n);
+  for (std::size_t i = 0; i < n; ++i) x[i] = a[i] - z.x, y[i] = b[i] - z.y;
+  Vec2 c{0.0, 0.0};
+  std::vector<std::size_t> active;
+  std::vector<std::pair<double, std::size_t>> ang;
+  const std::size_t max_steps = 1000 + 4 * n;
+  for (std::size_t step = 0;; ++step) {
+    if (step == max_steps) {
+      throw Error(ExitCode::internal, "fit_mic: the inscribed-circle walk did not converge");
+    }
+    double rho2 = INFINITY;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = x[i] - c.x, dy = y[i] - c.y;
+      d2[i] = dx * dx + dy * dy;
+      rho2 = std::min(rho2, d2[i]);
+    }
+    if (!(rho2 > 0.0)) {
+      throw DataError("", 0, "fit_mic: a point lies on the start centre; no inscribed circle");
+    }
+    // d within 1e-12 of rho: d^2 within 2e-12 of rho^2.
+    const double act2 = rho2 * (1.0 + 2.0 * kCertTol);
+    active.clear();
+    ang.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (d2[i] <= act2) {
+        active.push_back(i);
+        ang.emplace_back(std::atan2(y[i] - c.y, x[i] - c.x), i);
+      }
+    }
+    std::sort(ang.begin(), ang.end());
+    double gap = kTwoPi;
+    std::size_t from = 0;  // the gap runs counter-clockwise from ang[from]
+    for (std::size_t k = 0; k < ang.size(); ++k) {
+      const double next = k + 1 < ang.size() ? ang[k + 1].first : ang[0].first + kTwoPi;
+      const double g = next - ang[k].first;
+      if (k == 0 || g > gap) gap = g, from = k;
+    }
+    if (ang.size() == 1) gap = kTwoPi;
+    if (ang.size() >= 2 && gap < kPi - 1e-9) {
+      ContactCircle out;
+      out.circle = {z.x + c.x, z.y + c.y, std::sqrt(rho2)};
+      out.contacts = active;
+      std::sort(out.contacts.begin(), out.contacts.end());
+      return out;
+    }
+    // Move into the middle of the largest gap: away from every touching point, and along
+    // the bisector of the two that bound the gap, so they stay equidistant.
+    const double heading = ang[from].first + 0.5 * gap;
+    const Vec2 v{std::cos(heading), std::sin(heading)};
+    const std::size_t pa_i = ang[from].second;
+    double best = INFINITY;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (d2[i] <= act2) continue;
+      const double den = 2.0 * (v.x * (x[i] - x[pa_i]) + v.y * (y[i] - y[pa_i]));
+      if (den <= 0.0) continue;
+      const double t = (d2[i] - d2[pa_i]) / den;
+      best = std::min(best, t);
+    }
+    if (!std::isfinite(best)) {
+      throw DataError("", 0, "fit_mic: the points do not enclose the centre; no inscribed circle");
+    }
+    c = {c.x + best * v.x, c.y + best * v.y};
+  }
+}
+
+}  // namespace circtest
