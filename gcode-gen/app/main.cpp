@@ -1,0 +1,186 @@
+// circgen: writes the ISO 230-4 circular test program for LinuxCNC. Only option parsing
+// lives here; the program itself comes from circtest::gcode.
+#include <fmt/format.h>
+#include <boost/program_options.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <iostream>
+#include <string>
+
+#include "circtest/core/atomic_file.hpp"
+#include "circtest/core/cli.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/gcode/annex_c.hpp"
+#include "circtest/gcode/machine_limits.hpp"
+#include "circtest/gcode/option_values.hpp"
+#include "circtest/gcode/test_program.hpp"
+
+namespace po = boost::program_options;
+using namespace circtest;
+
+namespace {
+
+// SOURCE_DATE_EPOCH makes the output reproducible (reproducible-builds.org convention).
+std::string header_date() {
+  std::time_t now = std::time(nullptr);
+  if (const char* epoch = std::getenv("SOURCE_DATE_EPOCH")) {
+    now = static_cast<std::time_t>(parse_option_number("SOURCE_DATE_EPOCH", epoch));
+  }
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+int run(int argc, char** argv) {
+  po::options_description options(
+      "circgen: ISO 230-4 / JIS B 6194 circular test program for LinuxCNC\n"
+      "usage: circgen --d MM --f MM_PER_MIN [options] > test.ngc\n\noptions");
+  // clang-format off
+  options.add_options()
+    ("help,h", "this text")
+    ("version", "print the version")
+    ("d", po::value<std::string>(), "circle diameter (mm, or inch with --inch)")
+    ("r", po::value<std::string>(), "circle radius, instead of --d")
+    ("f", po::value<std::string>(), "feed per minute")
+    ("feeds", po::value<std::string>(), "feed sweep F1,F2,...: one run pair per feed")
+    ("ref-d", po::value<std::string>(), "Annex C reference diameter D2 (with --ref-f)")
+    ("ref-f", po::value<std::string>(), "Annex C reference feed V2: feed = V2*sqrt(D/D2)")
+    ("plane", po::value<std::string>()->default_value("XY"), "XY (G17), YZ (G19) or ZX (G18)")
+    ("centre", po::value<std::string>(), "circle centre X,Y,Z in the active work offset (0,0,0)")
+    ("center", po::value<std::string>(), "same as --centre")
+    ("safe-z", po::value<std::string>(),
+     "clearance position on the plane's normal axis (Z for XY); approach and leave through it")
+    ("dir", po::value<std::string>()->default_value("both"), "both (CCW then CW), ccw or cw")
+    ("arc", po::value<std::string>()->default_value("360"), "measured arc, 90..360 deg")
+    ("start", po::value<std::string>()->default_value("0"),
+     "start angle, deg from the plane's first axis toward its second")
+    ("lead", po::value<std::string>()->default_value("10"), "lead-in and lead-out arcs, deg")
+    ("dwell", po::value<std::string>()->default_value("0"),
+     "pause where the direction reverses, s (at most 2)")
+    ("inch", "program in inch (G20); lengths and feeds given in inch")
+    ("marker", po::value<std::string>()->default_value("0"), "digital output for M62/M63")
+    ("segment-out", po::value<std::string>()->default_value("0"), "analog output for M67 ids")
+    ("ini", po::value<std::string>(), "LinuxCNC INI file: refuse a test beyond its limits")
+    ("offset", po::value<std::string>(),
+     "work offset origin X,Y,Z in machine coordinates, for the --ini check (0,0,0)")
+    ("output,o", po::value<std::string>(), "write the program to FILE (atomically)");
+  // clang-format on
+  po::variables_map vm;
+  try {
+    const int style =
+        po::command_line_style::default_style & ~po::command_line_style::allow_guessing;
+    po::store(po::command_line_parser(argc, argv).options(options).style(style).run(), vm);
+    po::notify(vm);
+  } catch (const po::error& e) {
+    throw UsageError(e.what());
+  }
+  if (vm.count("help")) {
+    std::cout << options << '\n';
+    return 0;
+  }
+  if (vm.count("version")) {
+    std::cout << generator_version() << '\n';
+    return 0;
+  }
+  auto text = [&vm](const char* name) { return vm[name].as<std::string>(); };
+  auto number = [&](const char* name) { return parse_option_number(name, text(name)); };
+
+  CircleTestSpec spec;
+  spec.units = vm.count("inch") ? LengthUnit::inch : LengthUnit::mm;
+  const double mm = spec.units == LengthUnit::inch ? kMmPerInch : 1.0;
+
+  if (vm.count("d") && vm.count("r")) throw UsageError("give --d or --r, not both");
+  if (!vm.count("d") && !vm.count("r")) throw UsageError("missing --d (diameter) or --r (radius)");
+  const double diameter = vm.count("d") ? number("d") : 2.0 * number("r");
+  if (diameter <= 0.0) {
+    throw UsageError(fmt::format("--{}: the circle must be larger than 0, got {}",
+                                 vm.count("d") ? "d" : "r", text(vm.count("d") ? "d" : "r")));
+  }
+  spec.radius_mm = diameter / 2.0 * mm;
+
+  const int feed_sources = static_cast<int>(vm.count("f") + vm.count("feeds")) +
+                           ((vm.count("ref-d") || vm.count("ref-f")) ? 1 : 0);
+  if (feed_sources == 0) throw UsageError("missing --f (feed), --feeds or --ref-d/--ref-f");
+  if (feed_sources > 1) throw UsageError("give one of --f, --feeds or --ref-d/--ref-f");
+  std::vector<double> feeds;
+  if (vm.count("f")) feeds.push_back(number("f"));
+  if (vm.count("feeds")) feeds = parse_option_numbers("feeds", text("feeds"));
+  if (vm.count("ref-d") || vm.count("ref-f")) {
+    if (!vm.count("ref-d") || !vm.count("ref-f")) {
+      throw UsageError("Annex C needs both --ref-d D2 and --ref-f V2");
+    }
+    const AnnexCNote note = annex_c_note(diameter, number("ref-d"), number("ref-f"), spec.units);
+    feeds.push_back(note.scaled_feed);
+    spec.annex_c = note;
+  }
+  for (double f : feeds) {
+    if (f <= 0.0) {
+      throw UsageError(fmt::format("--{}: a feed must be positive, got {}",
+                                   vm.count("feeds") ? "feeds" : "f", f));
+    }
+    spec.feeds_mm_per_min.push_back(f * mm);
+  }
+
+  const auto plane = parse_plane(text("plane"));
+  if (!plane) throw UsageError(fmt::format("--plane: '{}' is not XY, YZ or ZX", text("plane")));
+  spec.plane = *plane;
+
+  if (vm.count("centre") && vm.count("center")) throw UsageError("give --centre only once");
+  const char* centre_name = vm.count("center") ? "center" : "centre";
+  if (vm.count(centre_name)) {
+    const auto c = parse_option_numbers(centre_name, text(centre_name), 3);
+    for (int i = 0; i < 3; ++i) spec.centre_mm[i] = c[i] * mm;
+  }
+  if (vm.count("safe-z")) spec.safe_mm = number("safe-z") * mm;
+
+  const std::string dir = text("dir");
+  if (dir == "both") {
+    spec.directions = {Direction::CCW, Direction::CW};
+  } else if (const auto d = parse_direction(dir)) {
+    spec.directions = {*d};
+  } else {
+    throw UsageError(fmt::format("--dir: '{}' is not both, ccw or cw", dir));
+  }
+  spec.arc_deg = number("arc");
+  spec.start_deg = number("start");
+  spec.lead_deg = number("lead");
+  spec.dwell_s = number("dwell");
+  spec.marker_output = parse_option_index("marker", text("marker"));
+  spec.segment_output = parse_option_index("segment-out", text("segment-out"));
+  spec.date = header_date();
+  validate(spec);
+
+  if (vm.count("offset") && !vm.count("ini")) throw UsageError("--offset is only used with --ini");
+  if (vm.count("ini")) {
+    std::array<double, 3> offset{0.0, 0.0, 0.0};
+    if (vm.count("offset")) {
+      const auto o = parse_option_numbers("offset", text("offset"), 3);
+      for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
+    }
+    const MachineLimits limits = read_machine_limits(text("ini"));
+    const auto checks = check_against_machine(spec, limits, offset);
+    std::string list;
+    for (const auto& c : checks) list += (list.empty() ? "" : ",") + c;
+    spec.extra_header.emplace_back("ini", text("ini"));
+    spec.extra_header.emplace_back("ini_checked", list);
+  }
+
+  const TestProgram program = generate_test_program(spec);
+  if (vm.count("output")) {
+    write_file_atomic(text("output"), program.text);
+  } else {
+    std::fwrite(program.text.data(), 1, program.text.size(), stdout);
+    if (std::fflush(stdout) != 0) throw IoError("<stdout>", "write failed");
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return run_cli("circgen", [&] { return run(argc, argv); });
+}

@@ -1,0 +1,43 @@
+#pragma once
+// The machine limits circgen checks a test against, read from a LinuxCNC 2.9 INI file.
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "circtest/gcode/test_program.hpp"
+
+namespace circtest {
+
+struct AxisLimits {
+  char axis = 'x';
+  bool present = false;  // the INI has an [AXIS_<L>] section
+  std::optional<double> min_limit_mm;
+  std::optional<double> max_limit_mm;
+  std::optional<double> max_velocity_mm_per_s;
+  std::optional<double> max_acceleration_mm_per_s2;
+};
+
+struct MachineLimits {
+  std::string source;                                       // the INI file, for messages
+  double mm_per_machine_unit = 1.0;                         // from [TRAJ] LINEAR_UNITS
+  std::array<AxisLimits, 3> axes{};                         // x, y, z
+  std::optional<double> max_linear_velocity_mm_per_s;       // [TRAJ] MAX_LINEAR_VELOCITY
+  std::optional<double> max_linear_acceleration_mm_per_s2;  // [TRAJ] MAX_LINEAR_ACCELERATION
+};
+
+// Reads the keys circgen needs. Throws IoError, or ParseError naming file:line for a line
+// that is neither a section, a key = value pair nor a comment, or a limit that is no number.
+MachineLimits read_machine_limits(const std::string& path);
+MachineLimits parse_machine_limits(const std::string& text, const std::string& source);
+
+// Throws LimitError naming the INI limit the test would violate: a position outside
+// MIN_LIMIT/MAX_LIMIT (work offset origin added), a feed above MAX_VELOCITY, a centripetal
+// acceleration V^2/R that LinuxCNC's planner would not allow on the arc, or a lead-in too
+// short to reach the feed. Throws ParseError (line 0) when an axis of the test has no section.
+// Returns the names of the checks made, for the header.
+std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
+                                               const MachineLimits& limits,
+                                               const std::array<double, 3>& work_offset_mm);
+
+}  // namespace circtest

@@ -1,0 +1,82 @@
+#pragma once
+// The ISO 230-4 circular test program: what circgen writes for LinuxCNC 2.9 (RS274NGC).
+// docs/circgen.md describes the program layout, the header keys and the marker scheme.
+#include <array>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "circtest/core/plane.hpp"
+
+namespace circtest {
+
+enum class LengthUnit { mm, inch };
+
+inline constexpr double kMmPerInch = 25.4;
+
+// Annex C scaling, kept for the header: V1 = V2 * sqrt(D1 / D2), in program units.
+struct AnnexCNote {
+  double test_diameter = 0.0;       // D1
+  double reference_diameter = 0.0;  // D2
+  double reference_feed = 0.0;      // V2, per minute
+  double scaled_feed_exact = 0.0;   // V2 * sqrt(D1 / D2) before rounding
+  double scaled_feed = 0.0;         // V1 as programmed
+};
+
+// Everything that defines a test. Lengths in mm and feeds in mm/min whatever the program
+// units; `units` only selects G20/G21 and how numbers are written.
+struct CircleTestSpec {
+  Plane plane = Plane::XY;
+  double radius_mm = 0.0;
+  std::vector<double> feeds_mm_per_min;  // one run per direction per feed, in this order
+  std::vector<Direction> directions{Direction::CCW, Direction::CW};
+  std::array<double, 3> centre_mm{0.0, 0.0, 0.0};  // x, y, z in the active work offset
+  double arc_deg = 360.0;                          // measured arc, 90..360
+  double start_deg = 0.0;                          // from the plane's first axis toward its second
+  double lead_deg = 10.0;                          // lead-in and lead-out arcs on the same circle
+  std::optional<double> safe_mm;                   // clearance position on the plane's normal axis
+  double dwell_s = 0.0;                            // pause where the direction reverses
+  LengthUnit units = LengthUnit::mm;
+  int marker_output = 0;   // M62/M63 P
+  int segment_output = 0;  // M67 E
+  std::optional<AnnexCNote> annex_c;
+  std::string date;                                               // header `date`, ISO 8601
+  std::vector<std::pair<std::string, std::string>> extra_header;  // e.g. the INI check
+};
+
+// One measured arc of the program.
+struct MeasuredRun {
+  int segment_id = 0;  // 1, 2, ... in program order
+  Direction direction = Direction::CCW;
+  double feed_mm_per_min = 0.0;
+  double start_deg = 0.0;  // where this run's measured arc begins
+  double sweep_deg = 0.0;  // positive; the run turns by this much in `direction`
+};
+
+struct TestProgram {
+  std::vector<std::pair<std::string, std::string>> header;  // (key, value), in order
+  std::vector<MeasuredRun> runs;
+  std::string text;  // the whole program, ready to load
+};
+
+// Throws UsageError naming the option when the spec cannot give a valid test (non-positive
+// radius or feed, arc outside 90..360, overlapping leads, bad output numbers, ...).
+void validate(const CircleTestSpec& spec);
+
+// The runs in program order (CCW then CW for each feed when both directions are asked).
+std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec);
+
+// Validates and builds the whole program in memory.
+TestProgram generate_test_program(const CircleTestSpec& spec);
+
+// The angular range every motion of the test stays in, [first, last] degrees (CCW sense);
+// a range of 360 deg or more means the whole circle.
+std::pair<double, double> swept_range_deg(const CircleTestSpec& spec);
+
+const char* length_unit_name(LengthUnit units) noexcept;  // "mm", "inch"
+
+// The generator's name and version for the header, e.g. "circgen 0.1.0".
+std::string generator_version();
+
+}  // namespace circtest

@@ -1,0 +1,42 @@
+#include "circtest/gcode/annex_c.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "circtest/core/error.hpp"
+
+namespace circtest {
+
+double annex_c_feed(double test_diameter, double reference_diameter, double reference_feed) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(test_diameter)) {
+    throw UsageError(fmt::format("--d: the diameter must be positive, got {}", test_diameter));
+  }
+  if (!positive(reference_diameter)) {
+    throw UsageError(fmt::format("--ref-d: the reference diameter must be positive, got {}",
+                                 reference_diameter));
+  }
+  if (!positive(reference_feed)) {
+    throw UsageError(
+        fmt::format("--ref-f: the reference feed must be positive, got {}", reference_feed));
+  }
+  return reference_feed * std::sqrt(test_diameter / reference_diameter);
+}
+
+AnnexCNote annex_c_note(double test_diameter, double reference_diameter, double reference_feed,
+                        LengthUnit units) {
+  AnnexCNote note;
+  note.test_diameter = test_diameter;
+  note.reference_diameter = reference_diameter;
+  note.reference_feed = reference_feed;
+  note.scaled_feed_exact = annex_c_feed(test_diameter, reference_diameter, reference_feed);
+  // The standard's own example rounds 559.02 mm/min to 559; inch feeds are small numbers
+  // where a whole unit would be a coarse step.
+  const double step = units == LengthUnit::mm ? 1.0 : 0.1;
+  note.scaled_feed = std::round(note.scaled_feed_exact / step) * step;
+  if (note.scaled_feed <= 0.0) note.scaled_feed = step;
+  return note;
+}
+
+}  // namespace circtest

@@ -1,0 +1,424 @@
+#include "circtest/gcode/test_program.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "circtest/core/error.hpp"
+
+namespace circtest {
+
+namespace {
+
+constexpr double kAngleEpsilonDeg = 1e-9;
+// LinuxCNC 2.9 builds with 64 motion digital and analog outputs at most (num_dio, num_aio).
+constexpr int kMaxOutputIndex = 63;
+// "Short dwell at most" between the directions: clause 5 wants the runs back to back.
+constexpr double kMaxDwellS = 2.0;
+
+double deg_to_rad(double deg) {
+  return deg * std::numbers::pi / 180.0;
+}
+
+int axis_index(char axis) {
+  return axis - 'x';
+}
+
+char upper(char axis) {
+  return static_cast<char>(axis - 'a' + 'A');
+}
+
+// Arc centre offset words, by axis: I for X, J for Y, K for Z.
+char offset_word(char axis) {
+  return static_cast<char>('I' + axis_index(axis));
+}
+
+// Header numbers: shortest form that survives a round trip, after dropping float noise
+// (38.099999999999994 mm from 1.5 in is 38.1).
+std::string header_number(double value) {
+  double rounded = std::round(value * 1e9) / 1e9;
+  if (rounded == 0.0) rounded = 0.0;  // no "-0"
+  return fmt::format("{}", rounded);
+}
+
+std::string header_list(const std::vector<double>& values) {
+  std::string out;
+  for (double v : values) {
+    if (!out.empty()) out += ',';
+    out += header_number(v);
+  }
+  return out;
+}
+
+double normalize_deg(double deg) {
+  double r = std::fmod(deg, 360.0);
+  if (r < 0.0) r += 360.0;
+  if (r >= 360.0 - kAngleEpsilonDeg) r = 0.0;
+  return r;
+}
+
+// Writes the program body in program units with a fixed number of decimals. Positions are
+// kept as written so that each arc's centre offsets are taken from the rounded start point,
+// which keeps the interpreter's centre on the nominal centre to the last written digit.
+class ProgramWriter {
+ public:
+  ProgramWriter(const CircleTestSpec& spec)
+      : spec_(spec),
+        axes_(plane_axes(spec.plane)),
+        scale_(spec.units == LengthUnit::mm ? 1.0 : 1.0 / kMmPerInch),
+        decimals_(spec.units == LengthUnit::mm ? 4 : 5) {
+    for (int i = 0; i < 3; ++i) centre_[i] = round_units(spec.centre_mm[i] * scale_);
+    radius_ = spec.radius_mm * scale_;
+  }
+
+  void line(const std::string& text) {
+    text_ += text;
+    text_ += '\n';
+  }
+
+  std::string number(double value) const {
+    std::string s = fmt::format("{:.{}f}", round_units(value), decimals_);
+    while (!s.empty() && s.back() == '0') s.pop_back();
+    if (!s.empty() && s.back() == '.') s.pop_back();
+    if (s == "-0") s = "0";
+    return s;
+  }
+
+  std::string feed(double feed_mm_per_min) const {
+    // Feeds keep one decimal: enough for inch/min, and mm/min feeds are whole numbers.
+    std::string s = fmt::format("{:.1f}", feed_mm_per_min * scale_);
+    if (s.ends_with(".0")) s.resize(s.size() - 2);
+    return s;
+  }
+
+  std::array<double, 3> point_at(double angle_deg) const {
+    std::array<double, 3> p = centre_;
+    const double t = deg_to_rad(angle_deg);
+    p[axis_index(axes_.first)] =
+        round_units(centre_[axis_index(axes_.first)] + radius_ * std::cos(t));
+    p[axis_index(axes_.second)] =
+        round_units(centre_[axis_index(axes_.second)] + radius_ * std::sin(t));
+    return p;
+  }
+
+  // G0/G1 to a point; only the listed axes are written.
+  void move(const char* code, const std::array<double, 3>& target, std::string_view axes,
+            const std::string& suffix = {}) {
+    std::string s = code;
+    for (char axis : std::string_view("xyz")) {
+      if (axes.find(axis) == std::string_view::npos) continue;
+      s += fmt::format(" {}{}", upper(axis), number(target[axis_index(axis)]));
+      position_[axis_index(axis)] = target[axis_index(axis)];
+    }
+    line(s + suffix);
+  }
+
+  // An arc on the test circle from `from_deg`, turning `sweep_deg` (positive) in `direction`.
+  // A sweep of 360 deg is written as a full circle (end point = start point).
+  void arc(Direction direction, double from_deg, double sweep_deg, const std::string& suffix) {
+    const double to_deg = direction == Direction::CCW ? from_deg + sweep_deg : from_deg - sweep_deg;
+    const std::array<double, 3> end =
+        std::abs(sweep_deg - 360.0) < kAngleEpsilonDeg ? position_ : point_at(to_deg);
+    std::string s = direction == Direction::CCW ? "G3" : "G2";
+    for (char axis : std::string_view("xyz")) {
+      if (axis == axes_.normal) continue;
+      s += fmt::format(" {}{}", upper(axis), number(end[axis_index(axis)]));
+    }
+    for (char axis : std::string_view("xyz")) {
+      if (axis == axes_.normal) continue;
+      const int i = axis_index(axis);
+      s += fmt::format(" {}{}", offset_word(axis), number(centre_[i] - position_[i]));
+    }
+    position_ = end;
+    line(s + suffix);
+  }
+
+  void set_position(const std::array<double, 3>& p) { position_ = p; }
+  const std::array<double, 3>& centre() const { return centre_; }
+  std::string take() { return std::move(text_); }
+
+ private:
+  double round_units(double v) const {
+    const double f = std::pow(10.0, decimals_);
+    return std::round(v * f) / f;
+  }
+
+  const CircleTestSpec& spec_;
+  PlaneAxes axes_;
+  double scale_;
+  int decimals_;
+  std::array<double, 3> centre_{};
+  double radius_ = 0.0;
+  std::array<double, 3> position_{};
+  std::string text_;
+};
+
+double lead_in_start_deg(const CircleTestSpec& spec, Direction direction) {
+  return direction == Direction::CCW ? spec.start_deg - spec.lead_deg
+                                     : spec.start_deg + spec.arc_deg + spec.lead_deg;
+}
+
+std::string segments_value(const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs,
+                           const ProgramWriter& writer) {
+  std::string out;
+  for (const MeasuredRun& run : runs) {
+    if (!out.empty()) out += ',';
+    out += fmt::format("{}:{}:F{}", run.segment_id, direction_name(run.direction),
+                       writer.feed(run.feed_mm_per_min));
+  }
+  (void)spec;
+  return out;
+}
+
+}  // namespace
+
+const char* length_unit_name(LengthUnit units) noexcept {
+  return units == LengthUnit::mm ? "mm" : "inch";
+}
+
+std::string generator_version() {
+  return std::string("circgen ") + CIRCTEST_VERSION;
+}
+
+void validate(const CircleTestSpec& spec) {
+  auto finite = [](double v) { return std::isfinite(v); };
+  if (!finite(spec.radius_mm) || spec.radius_mm <= 0.0) {
+    throw UsageError(fmt::format("--d/--r: the circle must have a positive size, got radius {}",
+                                 header_number(spec.radius_mm)));
+  }
+  if (spec.feeds_mm_per_min.empty()) throw UsageError("no feed: give --f, --feeds or --ref-f");
+  for (double f : spec.feeds_mm_per_min) {
+    if (!finite(f) || f <= 0.0) {
+      throw UsageError(
+          fmt::format("--f/--feeds: a feed must be positive, got {}", header_number(f)));
+    }
+  }
+  if (spec.directions.empty()) throw UsageError("--dir: no direction");
+  if (spec.directions.size() == 2 && spec.directions[0] == spec.directions[1]) {
+    throw UsageError("--dir: a direction is given twice");
+  }
+  if (!finite(spec.arc_deg) || spec.arc_deg < 90.0 || spec.arc_deg > 360.0) {
+    throw UsageError(
+        fmt::format("--arc: the measured arc must be 90..360 deg (ISO 230-4 clause 3.1), got {}",
+                    header_number(spec.arc_deg)));
+  }
+  if (!finite(spec.start_deg)) throw UsageError("--start: not a finite angle");
+  if (!finite(spec.lead_deg) || spec.lead_deg <= 0.0) {
+    throw UsageError(fmt::format(
+        "--lead: the lead arcs must be longer than 0 deg, got {}: the measured arc needs a "
+        "run-up to reach the feed, and M63 only takes effect with the next move",
+        header_number(spec.lead_deg)));
+  }
+  const bool full = spec.arc_deg >= 360.0;
+  if (full && spec.lead_deg > 180.0) {
+    throw UsageError(fmt::format(
+        "--lead: {} deg lead-in and lead-out arcs would overlap each other on a full circle "
+        "(at most 180 deg)",
+        header_number(spec.lead_deg)));
+  }
+  if (!full && spec.arc_deg + 2.0 * spec.lead_deg > 360.0 + kAngleEpsilonDeg) {
+    throw UsageError(
+        fmt::format("--lead: {} deg lead arcs around a {} deg arc would overlap each other "
+                    "(arc + 2 * lead = {} > 360 deg); use --lead {} or less",
+                    header_number(spec.lead_deg), header_number(spec.arc_deg),
+                    header_number(spec.arc_deg + 2.0 * spec.lead_deg),
+                    header_number(std::floor((360.0 - spec.arc_deg) / 2.0 * 1000.0) / 1000.0)));
+  }
+  for (double c : spec.centre_mm) {
+    if (!finite(c)) throw UsageError("--centre: not a finite position");
+  }
+  if (spec.safe_mm && !finite(*spec.safe_mm)) throw UsageError("--safe-z: not a finite position");
+  if (!finite(spec.dwell_s) || spec.dwell_s < 0.0 || spec.dwell_s > kMaxDwellS) {
+    throw UsageError(fmt::format("--dwell: must be 0..{} s, got {}", header_number(kMaxDwellS),
+                                 header_number(spec.dwell_s)));
+  }
+  if (spec.marker_output < 0 || spec.marker_output > kMaxOutputIndex) {
+    throw UsageError(fmt::format("--marker: digital output must be 0..{}, got {}", kMaxOutputIndex,
+                                 spec.marker_output));
+  }
+  if (spec.segment_output < 0 || spec.segment_output > kMaxOutputIndex) {
+    throw UsageError(fmt::format("--segment-out: analog output must be 0..{}, got {}",
+                                 kMaxOutputIndex, spec.segment_output));
+  }
+  for (const auto& [key, value] : spec.extra_header) {
+    if (key.find_first_of("():\n") != std::string::npos ||
+        value.find_first_of("()\n") != std::string::npos) {
+      throw UsageError(fmt::format("header entry '{}' cannot go into a G-code comment", key));
+    }
+  }
+  if (spec.date.find_first_of("()\n") != std::string::npos) {
+    throw UsageError("the date cannot go into a G-code comment");
+  }
+}
+
+std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec) {
+  std::vector<MeasuredRun> runs;
+  int id = 1;
+  for (double feed : spec.feeds_mm_per_min) {
+    for (Direction direction : spec.directions) {
+      MeasuredRun run;
+      run.segment_id = id++;
+      run.direction = direction;
+      run.feed_mm_per_min = feed;
+      run.start_deg = normalize_deg(direction == Direction::CCW ? spec.start_deg
+                                                                : spec.start_deg + spec.arc_deg);
+      run.sweep_deg = spec.arc_deg;
+      runs.push_back(run);
+    }
+  }
+  return runs;
+}
+
+std::pair<double, double> swept_range_deg(const CircleTestSpec& spec) {
+  return {spec.start_deg - spec.lead_deg, spec.start_deg + spec.arc_deg + spec.lead_deg};
+}
+
+TestProgram generate_test_program(const CircleTestSpec& spec) {
+  validate(spec);
+  TestProgram program;
+  program.runs = plan_runs(spec);
+  ProgramWriter w(spec);
+  const PlaneAxes axes = plane_axes(spec.plane);
+  const bool inch = spec.units == LengthUnit::inch;
+  const double to_units = inch ? 1.0 / kMmPerInch : 1.0;
+
+  auto& h = program.header;
+  auto add = [&h](std::string key, std::string value) {
+    h.emplace_back(std::move(key), std::move(value));
+  };
+  std::vector<double> centre_units;
+  for (double c : spec.centre_mm) centre_units.push_back(c * to_units);
+  std::vector<double> feeds_units;
+  for (double f : spec.feeds_mm_per_min) feeds_units.push_back(f * to_units);
+
+  add("generator", generator_version());
+  if (!spec.date.empty()) add("date", spec.date);
+  add("test", "ISO 230-4 circular test");
+  add("plane", std::string(plane_name(spec.plane)));
+  add("axes", fmt::format("{},{}", upper(axes.first), upper(axes.second)));
+  add("units", length_unit_name(spec.units));
+  add("diameter_mm", header_number(2.0 * spec.radius_mm));
+  add("radius_mm", header_number(spec.radius_mm));
+  add("centre_mm", header_list({spec.centre_mm.begin(), spec.centre_mm.end()}));
+  if (spec.feeds_mm_per_min.size() == 1) {
+    add("feed_mm_per_min", header_number(spec.feeds_mm_per_min.front()));
+  }
+  add("feeds_mm_per_min", header_list(spec.feeds_mm_per_min));
+  if (inch) {
+    add("diameter_in", header_number(2.0 * spec.radius_mm * to_units));
+    add("radius_in", header_number(spec.radius_mm * to_units));
+    add("centre_in", header_list(centre_units));
+    if (feeds_units.size() == 1) add("feed_in_per_min", header_number(feeds_units.front()));
+    add("feeds_in_per_min", header_list(feeds_units));
+  }
+  {
+    std::string names, labels;
+    for (Direction d : spec.directions) {
+      if (!names.empty()) names += ',', labels += ',';
+      names += direction_name(d);
+      labels += direction_label(spec.plane, d);
+    }
+    add("directions", names);
+    add("direction_labels", labels);
+  }
+  add("arc_deg", header_number(spec.arc_deg));
+  add("start_deg", header_number(normalize_deg(spec.start_deg)));
+  add("lead_deg", header_number(spec.lead_deg));
+  add("dwell_s", header_number(spec.dwell_s));
+  if (spec.safe_mm) {
+    add("safe_axis", std::string(1, axes.normal));
+    add("safe_mm", header_number(*spec.safe_mm));
+    if (inch) add("safe_in", header_number(*spec.safe_mm * to_units));
+  }
+  add("motion_mode", "G61");
+  add("marker_output", std::to_string(spec.marker_output));
+  add("segment_output", std::to_string(spec.segment_output));
+  add("segments", segments_value(spec, program.runs, w));
+  if (spec.annex_c) {
+    const AnnexCNote& a = *spec.annex_c;
+    const char* u = inch ? "in" : "mm";
+    add(fmt::format("annex_c_reference_diameter_{}", u), header_number(a.reference_diameter));
+    add(fmt::format("annex_c_reference_feed_{}_per_min", u), header_number(a.reference_feed));
+    add("annex_c", fmt::format("V1 = V2 * sqrt[D1/D2] = {} * sqrt[{}/{}] = {:.3f} -> F{}",
+                               header_number(a.reference_feed), header_number(a.test_diameter),
+                               header_number(a.reference_diameter), a.scaled_feed_exact,
+                               header_number(a.scaled_feed)));
+  }
+  for (const auto& entry : spec.extra_header) h.push_back(entry);
+
+  for (const auto& [key, value] : h) w.line(fmt::format("(circtest: {}: {})", key, value));
+
+  const std::string plane_word = fmt::format("G{}", plane_gcode(spec.plane));
+  const std::string marker = fmt::format("P{}", spec.marker_output);
+  const std::string segment = fmt::format("E{}", spec.segment_output);
+  w.line(fmt::format("{} {} G90 G91.1 G94 G40 G80", inch ? "G20" : "G21", plane_word));
+  // G61 (exact path): no blend arcs or parabolic blends, so no join can round off the
+  // circle, while tangent joins (lead arc to measured arc) still pass at the feed.
+  w.line("G61");
+  w.line(fmt::format("M65 {}", marker));
+  w.line(fmt::format("M68 {} Q0", segment));
+
+  const MeasuredRun& first = program.runs.front();
+  const double first_feed = first.feed_mm_per_min;
+  const std::array<double, 3> start = w.point_at(lead_in_start_deg(spec, first.direction));
+  const std::string normal(1, axes.normal);
+  const std::string in_plane{axes.first, axes.second};
+  if (spec.safe_mm) {
+    std::array<double, 3> safe = start;
+    safe[axis_index(axes.normal)] = *spec.safe_mm * to_units;
+    w.move("G0", safe, normal, " (clearance)");
+    w.move("G0", safe, in_plane, " (above the lead-in start)");
+    w.move("G1", start, normal, fmt::format(" F{} (approach)", w.feed(first_feed)));
+  } else {
+    w.move("G1", start, "xyz", fmt::format(" F{} (approach)", w.feed(first_feed)));
+  }
+
+  double angle_deg = lead_in_start_deg(spec, first.direction);
+  std::optional<Direction> previous;
+  for (const MeasuredRun& run : program.runs) {
+    const std::string f = w.feed(run.feed_mm_per_min);
+    const double lead_start = lead_in_start_deg(spec, run.direction);
+    if (previous) {
+      // A single-direction sweep must get back to the lead-in start; going back through the
+      // tested range keeps a partial arc clear of whatever made it partial.
+      const double gap = *previous == Direction::CCW ? normalize_deg(angle_deg - lead_start)
+                                                     : normalize_deg(lead_start - angle_deg);
+      if (gap > kAngleEpsilonDeg) {
+        const Direction back = *previous == Direction::CCW ? Direction::CW : Direction::CCW;
+        w.arc(back, angle_deg, gap, fmt::format(" F{} (back to the lead-in start)", f));
+      } else if (*previous != run.direction && spec.dwell_s > 0.0) {
+        w.line(fmt::format("G4 P{}", header_number(spec.dwell_s)));
+      }
+    }
+    angle_deg = lead_start;
+    const bool ccw = run.direction == Direction::CCW;
+    const double sign = ccw ? 1.0 : -1.0;
+    w.line(fmt::format("(run {}: {} {} F{})", run.segment_id, direction_name(run.direction),
+                       direction_label(spec.plane, run.direction), f));
+    w.arc(run.direction, angle_deg, spec.lead_deg, fmt::format(" F{} (lead-in)", f));
+    angle_deg += sign * spec.lead_deg;
+    w.line(fmt::format("M67 {} Q{}", segment, run.segment_id));
+    w.line(fmt::format("M62 {}", marker));
+    w.arc(run.direction, angle_deg, spec.arc_deg, " (measured)");
+    angle_deg += sign * spec.arc_deg;
+    // Synchronized outputs take effect with the next move, so the lead-out carries them:
+    // the marker and the id drop exactly where the measured arc ends.
+    w.line(fmt::format("M63 {}", marker));
+    w.line(fmt::format("M67 {} Q0", segment));
+    w.arc(run.direction, angle_deg, spec.lead_deg, " (lead-out)");
+    angle_deg += sign * spec.lead_deg;
+    previous = run.direction;
+  }
+  if (spec.safe_mm) {
+    std::array<double, 3> safe{};
+    safe[axis_index(axes.normal)] = *spec.safe_mm * to_units;
+    w.move("G0", safe, normal, " (clearance)");
+  }
+  w.line("M2");
+  program.text = w.take();
+  return program;
+}
+
+}  // namespace circtest
