@@ -9,7 +9,7 @@ namespace circtest {
 
 namespace {
 
-using nlohmann::json;
+using json = nlohmann::ordered_json;
 
 json opt(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
@@ -169,7 +169,7 @@ FitReport fit_all(const std::string& source, std::span<const double> a,
   return r;
 }
 
-nlohmann::json to_json(const FitReport& r) {
+json to_json(const FitReport& r) {
   auto circle = [](const ContactCircle& c) {
     return json{{"centre", {c.circle.centre_a_mm, c.circle.centre_b_mm}},
                 {"radius", c.circle.radius_mm},

@@ -9,7 +9,7 @@
 
 namespace circtest {
 
-nlohmann::json to_json(const Evaluation& evaluation);
+nlohmann::ordered_json to_json(const Evaluation& evaluation);
 std::string text_report(const Evaluation& evaluation);
 
 struct FitReport {
@@ -21,7 +21,7 @@ struct FitReport {
   ContactCircle mic;
 };
 FitReport fit_all(const std::string& source, std::span<const double> a, std::span<const double> b);
-nlohmann::json to_json(const FitReport& report);
+nlohmann::ordered_json to_json(const FitReport& report);
 std::string text_report(const FitReport& report);
 
 const char* g_method_name(GMethod method) noexcept;  // "min-zone", "least-squares"
