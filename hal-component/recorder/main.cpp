@@ -1,0 +1,166 @@
+// circlog-record: the HAL side of the recorder (a userspace HAL component that maps the
+// ring circlog created) around the HAL-free loop in recorder.cpp.
+extern "C" {
+#include "hal.h"
+}
+
+#include <sys/ipc.h>
+#include <sys/shm.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <ctime>
+#include <string>
+
+#include "circlog_kernel.hpp"
+#include "circtest/core/cli.hpp"
+#include "circtest/core/error.hpp"
+#include "recorder.hpp"
+
+namespace {
+
+using circtest::HalError;
+
+volatile std::sig_atomic_t g_stop = 0;
+
+void on_signal(int) {
+  g_stop = 1;
+}
+
+void install_signal_handlers() {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  for (int s : {SIGINT, SIGTERM, SIGHUP}) sigaction(s, &sa, nullptr);
+}
+
+class SystemEnvironment final : public circtest::circlog_record::Environment {
+ public:
+  void sleep(double seconds) override {
+    timespec ts{};
+    ts.tv_sec = static_cast<time_t>(seconds);
+    ts.tv_nsec = static_cast<long>((seconds - static_cast<double>(ts.tv_sec)) * 1e9);
+    nanosleep(&ts, nullptr);  // a signal cuts it short, which is what we want
+  }
+  double monotonic_s() override {
+    timespec ts{};
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec) * 1e-9;
+  }
+  bool stop_requested() override { return g_stop != 0; }
+  bool process_alive(std::int32_t pid) override { return kill(pid, 0) == 0 || errno == EPERM; }
+  std::string utc_now_iso8601() override {
+    timespec ts{};
+    clock_gettime(CLOCK_REALTIME, &ts);
+    tm utc{};
+    gmtime_r(&ts.tv_sec, &utc);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S", &utc);
+    return fmt::format("{}.{:03d}Z", text, static_cast<int>(ts.tv_nsec / 1000000));
+  }
+};
+
+// The HAL component and the mapping of circlog's ring; both undone in the destructor.
+class HalRing {
+ public:
+  HalRing() {
+    const std::string name = fmt::format("circlog-record-{}", getpid());
+    comp_id_ = hal_init(name.c_str());
+    if (comp_id_ < 0) {
+      throw HalError("HAL is not running: start LinuxCNC (or halrun) and 'loadrt circlog' first");
+    }
+    // Not rtapi_shmem_new: it would create an empty ring when circlog is not loaded.
+    shm_id_ = shmget(circlog::kShmKeyBase, 0, 0);
+    if (shm_id_ < 0) {
+      const int e = errno;
+      cleanup();
+      if (e == ENOENT) {
+        throw HalError(
+            "circlog is not loaded: 'loadrt circlog channels=N' and "
+            "'addf circlog.0 servo-thread' in the HAL file");
+      }
+      throw HalError(fmt::format("cannot open circlog's ring (key 0x{:08x}): {}{}",
+                                 circlog::kShmKeyBase, std::strerror(e),
+                                 e == EACCES ? " (run as the user that runs LinuxCNC)" : ""));
+    }
+    shmid_ds stat{};
+    void* mem = shmat(shm_id_, nullptr, 0);
+    if (mem == reinterpret_cast<void*>(-1) || shmctl(shm_id_, IPC_STAT, &stat) != 0) {
+      const int e = errno;
+      cleanup();
+      throw HalError(fmt::format("cannot map circlog's ring: {}", std::strerror(e)));
+    }
+    memory_ = mem;
+    if (stat.shm_nattch < 2) {
+      // Only this process: the ring was left behind by a recorder that outlived the module.
+      cleanup();
+      throw HalError(
+          "circlog is not loaded (only a stale ring from an earlier run was found; "
+          "it has been removed)");
+    }
+    const auto result = ring_.attach(mem, stat.shm_segsz);
+    if (result != circlog::AttachResult::ok) {
+      cleanup();
+      throw HalError(fmt::format("circlog's ring: {}", circlog::attach_result_text(result)));
+    }
+    hal_ready(comp_id_);
+  }
+  ~HalRing() { cleanup(); }
+  HalRing(const HalRing&) = delete;
+  HalRing& operator=(const HalRing&) = delete;
+
+  circlog::Consumer& ring() { return ring_; }
+
+ private:
+  void cleanup() {
+    if (memory_) {
+      shmdt(memory_);
+      memory_ = nullptr;
+      // If circlog was unloaded while we held the ring, nobody else will remove it, and a
+      // later circlog with a larger ring could not be created.
+      shmid_ds stat{};
+      if (shm_id_ >= 0 && shmctl(shm_id_, IPC_STAT, &stat) == 0 && stat.shm_nattch == 0) {
+        shmctl(shm_id_, IPC_RMID, nullptr);
+      }
+    }
+    if (comp_id_ >= 0) hal_exit(comp_id_);
+    comp_id_ = -1;
+  }
+
+  int comp_id_ = -1;
+  int shm_id_ = -1;
+  void* memory_ = nullptr;
+  circlog::Consumer ring_;
+};
+
+int run(int argc, char** argv) {
+  using namespace circtest::circlog_record;
+  const auto options = parse_options(argc, argv, stdout);
+  if (!options) return 0;
+  install_signal_handlers();
+  HalRing hal;
+  SystemEnvironment env;
+  const Summary s = record(hal.ring(), static_cast<std::int32_t>(getpid()), *options, env, stderr);
+  std::fprintf(stderr,
+               "circlog-record: %s: %zu rows, %llu run(s), %llu overrun(s), %llu gap(s), "
+               "%llu lost sample(s); stopped by %s\n",
+               options->output.c_str(), s.rows, static_cast<unsigned long long>(s.runs),
+               static_cast<unsigned long long>(s.overruns), static_cast<unsigned long long>(s.gaps),
+               static_cast<unsigned long long>(s.lost), s.stop_reason.c_str());
+  if (s.lost > 0 || s.overruns > 0) {
+    throw circtest::Error(
+        circtest::ExitCode::data_loss,
+        fmt::format("{} sample(s) lost ({} overrun(s), {} gap(s)); {} is complete but has holes",
+                    s.lost, s.overruns, s.gaps, options->output));
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return circtest::run_cli("circlog-record", [&] { return run(argc, argv); });
+}
