@@ -67,24 +67,25 @@ class SystemEnvironment final : public circtest::circlog_record::Environment {
 class HalRing {
  public:
   HalRing() {
-    const std::string name = fmt::format("circlog-record-{}", getpid());
-    comp_id_ = hal_init(name.c_str());
-    if (comp_id_ < 0) {
-      throw HalError("HAL is not running: start LinuxCNC (or halrun) and 'loadrt circlog' first");
-    }
-    // Not rtapi_shmem_new: it would create an empty ring when circlog is not loaded.
+    // The ring first, with plain shmget: rtapi_shmem_new would create an empty ring when
+    // circlog is not loaded, and hal_init succeeds (creating HAL's memory) even when no
+    // realtime session runs at all.
     shm_id_ = shmget(circlog::kShmKeyBase, 0, 0);
     if (shm_id_ < 0) {
       const int e = errno;
-      cleanup();
       if (e == ENOENT) {
         throw HalError(
-            "circlog is not loaded: 'loadrt circlog channels=N' and "
-            "'addf circlog.0 servo-thread' in the HAL file");
+            "circlog is not loaded (is LinuxCNC or halrun running?): 'loadrt circlog "
+            "channels=N' and 'addf circlog.0 servo-thread' in the HAL file");
       }
       throw HalError(fmt::format("cannot open circlog's ring (key 0x{:08x}): {}{}",
                                  circlog::kShmKeyBase, std::strerror(e),
                                  e == EACCES ? " (run as the user that runs LinuxCNC)" : ""));
+    }
+    const std::string name = fmt::format("circlog-record-{}", getpid());
+    comp_id_ = hal_init(name.c_str());
+    if (comp_id_ < 0) {
+      throw HalError("HAL is not running: start LinuxCNC (or halrun) and 'loadrt circlog' first");
     }
     shmid_ds stat{};
     void* mem = shmat(shm_id_, nullptr, 0);

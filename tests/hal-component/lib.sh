@@ -1,0 +1,35 @@
+# Helpers for the test.sh scripts, sourced inside the namespaces set up by run-hal-test.sh.
+REALTIME=/usr/lib/linuxcnc/realtime
+
+# Starts realtime and runs a HAL file (like halrun -f, but leaves the session running).
+hal_start() {
+  halrun -U >/dev/null 2>&1 || true
+  "$REALTIME" start >&2
+  halcmd -f "$1" >&2
+}
+
+hal_stop() {
+  halcmd stop >&2 || true
+  halcmd unload all >&2 || true
+  "$REALTIME" stop >&2 || true
+}
+
+# Waits until a HAL pin or parameter has a value (up to 10 s).
+wait_for_value() {
+  local name=$1 want=$2 i
+  for i in $(seq 200); do
+    [ "$(halcmd getp "$name")" = "$want" ] && return 0
+    sleep 0.05
+  done
+  echo "timeout waiting for $name = $want (is $(halcmd getp "$name"))" >&2
+  return 1
+}
+
+# Number of samples waiting in sampler.0's fifo, then prints them (halsampler).
+dump_sampler() {
+  local n
+  n=$(halcmd getp sampler.0.curr-depth)
+  halsampler -n "$n"
+}
+
+check() { /usr/bin/python3 "$CIRCLOG_TESTS/check_trace.py" "$@"; }

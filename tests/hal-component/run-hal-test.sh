@@ -1,0 +1,71 @@
+#!/bin/bash
+# Runs one circlog HAL test (a directory with test.sh and expected) against the module in the
+# build tree, without installing anything:
+#   run-hal-test.sh TEST_DIR MODULE.so RECORDER
+# As root it re-runs itself in private mount, IPC, PID and network namespaces: the bind mount
+# puts circlog.so beside the system modules only for this test, the private SysV IPC and PID
+# spaces keep this HAL session apart from any other LinuxCNC on the machine (halrun refuses to
+# start while any rtapi_app is visible), and when the namespace's first process exits the
+# kernel kills whatever is left, so no rtapi_app or recorder can outlive a failing test.
+# rtapi_app refuses to run as root, so it runs as `nobody` (RTAPI_UID), present on every
+# Debian system; no user has to be created.
+set -euo pipefail
+
+test_dir=$(cd "$1" && pwd)
+module=$(readlink -f "$2")
+recorder=$(readlink -f "$3")
+here=$(cd "$(dirname "$0")" && pwd)
+system_modules=/usr/lib/linuxcnc/modules
+
+if [ "${CIRCLOG_TEST_INSIDE:-}" != 1 ]; then
+  if [ "$(id -u)" != 0 ]; then
+    echo "SKIP: the HAL tests need root (for a private mount namespace over $system_modules)"
+    exit 77
+  fi
+  for tool in halrun halcmd unshare mount; do
+    command -v "$tool" >/dev/null || { echo "missing $tool (install linuxcnc-uspace)" >&2; exit 1; }
+  done
+  work=$(mktemp -d /tmp/circlog-test.XXXXXX)
+  chmod 755 "$work"
+  rc=0
+  CIRCLOG_TEST_INSIDE=1 CIRCLOG_WORK=$work \
+    unshare --mount --ipc --pid --fork --mount-proc --net --propagation private \
+    "$0" "$@" || rc=$?
+  if [ "$rc" = 0 ] && [ -z "${CIRCLOG_KEEP_WORK:-}" ]; then
+    rm -rf "$work"
+  else
+    echo "(work files kept in $work)" >&2
+  fi
+  exit "$rc"
+fi
+
+work=$CIRCLOG_WORK
+mkdir -p "$work/modules" "$work/fifo" "$work/home"
+cp -a "$system_modules/." "$work/modules/"
+cp "$module" "$work/modules/circlog.so"
+mount --bind "$work/modules" "$system_modules"
+rt_uid=$(id -u nobody)
+chown "$rt_uid" "$work/fifo"
+ip link set lo up 2>/dev/null || true
+
+export RTAPI_UID=$rt_uid RTAPI_FIFO_PATH=$work/fifo/.rtapi_fifo HOME=$work/home
+export CIRCLOG_RECORDER=$recorder CIRCLOG_TESTS=$here TEST_DIR=$test_dir
+export PYTHONDONTWRITEBYTECODE=1
+cd "$work"
+
+cleanup() { halrun -U >/dev/null 2>&1 || true; }
+trap cleanup EXIT
+
+rc=0
+bash "$test_dir/test.sh" >"$work/result" 2>"$work/stderr" || rc=$?
+if [ "$rc" != 0 ]; then
+  echo "test.sh failed with exit code $rc; its stderr:" >&2
+  cat "$work/stderr" >&2
+  exit 1
+fi
+if ! diff -u "$test_dir/expected" "$work/result"; then
+  echo "result differs from $test_dir/expected; stderr of test.sh:" >&2
+  cat "$work/stderr" >&2
+  exit 1
+fi
+echo "ok: $(basename "$test_dir")"

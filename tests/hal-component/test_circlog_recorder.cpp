@@ -1,0 +1,338 @@
+// circlog-record's loop without HAL: a producer in heap memory runs the servo periods that
+// pass while the recorder sleeps, on a fake clock, so every scenario is deterministic.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "circlog_kernel.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/trace.hpp"
+#include "recorder.hpp"
+
+namespace {
+
+namespace rec = circtest::circlog_record;
+namespace fs = std::filesystem;
+
+struct FreeDeleter {
+  void operator()(void* p) const { std::free(p); }
+};
+
+// The servo thread at 1 kHz; enable and segment follow a script of the period number.
+class FakeServo final : public rec::Environment {
+ public:
+  FakeServo(int channels, int depth)
+      : bytes_(circlog::shared_size(channels, depth)),
+        memory_(std::aligned_alloc(64, (bytes_ + 63) / 64 * 64)),
+        values_(static_cast<std::size_t>(channels)),
+        pointers_(static_cast<std::size_t>(channels)) {
+    for (std::size_t i = 0; i < values_.size(); ++i) pointers_[i] = &values_[i];
+    EXPECT_TRUE(producer_.init(memory_.get(), bytes_, channels, depth));
+    EXPECT_EQ(consumer.attach(memory_.get(), bytes_), circlog::AttachResult::ok);
+  }
+
+  std::function<bool(std::uint64_t)> enable = [](std::uint64_t) { return false; };
+  std::function<double(std::uint64_t)> segment = [](std::uint64_t) { return 0.0; };
+  bool running = true;
+  int stop_after_sleeps = -1;
+  std::vector<std::int32_t> alive;
+
+  void run_periods(std::uint64_t n) {
+    for (std::uint64_t i = 0; i < n; ++i) {
+      for (std::size_t c = 0; c < values_.size(); ++c) {
+        values_[c] = static_cast<double>(period_) + 0.001 * static_cast<double>(c);
+      }
+      producer_.step(enable(period_), segment(period_), pointers_.data(), 1000000);
+      ++period_;
+    }
+  }
+
+  void sleep(double seconds) override {
+    ++sleeps_;
+    const double before = now_;
+    now_ += seconds;
+    if (running) {
+      run_periods(static_cast<std::uint64_t>(std::floor(now_ * 1000.0)) -
+                  static_cast<std::uint64_t>(std::floor(before * 1000.0)));
+    }
+  }
+  double monotonic_s() override { return now_; }
+  bool stop_requested() override { return stop_after_sleeps >= 0 && sleeps_ >= stop_after_sleeps; }
+  bool process_alive(std::int32_t pid) override {
+    return std::find(alive.begin(), alive.end(), pid) != alive.end();
+  }
+  std::string utc_now_iso8601() override { return "2026-01-02T03:04:05.000Z"; }
+
+  circlog::Consumer consumer;
+  circlog::Status status() const { return producer_.status(); }
+
+ private:
+  std::size_t bytes_;
+  std::unique_ptr<void, FreeDeleter> memory_;
+  std::vector<double> values_;
+  std::vector<const volatile double*> pointers_;
+  circlog::Producer producer_;
+  std::uint64_t period_ = 0;
+  double now_ = 0.0;
+  int sleeps_ = 0;
+};
+
+class RecorderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("circlog-recorder-test-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+    log_ = std::tmpfile();
+  }
+  void TearDown() override {
+    std::fclose(log_);
+    fs::remove_all(dir_);
+  }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::string log_text() {
+    std::rewind(log_);
+    std::string s;
+    char buf[256];
+    while (std::fgets(buf, sizeof buf, log_)) s += buf;
+    return s;
+  }
+
+  fs::path dir_;
+  std::FILE* log_ = nullptr;
+};
+
+rec::Options options_for(const std::string& output) {
+  rec::Options o;
+  o.output = output;
+  o.poll_s = 0.005;
+  return o;
+}
+
+std::optional<rec::Options> parse(std::vector<const char*> args) {
+  args.insert(args.begin(), "circlog-record");
+  std::FILE* out = std::tmpfile();
+  auto o = rec::parse_options(static_cast<int>(args.size()), args.data(), out);
+  std::fclose(out);
+  return o;
+}
+
+TEST(CirclogRecordOptions, ParsesAndValidates) {
+  const auto o = parse({"-o", "a.csv", "--columns", "x_cmd,y_cmd,x,y", "--duration", "2.5",
+                        "--describe", "x=grid encoder X", "--until-idle", "0.5"});
+  ASSERT_TRUE(o);
+  EXPECT_EQ(o->output, "a.csv");
+  EXPECT_EQ(o->columns, (std::vector<std::string>{"x_cmd", "y_cmd", "x", "y"}));
+  EXPECT_EQ(*o->duration_s, 2.5);
+  EXPECT_EQ(*o->idle_s, 0.5);
+  ASSERT_EQ(o->descriptions.size(), 1u);
+  EXPECT_EQ(o->descriptions[0].second, "grid encoder X");
+  EXPECT_FALSE(parse({"--help"}));
+}
+
+TEST(CirclogRecordOptions, RefusesBadValues) {
+  EXPECT_THROW(parse({}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--columns", "x,x"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--columns", "x,,y"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--columns", "x,t"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--columns", "x y"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--duration", "0"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--duration", "nan"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--describe", "novalue"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--bogus"}), circtest::UsageError);
+}
+
+TEST_F(RecorderTest, ProgramHeaderStopsAtTheFirstLineOfCode) {
+  std::ofstream(path("p.ngc")) << "%\n(plane: XY)\n( radius_mm : 50 )\n\n(Note: prose)\n"
+                                  "(feed_mm_per_min: 1000)\nG21 G17\n(after: ignored)\n%\n";
+  const auto h = rec::read_program_header(path("p.ngc"));
+  ASSERT_EQ(h.size(), 3u);
+  EXPECT_EQ(h[0], (std::pair<std::string, std::string>{"plane", "XY"}));
+  EXPECT_EQ(h[1], (std::pair<std::string, std::string>{"radius_mm", "50"}));
+  EXPECT_EQ(h[2].first, "feed_mm_per_min");
+  EXPECT_THROW(rec::read_program_header(path("missing.ngc")), circtest::IoError);
+}
+
+TEST_F(RecorderTest, RecordsARunAndStopsWhenIdle) {
+  FakeServo servo(2, 1024);
+  servo.enable = [](std::uint64_t p) { return p >= 200 && p < 500; };
+  servo.segment = [](std::uint64_t) { return 4.0; };
+  rec::Options o = options_for(path("t.csv"));
+  o.columns = {"x", "y"};
+  o.descriptions = {{"x", "grid encoder"}};
+  o.idle_s = 0.1;
+  std::ofstream(path("p.ngc")) << "(plane: XY)\n(rows: 12)\nG0 X0\n";
+  o.program = path("p.ngc");
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.rows, 301u);  // 300 enabled periods and the one where enable fell
+  EXPECT_EQ(s.runs, 1u);
+  EXPECT_EQ(s.lost, 0u);
+  EXPECT_EQ(s.stop_reason, "idle");
+  EXPECT_FALSE(servo.status().reader_attached);
+  EXPECT_FALSE(fs::exists(path("t.csv.part")));
+
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(t.columns, (std::vector<std::string>{"t", "period", "x", "y", "marker", "segment"}));
+  ASSERT_EQ(t.rows(), 301u);
+  EXPECT_EQ(t.column("period")->front(), 200.0);
+  EXPECT_DOUBLE_EQ(t.column("t")->front(), 0.2);
+  EXPECT_DOUBLE_EQ(t.column("y")->at(10), 210.001);
+  EXPECT_EQ(t.column("marker")->back(), 0.0);
+  EXPECT_EQ(t.column("segment")->front(), 4.0);
+  const auto& m = t.metadata;
+  EXPECT_EQ(*m.find("sample_period_s"), "0.001");
+  EXPECT_EQ(*m.find("channels"), "x,y");
+  EXPECT_EQ(*m.find("channel.x"), "grid encoder");
+  EXPECT_EQ(*m.find("module.depth"), "1024");
+  EXPECT_EQ(*m.find("plane"), "XY");
+  EXPECT_EQ(*m.find("rows"), "301");  // the trailer, not the program's "rows: 12"
+  EXPECT_EQ(*m.find("lost_samples"), "0");
+  EXPECT_EQ(*m.find("start_time"), "2026-01-02T03:04:05.000Z");
+  EXPECT_NE(log_text().find("header key 'rows'"), std::string::npos);
+}
+
+TEST_F(RecorderTest, ATinyRingLosesRecordsAndSaysSoEverywhere) {
+  FakeServo servo(1, 4);
+  servo.enable = [](std::uint64_t p) { return p >= 100 && p < 400; };
+  rec::Options o = options_for(path("t.csv"));
+  o.poll_s = 0.02;  // 20 periods between polls into a ring of 4
+  o.idle_s = 0.05;
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_GT(s.lost, 0u);
+  EXPECT_EQ(s.lost, s.overruns);
+  EXPECT_EQ(s.overruns, servo.status().overruns);
+  EXPECT_GT(s.gaps, 0u);
+  EXPECT_EQ(s.rows + s.lost, 301u);
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(*t.metadata.find("lost_samples"), std::to_string(s.lost));
+  EXPECT_EQ(*t.metadata.find("overruns"), std::to_string(s.overruns));
+  EXPECT_EQ(*t.metadata.find("gaps"), std::to_string(s.gaps));
+  const auto& period = *t.column("period");
+  double jumps = 0;
+  for (std::size_t i = 1; i < period.size(); ++i) jumps += period[i] - period[i - 1] - 1;
+  EXPECT_GT(jumps, 0);
+  EXPECT_NE(log_text().find("gap:"), std::string::npos);
+}
+
+TEST_F(RecorderTest, BackToBackRunsAndSegments) {
+  FakeServo servo(1, 4096);
+  // Run 1 (segment 1) 100-199, run 2 (segment 1) 250-349, segment 2 from 300 on.
+  servo.enable = [](std::uint64_t p) { return (p >= 100 && p < 200) || (p >= 250 && p < 400); };
+  servo.segment = [](std::uint64_t p) { return p < 300 ? 1.0 : 2.0; };
+  rec::Options o = options_for(path("t.csv"));
+  o.idle_s = 0.2;  // longer than the 50-period pause between the runs
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.runs, 2u);
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  const auto& marker = *t.column("marker");
+  const auto& segment = *t.column("segment");
+  ASSERT_EQ(t.rows(), 100u + 1 + 150 + 1);
+  EXPECT_EQ(marker[100], 0.0);  // the period enable fell separates the two runs
+  EXPECT_EQ(segment[100 + 1 + 49], 1.0);
+  EXPECT_EQ(segment[100 + 1 + 50], 2.0);
+}
+
+TEST_F(RecorderTest, StopsAfterTheDurationInServoTime) {
+  FakeServo servo(1, 4096);
+  servo.enable = [](std::uint64_t) { return true; };
+  rec::Options o = options_for(path("t.csv"));
+  o.duration_s = 0.5;
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.stop_reason, "duration");
+  EXPECT_GE(s.rows, 500u);
+  EXPECT_LE(s.rows, 520u);
+  EXPECT_EQ(s.lost, 0u);
+}
+
+TEST_F(RecorderTest, StopsOnASignalWithACompleteFile) {
+  FakeServo servo(1, 4096);
+  servo.enable = [](std::uint64_t) { return true; };
+  servo.stop_after_sleeps = 30;
+  const rec::Summary s = rec::record(servo.consumer, 42, options_for(path("t.csv")), servo, log_);
+  EXPECT_EQ(s.stop_reason, "signal");
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(t.rows(), s.rows);
+  EXPECT_EQ(*t.metadata.find("stop_reason"), "signal");
+  EXPECT_EQ(*t.metadata.find("lost_samples"), "0");
+}
+
+// The servo thread stops (LinuxCNC shut down) after `sleeps` polls of the recorder.
+class StoppingServo final : public rec::Environment {
+ public:
+  StoppingServo(FakeServo& servo, int sleeps) : servo_(servo), left_(sleeps) {}
+  void sleep(double d) override {
+    if (--left_ == 0) servo_.running = false;
+    servo_.sleep(d);
+  }
+  double monotonic_s() override { return servo_.monotonic_s(); }
+  bool stop_requested() override { return false; }
+  bool process_alive(std::int32_t) override { return false; }
+  std::string utc_now_iso8601() override { return servo_.utc_now_iso8601(); }
+
+ private:
+  FakeServo& servo_;
+  int left_;
+};
+
+TEST_F(RecorderTest, StopsWhenTheServoThreadStops) {
+  FakeServo servo(1, 4096);
+  servo.enable = [](std::uint64_t) { return true; };
+  StoppingServo env(servo, 50);
+  const rec::Summary s = rec::record(servo.consumer, 42, options_for(path("t.csv")), env, log_);
+  EXPECT_EQ(s.stop_reason, "servo thread stopped");
+  EXPECT_EQ(s.lost, 0u);
+  EXPECT_TRUE(fs::exists(path("t.csv")));
+}
+
+TEST_F(RecorderTest, RefusesAServoThatDoesNotRun) {
+  FakeServo servo(1, 16);
+  servo.running = false;
+  EXPECT_THROW(rec::record(servo.consumer, 42, options_for(path("t.csv")), servo, log_),
+               circtest::HalError);
+  EXPECT_FALSE(fs::exists(path("t.csv")));
+}
+
+TEST_F(RecorderTest, RefusesASecondReaderButTakesOverFromADeadOne) {
+  FakeServo servo(1, 16);
+  circlog::Consumer other;
+  ASSERT_EQ(other.attach(const_cast<circlog::SharedHeader*>(&servo.consumer.header()),
+                         circlog::shared_size(1, 16)),
+            circlog::AttachResult::ok);
+  ASSERT_EQ(other.claim(7), 0);
+  servo.alive = {7};
+  rec::Options o = options_for(path("t.csv"));
+  o.duration_s = 0.05;
+  try {
+    rec::record(servo.consumer, 42, o, servo, log_);
+    FAIL() << "expected HalError";
+  } catch (const circtest::HalError& e) {
+    EXPECT_NE(std::string(e.what()).find("process 7"), std::string::npos);
+  }
+  servo.alive.clear();
+  EXPECT_EQ(rec::record(servo.consumer, 42, o, servo, log_).stop_reason, "duration");
+  EXPECT_NE(log_text().find("took over"), std::string::npos);
+}
+
+TEST_F(RecorderTest, ColumnsMustMatchTheModulesChannels) {
+  FakeServo servo(3, 16);
+  rec::Options o = options_for(path("t.csv"));
+  o.columns = {"x", "y"};
+  EXPECT_THROW(rec::record(servo.consumer, 42, o, servo, log_), circtest::UsageError);
+  o.columns = {"x", "y", "z"};
+  o.descriptions = {{"w", "nope"}};
+  EXPECT_THROW(rec::record(servo.consumer, 42, o, servo, log_), circtest::UsageError);
+  EXPECT_FALSE(servo.status().reader_attached);
+}
+
+}  // namespace
