@@ -6,6 +6,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "circtest/core/atomic_file.hpp"
@@ -183,6 +184,9 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
     }
     const int a = axes.first - 'x';
     const int b = axes.second - 'x';
+    // The tool never visits the centre of the circle, only the normal axis stays there.
+    low[a] = low[b] = std::numeric_limits<double>::infinity();
+    high[a] = high[b] = -std::numeric_limits<double>::infinity();
     for (double deg : angles) {
       const double pa = spec.centre_mm[a] + spec.radius_mm * std::cos(deg_to_rad(deg));
       const double pb = spec.centre_mm[b] + spec.radius_mm * std::sin(deg_to_rad(deg));

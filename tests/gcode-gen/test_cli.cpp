@@ -1,0 +1,278 @@
+// circgen's command line: each bad input gives one error line, the documented exit code and
+// nothing on stdout; --ini refuses a test beyond the machine, naming the limit.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "support.hpp"
+
+namespace circtest::testing {
+namespace {
+
+struct BadCase {
+  std::string name;
+  std::vector<std::string> args;
+  int exit_code;
+  std::string message;  // must appear in the error line
+};
+
+void expect_refused(const CommandResult& r, int exit_code, const std::string& message) {
+  EXPECT_EQ(r.exit_code, exit_code) << r.err;
+  EXPECT_TRUE(r.out.empty()) << "stdout: " << r.out.substr(0, 200);
+  EXPECT_TRUE(r.err.starts_with("circgen: error: ")) << r.err;
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line expected: " << r.err;
+  EXPECT_NE(r.err.find(message), std::string::npos) << "expected '" << message << "' in " << r.err;
+}
+
+std::vector<BadCase> usage_cases() {
+  return {
+      {"negative_diameter",
+       {"--d", "-150", "--f", "300"},
+       2,
+       "--d: the circle must be larger than 0"},
+      {"zero_diameter", {"--d", "0", "--f", "300"}, 2, "--d: the circle must be larger than 0"},
+      {"zero_radius", {"--r", "0", "--f", "300"}, 2, "--r: the circle must be larger than 0"},
+      {"zero_feed", {"--d", "150", "--f", "0"}, 2, "--f: a feed must be positive"},
+      {"negative_feed_in_sweep",
+       {"--d", "150", "--feeds", "300,-600"},
+       2,
+       "--feeds: a feed must be positive"},
+      {"arc_too_short",
+       {"--d", "150", "--f", "300", "--arc", "45"},
+       2,
+       "--arc: the measured arc must be 90..360 deg"},
+      {"arc_too_long",
+       {"--d", "150", "--f", "300", "--arc", "400"},
+       2,
+       "--arc: the measured arc must be 90..360 deg"},
+      {"unknown_plane",
+       {"--d", "150", "--f", "300", "--plane", "AB"},
+       2,
+       "--plane: 'AB' is not XY, YZ or ZX"},
+      {"xz_is_not_zx",
+       {"--d", "150", "--f", "300", "--plane", "XZ"},
+       2,
+       "--plane: 'XZ' is not XY, YZ or ZX"},
+      {"malformed_diameter", {"--d", "15O", "--f", "300"}, 2, "--d: '15O' is not a number"},
+      {"malformed_feed", {"--d", "150", "--f", "fast"}, 2, "--f: 'fast' is not a number"},
+      {"empty_sweep_entry",
+       {"--d", "150", "--feeds", "300,,600"},
+       2,
+       "--feeds: '' is not a number"},
+      {"centre_two_values",
+       {"--d", "150", "--f", "300", "--centre", "1,2"},
+       2,
+       "--centre: '1,2' needs 3 comma-separated numbers"},
+      {"centre_malformed",
+       {"--d", "150", "--f", "300", "--centre", "1,y,3"},
+       2,
+       "--centre: 'y' is not a number"},
+      {"lead_overlap_partial",
+       {"--d", "150", "--f", "300", "--arc", "270", "--lead", "50"},
+       2,
+       "--lead: 50 deg lead arcs around a 270 deg arc would overlap"},
+      {"lead_overlap_full",
+       {"--d", "150", "--f", "300", "--lead", "200"},
+       2,
+       "would overlap each other on a full circle"},
+      {"lead_zero",
+       {"--d", "150", "--f", "300", "--lead", "0"},
+       2,
+       "--lead: the lead arcs must be longer than 0 deg"},
+      {"bad_direction",
+       {"--d", "150", "--f", "300", "--dir", "up"},
+       2,
+       "--dir: 'up' is not both, ccw or cw"},
+      {"no_feed", {"--d", "150"}, 2, "missing --f"},
+      {"no_size", {"--f", "300"}, 2, "missing --d"},
+      {"two_feed_sources",
+       {"--d", "150", "--f", "300", "--feeds", "300,600"},
+       2,
+       "give one of --f, --feeds or --ref-d/--ref-f"},
+      {"annex_c_half",
+       {"--d", "125", "--ref-d", "100"},
+       2,
+       "Annex C needs both --ref-d D2 and --ref-f V2"},
+      {"annex_c_bad_reference",
+       {"--d", "125", "--ref-d", "0", "--ref-f", "500"},
+       2,
+       "--ref-d: the reference diameter must be positive"},
+      {"unknown_option", {"--d", "150", "--f", "300", "--fast"}, 2, "unrecognised option '--fast'"},
+      {"bad_marker",
+       {"--d", "150", "--f", "300", "--marker", "-1"},
+       2,
+       "--marker: '-1' is not an output number"},
+      {"marker_out_of_range",
+       {"--d", "150", "--f", "300", "--marker", "64"},
+       2,
+       "--marker: digital output must be 0..63"},
+      {"long_dwell", {"--d", "150", "--f", "300", "--dwell", "5"}, 2, "--dwell: must be 0..2 s"},
+      {"offset_without_ini",
+       {"--d", "150", "--f", "300", "--offset", "0,0,0"},
+       2,
+       "--offset is only used with --ini"},
+  };
+}
+
+class gcode_CliBadInput : public ::testing::TestWithParam<BadCase> {};
+
+TEST_P(gcode_CliBadInput, OneLineErrorExitCodeNothingOnStdout) {
+  const BadCase& c = GetParam();
+  expect_refused(run_circgen(c.args), c.exit_code, c.message);
+}
+
+INSTANTIATE_TEST_SUITE_P(Usage, gcode_CliBadInput, ::testing::ValuesIn(usage_cases()),
+                         [](const ::testing::TestParamInfo<BadCase>& p) { return p.param.name; });
+
+const char* kMachineIni = R"(# a small mill, mm
+[EMC]
+MACHINE = test mill
+
+[TRAJ]
+LINEAR_UNITS = mm
+MAX_LINEAR_VELOCITY = 50
+
+[AXIS_X]
+MIN_LIMIT = -200
+MAX_LIMIT = 200
+MAX_VELOCITY = 30
+MAX_ACCELERATION = 500
+
+[AXIS_Y]
+MIN_LIMIT = -200
+MAX_LIMIT = 200
+MAX_VELOCITY = 30
+MAX_ACCELERATION = 500
+
+[AXIS_Z]
+MIN_LIMIT = -100
+MAX_LIMIT = 10
+MAX_VELOCITY = 20
+MAX_ACCELERATION = 300
+)";
+
+class gcode_CliIni : public ::testing::Test {
+ protected:
+  void SetUp() override { spit(ini(), kMachineIni); }
+  std::string ini() const { return dir_.file("machine.ini"); }
+  CommandResult run(std::vector<std::string> args) {
+    args.push_back("--ini");
+    args.push_back(ini());
+    return run_circgen(args);
+  }
+  ScratchDir dir_;
+};
+
+TEST_F(gcode_CliIni, AcceptsATestWithinTheLimitsAndSaysSoInTheHeader) {
+  const CommandResult r = run({"--d", "150", "--f", "300", "--safe-z", "5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("(circtest: ini: " + ini() + ")"), std::string::npos);
+  EXPECT_NE(r.out.find("(circtest: ini_checked: soft limits,velocity,acceleration,lead run-up)"),
+            std::string::npos);
+}
+
+TEST_F(gcode_CliIni, RefusesACircleBeyondMaxLimit) {
+  expect_refused(run({"--d", "150", "--f", "300", "--centre", "150,0,0"}), 6,
+                 "X = 225 mm in machine coordinates, above [AXIS_X] MAX_LIMIT = 200");
+}
+
+TEST_F(gcode_CliIni, WorkOffsetMovesTheCircleInMachineCoordinates) {
+  expect_refused(run({"--d", "150", "--f", "300", "--offset", "-180,0,0"}), 6,
+                 "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+  // Only the arcs count, not the centre: a partial arc on the +X side of a circle centred
+  // 240 mm into the -X side stays clear of the -200 limit, the full circle does not.
+  const CommandResult ok = run({"--d", "150", "--f", "300", "--offset", "-240,0,0", "--arc", "90",
+                                "--start", "-45", "--lead", "10"});
+  EXPECT_EQ(ok.exit_code, 0) << ok.err;
+  expect_refused(run({"--d", "150", "--f", "300", "--offset", "-240,0,0"}), 6, "MIN_LIMIT = -200");
+}
+
+TEST_F(gcode_CliIni, RefusesAClearanceAboveTheZLimit) {
+  expect_refused(run({"--d", "150", "--f", "300", "--safe-z", "20"}), 6,
+                 "Z = 20 mm in machine coordinates, above [AXIS_Z] MAX_LIMIT = 10");
+}
+
+TEST_F(gcode_CliIni, RefusesAFeedAboveMaxVelocity) {
+  expect_refused(run({"--d", "150", "--f", "2400"}), 6,
+                 "feed 2400 mm/min = 40 mm/s exceeds [AXIS_X] MAX_VELOCITY = 30");
+  // The fastest feed of a sweep counts.
+  expect_refused(run({"--d", "150", "--feeds", "300,1200,2400"}), 6, "MAX_VELOCITY = 30");
+}
+
+TEST_F(gcode_CliIni, RefusesACentripetalAccelerationAboveMaxAcceleration) {
+  // 1200 mm/min = 20 mm/s on R 0.5 mm: 800 mm/s^2 > 500.
+  expect_refused(run({"--d", "1", "--f", "1200", "--lead", "90"}), 6,
+                 "centripetal acceleration V^2/R = 800 mm/s^2 at F1200 on R0.5 mm exceeds "
+                 "[AXIS_X] MAX_ACCELERATION = 500");
+  // R 0.85 mm: 470.6 mm/s^2, under 500 but above the planner's 0.866 * 500 = 433 on arcs.
+  expect_refused(run({"--d", "1.7", "--f", "1200", "--lead", "90"}), 6,
+                 "that LinuxCNC's planner allows on an arc");
+}
+
+TEST_F(gcode_CliIni, RefusesALeadInTooShortToReachTheFeed) {
+  // 25 mm/s with about 496 mm/s^2 tangential needs 0.63 mm; 1 deg on R 10 is 0.17 mm.
+  expect_refused(run({"--d", "20", "--f", "1500", "--lead", "1"}), 6, "use --lead 4 or more");
+  EXPECT_EQ(run({"--d", "20", "--f", "1500", "--lead", "4"}).exit_code, 0);
+}
+
+TEST_F(gcode_CliIni, ParseErrorsNameFileAndLine) {
+  std::string text = kMachineIni;
+  text.replace(text.find("MAX_LIMIT = 10"), 14, "MAX_LIMIT = ten");
+  spit(ini(), text);
+  expect_refused(run({"--d", "150", "--f", "300"}), 4,
+                 ini() + ":23: [AXIS_Z] MAX_LIMIT: 'ten' is not a number");
+  spit(ini(), "[TRAJ]\nLINEAR_UNITS = mm\nthis is not a key\n");
+  expect_refused(run({"--d", "150", "--f", "300"}), 4,
+                 ini() + ":3: expected KEY = VALUE, got 'this is not a key'");
+}
+
+TEST_F(gcode_CliIni, MissingAxisSectionIsAnError) {
+  std::string text = kMachineIni;
+  text.resize(text.find("[AXIS_Z]"));
+  spit(ini(), text);
+  expect_refused(run({"--d", "150", "--f", "300"}), 4, "no [AXIS_Z] section");
+}
+
+TEST_F(gcode_CliIni, MissingFileIsAnIoError) {
+  expect_refused(run_circgen({"--d", "150", "--f", "300", "--ini", dir_.file("nope.ini")}), 3,
+                 dir_.file("nope.ini"));
+}
+
+TEST_F(gcode_CliIni, InchMachineLimitsAreConverted) {
+  std::string text = kMachineIni;
+  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
+  spit(ini(), text);  // limits now 200 inch etc.; 2 inch/s velocity limit is 30 inch/s
+  EXPECT_EQ(run({"--d", "150", "--f", "300"}).exit_code, 0);
+  text.replace(text.find("MAX_LIMIT = 200"), 15, "MAX_LIMIT = 5");
+  spit(ini(), text);
+  expect_refused(run({"--d", "300", "--f", "300"}), 6,
+                 "X = 5.905511811023622 inch in machine coordinates, above [AXIS_X] MAX_LIMIT = 5");
+}
+
+TEST(gcode_Cli, OutputFileIsWrittenAndStdoutStaysEmpty) {
+  ScratchDir dir;
+  const CommandResult r = run_circgen({"--d", "150", "--f", "300", "-o", dir.file("t.ngc")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(r.out.empty());
+  const std::string file = slurp(dir.file("t.ngc"));
+  EXPECT_EQ(file, run_circgen({"--d", "150", "--f", "300"}).out);
+}
+
+TEST(gcode_Cli, UnwritableOutputIsAnIoError) {
+  expect_refused(run_circgen({"--d", "150", "--f", "300", "-o", "/nonexistent-dir/t.ngc"}), 3,
+                 "/nonexistent-dir/t.ngc");
+}
+
+TEST(gcode_Cli, HelpAndVersionGoToStdout) {
+  const CommandResult help = run_circgen({"--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.out.find("--ref-f"), std::string::npos);
+  const CommandResult version = run_circgen({"--version"});
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_TRUE(version.out.starts_with("circgen "));
+}
+
+}  // namespace
+}  // namespace circtest::testing

@@ -1,0 +1,109 @@
+// circtest::gcode pieces on their own: Annex C, option values, run planning, header keys.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "circtest/core/error.hpp"
+#include "circtest/gcode/annex_c.hpp"
+#include "circtest/gcode/machine_limits.hpp"
+#include "circtest/gcode/option_values.hpp"
+#include "circtest/gcode/test_program.hpp"
+
+namespace circtest {
+namespace {
+
+std::string header_value(const TestProgram& p, const std::string& key) {
+  for (const auto& [k, v] : p.header)
+    if (k == key) return v;
+  return "<absent>";
+}
+
+TEST(gcode_AnnexC, StandardExampleGivesF559) {
+  const AnnexCNote note = annex_c_note(125, 100, 500, LengthUnit::mm);
+  EXPECT_NEAR(note.scaled_feed_exact, 500 * std::sqrt(1.25), 1e-12);
+  EXPECT_DOUBLE_EQ(note.scaled_feed, 559.0);
+  // Same acceleration V^2/R for both tests, to the rounding of the feed.
+  EXPECT_NEAR(note.scaled_feed_exact * note.scaled_feed_exact / 62.5, 500.0 * 500.0 / 50.0, 1e-9);
+  EXPECT_NEAR(annex_c_note(5, 4, 20, LengthUnit::inch).scaled_feed, 22.4, 1e-12);
+  EXPECT_THROW(annex_c_feed(125, -1, 500), UsageError);
+}
+
+TEST(gcode_AnnexC, HeaderShowsTheComputation) {
+  CircleTestSpec spec;
+  spec.radius_mm = 62.5;
+  spec.annex_c = annex_c_note(125, 100, 500, LengthUnit::mm);
+  spec.feeds_mm_per_min = {spec.annex_c->scaled_feed};
+  const TestProgram p = generate_test_program(spec);
+  EXPECT_EQ(header_value(p, "annex_c"),
+            "V1 = V2 * sqrt[D1/D2] = 500 * sqrt[125/100] = 559.017 -> F559");
+  EXPECT_EQ(header_value(p, "feed_mm_per_min"), "559");
+}
+
+TEST(gcode_OptionValues, StrictNumbers) {
+  EXPECT_DOUBLE_EQ(parse_option_number("d", "150"), 150.0);
+  EXPECT_DOUBLE_EQ(parse_option_number("d", "+1.5e2"), 150.0);
+  for (const char* bad : {"", "abc", "150mm", "1,5", "nan", "inf", "0x10"}) {
+    EXPECT_THROW(parse_option_number("d", bad), UsageError) << bad;
+  }
+  EXPECT_EQ(parse_option_numbers("feeds", "100, 200,300").size(), 3u);
+  EXPECT_THROW(parse_option_numbers("centre", "1,2", 3), UsageError);
+  EXPECT_EQ(parse_option_index("marker", "3"), 3);
+  EXPECT_THROW(parse_option_index("marker", "1.5"), UsageError);
+}
+
+TEST(gcode_Plan, SweepGivesOneCcwCwPairPerFeedWithIdsFromOne) {
+  CircleTestSpec spec;
+  spec.radius_mm = 50;
+  spec.feeds_mm_per_min = {100, 1000};
+  spec.arc_deg = 120;
+  spec.start_deg = 30;
+  spec.lead_deg = 5;
+  const auto runs = plan_runs(spec);
+  ASSERT_EQ(runs.size(), 4u);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(runs[i].segment_id, i + 1);
+  EXPECT_EQ(runs[0].direction, Direction::CCW);
+  EXPECT_EQ(runs[1].direction, Direction::CW);
+  EXPECT_DOUBLE_EQ(runs[0].start_deg, 30);
+  EXPECT_DOUBLE_EQ(runs[1].start_deg, 150);  // the CW run starts at the far end
+  EXPECT_DOUBLE_EQ(runs[3].feed_mm_per_min, 1000);
+  const TestProgram p = generate_test_program(spec);
+  EXPECT_EQ(header_value(p, "segments"), "1:CCW:F100,2:CW:F100,3:CCW:F1000,4:CW:F1000");
+  EXPECT_EQ(header_value(p, "feed_mm_per_min"), "<absent>");  // a sweep has no single feed
+  EXPECT_EQ(header_value(p, "feeds_mm_per_min"), "100,1000");
+}
+
+TEST(gcode_Header, InchProgramStillReportsMillimetres) {
+  CircleTestSpec spec;
+  spec.units = LengthUnit::inch;
+  spec.radius_mm = 2 * kMmPerInch;
+  spec.feeds_mm_per_min = {20 * kMmPerInch};
+  spec.centre_mm = {1.5 * kMmPerInch, 0, -0.25 * kMmPerInch};
+  spec.plane = Plane::YZ;
+  const TestProgram p = generate_test_program(spec);
+  EXPECT_EQ(header_value(p, "units"), "inch");
+  EXPECT_EQ(header_value(p, "diameter_mm"), "101.6");
+  EXPECT_EQ(header_value(p, "diameter_in"), "4");
+  EXPECT_EQ(header_value(p, "centre_mm"), "38.1,0,-6.35");
+  EXPECT_EQ(header_value(p, "centre_in"), "1.5,0,-0.25");
+  EXPECT_EQ(header_value(p, "feed_mm_per_min"), "508");
+  EXPECT_EQ(header_value(p, "feed_in_per_min"), "20");
+  EXPECT_EQ(header_value(p, "direction_labels"), "YZ,ZY");
+  EXPECT_NE(p.text.find("G20 G19"), std::string::npos);
+  // Every header entry is a comment line the recorder can copy as "# key: value".
+  for (const auto& [k, v] : p.header) {
+    EXPECT_NE(p.text.find("(circtest: " + k + ": " + v + ")\n"), std::string::npos) << k;
+  }
+}
+
+TEST(gcode_MachineLimits, FirstOccurrenceWinsAndUnitsConvert) {
+  const MachineLimits m = parse_machine_limits(
+      "[TRAJ]\nLINEAR_UNITS = inch\n[AXIS_X]\nMAX_LIMIT = 10\nMAX_LIMIT = 20\n[AXIS_Y]\n", "m.ini");
+  EXPECT_DOUBLE_EQ(*m.axes[0].max_limit_mm, 254.0);
+  EXPECT_TRUE(m.axes[1].present);
+  EXPECT_FALSE(m.axes[1].max_limit_mm.has_value());
+  EXPECT_FALSE(m.axes[2].present);
+}
+
+}  // namespace
+}  // namespace circtest
