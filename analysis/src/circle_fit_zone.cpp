@@ -14,6 +14,8 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <string>
@@ -39,6 +41,13 @@ constexpr std::size_t kStride = 64;
 // degenerate data cannot make the exchange cycle, far below the 1e-12 of the certificate.
 constexpr double kSolveTol = 1e-13;
 constexpr double kCertTol = 1e-12;
+
+// Distances about a centre stored as a double carry the rounding of that centre, half an ulp
+// of its coordinates: for small circles far from the origin that, not the radius, bounds
+// what any check can resolve.
+double resolution(double cx, double cy) {
+  return 4.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(cx), std::abs(cy));
+}
 
 double wrap_angle(double t) {
   t = std::fmod(t, kTwoPi);
@@ -229,6 +238,8 @@ struct LevelResult {
   std::array<std::size_t, 4> ref{};  // indices into the level's points
   double shift = 0.0;                // how far this level moved the centre it started from
   bool three_points = false;         // exactly three distinct points: zero zone, no reference
+  double hi2 = -1.0;                 // extreme squared radii of all points about c, when the
+  double lo2 = -1.0;                 // level's last pass measured them (not for the base)
 };
 
 // Three distinct points (possibly repeated): the circle through them, zone width zero.
@@ -296,31 +307,54 @@ LevelResult solve_level(const double* a, const double* b, std::size_t n) {
   for (int j = 0; j < 4; ++j) res.ref[j] = sub.ref[j] * kStride;
   const Vec2 start = res.c;
   // Band half-width for candidates: the centre still moves by about as much as it moved on
-  // the level below, and moving it by d changes every radius by at most d.
-  double margin = 4.0 * sub.shift + kSolveTol * res.r_out;
+  // the level below, and moving it by d changes every radius by at most d. A fraction of the
+  // zone caps it: right above the base level the shift is from the algebraic start and would
+  // make every point a candidate; too narrow a band costs a pass, never correctness.
+  const double cap = 0.01 * (res.r_out - res.r_in);
+  double margin = std::min(4.0 * sub.shift, cap) + kSolveTol * res.r_out;
   std::vector<std::size_t> keep;  // candidates accumulate over passes, so no exchange repeats
   Candidates cd;
+  double buf[fit_detail::kBlock];
   for (int pass = 0; pass < 64; ++pass) {
     const double cx = res.c.x, cy = res.c.y;
-    const double tol = kSolveTol * res.r_out;
+    const double tol = kSolveTol * res.r_out + resolution(cx, cy);
     const double band_hi = std::max(0.0, res.r_out - margin);
     const double hi_c = band_hi * band_hi;
     const double lo_c = (res.r_in + margin) * (res.r_in + margin);
-    const double hi_v = (res.r_out + tol) * (res.r_out + tol);
-    const double lo_v = std::max(0.0, res.r_in - tol) * std::max(0.0, res.r_in - tol);
-    std::size_t violators = 0;
     const std::size_t before = keep.size();
-    for (std::size_t i = 0; i < n; ++i) {
-      const double dx = a[i] - cx;
-      const double dy = b[i] - cy;
-      const double d2 = dx * dx + dy * dy;
-      if (d2 >= hi_c || d2 <= lo_c) [[unlikely]] {
-        keep.push_back(i);
-        violators += static_cast<std::size_t>((d2 > hi_v) | (d2 < lo_v));
+    double hi2 = 0.0, lo2 = INFINITY;
+    // Blocks: the squared radii and their extremes in a plain (vectorisable) loop; only a
+    // block that reaches into the band is scanned again for candidates.
+    for (std::size_t start_i = 0; start_i < n; start_i += fit_detail::kBlock) {
+      const std::size_t len = std::min(fit_detail::kBlock, n - start_i);
+      const double* ba = a + start_i;
+      const double* bb = b + start_i;
+      double bhi = 0.0, blo = INFINITY;
+      for (std::size_t k = 0; k < len; ++k) {
+        const double dx = ba[k] - cx;
+        const double dy = bb[k] - cy;
+        const double d2 = dx * dx + dy * dy;
+        buf[k] = d2;
+        bhi = bhi > d2 ? bhi : d2;
+        blo = blo < d2 ? blo : d2;
+      }
+      hi2 = std::max(hi2, bhi);
+      lo2 = std::min(lo2, blo);
+      if (bhi >= hi_c || blo <= lo_c) [[unlikely]] {
+        for (std::size_t k = 0; k < len; ++k) {
+          if (buf[k] >= hi_c || buf[k] <= lo_c) keep.push_back(start_i + k);
+        }
       }
     }
-    if (violators == 0) {
+    if (!std::isfinite(hi2)) {
+      throw DataError("", 0, "fit_mzc: a coordinate is not a finite number");
+    }
+    const double hi_v = (res.r_out + tol) * (res.r_out + tol);
+    const double lo_v = std::max(0.0, res.r_in - tol) * std::max(0.0, res.r_in - tol);
+    if (hi2 <= hi_v && lo2 >= lo_v) {
       res.shift = std::hypot(res.c.x - start.x, res.c.y - start.y);
+      res.hi2 = hi2;
+      res.lo2 = lo2;
       return res;
     }
     std::inplace_merge(keep.begin(), keep.begin() + static_cast<std::ptrdiff_t>(before),
@@ -333,7 +367,7 @@ LevelResult solve_level(const double* a, const double* b, std::size_t n) {
     res.r_out = s.r_out;
     res.r_in = s.r_in;
     for (int j = 0; j < 4; ++j) res.ref[j] = cd.idx[s.ref[j]];
-    margin = 4.0 * std::hypot(s.c.x, s.c.y) + kSolveTol * res.r_out;
+    margin = std::min(4.0 * std::hypot(s.c.x, s.c.y), cap) + kSolveTol * res.r_out;
   }
   throw Error(ExitCode::internal, "fit_mzc: candidate passes did not converge");
 }
@@ -347,13 +381,17 @@ MinimumZone fit_mzc(std::span<const double> a, std::span<const double> b) {
   const double* pb = b.data();
   const LevelResult lr = solve_level(pa, pb, n);
 
-  // The zone about the final centre, measured on every point (not taken from the solver).
-  double lo2 = INFINITY, hi2 = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double dx = pa[i] - lr.c.x, dy = pb[i] - lr.c.y;
-    const double d2 = dx * dx + dy * dy;
-    lo2 = std::min(lo2, d2);
-    hi2 = std::max(hi2, d2);
+  // The zone about the final centre, measured on every point (by the last verifying pass of
+  // the candidate loop, or here), not taken from the reference points.
+  double lo2 = lr.lo2, hi2 = lr.hi2;
+  if (hi2 < 0.0) {
+    lo2 = INFINITY;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double dx = pa[i] - lr.c.x, dy = pb[i] - lr.c.y;
+      const double d2 = dx * dx + dy * dy;
+      lo2 = std::min(lo2, d2);
+      hi2 = std::max(hi2, d2);
+    }
   }
   if (!std::isfinite(hi2)) throw DataError("", 0, "fit_mzc: a coordinate is not a finite number");
   MinimumZone z;
@@ -362,7 +400,7 @@ MinimumZone fit_mzc(std::span<const double> a, std::span<const double> b) {
   z.outer_radius_mm = std::sqrt(hi2);
   z.inner_radius_mm = std::sqrt(lo2);
   z.zone_width_mm = z.outer_radius_mm - z.inner_radius_mm;
-  const double tol = kCertTol * z.outer_radius_mm;
+  const double tol = kCertTol * z.outer_radius_mm + resolution(lr.c.x, lr.c.y);
   auto dist = [&](std::size_t i) { return std::hypot(pa[i] - lr.c.x, pb[i] - lr.c.y); };
 
   if (lr.three_points) {

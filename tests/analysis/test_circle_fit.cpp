@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <numbers>
@@ -274,7 +275,7 @@ TEST(CircleFitMzc, PartialArcs) {
   }
 }
 
-Points harmonic_trace(std::size_t n, unsigned seed, double cx = 12.0, double cy = -7.0) {
+Points harmonic_trace(std::size_t n, std::uint64_t seed, double cx = 12.0, double cy = -7.0) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, 0.0005);
   std::uniform_real_distribution<double> phase(0.0, 2 * kPi);

@@ -46,7 +46,11 @@ struct MinimumZone {
   // vectors of the outer contacts and the inward unit vectors of the inner contacts have the
   // origin in their convex hull (equivalently outer/inner contacts alternate around the
   // centre). `certified` is true only when that was checked on the final centre and every
-  // input point lies within the zone (to a tolerance of 1e-12 of the radius).
+  // input point lies within the zone (to a tolerance of 1e-12 of the radius, plus 4 machine
+  // epsilons of the centre's largest coordinate: a small circle far from the origin cannot be
+  // resolved finer). The multipliers put weight 1/2 on each side (outer weights sum to 1/2,
+  // inner to 1/2), so sum outer w u - sum inner w u = 0 is the first-order condition. With
+  // exactly three distinct points (zone 0) one point is both the outer and the inner contact.
   std::vector<std::size_t> outer_contacts;
   std::vector<std::size_t> inner_contacts;
   std::vector<double> multipliers;  // convex weights of the contacts (outer first, then inner)
