@@ -126,7 +126,13 @@ int run(int argc, char** argv) {
   }
 
   const auto plane = parse_plane(text("plane"));
-  if (!plane) throw UsageError(fmt::format("--plane: '{}' is not XY, YZ or ZX", text("plane")));
+  if (!plane) {
+    const std::string given = text("plane");
+    const bool xz = given == "XZ" || given == "xz" || given == "Xz" || given == "xZ";
+    // G18's positive sense runs from +Z toward +X; "XZ" would suggest the opposite.
+    throw UsageError(fmt::format("--plane: '{}' is not XY, YZ or ZX{}", given,
+                                 xz ? " (for G18 use ZX: CCW runs from +Z toward +X)" : ""));
+  }
   spec.plane = *plane;
 
   if (vm.count("centre") && vm.count("center")) throw UsageError("give --centre only once");
