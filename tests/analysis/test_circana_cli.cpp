@@ -151,8 +151,7 @@ TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
 }
 
 TEST_F(CircanaCli, FitOfTheCertifiedCaseC09) {
-  const std::string c09 = std::string(CIRCTEST_SOURCE_DIR) + "/../shared/reference/tracim-circle-2d/C09.csv";
-  if (!fs::exists(c09)) GTEST_SKIP() << "shared reference data not present";
+  const std::string c09 = std::string(CIRCTEST_REFERENCE_DIR) + "/tracim-circle-2d/C09.csv";
   const Result r = run("fit " + c09 + " --json");
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);

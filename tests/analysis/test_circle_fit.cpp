@@ -31,7 +31,7 @@ struct Points {
   std::size_t size() const { return a.size(); }
 };
 
-const std::string kTracimDir = "/work/shared/reference/tracim-circle-2d/";
+const std::string kTracimDir = std::string(CIRCTEST_REFERENCE_DIR) + "/tracim-circle-2d/";
 
 Points read_xy(const std::string& path) {
   std::ifstream in(path);
