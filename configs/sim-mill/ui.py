@@ -1,0 +1,119 @@
+#!/usr/bin/python3
+"""Headless LinuxCNC driver for circtest-run (the [DISPLAY] program of the sim config).
+
+Resets estop, switches the machine on, homes, opens the program, starts the recorder,
+runs the program to its end and stops the recorder. LinuxCNC exits with this script's
+exit code. Glue only: the logging is circlog-record, the analysis circana.
+
+Environment (set by circtest-run):
+  CIRCTEST_PROGRAM   the G-code program to run (required)
+  CIRCTEST_RECORD    the recorder command line, run through the shell (optional)
+  CIRCTEST_TIMEOUT   seconds the program may run (default 600)
+"""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import linuxcnc
+
+
+def log(msg):
+    print("circtest-run: " + msg, file=sys.stderr, flush=True)
+
+
+def wait_for(predicate, timeout, what, stat):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        stat.poll()
+        if predicate(stat):
+            return
+        time.sleep(0.02)
+    raise RuntimeError("timed out waiting for " + what)
+
+
+def main():
+    program = os.environ.get("CIRCTEST_PROGRAM")
+    if not program:
+        log("error: CIRCTEST_PROGRAM is not set")
+        return 2
+    record = os.environ.get("CIRCTEST_RECORD", "")
+    timeout = float(os.environ.get("CIRCTEST_TIMEOUT", "600"))
+
+    cmd = linuxcnc.command()
+    stat = linuxcnc.stat()
+    err = linuxcnc.error_channel()
+    wait_for(lambda s: s.task_state is not None, 30, "LinuxCNC task", stat)
+
+    cmd.state(linuxcnc.STATE_ESTOP_RESET)
+    wait_for(lambda s: s.task_state == linuxcnc.STATE_ESTOP_RESET, 10, "estop reset", stat)
+    cmd.state(linuxcnc.STATE_ON)
+    wait_for(lambda s: s.task_state == linuxcnc.STATE_ON, 10, "machine on", stat)
+
+    cmd.mode(linuxcnc.MODE_MANUAL)
+    cmd.wait_complete()
+    cmd.home(-1)
+    wait_for(lambda s: all(s.homed[i] for i in range(s.joints)), 30, "homing", stat)
+    # Teleop (world) mode is needed before AUTO on a machine with trivkins.
+    cmd.teleop_enable(1)
+    cmd.wait_complete()
+
+    cmd.mode(linuxcnc.MODE_AUTO)
+    cmd.wait_complete()
+    cmd.program_open(program)
+    cmd.wait_complete()
+
+    recorder = None
+    if record:
+        log("recording: " + record)
+        recorder = subprocess.Popen(record, shell=True, start_new_session=True)
+        time.sleep(0.5)  # attached to the stream before the first marker
+        if recorder.poll() is not None:
+            log("error: the recorder exited at once with code %d" % recorder.returncode)
+            return 7
+
+    log("running " + program)
+    cmd.auto(linuxcnc.AUTO_RUN, 0)
+    # Wait until the interpreter has started, then until it and motion are idle again.
+    wait_for(lambda s: s.interp_state != linuxcnc.INTERP_IDLE, 10, "program start", stat)
+    failed = None
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        stat.poll()
+        e = err.poll()
+        if e and e[0] in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR):
+            failed = e[1]
+            break
+        if stat.interp_state == linuxcnc.INTERP_IDLE and stat.queue == 0 and stat.inpos:
+            break
+        if os.environ.get("CIRCTEST_DEBUG") and int(time.monotonic() * 20) % 20 == 0:
+            log("interp %s queue %s inpos %s line %s pos %s state %s" % (
+                stat.interp_state, stat.queue, stat.inpos, stat.motion_line,
+                [round(v, 3) for v in stat.actual_position[:3]], stat.exec_state))
+        time.sleep(0.05)
+    else:
+        failed = "program still running after %.0f s" % timeout
+
+    code = 0
+    if recorder is not None:
+        recorder.send_signal(signal.SIGINT)
+        try:
+            code = recorder.wait(60)
+        except subprocess.TimeoutExpired:
+            recorder.kill()
+            code = 1
+        log("recorder exited with code %d" % code)
+    if failed:
+        log("error: " + str(failed))
+        return 1
+    cmd.state(linuxcnc.STATE_OFF)
+    return code
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except Exception as exc:  # any failure must end LinuxCNC with a non-zero code
+        log("error: %s" % exc)
+        sys.exit(1)
