@@ -11,6 +11,7 @@ Environment (set by circtest-run):
   CIRCTEST_TIMEOUT   seconds the program may run (default 600)
 """
 import os
+import shlex
 import signal
 import subprocess
 import sys
@@ -19,8 +20,12 @@ import time
 import linuxcnc
 
 
+START = time.monotonic()
+
+
 def log(msg):
-    print("circtest-run: " + msg, file=sys.stderr, flush=True)
+    print("circtest-run: [%6.1f s] %s" % (time.monotonic() - START, msg), file=sys.stderr,
+          flush=True)
 
 
 def wait_for(predicate, timeout, what, stat):
@@ -67,13 +72,14 @@ def main():
     recorder = None
     if record:
         log("recording: " + record)
-        recorder = subprocess.Popen(record, shell=True, start_new_session=True)
+        # No shell in between: the SIGINT below must reach the recorder itself.
+        recorder = subprocess.Popen(shlex.split(record), start_new_session=True)
         time.sleep(0.5)  # attached to the stream before the first marker
         if recorder.poll() is not None:
             log("error: the recorder exited at once with code %d" % recorder.returncode)
             return 7
 
-    log("running " + program)
+    log("homed; running " + program)
     cmd.auto(linuxcnc.AUTO_RUN, 0)
     # Wait until the interpreter has started, then until it and motion are idle again.
     wait_for(lambda s: s.interp_state != linuxcnc.INTERP_IDLE, 10, "program start", stat)
@@ -95,6 +101,7 @@ def main():
     else:
         failed = "program still running after %.0f s" % timeout
 
+    log("program finished" if not failed else "program stopped")
     code = 0
     if recorder is not None:
         recorder.send_signal(signal.SIGINT)
