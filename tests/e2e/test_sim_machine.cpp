@@ -1,0 +1,151 @@
+// The whole chain on the simulated LinuxCNC mill with known injected errors: circgen writes
+// the program, circtest-run runs it headless while circlog-record logs the servo thread,
+// circana evaluates. The truth is the analytic model of each injected error
+// (docs/iso230-4-summary.md "Physical relations").
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+constexpr double kRadius = 75.0;          // mm
+constexpr double kFeed = 3000.0;          // mm/min: keeps each LinuxCNC run near 25 s
+constexpr double kServoPeriod = 0.001;    // s, [EMCMOT] SERVO_PERIOD of sim-mill.ini
+
+int run(const std::string& command) {
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+class SimMachine : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circlog.so")) {
+      GTEST_SKIP() << "needs root (private namespaces) or circlog installed";
+    }
+    out_ = fs::temp_directory_path() /
+           (std::string("circtest-e2e-") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(out_);
+    fs::create_directories(out_);
+    const std::string program = (out_ / "test.ngc").string();
+    ASSERT_EQ(run(std::string(CIRCGEN_PATH) + " --d " + std::to_string(2 * kRadius) + " --f " +
+                  std::to_string(kFeed) + " --ini " + CIRCTEST_SIM_INI + " -o " + program),
+              0);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(out_);
+  }
+
+  // Runs the program on the simulated mill with these [SIM] values; the rest are zero.
+  void run_machine(const std::vector<std::pair<std::string, std::string>>& sim) {
+    std::vector<std::pair<std::string, std::string>> all = {
+        {"KV_X", "1000"},      {"KV_Y", "1000"},      {"KV_Z", "1000"},
+        {"BACKLASH_X", "0"},   {"BACKLASH_Y", "0"},   {"BACKLASH_Z", "0"},
+        {"SCALE_X", "0"},      {"SCALE_Y", "0"},      {"SCALE_Z", "0"},
+        {"SQUARENESS_XY", "0"}, {"SQUARENESS_YZ", "0"}, {"SQUARENESS_ZX", "0"}};
+    for (auto& [k, v] : all) {
+      for (const auto& [sk, sv] : sim) {
+        if (sk == k) v = sv;
+      }
+    }
+    std::string cmd = std::string("CIRCTEST_BIN=") + CIRCTEST_BINARY_DIR + " " + CIRCTEST_RUN_PATH +
+                      " --ini " + CIRCTEST_SIM_INI + " --program " + (out_ / "test.ngc").string() +
+                      " --out " + (out_ / "run").string() + " --timeout 300";
+    for (const auto& [k, v] : all) cmd += " --set SIM." + k + "=" + v;
+    const int rc = run(cmd + " >" + (out_ / "run.log").string() + " 2>&1");
+    ASSERT_EQ(rc, 0) << slurp(out_ / "run.log") << slurp(out_ / "run" / "linuxcnc.log");
+  }
+
+  json analyse(const std::string& extra = "") {
+    const fs::path js = out_ / "result.json";
+    const int rc = run(std::string(CIRCANA_PATH) + " analyze " + (out_ / "run" / "trace.csv").string() +
+                       " --json " + extra + " >" + js.string() + " 2>" + (out_ / "circana.err").string());
+    EXPECT_EQ(rc, 0) << slurp(out_ / "circana.err");
+    return json::parse(slurp(js));
+  }
+
+  fs::path out_;
+};
+
+}  // namespace
+
+// Screw backlash of 20 um on X, nothing else: the instrument (table) sees H = the play, with
+// the step at the X reversals; the motor encoder does not see it at all.
+TEST_F(SimMachine, BacklashShowsAsHysteresisOnTheTableOnly) {
+  run_machine({{"BACKLASH_X", "0.020"}});
+  const json table = analyse();
+  ASSERT_EQ(table["runs"].size(), 2u);
+  EXPECT_EQ(table["segmentation"], "marker");
+  EXPECT_EQ(table["runs"][0]["label"], "XY");
+  EXPECT_EQ(table["runs"][1]["label"], "YX");
+  EXPECT_EQ(table["nominal_radius_source"], "metadata");  // from circgen's header, via the recorder
+  for (const auto& r : table["runs"]) {
+    EXPECT_NEAR(r["arc_deg"].get<double>(), 360.0, 0.5);
+    EXPECT_NEAR(r["feed_mm_per_min"].get<double>(), kFeed, 0.01 * kFeed);
+  }
+  const double h = table["H"].get<double>();
+  std::printf("backlash 20 um: H table %.2f um, H motor %.2f um, G %.2f/%.2f um\n", h * 1e3,
+              analyse("--columns x_fb,y_fb")["H"].get<double>() * 1e3,
+              table["runs"][0]["G"].get<double>() * 1e3, table["runs"][1]["G"].get<double>() * 1e3);
+  EXPECT_NEAR(h, 0.020, 0.001) << "H of 20 um play";
+  const double at = table["pairs"][0]["angle_deg"].get<double>();
+  EXPECT_LT(std::min({at, std::abs(at - 180.0), 360.0 - at}), 10.0) << "step at an X reversal";
+
+  const json motor = analyse("--columns x_fb,y_fb");
+  EXPECT_LT(motor["H"].get<double>(), 0.0005) << "the motor encoder cannot see screw backlash";
+}
+
+// Squareness 100 urad and equal position-loop gains 30/s: the instrument sees an ellipse at
+// 45 deg with G = alpha R = 7.5 um in both directions; commanded-vs-motor shows the radius
+// loss of the first-order loop, F = -v^2 (1 - Kv T) / (2 R Kv^2) (the loop is integrated
+// once per servo period, hence the (1 - Kv T) of forward Euler on the continuous formula).
+TEST_F(SimMachine, SquarenessGivesGAndTheLoopShrinksTheRadius) {
+  const double kv = 30.0;
+  run_machine({{"KV_X", "30"}, {"KV_Y", "30"}, {"SQUARENESS_XY", "100e-6"}});
+  const json table = analyse();
+  ASSERT_EQ(table["runs"].size(), 2u);
+  const double g = 100e-6 * kRadius;
+  for (const auto& r : table["runs"]) {
+    std::printf("squareness 100 urad: G_%s %.3f um (model %.3f)\n",
+                r["label"].get<std::string>().c_str(), r["G"].get<double>() * 1e3, g * 1e3);
+    EXPECT_NEAR(r["G"].get<double>(), g, 0.05 * g) << r["label"];
+  }
+  EXPECT_LT(table["H"].get<double>(), 0.2 * g) << "squareness is the same in both directions";
+
+  const double v = kFeed / 60.0;
+  const double loss = -v * v * (1.0 - kv * kServoPeriod) / (2.0 * kRadius * kv * kv);
+  const json motor = analyse("--columns x_fb,y_fb --f-centre nominal");
+  for (const auto& r : motor["runs"]) {
+    std::printf("Kv 30, F%.0f: motor F_max %.3f F_min %.3f um (model %.3f)\n", kFeed,
+                r["F_max"].get<double>() * 1e3, r["F_min"].get<double>() * 1e3, loss * 1e3);
+    EXPECT_NEAR(r["F_max"].get<double>(), loss, 0.03 * std::abs(loss)) << r["label"];
+    EXPECT_NEAR(r["F_min"].get<double>(), loss, 0.03 * std::abs(loss)) << r["label"];
+    EXPECT_LT(r["G"].get<double>(), 0.1 * std::abs(loss)) << "equal gains: a round path";
+  }
+  const json command = analyse("--columns x_cmd,y_cmd --f-centre nominal");
+  for (const auto& r : command["runs"]) {
+    EXPECT_NEAR(r["F_max"].get<double>(), 0.0, 0.0002);
+    EXPECT_NEAR(r["F_min"].get<double>(), 0.0, 0.0002);
+  }
+}
