@@ -171,6 +171,7 @@ RadialDifference max_radial_difference(std::span<const double> a1, std::span<con
 Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
   Evaluation ev;
   ev.source = trace.source;
+  ev.conditions = trace.metadata;
   ev.g_method = options.g_method;
 
   // Plane: the option, else metadata, else XY.

@@ -84,6 +84,9 @@ json to_json(const Evaluation& ev) {
   }
   j["runs"] = runs;
   j["notes"] = ev.notes;
+  json conditions = json::object();
+  for (const auto& [k, v] : ev.conditions.entries()) conditions[k] = v;
+  j["conditions"] = conditions;
   return j;
 }
 
@@ -91,6 +94,26 @@ std::string text_report(const Evaluation& ev) {
   std::string s;
   auto out = std::back_inserter(s);
   fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
+  // Clause 6: date, machine, instrument and the 4.4 conditions the trace recorded.
+  static constexpr std::pair<const char*, const char*> kConditions[] = {
+      {"date", "Date"},
+      {"start_time", "Recorded"},
+      {"machine", "Machine"},
+      {"instrument", "Instrument"},
+      {"feed_mm_per_min", "Feed (mm/min)"},
+      {"feeds_mm_per_min", "Feeds (mm/min)"},
+      {"directions", "Directions"},
+      {"axes", "Axes"},
+      {"centre_mm", "Centre X,Y,Z (mm)"},
+      {"temperature_air_C", "Air temperature (deg C)"},
+      {"compensation", "Compensations in use"},
+      {"other_axes", "Axes not under test"},
+      {"sample_period_s", "Sample period (s)"},
+      {"lost_samples", "Lost samples"},
+  };
+  for (const auto& [key, title] : kConditions) {
+    if (const std::string* v = ev.conditions.find(key)) fmt::format_to(out, "{}: {}\n", title, *v);
+  }
   fmt::format_to(out, "Plane {} ({} runs found by {} segmentation)\n", plane_name(ev.plane),
                  ev.runs.size(), segmentation_method_name(ev.segmentation));
   if (ev.nominal_radius_mm) {

@@ -82,6 +82,7 @@ struct Evaluation {
   std::vector<RunResult> runs;
   std::vector<HysteresisResult> hysteresis;  // one per adjacent CCW/CW pair
   std::vector<std::string> notes;            // warnings worth showing the user
+  TraceMetadata conditions;                  // the trace's metadata: clause 4.4 conditions
 };
 
 // Runs the whole evaluation. Options left empty are taken from the trace's metadata
