@@ -11,6 +11,7 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
 
 namespace circtest {
 
@@ -30,16 +31,12 @@ std::string upper(std::string text) {
 
 double parse_ini_number(const std::string& source, std::size_t line, const std::string& section,
                         const std::string& key, const std::string& value) {
-  double number = 0.0;
-  const char* begin = value.data();
-  const char* end = value.data() + value.size();
-  if (begin != end && *begin == '+') ++begin;
-  const auto result = std::from_chars(begin, end, number);
-  if (value.empty() || result.ec != std::errc{} || result.ptr != end || !std::isfinite(number)) {
+  const auto number = parse_finite(value);
+  if (!number) {
     throw ParseError(source, line,
                      fmt::format("[{}] {}: '{}' is not a number", section, key, value));
   }
-  return number;
+  return *number;
 }
 
 // LinuxCNC 2.9 (emcIniLoad) accepts these spellings for [TRAJ] LINEAR_UNITS.

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
 
 namespace circtest {
 
@@ -19,17 +20,9 @@ std::string trim(const std::string& text) {
 }  // namespace
 
 double parse_option_number(const std::string& option, const std::string& text) {
-  const std::string value = trim(text);
-  double number = 0.0;
-  // from_chars refuses a leading '+', which people do type.
-  const char* begin = value.data();
-  const char* end = value.data() + value.size();
-  if (begin != end && *begin == '+') ++begin;
-  const auto result = std::from_chars(begin, end, number);
-  if (value.empty() || result.ec != std::errc{} || result.ptr != end || !std::isfinite(number)) {
-    throw UsageError(fmt::format("--{}: '{}' is not a number", option, text));
-  }
-  return number;
+  const auto number = parse_finite(text);
+  if (!number) throw UsageError(fmt::format("--{}: '{}' is not a number", option, text));
+  return *number;
 }
 
 std::vector<double> parse_option_numbers(const std::string& option, const std::string& text,
