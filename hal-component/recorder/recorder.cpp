@@ -163,8 +163,16 @@ std::vector<std::pair<std::string, std::string>> read_program_header(const std::
     const auto colon = inner.find(':');
     if (colon == std::string::npos) continue;
     std::string key = trim(inner.substr(0, colon));
+    std::string value = trim(inner.substr(colon + 1));
+    // circgen writes "(circtest: key: value)": the prefix marks its lines, the key follows.
+    if (key == "circtest") {
+      const auto second = value.find(':');
+      if (second == std::string::npos) continue;
+      key = trim(value.substr(0, second));
+      value = trim(value.substr(second + 1));
+    }
     if (!valid_header_key(key)) continue;
-    out.emplace_back(std::move(key), trim(inner.substr(colon + 1)));
+    out.emplace_back(std::move(key), std::move(value));
   }
   if (in.bad()) throw IoError(path, "read failed");
   return out;

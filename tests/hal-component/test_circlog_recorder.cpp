@@ -164,6 +164,17 @@ TEST_F(RecorderTest, ProgramHeaderStopsAtTheFirstLineOfCode) {
   EXPECT_THROW(rec::read_program_header(path("missing.ngc")), circtest::IoError);
 }
 
+// circgen marks its header lines with a "circtest:" prefix; the key follows it.
+TEST_F(RecorderTest, ProgramHeaderOfCircgenDropsTheCirctestPrefix) {
+  std::ofstream(path("p.ngc")) << "(circtest: generator: circgen 0.1.0)\n(circtest: plane: ZX)\n"
+                                  "(circtest: centre_mm: 1,2,3)\n(circtest: prose only)\nG21\n";
+  const auto h = rec::read_program_header(path("p.ngc"));
+  ASSERT_EQ(h.size(), 3u);
+  EXPECT_EQ(h[0], (std::pair<std::string, std::string>{"generator", "circgen 0.1.0"}));
+  EXPECT_EQ(h[1], (std::pair<std::string, std::string>{"plane", "ZX"}));
+  EXPECT_EQ(h[2], (std::pair<std::string, std::string>{"centre_mm", "1,2,3"}));
+}
+
 TEST_F(RecorderTest, RecordsARunAndStopsWhenIdle) {
   FakeServo servo(2, 1024);
   servo.enable = [](std::uint64_t p) { return p >= 200 && p < 500; };
