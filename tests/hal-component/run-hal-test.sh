@@ -28,8 +28,9 @@ if [ "${CIRCLOG_TEST_INSIDE:-}" != 1 ]; then
   work=$(mktemp -d /tmp/circlog-test.XXXXXX)
   chmod 755 "$work"
   rc=0
+  propagation=$("$here/../../scripts/unshare-propagation") || exit 1
   CIRCLOG_TEST_INSIDE=1 CIRCLOG_WORK=$work \
-    unshare --mount --ipc --pid --fork --mount-proc --net --propagation private \
+    unshare --mount --ipc --pid --fork --mount-proc --net --propagation "$propagation" \
     "$0" "$@" || rc=$?
   if [ "$rc" = 0 ] && [ -z "${CIRCLOG_KEEP_WORK:-}" ]; then
     rm -rf "$work"
