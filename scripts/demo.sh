@@ -19,7 +19,7 @@ CIRCTEST_BIN=$(cd "$BUILD_DIR" && pwd) configs/circtest-run --ini "$ini" --progr
   --out "$out/run"
 cp "$out/run/trace.csv" "$out/trace.csv"
 "$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --json >"$out/result.json"
-"$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" >"$out/report.txt"
+"$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --svg "$out/plot.svg" >"$out/report.txt"
 "$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --columns x_fb,y_fb >"$out/report-motor.txt"
 cat "$out/report.txt"
 
@@ -31,6 +31,7 @@ echo "  trace.csv         what circlog logged every servo period: commanded (x_c
 echo "                    encoder (x_fb) and table (x, the instrument) positions"
 echo "  result.json       H, G, F per direction in mm (circana analyze --json)"
 echo "  report.txt        the clause 6 report above, from the instrument (table) channels"
+echo "  plot.svg          the actual paths of both runs, deviations magnified (open in a browser)"
 echo "  report-motor.txt  the same from the motor encoders, which cannot see play or squareness"
 echo "  run/              the LinuxCNC configuration as run and its log"
 echo "The simulated machine has backlash $(sim BACKLASH_X) mm on X, squareness $(sim SQUARENESS_XY) rad"

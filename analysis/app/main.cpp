@@ -19,6 +19,7 @@ const char* kUsage =
     "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
     "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
     "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
+    "                     [--svg PLOT.svg]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n";
 
 po::variables_map parse(const po::options_description& desc,
@@ -54,7 +55,8 @@ int analyze(const std::vector<std::string>& args) {
       "columns", po::value<std::string>(), "position columns A,B")(
       "t-machine", po::value<std::string>(), "")("t-instrument", po::value<std::string>(), "")(
       "alpha-machine", po::value<std::string>(), "")(
-      "alpha-instrument", po::value<std::string>(), "")("json", "JSON on stdout");
+      "alpha-instrument", po::value<std::string>(), "")("json", "JSON on stdout")(
+      "svg", po::value<std::string>(), "write the plot of the paths to this SVG file");
   po::positional_options_description pos;
   pos.add("trace", 1);
   const auto vm = parse(desc, pos, args);
@@ -62,6 +64,7 @@ int analyze(const std::vector<std::string>& args) {
   AnalyzeRequest req;
   req.trace_path = vm["trace"].as<std::string>();
   req.json = vm.count("json") > 0;
+  if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
   auto& o = req.options;
   if (vm.count("radius")) {
     o.nominal_radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>());

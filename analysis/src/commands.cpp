@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/report.hpp"
+#include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 
 namespace circtest {
@@ -23,6 +25,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace trace = read_trace(request.trace_path, ro);
   const Evaluation ev = evaluate(trace, request.options);
   const std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
+  if (!request.svg_path.empty()) write_file_atomic(request.svg_path, svg_plot(ev, trace));
   out << text;
   out.flush();
   return 0;

@@ -187,6 +187,7 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
   }
 
   const PlaneColumns cols = plane_columns(trace, ev.plane, options.column_a, options.column_b);
+  ev.columns = cols;
   const auto& col_a = trace.values[static_cast<std::size_t>(cols.a)];
   const auto& col_b = trace.values[static_cast<std::size_t>(cols.b)];
 

@@ -11,6 +11,7 @@ struct AnalyzeRequest {
   std::string trace_path;
   EvaluationOptions options;
   bool json = false;
+  std::string svg_path;  // also write the clause 6 plot there (atomically), when set
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code.

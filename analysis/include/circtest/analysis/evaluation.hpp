@@ -70,6 +70,7 @@ struct HysteresisResult {
 struct Evaluation {
   std::string source;
   Plane plane = Plane::XY;
+  PlaneColumns columns;  // the position columns evaluated, indices into the trace
   SegmentationMethod segmentation = SegmentationMethod::automatic;
   GMethod g_method = GMethod::min_zone;
   std::optional<double> nominal_radius_mm;
