@@ -26,3 +26,21 @@ done
 printf 'circana analyze --json: best of 5: %.3f s\n' "$best"
 /usr/bin/time -f 'circana analyze --json: peak RSS %M KiB, %e s' \
   "$build/analysis/circana" analyze "$trace" --json >/dev/null
+
+# The same trace in the binary form (docs/trace-format.md).
+binary=$work/trace-1e6.ctb
+if [ ! -f "$binary" ]; then
+  "$build/tests/support/circtest-simtrace" -o "$binary" --backlash-x 0.02 --squareness 100e-6 \
+    --kv-x 30 --kv-y 33 --noise 0.0002 --period 0.0000664
+fi
+echo "binary: $binary, $(du -m "$binary" | cut -f1) MB"
+best=999
+for i in 1 2 3 4 5; do
+  s=$(date +%s.%N)
+  "$build/analysis/circana" analyze "$binary" --json >/dev/null
+  e=$(date +%s.%N)
+  best=$(awk -v s="$s" -v e="$e" -v b="$best" 'BEGIN { t = e - s; print (t < b ? t : b) }')
+done
+printf 'circana analyze --json (binary): best of 5: %.3f s\n' "$best"
+/usr/bin/time -f 'circana analyze --json (binary): peak RSS %M KiB, %e s' \
+  "$build/analysis/circana" analyze "$binary" --json >/dev/null

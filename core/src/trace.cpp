@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -140,6 +141,7 @@ class TraceParser {
 
  private:
   [[noreturn]] void fail(const std::string& message) const {
+    if (binary_) throw ParseError(trace_.source, 0, record_prefix() + message);
     throw ParseError(trace_.source, line_no_, message);
   }
 
@@ -278,19 +280,45 @@ class TraceParser {
       fail(fmt::format("column '{}': expected a number, got '{}'", header_names_[field],
                        shorten(trim(text))));
     }
+    store_value(field, v, text);
+  }
+
+  void store_value(std::size_t field, double v, std::string_view text) {
     if (!std::isfinite(v)) {
       fail(fmt::format("column '{}': expected a finite number, got '{}'", header_names_[field],
-                       shorten(trim(text))));
+                       text.empty() ? fmt::format("{}", v) : shorten(trim(text))));
     }
     const int col = target_[field];
     auto& dst = trace_.values[static_cast<std::size_t>(col)];
     if (col == time_column_ && !dst.empty() && v < dst.back()) {
-      throw DataError(trace_.source, line_no_,
-                      fmt::format("time goes backwards: t = {} after t = {}; expected "
+      throw DataError(trace_.source, binary_ ? 0 : line_no_,
+                      fmt::format("{}time goes backwards: t = {} after t = {}; expected "
                                   "non-decreasing time",
-                                  v, dst.back()));
+                                  record_prefix(), v, dst.back()));
     }
     dst.push_back(v);
+  }
+
+ public:
+  // Binary rows (docs/trace-format.md): record numbers stand in for line numbers.
+  void binary_rows(const double* values, std::size_t rows, std::size_t first_record) {
+    if (!have_header_) fail("no header row: expected a line of column names");
+    binary_ = true;
+    for (std::size_t r = 0; r < rows; ++r) {
+      record_ = first_record + r;
+      const double* row = values + r * field_count_;
+      for (std::size_t i = 0; i < field_count_; ++i) {
+        if (target_[i] >= 0) store_value(i, row[i], {});
+      }
+      trace_.line_of_row.push_back(static_cast<std::uint32_t>(record_));
+    }
+  }
+  std::size_t field_count() const { return field_count_; }
+  bool has_header() const { return have_header_; }
+
+ private:
+  std::string record_prefix() const {
+    return binary_ ? fmt::format("record {}: ", record_) : std::string();
   }
 
   const TraceReadOptions& options_;
@@ -303,13 +331,18 @@ class TraceParser {
   std::vector<std::string> scratch_;
   int time_column_ = -1;
   std::size_t reserve_hint_ = 0;
+  bool binary_ = false;
+  std::size_t record_ = 0;
 };
 
-}  // namespace
+constexpr char kBinaryMagic[8] = {'C', 'T', 'R', 'A', 'C', 'E', 'B', '1'};
+constexpr char kBinaryEnd[4] = {'C', 'T', 'B', 'E'};
+constexpr std::size_t kFooterBytes = 8 + 4 + 4;  // rows (u64), trailer bytes (u32), end magic
 
-Trace parse_trace(std::string_view text, const std::string& source,
-                  const TraceReadOptions& options) {
-  TraceParser parser(source, options);
+static_assert(std::endian::native == std::endian::little,
+              "the binary trace is little-endian; add byte swapping for this host");
+
+void feed_text(TraceParser& parser, std::string_view text) {
   std::size_t pos = 0;
   while (pos < text.size()) {
     const auto nl = text.find('\n', pos);
@@ -317,6 +350,79 @@ Trace parse_trace(std::string_view text, const std::string& source,
     parser.line(text.substr(pos, stop - pos));
     pos = stop + 1;
   }
+}
+
+std::size_t read_exact(int fd, void* dst, std::size_t n, std::uint64_t offset,
+                       const std::string& path) {
+  auto* p = static_cast<char*>(dst);
+  std::size_t got = 0;
+  while (got < n) {
+    const ssize_t r = ::pread(fd, p + got, n - got, static_cast<off_t>(offset + got));
+    if (r < 0) {
+      if (errno == EINTR) continue;
+      throw IoError(path, std::string("read failed: ") + std::strerror(errno));
+    }
+    if (r == 0) break;
+    got += static_cast<std::size_t>(r);
+  }
+  return got;
+}
+
+// Layout: magic, u32 header bytes, header text (metadata lines and the header row), rows of
+// float64, trailer text, footer (u64 rows, u32 trailer bytes, "CTBE").
+Trace read_binary_trace(int fd, std::uint64_t size, const std::string& path,
+                        const TraceReadOptions& options) {
+  auto truncated = [&](const char* what) {
+    return ParseError(path, 0, fmt::format("binary trace truncated: {}", what));
+  };
+  if (size < sizeof kBinaryMagic + 4 + kFooterBytes) throw truncated("shorter than its frame");
+  std::uint32_t header_bytes = 0;
+  read_exact(fd, &header_bytes, 4, sizeof kBinaryMagic, path);
+  char footer[kFooterBytes];
+  read_exact(fd, footer, kFooterBytes, size - kFooterBytes, path);
+  if (std::memcmp(footer + 12, kBinaryEnd, 4) != 0) {
+    throw truncated("no footer (expected it to end with \"CTBE\")");
+  }
+  std::uint64_t rows = 0;
+  std::uint32_t trailer_bytes = 0;
+  std::memcpy(&rows, footer, 8);
+  std::memcpy(&trailer_bytes, footer + 8, 4);
+  const std::uint64_t header_at = sizeof kBinaryMagic + 4;
+  if (header_at + header_bytes + trailer_bytes + kFooterBytes > size) {
+    throw truncated("header and trailer longer than the file");
+  }
+  TraceParser parser(path, options);
+  std::string text(header_bytes, '\0');
+  read_exact(fd, text.data(), header_bytes, header_at, path);
+  feed_text(parser, text);
+  if (!parser.has_header()) throw ParseError(path, 0, "binary trace without a header row");
+  const std::size_t width = parser.field_count() * sizeof(double);
+  const std::uint64_t rows_at = header_at + header_bytes;
+  if (rows_at + rows * width + trailer_bytes + kFooterBytes != size) {
+    throw ParseError(path, 0,
+                     fmt::format("binary trace: {} rows of {} columns do not fill the file", rows,
+                                 parser.field_count()));
+  }
+  parser.reserve_rows(static_cast<std::size_t>(rows));
+  constexpr std::size_t kBlockRows = 32768;
+  std::vector<double> block(kBlockRows * parser.field_count());
+  for (std::uint64_t r = 0; r < rows; r += kBlockRows) {
+    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(kBlockRows, rows - r));
+    read_exact(fd, block.data(), n * width, rows_at + r * width, path);
+    parser.binary_rows(block.data(), n, static_cast<std::size_t>(r) + 1);
+  }
+  std::string trailer(trailer_bytes, '\0');
+  read_exact(fd, trailer.data(), trailer_bytes, rows_at + rows * width, path);
+  feed_text(parser, trailer);
+  return parser.finish();
+}
+
+}  // namespace
+
+Trace parse_trace(std::string_view text, const std::string& source,
+                  const TraceReadOptions& options) {
+  TraceParser parser(source, options);
+  feed_text(parser, text);
   return parser.finish();
 }
 
@@ -329,6 +435,12 @@ Trace read_trace(const std::string& path, const TraceReadOptions& options) {
   } closer{fd};
   struct stat st {};
   if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) throw IoError(path, "is a directory");
+  char magic[sizeof kBinaryMagic] = {};
+  if (st.st_size >= static_cast<off_t>(sizeof magic) &&
+      read_exact(fd, magic, sizeof magic, 0, path) == sizeof magic &&
+      std::memcmp(magic, kBinaryMagic, sizeof magic) == 0) {
+    return read_binary_trace(fd, static_cast<std::uint64_t>(st.st_size), path, options);
+  }
 
   TraceParser parser(path, options);
   // Streamed in blocks so that memory stays at the parsed columns, not the file size.
@@ -387,13 +499,21 @@ TraceWriter::TraceWriter(std::string path, const TraceMetadata& header,
     : path_(std::move(path)), part_path_(path_ + ".part"), columns_(std::move(columns)) {
   file_ = std::fopen(part_path_.c_str(), "wb");
   if (!file_) throw IoError(part_path_, std::string("cannot create: ") + std::strerror(errno));
-  buffer_.reserve(1u << 20);
-  auto out = std::back_inserter(buffer_);
+  binary_ = path_.size() > 4 && path_.compare(path_.size() - 4, 4, ".ctb") == 0;
+  std::string text;
+  auto out = std::back_inserter(text);
   for (const auto& [k, v] : header.entries()) fmt::format_to(out, "# {}: {}\n", k, one_line(v));
   for (std::size_t i = 0; i < columns_.size(); ++i) {
     fmt::format_to(out, "{}{}", i ? "," : "", columns_[i].name);
   }
-  buffer_ += '\n';
+  text += '\n';
+  buffer_.reserve(1u << 20);
+  if (binary_) {
+    const auto bytes = static_cast<std::uint32_t>(text.size());
+    buffer_.append(kBinaryMagic, sizeof kBinaryMagic);
+    buffer_.append(reinterpret_cast<const char*>(&bytes), sizeof bytes);
+  }
+  buffer_ += text;
 }
 
 TraceWriter::~TraceWriter() {
@@ -402,6 +522,12 @@ TraceWriter::~TraceWriter() {
 }
 
 void TraceWriter::write_row(const double* values) {
+  if (binary_) {
+    buffer_.append(reinterpret_cast<const char*>(values), columns_.size() * sizeof(double));
+    ++rows_;
+    if (buffer_.size() >= (1u << 20)) flush_buffer();
+    return;
+  }
   auto out = std::back_inserter(buffer_);
   for (std::size_t i = 0; i < columns_.size(); ++i) {
     if (i) buffer_ += ',';
@@ -430,8 +556,16 @@ void TraceWriter::flush_buffer() {
 
 void TraceWriter::commit() {
   if (committed_) return;
+  const std::size_t trailer_at = buffer_.size();
   auto out = std::back_inserter(buffer_);
   for (const auto& [k, v] : trailer_.entries()) fmt::format_to(out, "# {}: {}\n", k, one_line(v));
+  if (binary_) {
+    const std::uint64_t rows = rows_;
+    const auto trailer_bytes = static_cast<std::uint32_t>(buffer_.size() - trailer_at);
+    buffer_.append(reinterpret_cast<const char*>(&rows), sizeof rows);
+    buffer_.append(reinterpret_cast<const char*>(&trailer_bytes), sizeof trailer_bytes);
+    buffer_.append(kBinaryEnd, sizeof kBinaryEnd);
+  }
   flush_buffer();
   if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0) {
     throw IoError(part_path_, std::string("flush failed: ") + std::strerror(errno));

@@ -204,3 +204,90 @@ TEST(AtomicFile, ReplacesAndKeepsBackup) {
 TEST(AtomicFile, FailureLeavesTheOriginalUntouched) {
   EXPECT_THROW(write_file_atomic("/nonexistent-dir/x.ini", "x"), IoError);
 }
+
+namespace {
+
+// Writes a binary trace with the given rows (t, x) and returns its path.
+std::string write_binary(const std::filesystem::path& dir, const std::vector<std::pair<double, double>>& rows) {
+  const std::string path = (dir / "t.ctb").string();
+  TraceMetadata md;
+  md.set("plane", "XY");
+  TraceWriter w(path, md, {{"t"}, {"x"}});
+  for (const auto& [t, x] : rows) {
+    const double row[2] = {t, x};
+    w.write_row(row);
+  }
+  w.add_trailer("overruns", "3");
+  w.commit();
+  return path;
+}
+
+}  // namespace
+
+TEST(BinaryTrace, RoundTripsBitExactWithMetadataAndTrailer) {
+  const auto dir = temp_dir();
+  const std::string path = (dir / "t.ctb").string();
+  TraceMetadata md;
+  md.set("radius_mm", "75");
+  const std::size_t n = 100000;  // several read blocks
+  {
+    TraceWriter w(path, md, {{"t"}, {"x"}, {"y"}, {"marker", ColumnKind::integer}});
+    for (std::size_t i = 0; i < n; ++i) {
+      const double th = static_cast<double>(i) * 1e-4;
+      const double row[4] = {static_cast<double>(i) * 1e-3, 75.0 * std::cos(th) + 1e-9 / 3,
+                             75.0 * std::sin(th), 1.0};
+      w.write_row(row);
+    }
+    w.add_trailer("rows", std::to_string(n));
+    w.commit();
+  }
+  TraceReadOptions o;
+  o.keep = {"t", "x"};
+  const Trace t = read_trace(path, o);
+  ASSERT_EQ(t.rows(), n);
+  EXPECT_EQ(t.columns, (std::vector<std::string>{"t", "x"}));
+  EXPECT_EQ(*t.metadata.find("radius_mm"), "75");
+  EXPECT_EQ(*t.metadata.find("rows"), std::to_string(n));
+  for (std::size_t i = 0; i < n; i += 7919) {
+    const double th = static_cast<double>(i) * 1e-4;
+    EXPECT_EQ((*t.column("x"))[i], 75.0 * std::cos(th) + 1e-9 / 3);  // bit exact, unlike text
+    EXPECT_EQ(t.line_of_row[i], i + 1);                                // record numbers
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(BinaryTrace, TruncatedFileIsRefused) {
+  const auto dir = temp_dir();
+  const std::string path = write_binary(dir, {{0.0, 1.0}, {0.001, 2.0}});
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) - 5);
+  try {
+    read_trace(path);
+    FAIL();
+  } catch (const ParseError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path + ": binary trace truncated: no footer (expected it to end with \"CTBE\")");
+  }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(BinaryTrace, BadValuesNameTheirRecord) {
+  const auto dir = temp_dir();
+  std::string path = write_binary(dir, {{0.0, 1.0}, {0.001, std::nan("")}});
+  try {
+    read_trace(path);
+    FAIL();
+  } catch (const ParseError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path + ": record 2: column 'x': expected a finite number, got 'nan'");
+  }
+  path = write_binary(dir, {{0.0, 1.0}, {0.002, 1.0}, {0.001, 1.0}});
+  try {
+    read_trace(path);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path + ": record 3: time goes backwards: t = 0.001 after t = 0.002; expected "
+                     "non-decreasing time");
+  }
+  std::filesystem::remove_all(dir);
+}

@@ -66,9 +66,9 @@ struct TraceColumn {
   int decimals = 6;  // for real columns: 6 decimals of mm is 1 nm
 };
 
-// Streams a text trace to "<path>.part" and renames it to <path> on commit(), after
-// fsync, so a reader never sees a half-written trace. Destroying an uncommitted writer
-// removes the partial file.
+// Streams a trace to "<path>.part" and renames it to <path> on commit(), after fsync, so a
+// reader never sees a half-written trace. Destroying an uncommitted writer removes the
+// partial file. A path ending in ".ctb" gets the binary form (float64 rows), else text.
 class TraceWriter {
  public:
   TraceWriter(std::string path, const TraceMetadata& header, std::vector<TraceColumn> columns);
@@ -94,6 +94,7 @@ class TraceWriter {
   std::FILE* file_ = nullptr;
   std::size_t rows_ = 0;
   bool committed_ = false;
+  bool binary_ = false;
 };
 
 // Writes a whole trace with TraceWriter.
