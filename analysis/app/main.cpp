@@ -47,15 +47,15 @@ std::pair<std::string, std::string> column_pair(const std::string& text) {
 int analyze(const std::vector<std::string>& args) {
   po::options_description desc("analyze");
   desc.add_options()("trace", po::value<std::string>()->required(), "trace file")(
-      "radius", po::value<std::string>(), "nominal radius, mm")(
-      "centre", po::value<std::string>(), "nominal (set-up) centre A,B, mm")(
+      "radius", po::value<std::string>(), "nominal radius, mm")("centre", po::value<std::string>(),
+                                                                "nominal (set-up) centre A,B, mm")(
       "plane", po::value<std::string>(), "XY, YZ or ZX")(
       "g-method", po::value<std::string>()->default_value("min-zone"), "")(
       "f-centre", po::value<std::string>()->default_value("auto"), "")(
       "columns", po::value<std::string>(), "position columns A,B")(
       "t-machine", po::value<std::string>(), "")("t-instrument", po::value<std::string>(), "")(
-      "alpha-machine", po::value<std::string>(), "")(
-      "alpha-instrument", po::value<std::string>(), "")("json", "JSON on stdout")(
+      "alpha-machine", po::value<std::string>(), "")("alpha-instrument", po::value<std::string>(),
+                                                     "")("json", "JSON on stdout")(
       "svg", po::value<std::string>(), "write the plot of the paths to this SVG file");
   po::positional_options_description pos;
   pos.add("trace", 1);
@@ -100,9 +100,11 @@ int analyze(const std::vector<std::string>& args) {
   } else {
     throw UsageError("--f-centre: expected auto, nominal or lsc, got '" + f + "'");
   }
-  if (vm.count("columns")) std::tie(o.column_a, o.column_b) = column_pair(vm["columns"].as<std::string>());
+  if (vm.count("columns"))
+    std::tie(o.column_a, o.column_b) = column_pair(vm["columns"].as<std::string>());
   if (vm.count("t-machine")) {
-    o.temperatures.machine_C = parse_option_number("--t-machine", vm["t-machine"].as<std::string>());
+    o.temperatures.machine_C =
+        parse_option_number("--t-machine", vm["t-machine"].as<std::string>());
   }
   if (vm.count("t-instrument")) {
     o.temperatures.instrument_C =
@@ -129,7 +131,8 @@ int fit(const std::vector<std::string>& args) {
   FitRequest req;
   req.points_path = vm["points"].as<std::string>();
   req.json = vm.count("json") > 0;
-  if (vm.count("columns")) std::tie(req.column_a, req.column_b) = column_pair(vm["columns"].as<std::string>());
+  if (vm.count("columns"))
+    std::tie(req.column_a, req.column_b) = column_pair(vm["columns"].as<std::string>());
   return run_fit(req, std::cout);
 }
 

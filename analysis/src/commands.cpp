@@ -11,8 +11,8 @@ namespace circtest {
 
 namespace {
 std::vector<std::string> analysis_columns(const std::string& a, const std::string& b) {
-  std::vector<std::string> keep = {"t", "marker", "segment", "x", "y", "z",
-                                   "x_cmd", "y_cmd", "z_cmd"};
+  std::vector<std::string> keep = {"t", "marker", "segment", "x",    "y",
+                                   "z", "x_cmd",  "y_cmd",   "z_cmd"};
   if (!a.empty()) keep.push_back(a);
   if (!b.empty()) keep.push_back(b);
   return keep;
@@ -38,7 +38,8 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   ro.check_time_monotonic = false;
   const Trace trace = read_trace(request.points_path, ro);
   if (trace.rows() < 3) {
-    throw DataError(request.points_path, trace.rows() ? trace.line_of_row.back() : trace.header_line,
+    throw DataError(request.points_path,
+                    trace.rows() ? trace.line_of_row.back() : trace.header_line,
                     fmt::format("too few points: {}, expected at least 3", trace.rows()));
   }
   const auto& a = *trace.column(request.column_a);

@@ -35,8 +35,9 @@ std::optional<std::pair<double, double>> metadata_centre(const Trace& trace, Pla
     pos = comma + 1;
   }
   if (xyz.size() != 3) {
-    throw ParseError(trace.source, trace.metadata.line_of("centre_mm"),
-                     fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *v));
+    throw ParseError(
+        trace.source, trace.metadata.line_of("centre_mm"),
+        fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *v));
   }
   const PlaneAxes axes = plane_axes(plane);
   return std::make_pair(xyz[static_cast<std::size_t>(axes.first - 'x')],
@@ -238,7 +239,8 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
   ev.segmentation = seg.method;
 
   // Commanded columns give the nominal circle when nothing else did.
-  const std::vector<double>* cmd_a = trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).first));
+  const std::vector<double>* cmd_a =
+      trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).first));
   const std::vector<double>* cmd_b =
       trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).second));
   if ((!ev.nominal_radius_mm || !ev.centre_a_mm) && cmd_a && cmd_b) {
@@ -283,8 +285,12 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
     const bool full = run.sweep_deg >= 359.0;
     bool use_lsc = false;
     switch (options.f_centre) {
-      case FCentre::automatic: use_lsc = full || !ev.centre_a_mm; break;
-      case FCentre::lsc: use_lsc = true; break;
+      case FCentre::automatic:
+        use_lsc = full || !ev.centre_a_mm;
+        break;
+      case FCentre::lsc:
+        use_lsc = true;
+        break;
       case FCentre::nominal:
         if (!ev.centre_a_mm) {
           throw UsageError(
@@ -331,10 +337,9 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
       jb.insert(jb.end(), b.begin(), b.end());
     }
     h.common_lsc = fit_lsc(ja, jb);
-    const RadialDifference d =
-        max_radial_difference(slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run),
-                              slice(col_b, r2.run), h.common_lsc.centre_a_mm,
-                              h.common_lsc.centre_b_mm);
+    const RadialDifference d = max_radial_difference(
+        slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run), slice(col_b, r2.run),
+        h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm);
     h.h_mm = d.max_mm;
     h.at_angle_deg = d.at_angle_deg;
     h.overlap_deg = d.overlap_deg;

@@ -18,11 +18,20 @@ std::string escape(std::string_view s) {
   std::string out;
   for (char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -81,8 +90,8 @@ std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions
 
   const double size = options.size_px;
   const double c = size / 2.0;
-  const double ring_px = 0.30 * size;   // the reference circle
-  const double band_px = 0.15 * size;   // +-4 divisions of deviation
+  const double ring_px = 0.30 * size;  // the reference circle
+  const double band_px = 0.15 * size;  // +-4 divisions of deviation
   const double div_mm = nice_at_least(dmax / 4.0);
   const double px_per_mm = band_px / (4.0 * div_mm);
   const double magnification = px_per_mm / (ring_px / ref.radius_mm);
@@ -95,8 +104,9 @@ std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions
                  "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"12\">\n"
                  "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
                  size, height);
-  fmt::format_to(out, "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
-                      "circular test, plane {}</text>\n",
+  fmt::format_to(out,
+                 "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
+                 "circular test, plane {}</text>\n",
                  plane_name(ev.plane));
   fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", escape(ev.source));
   // Grid: the reference circle and rings every division, spokes every 45 deg.
@@ -142,8 +152,8 @@ std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions
                  y, ref.radius_mm);
   y += 18;
   fmt::format_to(out,
-                 "<text x=\"10\" y=\"{:.0f}\">magnified x{:.0f}: 1 division = {:g} um</text>\n",
-                 y, magnification, div_mm * 1000.0);
+                 "<text x=\"10\" y=\"{:.0f}\">magnified x{:.0f}: 1 division = {:g} um</text>\n", y,
+                 magnification, div_mm * 1000.0);
   y += 18;
   if (!ev.hysteresis.empty()) {
     fmt::format_to(out, "<text x=\"10\" y=\"{:.0f}\">H_{} = {:.1f} um</text>\n", y,

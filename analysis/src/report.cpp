@@ -11,11 +11,17 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-json opt(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+json opt(const std::optional<double>& v) {
+  return v ? json(*v) : json(nullptr);
+}
 
 // Micrometres for the text report: the unit people read circular-test results in.
-std::string um(double mm) { return fmt::format("{:+.1f} um", mm * 1000.0); }
-std::string um_abs(double mm) { return fmt::format("{:.1f} um", mm * 1000.0); }
+std::string um(double mm) {
+  return fmt::format("{:+.1f} um", mm * 1000.0);
+}
+std::string um_abs(double mm) {
+  return fmt::format("{:.1f} um", mm * 1000.0);
+}
 
 }  // namespace
 
@@ -117,17 +123,18 @@ std::string text_report(const Evaluation& ev) {
   fmt::format_to(out, "Plane {} ({} runs found by {} segmentation)\n", plane_name(ev.plane),
                  ev.runs.size(), segmentation_method_name(ev.segmentation));
   if (ev.nominal_radius_mm) {
-    fmt::format_to(out, "Nominal path: radius {:.4f} mm (diameter {:.4f} mm, from {})", 
+    fmt::format_to(out, "Nominal path: radius {:.4f} mm (diameter {:.4f} mm, from {})",
                    *ev.nominal_radius_mm, 2 * *ev.nominal_radius_mm, ev.nominal_radius_source);
     if (ev.centre_a_mm) {
-      fmt::format_to(out, ", centre {:.4f}, {:.4f} mm (from {})", *ev.centre_a_mm,
-                     *ev.centre_b_mm, ev.centre_source);
+      fmt::format_to(out, ", centre {:.4f}, {:.4f} mm (from {})", *ev.centre_a_mm, *ev.centre_b_mm,
+                     ev.centre_source);
     }
     s += '\n';
   }
   if (ev.temperatures.available()) {
-    fmt::format_to(out, "F corrected to 20 deg C: machine {} deg C, instrument {} deg C, factor "
-                        "{:.8f}\n",
+    fmt::format_to(out,
+                   "F corrected to 20 deg C: machine {} deg C, instrument {} deg C, factor "
+                   "{:.8f}\n",
                    ev.temperatures.machine_C ? fmt::format("{:.2f}", *ev.temperatures.machine_C)
                                              : std::string("-"),
                    ev.temperatures.instrument_C
@@ -150,7 +157,7 @@ std::string text_report(const Evaluation& ev) {
     fmt::format_to(out, "   run {} {:>3} G_{} = {}   (other method: {})\n", i + 1,
                    direction_name(r.run.direction), r.label, um_abs(r.g_mm(ev.g_method)),
                    um_abs(r.g_mm(ev.g_method == GMethod::min_zone ? GMethod::least_squares
-                                                                   : GMethod::min_zone)));
+                                                                  : GMethod::min_zone)));
   }
   s += "c) Radial deviation F (centre: lsc = least-squares centre, nominal = set-up centre)\n";
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
@@ -180,8 +187,7 @@ std::string text_report(const Evaluation& ev) {
   return s;
 }
 
-FitReport fit_all(const std::string& source, std::span<const double> a,
-                  std::span<const double> b) {
+FitReport fit_all(const std::string& source, std::span<const double> a, std::span<const double> b) {
   FitReport r;
   r.source = source;
   r.points = a.size();

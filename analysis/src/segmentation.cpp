@@ -20,9 +20,9 @@ int find_column(const Trace& trace, const std::string& name) {
   if (i < 0) {
     std::string have;
     for (const auto& c : trace.columns) have += (have.empty() ? "" : ",") + c;
-    throw ParseError(trace.source, trace.header_line,
-                     fmt::format("missing column '{}': expected it in the header (found: {})", name,
-                                 have));
+    throw ParseError(
+        trace.source, trace.header_line,
+        fmt::format("missing column '{}': expected it in the header (found: {})", name, have));
   }
   return i;
 }
@@ -32,8 +32,8 @@ struct Span {
 };
 
 // Signed swept angle (rad) of rows [begin, end) about a centre.
-double swept_angle(const double* a, const double* b, std::size_t begin, std::size_t end,
-                   double ca, double cb) {
+double swept_angle(const double* a, const double* b, std::size_t begin, std::size_t end, double ca,
+                   double cb) {
   double total = 0.0;
   double pa = a[begin] - ca, pb = b[begin] - cb;
   for (std::size_t i = begin + 1; i < end; ++i) {
@@ -111,7 +111,8 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
       const double tol = std::max(0.05 * c.radius_mm, 0.2);
       std::vector<double> ta, tb;
       for (std::size_t i = 0; i < sa.size(); ++i) {
-        if (std::abs(std::hypot(sa[i] - c.centre_a_mm, sb[i] - c.centre_b_mm) - c.radius_mm) < tol) {
+        if (std::abs(std::hypot(sa[i] - c.centre_a_mm, sb[i] - c.centre_b_mm) - c.radius_mm) <
+            tol) {
           ta.push_back(sa[i]);
           tb.push_back(sb[i]);
         }
@@ -189,9 +190,12 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
 
 const char* segmentation_method_name(SegmentationMethod method) noexcept {
   switch (method) {
-    case SegmentationMethod::marker: return "marker";
-    case SegmentationMethod::segment: return "segment";
-    case SegmentationMethod::automatic: return "automatic";
+    case SegmentationMethod::marker:
+      return "marker";
+    case SegmentationMethod::segment:
+      return "segment";
+    case SegmentationMethod::automatic:
+      return "automatic";
   }
   return "automatic";
 }
@@ -220,9 +224,7 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     throw DataError(trace.source, n == 0 ? trace.header_line : line(n - 1),
                     fmt::format("too few points: {} rows, expected at least 3 per run", n));
   }
-  auto seg_id = [&](std::size_t row) -> long {
-    return segment ? std::lround((*segment)[row]) : 0;
-  };
+  auto seg_id = [&](std::size_t row) -> long { return segment ? std::lround((*segment)[row]) : 0; };
 
   std::vector<Span> spans;
   if (marker) {
@@ -260,10 +262,10 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     if (result.method == SegmentationMethod::marker) {
       const std::size_t number = result.runs.size() + 1;
       if (s.end - s.begin < options.min_points) {
-        throw DataError(trace.source, line(s.begin),
-                        fmt::format("run {} (lines {}-{}): too few points ({}), expected at least {}",
-                                    number, line(s.begin), line(s.end - 1), s.end - s.begin,
-                                    options.min_points));
+        throw DataError(
+            trace.source, line(s.begin),
+            fmt::format("run {} (lines {}-{}): too few points ({}), expected at least {}", number,
+                        line(s.begin), line(s.end - 1), s.end - s.begin, options.min_points));
       }
       Run r = make_run(a, b, s, centre_of(a, b, s, options));
       r.segment_id = seg_id(s.begin);

@@ -15,7 +15,9 @@
 namespace circtest {
 
 namespace {
-std::string errno_text() { return std::strerror(errno); }
+std::string errno_text() {
+  return std::strerror(errno);
+}
 
 void write_all(int fd, std::string_view content, const std::string& path) {
   const char* p = content.data();

@@ -6,15 +6,24 @@ namespace circtest {
 
 const char* exit_code_name(ExitCode code) noexcept {
   switch (code) {
-    case ExitCode::ok: return "ok";
-    case ExitCode::internal: return "internal";
-    case ExitCode::usage: return "usage";
-    case ExitCode::io: return "io";
-    case ExitCode::parse: return "parse";
-    case ExitCode::data: return "data";
-    case ExitCode::limit: return "limit";
-    case ExitCode::hal: return "hal";
-    case ExitCode::data_loss: return "data-loss";
+    case ExitCode::ok:
+      return "ok";
+    case ExitCode::internal:
+      return "internal";
+    case ExitCode::usage:
+      return "usage";
+    case ExitCode::io:
+      return "io";
+    case ExitCode::parse:
+      return "parse";
+    case ExitCode::data:
+      return "data";
+    case ExitCode::limit:
+      return "limit";
+    case ExitCode::hal:
+      return "hal";
+    case ExitCode::data_loss:
+      return "data-loss";
   }
   return "unknown";
 }

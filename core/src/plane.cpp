@@ -18,27 +18,36 @@ bool iequals(std::string_view a, std::string_view b) {
 
 PlaneAxes plane_axes(Plane plane) noexcept {
   switch (plane) {
-    case Plane::XY: return {'x', 'y', 'z'};
-    case Plane::YZ: return {'y', 'z', 'x'};
-    case Plane::ZX: return {'z', 'x', 'y'};
+    case Plane::XY:
+      return {'x', 'y', 'z'};
+    case Plane::YZ:
+      return {'y', 'z', 'x'};
+    case Plane::ZX:
+      return {'z', 'x', 'y'};
   }
   return {'x', 'y', 'z'};
 }
 
 std::string_view plane_name(Plane plane) noexcept {
   switch (plane) {
-    case Plane::XY: return "XY";
-    case Plane::YZ: return "YZ";
-    case Plane::ZX: return "ZX";
+    case Plane::XY:
+      return "XY";
+    case Plane::YZ:
+      return "YZ";
+    case Plane::ZX:
+      return "ZX";
   }
   return "XY";
 }
 
 int plane_gcode(Plane plane) noexcept {
   switch (plane) {
-    case Plane::XY: return 17;
-    case Plane::ZX: return 18;
-    case Plane::YZ: return 19;
+    case Plane::XY:
+      return 17;
+    case Plane::ZX:
+      return 18;
+    case Plane::YZ:
+      return 19;
   }
   return 17;
 }

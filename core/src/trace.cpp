@@ -3,16 +3,16 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <fast_float/fast_float.h>
+#include <fmt/format.h>
+#include <sys/stat.h>
 #include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <fast_float/fast_float.h>
-#include <fmt/format.h>
 #include <iterator>
 #include <string>
-#include <sys/stat.h>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
@@ -48,7 +48,8 @@ namespace {
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -75,9 +76,9 @@ std::optional<double> TraceMetadata::number(std::string_view key, const std::str
   if (!v) return std::nullopt;
   double out = 0.0;
   if (!parse_double(*v, out) || !std::isfinite(out)) {
-    throw ParseError(source, line_of(key),
-                     fmt::format("metadata '{}': expected a finite number, got '{}'", key,
-                                 shorten(*v)));
+    throw ParseError(
+        source, line_of(key),
+        fmt::format("metadata '{}': expected a finite number, got '{}'", key, shorten(*v)));
   }
   return out;
 }
@@ -178,8 +179,9 @@ class TraceParser {
           }
           field += text[i++];
         }
-        if (!closed) fail(fmt::format("field {}: unterminated quoted field: expected a closing '\"'",
-                                      out.size() + 1));
+        if (!closed)
+          fail(fmt::format("field {}: unterminated quoted field: expected a closing '\"'",
+                           out.size() + 1));
         while (i < n && (text[i] == ' ' || text[i] == '\t')) ++i;
         if (i < n && text[i] != ',') {
           fail(fmt::format("field {}: expected ',' after a closing quote, got '{}'", out.size() + 1,
@@ -211,9 +213,8 @@ class TraceParser {
       for (std::size_t j = 0; j < i; ++j) {
         if (names[j] == names[i]) fail(fmt::format("header: duplicate column '{}'", names[i]));
       }
-      bool keep = options_.keep.empty() ||
-                  std::find(options_.keep.begin(), options_.keep.end(), names[i]) !=
-                      options_.keep.end();
+      bool keep = options_.keep.empty() || std::find(options_.keep.begin(), options_.keep.end(),
+                                                     names[i]) != options_.keep.end();
       if (keep) {
         target_[i] = static_cast<int>(trace_.columns.size());
         trace_.columns.push_back(names[i]);
@@ -471,7 +472,8 @@ Trace read_trace(const std::string& path, const TraceReadOptions& options) {
       // Reserve the columns once from the first block's bytes per line: no regrowth copies.
       hinted = true;
       const double per_line = static_cast<double>(pos) / static_cast<double>(parser.lines());
-      parser.reserve_rows(static_cast<std::size_t>(static_cast<double>(st.st_size) / per_line * 1.02) + 16);
+      parser.reserve_rows(
+          static_cast<std::size_t>(static_cast<double>(st.st_size) / per_line * 1.02) + 16);
     }
     if (eof) {
       if (pos < have) parser.line(std::string_view(data + pos, have - pos));

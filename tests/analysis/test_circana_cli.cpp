@@ -45,8 +45,8 @@ class CircanaCli : public ::testing::Test {
 
   Result run(const std::string& args) {
     const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
-    const std::string cmd = std::string(CIRCANA_PATH) + " " + args + " >" + out.string() + " 2>" +
-                            err.string();
+    const std::string cmd =
+        std::string(CIRCANA_PATH) + " " + args + " >" + out.string() + " 2>" + err.string();
     const int status = std::system(cmd.c_str());
     Result r;
     r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -70,7 +70,8 @@ class CircanaCli : public ::testing::Test {
 
 TEST_F(CircanaCli, BadTraces) {
   const std::string empty = write("empty.csv", "");
-  expect_error("analyze " + empty, 4, empty + ":1: empty file: expected a header row of column names");
+  expect_error("analyze " + empty, 4,
+               empty + ":1: empty file: expected a header row of column names");
 
   const std::string nox = write("nox.csv", "t,y\n0,1\n");
   expect_error("analyze " + nox, 4,
@@ -87,11 +88,13 @@ TEST_F(CircanaCli, BadTraces) {
 
   const std::string back = write("back.csv", "t,x,y\n0,1,2\n0.002,1,2\n0.001,1,2\n");
   expect_error("analyze " + back, 5,
-               back + ":4: time goes backwards: t = 0.001 after t = 0.002; expected "
-                      "non-decreasing time");
+               back +
+                   ":4: time goes backwards: t = 0.001 after t = 0.002; expected "
+                   "non-decreasing time");
 
   const std::string few = write("few.csv", "t,x,y\n0,1,2\n0.001,1,2\n");
-  expect_error("analyze " + few, 5, few + ":3: too few points: 2 rows, expected at least 3 per run");
+  expect_error("analyze " + few, 5,
+               few + ":3: too few points: 2 rows, expected at least 3 per run");
 
   const std::string quote = write("quote.csv", "t,x,y\n0,\"1,2\n");
   expect_error("analyze " + quote, 4,
@@ -111,8 +114,9 @@ TEST_F(CircanaCli, ShortArcIsRefusedWithItsLines) {
   EXPECT_EQ(r.code, 5);
   EXPECT_EQ(r.out, "");
   EXPECT_NE(r.err.find(trace + ":"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("sweeps 60.0 deg: expected an arc of at least 90 deg (ISO 230-4 clause 3.1)"),
-            std::string::npos)
+  EXPECT_NE(
+      r.err.find("sweeps 60.0 deg: expected an arc of at least 90 deg (ISO 230-4 clause 3.1)"),
+      std::string::npos)
       << r.err;
 }
 

@@ -23,7 +23,8 @@ TEST(Plot, DrawnDeviationsMatchThePathAtTheStatedScale) {
   const std::string legend = svg.substr(svg.find("Deviations from"));
   ASSERT_TRUE(std::regex_search(legend, mm, std::regex(R"(radius ([0-9.]+) mm\))")));
   const double ref_radius = std::stod(mm[1]);
-  ASSERT_TRUE(std::regex_search(legend, mm, std::regex(R"(magnified x([0-9]+): 1 division = ([0-9.e+-]+) um)")));
+  ASSERT_TRUE(std::regex_search(
+      legend, mm, std::regex(R"(magnified x([0-9]+): 1 division = ([0-9.e+-]+) um)")));
   const double magnification = std::stod(mm[1]);
   const double ring_px = 0.30 * po.size_px;
   const double px_per_mm = magnification * ring_px / ref_radius;
@@ -34,8 +35,8 @@ TEST(Plot, DrawnDeviationsMatchThePathAtTheStatedScale) {
   const auto& y = *trace.column("y");
   double truth = 0.0;
   for (std::size_t i = ev.runs[0].run.begin; i < ev.runs[0].run.end; ++i) {
-    truth = std::max(truth, std::abs(std::hypot(x[i] - c.centre_a_mm, y[i] - c.centre_b_mm) -
-                                     c.radius_mm));
+    truth = std::max(
+        truth, std::abs(std::hypot(x[i] - c.centre_a_mm, y[i] - c.centre_b_mm) - c.radius_mm));
   }
 
   // (std::regex recurses per character: no use on a long attribute.)

@@ -87,14 +87,16 @@ TEST(TraceReaderErrors, MissingColumn) {
 }
 
 TEST(TraceReaderErrors, NonNumber) {
-  EXPECT_EQ(message_of("t,x\n0,1\n0.1,abc\n"), "in.csv:3: column 'x': expected a number, got 'abc'");
+  EXPECT_EQ(message_of("t,x\n0,1\n0.1,abc\n"),
+            "in.csv:3: column 'x': expected a number, got 'abc'");
   EXPECT_EQ(message_of("t,x\n0,1\n0.1,1.5.2\n"),
             "in.csv:3: column 'x': expected a number, got '1.5.2'");
   EXPECT_EQ(message_of("t,x\n0,1\n0.1,\n"), "in.csv:3: column 'x': expected a number, got ''");
 }
 
 TEST(TraceReaderErrors, NanAndInf) {
-  EXPECT_EQ(message_of("t,x\n0,nan\n"), "in.csv:2: column 'x': expected a finite number, got 'nan'");
+  EXPECT_EQ(message_of("t,x\n0,nan\n"),
+            "in.csv:2: column 'x': expected a finite number, got 'nan'");
   EXPECT_EQ(message_of("t,x\n0,1\n1,-inf\n"),
             "in.csv:3: column 'x': expected a finite number, got '-inf'");
 }
@@ -118,7 +120,8 @@ TEST(TraceReaderErrors, BrokenQuoting) {
             "in.csv:2: field 2: unterminated quoted field: expected a closing '\"'");
   EXPECT_EQ(message_of("\"t,x\n0,1\n"),
             "in.csv:1: field 1: unterminated quoted field: expected a closing '\"'");
-  EXPECT_EQ(message_of("t,x\n0,1\"2\"\n"), "in.csv:2: field 2: unexpected '\"' inside an unquoted field");
+  EXPECT_EQ(message_of("t,x\n0,1\"2\"\n"),
+            "in.csv:2: field 2: unexpected '\"' inside an unquoted field");
 }
 
 TEST(TraceReaderErrors, DuplicateColumn) {
@@ -208,7 +211,8 @@ TEST(AtomicFile, FailureLeavesTheOriginalUntouched) {
 namespace {
 
 // Writes a binary trace with the given rows (t, x) and returns its path.
-std::string write_binary(const std::filesystem::path& dir, const std::vector<std::pair<double, double>>& rows) {
+std::string write_binary(const std::filesystem::path& dir,
+                         const std::vector<std::pair<double, double>>& rows) {
   const std::string path = (dir / "t.ctb").string();
   TraceMetadata md;
   md.set("plane", "XY");
@@ -251,7 +255,7 @@ TEST(BinaryTrace, RoundTripsBitExactWithMetadataAndTrailer) {
   for (std::size_t i = 0; i < n; i += 7919) {
     const double th = static_cast<double>(i) * 1e-4;
     EXPECT_EQ((*t.column("x"))[i], 75.0 * std::cos(th) + 1e-9 / 3);  // bit exact, unlike text
-    EXPECT_EQ(t.line_of_row[i], i + 1);                                // record numbers
+    EXPECT_EQ(t.line_of_row[i], i + 1);                              // record numbers
   }
   std::filesystem::remove_all(dir);
 }
@@ -286,8 +290,9 @@ TEST(BinaryTrace, BadValuesNameTheirRecord) {
     FAIL();
   } catch (const DataError& e) {
     EXPECT_EQ(std::string(e.what()),
-              path + ": record 3: time goes backwards: t = 0.001 after t = 0.002; expected "
-                     "non-decreasing time");
+              path +
+                  ": record 3: time goes backwards: t = 0.001 after t = 0.002; expected "
+                  "non-decreasing time");
   }
   std::filesystem::remove_all(dir);
 }

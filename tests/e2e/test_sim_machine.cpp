@@ -21,9 +21,9 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double kRadius = 75.0;          // mm
-constexpr double kFeed = 3000.0;          // mm/min: keeps each LinuxCNC run near 25 s
-constexpr double kServoPeriod = 0.001;    // s, [EMCMOT] SERVO_PERIOD of sim-mill.ini
+constexpr double kRadius = 75.0;        // mm
+constexpr double kFeed = 3000.0;        // mm/min: keeps each LinuxCNC run near 25 s
+constexpr double kServoPeriod = 0.001;  // s, [EMCMOT] SERVO_PERIOD of sim-mill.ini
 
 int run(const std::string& command) {
   const int status = std::system(command.c_str());
@@ -60,9 +60,9 @@ class SimMachine : public ::testing::Test {
   // Runs the program on the simulated mill with these [SIM] values; the rest are zero.
   void run_machine(const std::vector<std::pair<std::string, std::string>>& sim) {
     std::vector<std::pair<std::string, std::string>> all = {
-        {"KV_X", "1000"},      {"KV_Y", "1000"},      {"KV_Z", "1000"},
-        {"BACKLASH_X", "0"},   {"BACKLASH_Y", "0"},   {"BACKLASH_Z", "0"},
-        {"SCALE_X", "0"},      {"SCALE_Y", "0"},      {"SCALE_Z", "0"},
+        {"KV_X", "1000"},       {"KV_Y", "1000"},       {"KV_Z", "1000"},
+        {"BACKLASH_X", "0"},    {"BACKLASH_Y", "0"},    {"BACKLASH_Z", "0"},
+        {"SCALE_X", "0"},       {"SCALE_Y", "0"},       {"SCALE_Z", "0"},
         {"SQUARENESS_XY", "0"}, {"SQUARENESS_YZ", "0"}, {"SQUARENESS_ZX", "0"}};
     for (auto& [k, v] : all) {
       for (const auto& [sk, sv] : sim) {
@@ -79,8 +79,9 @@ class SimMachine : public ::testing::Test {
 
   json analyse(const std::string& extra = "") {
     const fs::path js = out_ / "result.json";
-    const int rc = run(std::string(CIRCANA_PATH) + " analyze " + (out_ / "run" / "trace.csv").string() +
-                       " --json " + extra + " >" + js.string() + " 2>" + (out_ / "circana.err").string());
+    const int rc =
+        run(std::string(CIRCANA_PATH) + " analyze " + (out_ / "run" / "trace.csv").string() +
+            " --json " + extra + " >" + js.string() + " 2>" + (out_ / "circana.err").string());
     EXPECT_EQ(rc, 0) << slurp(out_ / "circana.err");
     return json::parse(slurp(js));
   }

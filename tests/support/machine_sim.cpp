@@ -16,7 +16,9 @@ struct AxisState {
   bool initialised = false;
 };
 
-int axis_index(char letter) { return letter - 'x'; }
+int axis_index(char letter) {
+  return letter - 'x';
+}
 
 }  // namespace
 
@@ -75,8 +77,15 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
     if (machine.noise_mm > 0.0) {
       for (double& v : table) v += noise(rng);
     }
-    const double row[9] = {static_cast<double>(k) * T, table[0], table[1], table[2],
-                           cmd[0], cmd[1], cmd[2], marker, segment};
+    const double row[9] = {static_cast<double>(k) * T,
+                           table[0],
+                           table[1],
+                           table[2],
+                           cmd[0],
+                           cmd[1],
+                           cmd[2],
+                           marker,
+                           segment};
     for (std::size_t c = 0; c < 9; ++c) trace.values[c].push_back(row[c]);
     trace.line_of_row.push_back(static_cast<std::uint32_t>(k + 2));
     ++k;

@@ -27,7 +27,7 @@ struct Temperatures {
 
 struct EvaluationOptions {
   std::optional<Plane> plane;  // default: the trace's `plane` metadata, else XY
-  std::string column_a;  // explicit position columns (default: the plane's axis letters)
+  std::string column_a;        // explicit position columns (default: the plane's axis letters)
   std::string column_b;
   std::optional<double> nominal_radius_mm;
   std::optional<double> centre_a_mm;  // nominal / set-up centre

@@ -27,9 +27,9 @@ struct Run {
   std::size_t begin = 0;  // first row (inclusive)
   std::size_t end = 0;    // last row (exclusive)
   Direction direction = Direction::CCW;
-  double sweep_deg = 0.0;   // swept angle, positive
-  double start_deg = 0.0;   // angle of the first point about the run's centre estimate
-  long segment_id = 0;      // the `segment` column's value, 0 when absent
+  double sweep_deg = 0.0;  // swept angle, positive
+  double start_deg = 0.0;  // angle of the first point about the run's centre estimate
+  long segment_id = 0;     // the `segment` column's value, 0 when absent
   std::size_t size() const { return end - begin; }
 };
 

@@ -7,7 +7,7 @@
 namespace circtest {
 
 struct AtomicWriteOptions {
-  bool keep_backup = false;            // copy the old file to <path><backup_suffix> first
+  bool keep_backup = false;  // copy the old file to <path><backup_suffix> first
   std::string backup_suffix = ".bak";
 };
 

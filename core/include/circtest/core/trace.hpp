@@ -34,9 +34,9 @@ class TraceMetadata {
 struct Trace {
   std::string source;  // file name, for messages
   TraceMetadata metadata;
-  std::vector<std::string> columns;              // kept columns, in file order
-  std::vector<std::vector<double>> values;       // values[column][row]
-  std::vector<std::uint32_t> line_of_row;        // 1-based file line of each row
+  std::vector<std::string> columns;         // kept columns, in file order
+  std::vector<std::vector<double>> values;  // values[column][row]
+  std::vector<std::uint32_t> line_of_row;   // 1-based file line of each row
   std::size_t header_line = 0;
 
   std::size_t rows() const { return line_of_row.size(); }
