@@ -48,9 +48,14 @@ class SimMachine : public ::testing::Test {
             ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(out_);
     fs::create_directories(out_);
+    generate("XY");
+  }
+
+  void generate(const std::string& plane) {
     const std::string program = (out_ / "test.ngc").string();
     ASSERT_EQ(run(std::string(CIRCGEN_PATH) + " --d " + std::to_string(2 * kRadius) + " --f " +
-                  std::to_string(kFeed) + " --ini " + CIRCTEST_SIM_INI + " -o " + program),
+                  std::to_string(kFeed) + " --plane " + plane + " --ini " + CIRCTEST_SIM_INI +
+                  " -o " + program),
               0);
   }
   void TearDown() override {
@@ -148,5 +153,32 @@ TEST_F(SimMachine, SquarenessGivesGAndTheLoopShrinksTheRadius) {
   for (const auto& r : command["runs"]) {
     EXPECT_NEAR(r["F_max"].get<double>(), 0.0, 0.0002);
     EXPECT_NEAR(r["F_min"].get<double>(), 0.0, 0.0002);
+  }
+}
+
+// The ZX plane (G18) with the squareness of Z to X (z_table += alpha x) and a scale error
+// of X: with theta from +Z toward +X, dr = (alpha R / 2) sin 2theta + (s R / 2)(1 - cos 2theta),
+// so G = R sqrt(alpha^2 + s^2) and, about the LSC centre, F = s R / 2 +- G / 2.
+TEST_F(SimMachine, ZxPlaneSquarenessAndScale) {
+  generate("ZX");
+  const double alpha = 100e-6, scale = 50e-6;
+  run_machine({{"SQUARENESS_ZX", "100e-6"}, {"SCALE_X", "50e-6"}});
+  const json table = analyse();
+  EXPECT_EQ(table["plane"], "ZX");
+  ASSERT_EQ(table["runs"].size(), 2u);
+  EXPECT_EQ(table["runs"][0]["label"], "ZX");
+  EXPECT_EQ(table["runs"][1]["label"], "XZ");
+  const double g = kRadius * std::hypot(alpha, scale);
+  const double mean = scale * kRadius / 2;
+  for (const auto& r : table["runs"]) {
+    std::printf(
+        "ZX: squareness 100 urad + X scale 50 ppm: G_%s %.3f um (model %.3f), F %+.3f/%+.3f "
+        "um (model %+.3f/%+.3f)\n",
+        r["label"].get<std::string>().c_str(), r["G"].get<double>() * 1e3, g * 1e3,
+        r["F_max"].get<double>() * 1e3, r["F_min"].get<double>() * 1e3, (mean + g / 2) * 1e3,
+        (mean - g / 2) * 1e3);
+    EXPECT_NEAR(r["G"].get<double>(), g, 0.05 * g) << r["label"];
+    EXPECT_NEAR(r["F_max"].get<double>(), mean + g / 2, 0.05 * g) << r["label"];
+    EXPECT_NEAR(r["F_min"].get<double>(), mean - g / 2, 0.05 * g) << r["label"];
   }
 }
