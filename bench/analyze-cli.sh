@@ -16,16 +16,20 @@ rows=$(($(grep -vc '^#' "$trace") - 1))
 size=$(du -m "$trace" | cut -f1)
 echo "trace: $trace, $rows rows, $size MB"
 "$build/bench/parse_baseline" "$trace" 5
-best=999
-for i in 1 2 3 4 5; do
-  s=$(date +%s.%N)
-  "$build/analysis/circana" analyze "$trace" --json >/dev/null
-  e=$(date +%s.%N)
-  best=$(awk -v s="$s" -v e="$e" -v b="$best" 'BEGIN { t = e - s; print (t < b ? t : b) }')
-done
-printf 'circana analyze --json: best of 5: %.3f s\n' "$best"
-/usr/bin/time -f 'circana analyze --json: peak RSS %M KiB, %e s' \
-  "$build/analysis/circana" analyze "$trace" --json >/dev/null
+# Best of 5 wall times of circana on a file, then one run under /usr/bin/time for peak RSS.
+time_circana() {
+  local file=$1 label=$2 best=999 s e
+  for i in 1 2 3 4 5; do
+    s=$(date +%s.%N)
+    "$build/analysis/circana" analyze "$file" --json >/dev/null
+    e=$(date +%s.%N)
+    best=$(awk -v s="$s" -v e="$e" -v b="$best" 'BEGIN { t = e - s; print (t < b ? t : b) }')
+  done
+  printf 'circana analyze --json%s: best of 5: %.3f s\n' "$label" "$best"
+  /usr/bin/time -f "circana analyze --json$label: peak RSS %M KiB, %e s" \
+    "$build/analysis/circana" analyze "$file" --json >/dev/null
+}
+time_circana "$trace" ""
 
 # The same trace in the binary form (docs/trace-format.md).
 binary=$work/trace-1e6.ctb
@@ -34,13 +38,4 @@ if [ ! -f "$binary" ]; then
     --kv-x 30 --kv-y 33 --noise 0.0002 --period 0.0000664
 fi
 echo "binary: $binary, $(du -m "$binary" | cut -f1) MB"
-best=999
-for i in 1 2 3 4 5; do
-  s=$(date +%s.%N)
-  "$build/analysis/circana" analyze "$binary" --json >/dev/null
-  e=$(date +%s.%N)
-  best=$(awk -v s="$s" -v e="$e" -v b="$best" 'BEGIN { t = e - s; print (t < b ? t : b) }')
-done
-printf 'circana analyze --json (binary): best of 5: %.3f s\n' "$best"
-/usr/bin/time -f 'circana analyze --json (binary): peak RSS %M KiB, %e s' \
-  "$build/analysis/circana" analyze "$binary" --json >/dev/null
+time_circana "$binary" " (binary)"
