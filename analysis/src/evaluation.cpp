@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
 
 namespace circtest {
 
@@ -28,13 +29,12 @@ std::optional<std::pair<double, double>> metadata_centre(const Trace& trace, Pla
   std::size_t pos = 0;
   while (pos <= v->size()) {
     const std::size_t comma = std::min(v->find(',', pos), v->size());
-    TraceMetadata one;
-    one.set("centre_mm", v->substr(pos, comma - pos));
-    one.set_line(0, trace.metadata.line_of("centre_mm"));
-    xyz.push_back(*one.number("centre_mm", trace.source));
+    const auto number = parse_finite(std::string_view(*v).substr(pos, comma - pos));
+    if (!number) break;
+    xyz.push_back(*number);
     pos = comma + 1;
   }
-  if (xyz.size() != 3) {
+  if (xyz.size() != 3 || pos <= v->size()) {
     throw ParseError(
         trace.source, trace.metadata.line_of("centre_mm"),
         fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *v));

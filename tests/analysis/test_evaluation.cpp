@@ -244,3 +244,19 @@ TEST(Evaluation, RadiusAndCentreFromCommandedColumnsWhenNoMetadata) {
   EXPECT_EQ(ev.nominal_radius_source, "commanded");
   EXPECT_NEAR(*ev.nominal_radius_mm, kR, 1e-9);
 }
+
+TEST(Evaluation, MalformedCentreMetadataNamesItsLine) {
+  Trace t = sim::simulate({}, {});
+  t.source = "t.csv";
+  TraceMetadata md;
+  md.set("centre_mm", "1,2");
+  md.set_line(0, 3);
+  t.metadata = md;
+  try {
+    evaluate(t, {});
+    FAIL() << "expected an error";
+  } catch (const ParseError& e) {
+    EXPECT_STREQ(e.what(),
+                 "t.csv:3: metadata 'centre_mm': expected three numbers x,y,z, got '1,2'");
+  }
+}
