@@ -1,5 +1,7 @@
 #include "circtest/analysis/report.hpp"
 
+#include "circtest/core/error.hpp"
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -194,7 +196,12 @@ FitReport fit_all(const std::string& source, std::span<const double> a, std::spa
   r.lsc = fit_lsc(a, b);
   r.mzc = fit_mzc(a, b);
   r.mcc = fit_mcc(a, b);
-  r.mic = fit_mic(a, b);
+  try {
+    r.mic = fit_mic(a, b);
+  } catch (const DataError& e) {
+    // An arc of 180 deg or less encloses no inscribed circle; the other fits still stand.
+    r.mic_note = e.detail();
+  }
   return r;
 }
 
@@ -218,7 +225,8 @@ json to_json(const FitReport& r) {
               {"outer_contacts", r.mzc.outer_contacts},
               {"inner_contacts", r.mzc.inner_contacts}};
   j["mcc"] = circle(r.mcc);
-  j["mic"] = circle(r.mic);
+  j["mic"] = r.mic ? circle(*r.mic) : json(nullptr);
+  if (!r.mic) j["mic_note"] = r.mic_note;
   return j;
 }
 
@@ -233,8 +241,12 @@ std::string text_report(const FitReport& r) {
                  r.mzc.certified ? "certified optimal" : "NOT certified");
   fmt::format_to(out, "MCC  centre {:.9f}, {:.9f}  radius {:.9f}\n", r.mcc.circle.centre_a_mm,
                  r.mcc.circle.centre_b_mm, r.mcc.circle.radius_mm);
-  fmt::format_to(out, "MIC  centre {:.9f}, {:.9f}  radius {:.9f}\n", r.mic.circle.centre_a_mm,
-                 r.mic.circle.centre_b_mm, r.mic.circle.radius_mm);
+  if (r.mic) {
+    fmt::format_to(out, "MIC  centre {:.9f}, {:.9f}  radius {:.9f}\n", r.mic->circle.centre_a_mm,
+                   r.mic->circle.centre_b_mm, r.mic->circle.radius_mm);
+  } else {
+    fmt::format_to(out, "MIC  none: {}\n", r.mic_note);
+  }
   return s;
 }
 

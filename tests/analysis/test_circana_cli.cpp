@@ -164,3 +164,19 @@ TEST_F(CircanaCli, FitOfTheCertifiedCaseC09) {
   EXPECT_NEAR(j["mzc"]["centre"][1].get<double>(), 390.0, 1e-6);
   EXPECT_NEAR(j["mzc"]["radius"].get<double>(), 20.0, 1e-6);
 }
+
+TEST_F(CircanaCli, FitOfAHalfArcHasNoInscribedCircleButTheOtherFits) {
+  std::string text = "x,y\n";
+  for (int i = 0; i <= 180; ++i) {
+    const double t = i * 3.14159265358979323846 / 180.0;
+    text += std::to_string(10.0 + 20.0 * std::cos(t)) + "," +
+            std::to_string(-5.0 + 20.0 * std::sin(t)) + "\n";
+  }
+  const std::string arc = write("arc.csv", text);
+  const Result r = run("fit " + arc + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["mic"].is_null());
+  EXPECT_NEAR(j["mzc"]["radius"].get<double>(), 20.0, 1e-5);
+  EXPECT_NEAR(j["lsc"]["centre"][0].get<double>(), 10.0, 1e-4);
+}

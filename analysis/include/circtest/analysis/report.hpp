@@ -2,6 +2,7 @@
 // The result model as JSON (shared by the CLI, the report and later the compensation
 // planner) and the clause 6 text report.
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "circtest/analysis/circle_fit.hpp"
@@ -18,7 +19,8 @@ struct FitReport {
   Circle lsc;
   MinimumZone mzc;
   ContactCircle mcc;
-  ContactCircle mic;
+  std::optional<ContactCircle> mic;  // none when the points do not surround a centre
+  std::string mic_note;
 };
 FitReport fit_all(const std::string& source, std::span<const double> a, std::span<const double> b);
 nlohmann::ordered_json to_json(const FitReport& report);
