@@ -1,6 +1,7 @@
 // circana: ISO 230-4 evaluation of circular-test traces. Parses options, calls the library.
 #include <boost/program_options.hpp>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,14 +62,19 @@ int analyze(const std::vector<std::string>& args) {
   pos.add("trace", 1);
   const auto vm = parse(desc, pos, args);
 
+  // A numeric option's value, when given.
+  auto number = [&vm](const char* name) -> std::optional<double> {
+    if (!vm.count(name)) return std::nullopt;
+    return parse_option_number(std::string("--") + name, vm[name].as<std::string>());
+  };
   AnalyzeRequest req;
   req.trace_path = vm["trace"].as<std::string>();
   req.json = vm.count("json") > 0;
   if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
   auto& o = req.options;
-  if (vm.count("radius")) {
-    o.nominal_radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>());
-    if (*o.nominal_radius_mm <= 0) throw UsageError("--radius: expected a positive number");
+  o.nominal_radius_mm = number("radius");
+  if (o.nominal_radius_mm && *o.nominal_radius_mm <= 0) {
+    throw UsageError("--radius: expected a positive number");
   }
   if (vm.count("centre")) {
     const auto c = parse_option_list("--centre", vm["centre"].as<std::string>(), 2);
@@ -102,22 +108,10 @@ int analyze(const std::vector<std::string>& args) {
   }
   if (vm.count("columns"))
     std::tie(o.column_a, o.column_b) = column_pair(vm["columns"].as<std::string>());
-  if (vm.count("t-machine")) {
-    o.temperatures.machine_C =
-        parse_option_number("--t-machine", vm["t-machine"].as<std::string>());
-  }
-  if (vm.count("t-instrument")) {
-    o.temperatures.instrument_C =
-        parse_option_number("--t-instrument", vm["t-instrument"].as<std::string>());
-  }
-  if (vm.count("alpha-machine")) {
-    o.temperatures.machine_expansion_per_K =
-        parse_option_number("--alpha-machine", vm["alpha-machine"].as<std::string>());
-  }
-  if (vm.count("alpha-instrument")) {
-    o.temperatures.instrument_expansion_per_K =
-        parse_option_number("--alpha-instrument", vm["alpha-instrument"].as<std::string>());
-  }
+  o.temperatures.machine_C = number("t-machine");
+  o.temperatures.instrument_C = number("t-instrument");
+  if (auto a = number("alpha-machine")) o.temperatures.machine_expansion_per_K = *a;
+  if (auto a = number("alpha-instrument")) o.temperatures.instrument_expansion_per_K = *a;
   return run_analyze(req, std::cout);
 }
 

@@ -276,7 +276,8 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
     rr.lsc = fit_lsc(a, b);
     rr.mzc = fit_mzc(a, b);
     rr.g_mzc_mm = rr.mzc.zone_width_mm;
-    rr.g_lsc_mm = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm).width_mm();
+    const RadialRange about_lsc = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm);
+    rr.g_lsc_mm = about_lsc.width_mm();
     if (t && run.size() > 1) {
       const double dt = (*t)[run.end - 1] - (*t)[run.begin];
       if (dt > 0) rr.feed_mm_per_min = run.sweep_deg / kRadToDeg * rr.lsc.radius_mm / dt * 60.0;
@@ -309,7 +310,9 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
     rr.f_centre_a_mm = use_lsc ? rr.lsc.centre_a_mm : *ev.centre_a_mm;
     rr.f_centre_b_mm = use_lsc ? rr.lsc.centre_b_mm : *ev.centre_b_mm;
     if (ev.nominal_radius_mm) {
-      const RadialRange rng = radial_range(a, b, rr.f_centre_a_mm, rr.f_centre_b_mm);
+      // About the LSC centre the range is the one G_lsc already took.
+      const RadialRange rng =
+          use_lsc ? about_lsc : radial_range(a, b, rr.f_centre_a_mm, rr.f_centre_b_mm);
       rr.f_max_mm = rng.max_mm * ev.temperature_factor - *ev.nominal_radius_mm;
       rr.f_min_mm = rng.min_mm * ev.temperature_factor - *ev.nominal_radius_mm;
     }

@@ -9,6 +9,7 @@ Environment (set by circtest-run):
   CIRCTEST_PROGRAM   the G-code program to run (required)
   CIRCTEST_RECORD    the recorder command line, run through the shell (optional)
   CIRCTEST_TIMEOUT   seconds the program may run (default 600)
+  CIRCTEST_DEBUG     when set, print the interpreter and motion state once a second
 """
 import os
 import shlex

@@ -10,16 +10,24 @@
 
 namespace circtest {
 
-std::optional<double> parse_finite(std::string_view text) {
+std::optional<double> parse_number(std::string_view text) {
   while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\t' || text.back() == '\r')) {
+    text.remove_suffix(1);
+  }
   if (text.empty()) return std::nullopt;
   const char* first = text.data();
   const char* last = first + text.size();
-  if (*first == '+') ++first;
+  if (*first == '+') ++first;  // from_chars rejects a leading '+', people write it
   double v = 0.0;
   const auto res = fast_float::from_chars(first, last, v);
-  if (res.ec != std::errc() || res.ptr != last || !std::isfinite(v)) return std::nullopt;
+  if (res.ec != std::errc() || res.ptr != last) return std::nullopt;
+  return v;
+}
+
+std::optional<double> parse_finite(std::string_view text) {
+  const auto v = parse_number(text);
+  if (!v || !std::isfinite(*v)) return std::nullopt;
   return v;
 }
 

@@ -3,7 +3,6 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-#include <fast_float/fast_float.h>
 #include <fmt/format.h>
 #include <sys/stat.h>
 #include <algorithm>
@@ -16,6 +15,7 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
 
 namespace circtest {
 
@@ -53,17 +53,6 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
-// Parses a whole field as a finite double; false if it is not exactly one number.
-bool parse_double(std::string_view text, double& out) {
-  text = trim(text);
-  if (text.empty()) return false;
-  const char* first = text.data();
-  const char* last = first + text.size();
-  if (*first == '+') ++first;  // from_chars rejects a leading '+', people write it
-  const auto res = fast_float::from_chars(first, last, out);
-  return res.ec == std::errc() && res.ptr == last;
-}
-
 std::string shorten(std::string_view s) {
   if (s.size() > 40) return std::string(s.substr(0, 37)) + "...";
   return std::string(s);
@@ -74,8 +63,8 @@ std::string shorten(std::string_view s) {
 std::optional<double> TraceMetadata::number(std::string_view key, const std::string& source) const {
   const std::string* v = find(key);
   if (!v) return std::nullopt;
-  double out = 0.0;
-  if (!parse_double(*v, out) || !std::isfinite(out)) {
+  const auto out = parse_finite(*v);
+  if (!out) {
     throw ParseError(
         source, line_of(key),
         fmt::format("metadata '{}': expected a finite number, got '{}'", key, shorten(*v)));
@@ -276,12 +265,12 @@ class TraceParser {
   }
 
   void store(std::size_t field, std::string_view text) {
-    double v = 0.0;
-    if (!parse_double(text, v)) {
+    const auto v = parse_number(text);
+    if (!v) {
       fail(fmt::format("column '{}': expected a number, got '{}'", header_names_[field],
                        shorten(trim(text))));
     }
-    store_value(field, v, text);
+    store_value(field, *v, text);
   }
 
   void store_value(std::size_t field, double v, std::string_view text) {
@@ -586,7 +575,6 @@ void write_trace(const std::string& path, const Trace& trace) {
   for (const auto& name : trace.columns) {
     TraceColumn c{name};
     if (name == "marker" || name == "segment" || name == "period") c.kind = ColumnKind::integer;
-    if (name == "t") c.decimals = 6;
     cols.push_back(c);
   }
   TraceWriter w(path, trace.metadata, cols);

@@ -29,7 +29,7 @@ TwoLobe two_lobe(const Trace& trace, const RunResult& r, double ca, double cb) {
   const auto& x = *trace.column("x");
   const auto& y = *trace.column("y");
   double s0 = 0, sc = 0, ss = 0;
-  const std::size_t n = r.run.size();
+  const double n = static_cast<double>(r.run.size());
   for (std::size_t i = r.run.begin; i < r.run.end; ++i) {
     const double th = std::atan2(y[i] - cb, x[i] - ca);
     // Less the LSC radius: a run a few samples short of 360 deg would leak the mean into

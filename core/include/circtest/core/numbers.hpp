@@ -6,7 +6,10 @@
 
 namespace circtest {
 
-// The whole text as one finite number (leading '+' and surrounding blanks allowed).
+// The whole text as one number (leading '+' and surrounding blanks allowed); nan and inf
+// are numbers here, so callers can tell "not a number" from "not finite".
+std::optional<double> parse_number(std::string_view text);
+// The same, refusing nan and inf.
 std::optional<double> parse_finite(std::string_view text);
 
 // For option values: throws UsageError "--name: expected <what>, got '<text>'".
