@@ -55,10 +55,20 @@ int run(int argc, char** argv) {
     ("safe-z", po::value<std::string>(),
      "clearance position on the plane's normal axis (Z for XY); approach and leave through it")
     ("dir", po::value<std::string>()->default_value("both"), "both (CCW then CW), ccw or cw")
-    ("arc", po::value<std::string>()->default_value("360"), "measured arc, 90..360 deg")
-    ("start", po::value<std::string>()->default_value("0"),
-     "start angle, deg from the plane's first axis toward its second")
-    ("lead", po::value<std::string>()->default_value("10"), "lead-in and lead-out arcs, deg")
+    ("arc", po::value<std::string>(),
+     "measured arc, 90..360 deg (default 360; ballbar in YZ/ZX: 180)")
+    ("start", po::value<std::string>(),
+     "start angle, deg from the plane's first axis toward its second (default 0; a partial "
+     "arc in YZ/ZX: centred on top)")
+    ("lead", po::value<std::string>(),
+     "lead-in and lead-out (ballbar: overshoot) arcs, deg (default 10; ballbar 20)")
+    ("instrument", po::value<std::string>()->default_value("encoder"),
+     "encoder, grid or ballbar: pauses and moves around the runs")
+    ("approach-feed", po::value<std::string>(),
+     "feed of the descent to the circle and of ballbar feed-in/out (default min(200 mm/min, "
+     "half the lowest feed))")
+    ("feed-in", po::value<std::string>(),
+     "ballbar radial feed-in/out, outside the circle (default 1.5 mm)")
     ("dwell", po::value<std::string>()->default_value("0"),
      "pause where the direction reverses, s (at most 2)")
     ("inch", "program in inch (G20); lengths and feeds given in inch")
@@ -66,7 +76,8 @@ int run(int argc, char** argv) {
     ("segment-out", po::value<std::string>()->default_value("0"), "analog output for M67 ids")
     ("ini", po::value<std::string>(), "LinuxCNC INI file: refuse a test beyond its limits")
     ("offset", po::value<std::string>(),
-     "work offset origin X,Y,Z in machine coordinates, for the --ini check (0,0,0)")
+     "work offset origin X,Y,Z in machine coordinates: the --ini check and the header's "
+     "centre_machine_mm (0,0,0 with --ini)")
     ("output,o", po::value<std::string>(), "write the program to FILE (atomically)");
   // clang-format on
   po::variables_map vm;
@@ -151,22 +162,39 @@ int run(int argc, char** argv) {
   } else {
     throw UsageError(fmt::format("--dir: '{}' is not both, ccw or cw", dir));
   }
-  spec.arc_deg = number("arc");
-  spec.start_deg = number("start");
-  spec.lead_deg = number("lead");
+  const auto instrument = parse_instrument(text("instrument"));
+  if (!instrument) {
+    throw UsageError(
+        fmt::format("--instrument: '{}' is not encoder, grid or ballbar", text("instrument")));
+  }
+  spec.instrument = *instrument;
+  const bool ballbar = spec.instrument == Instrument::ballbar;
+  const bool vertical = spec.plane != Plane::XY;
+  // A ballbar's centre pivot sits on the table: in a vertical plane it runs the usual 220 deg
+  // (180 deg of data and 20 deg overshoot each end) over the top instead of a full circle.
+  spec.arc_deg = vm.count("arc") ? number("arc") : (ballbar && vertical ? 180.0 : 360.0);
+  spec.start_deg =
+      vm.count("start") ? number("start") : default_start_deg(spec.plane, spec.arc_deg);
+  spec.lead_deg =
+      vm.count("lead") ? number("lead") : (ballbar ? kBallbarDefaultOvershootDeg : 10.0);
+  if (vm.count("approach-feed")) spec.approach_feed_mm_per_min = number("approach-feed") * mm;
+  if (vm.count("feed-in")) {
+    if (!ballbar) throw UsageError("--feed-in is only used with --instrument ballbar");
+    spec.feed_in_mm = number("feed-in") * mm;
+  }
   spec.dwell_s = number("dwell");
   spec.marker_output = parse_option_index("marker", text("marker"));
   spec.segment_output = parse_option_index("segment-out", text("segment-out"));
   spec.date = header_date();
+  std::array<double, 3> offset{0.0, 0.0, 0.0};
+  if (vm.count("offset")) {
+    const auto o = parse_option_numbers("offset", text("offset"), 3);
+    for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
+    spec.work_offset_mm = offset;
+  }
   validate(spec);
 
-  if (vm.count("offset") && !vm.count("ini")) throw UsageError("--offset is only used with --ini");
   if (vm.count("ini")) {
-    std::array<double, 3> offset{0.0, 0.0, 0.0};
-    if (vm.count("offset")) {
-      const auto o = parse_option_numbers("offset", text("offset"), 3);
-      for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
-    }
     const MachineLimits limits = read_machine_limits(text("ini"));
     const auto checks = check_against_machine(spec, limits, offset);
     std::string list;
@@ -176,6 +204,9 @@ int run(int argc, char** argv) {
   }
 
   const TestProgram program = generate_test_program(spec);
+  for (const std::string& warning : program_warnings(spec)) {
+    std::cerr << "circgen: warning: " << warning << '\n';
+  }
   if (vm.count("output")) {
     write_file_atomic(text("output"), program.text);
   } else {

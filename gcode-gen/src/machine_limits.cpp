@@ -184,9 +184,12 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
     // The tool never visits the centre of the circle, only the normal axis stays there.
     low[a] = low[b] = std::numeric_limits<double>::infinity();
     high[a] = high[b] = -std::numeric_limits<double>::infinity();
+    // A ballbar's feed-in starts outside the circle.
+    const double reach_mm =
+        spec.radius_mm + (spec.instrument == Instrument::ballbar ? spec.feed_in_mm : 0.0);
     for (double deg : angles) {
-      const double pa = spec.centre_mm[a] + spec.radius_mm * std::cos(deg_to_rad(deg));
-      const double pb = spec.centre_mm[b] + spec.radius_mm * std::sin(deg_to_rad(deg));
+      const double pa = spec.centre_mm[a] + reach_mm * std::cos(deg_to_rad(deg));
+      const double pb = spec.centre_mm[b] + reach_mm * std::sin(deg_to_rad(deg));
       low[a] = std::min(low[a], pa), high[a] = std::max(high[a], pa);
       low[b] = std::min(low[b], pb), high[b] = std::max(high[b], pb);
     }

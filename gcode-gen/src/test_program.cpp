@@ -93,14 +93,25 @@ class ProgramWriter {
     return s;
   }
 
-  std::array<double, 3> point_at(double angle_deg) const {
+  // A point on the test circle, or on a concentric one `extra` program units further out.
+  std::array<double, 3> point_at(double angle_deg, double extra = 0.0) const {
     std::array<double, 3> p = centre_;
     const double t = deg_to_rad(angle_deg);
-    p[axis_index(axes_.first)] =
-        round_units(centre_[axis_index(axes_.first)] + radius_ * std::cos(t));
-    p[axis_index(axes_.second)] =
-        round_units(centre_[axis_index(axes_.second)] + radius_ * std::sin(t));
+    const double r = radius_ + extra;
+    p[axis_index(axes_.first)] = round_units(centre_[axis_index(axes_.first)] + r * std::cos(t));
+    p[axis_index(axes_.second)] = round_units(centre_[axis_index(axes_.second)] + r * std::sin(t));
     return p;
+  }
+
+  // "X65 Y-13.02": the in-plane coordinates of a point, for operator messages.
+  std::string plane_point_text(const std::array<double, 3>& p) const {
+    return fmt::format("{}{} {}{}", upper(axes_.first), number(p[axis_index(axes_.first)]),
+                       upper(axes_.second), number(p[axis_index(axes_.second)]));
+  }
+
+  // "X65 Y-13.02 Z0": a point for operator messages.
+  std::string point_text(const std::array<double, 3>& p) const {
+    return fmt::format("X{} Y{} Z{}", number(p[0]), number(p[1]), number(p[2]));
   }
 
   // G0/G1 to a point; only the listed axes are written.
@@ -117,10 +128,11 @@ class ProgramWriter {
 
   // An arc on the test circle from `from_deg`, turning `sweep_deg` (positive) in `direction`.
   // A sweep of 360 deg is written as a full circle (end point = start point).
-  void arc(Direction direction, double from_deg, double sweep_deg, const std::string& suffix) {
+  void arc(Direction direction, double from_deg, double sweep_deg, const std::string& suffix,
+           double extra = 0.0) {
     const double to_deg = direction == Direction::CCW ? from_deg + sweep_deg : from_deg - sweep_deg;
     const std::array<double, 3> end =
-        std::abs(sweep_deg - 360.0) < kAngleEpsilonDeg ? position_ : point_at(to_deg);
+        std::abs(sweep_deg - 360.0) < kAngleEpsilonDeg ? position_ : point_at(to_deg, extra);
     std::string s = direction == Direction::CCW ? "G3" : "G2";
     for (char axis : std::string_view("xyz")) {
       if (axis == axes_.normal) continue;
@@ -136,6 +148,8 @@ class ProgramWriter {
   }
 
   void set_position(const std::array<double, 3>& p) { position_ = p; }
+  const std::array<double, 3>& position() const { return position_; }
+  double to_units(double mm) const { return mm * scale_; }
   const std::array<double, 3>& centre() const { return centre_; }
   std::string take() { return std::move(text_); }
 
@@ -173,6 +187,68 @@ std::string segments_value(const CircleTestSpec& spec, const std::vector<Measure
 }
 
 }  // namespace
+
+const char* instrument_name(Instrument instrument) noexcept {
+  switch (instrument) {
+    case Instrument::grid:
+      return "grid";
+    case Instrument::ballbar:
+      return "ballbar";
+    case Instrument::encoder:
+      break;
+  }
+  return "encoder";
+}
+
+std::optional<Instrument> parse_instrument(std::string_view text) {
+  for (Instrument i : {Instrument::encoder, Instrument::grid, Instrument::ballbar}) {
+    if (text == instrument_name(i)) return i;
+  }
+  return std::nullopt;
+}
+
+double approach_feed_mm_per_min(const CircleTestSpec& spec) {
+  if (spec.approach_feed_mm_per_min) return *spec.approach_feed_mm_per_min;
+  double lowest = kDefaultApproachFeedMmPerMin * 2.0;
+  for (double f : spec.feeds_mm_per_min) lowest = std::min(lowest, f);
+  return lowest / 2.0;
+}
+
+namespace {
+// The angle of +Z, the top of the circle, in the plane's angle convention (from the first
+// axis toward the second); nullopt for XY, which has no top.
+std::optional<double> top_deg(Plane plane) {
+  if (plane == Plane::YZ) return 90.0;  // y -> z: +Z is the second axis
+  if (plane == Plane::ZX) return 0.0;   // z -> x: +Z is the first axis
+  return std::nullopt;
+}
+}  // namespace
+
+double default_start_deg(Plane plane, double arc_deg) {
+  const auto top = top_deg(plane);
+  if (!top || arc_deg >= 360.0) return 0.0;
+  return normalize_deg(*top - arc_deg / 2.0);
+}
+
+std::vector<std::string> program_warnings(const CircleTestSpec& spec) {
+  std::vector<std::string> warnings;
+  const auto top = top_deg(spec.plane);
+  if (!top) return warnings;
+  // A full circle in a vertical plane goes below the centre by definition; only say so when
+  // the user chose a partial arc, or a ballbar whose pivot usually sits on the table.
+  if (spec.arc_deg >= 360.0 && spec.instrument != Instrument::ballbar) return warnings;
+  const auto [from, to] = swept_range_deg(spec);
+  const double bottom = *top + 180.0;
+  const double rel = normalize_deg(bottom - from);
+  if (to - from >= 360.0 || rel <= to - from) {
+    warnings.push_back(fmt::format(
+        "the {} deg arc [{} to {} deg with the leads] passes below the centre in {}, towards the "
+        "table; check the set-up clears it, or drop --start to keep the arc on top",
+        header_number(spec.arc_deg), header_number(from), header_number(to),
+        plane_name(spec.plane)));
+  }
+  return warnings;
+}
 
 const char* length_unit_name(LengthUnit units) noexcept {
   return units == LengthUnit::mm ? "mm" : "inch";
@@ -241,6 +317,43 @@ void validate(const CircleTestSpec& spec) {
   if (spec.segment_output < 0 || spec.segment_output > kMaxOutputIndex) {
     throw UsageError(fmt::format("--segment-out: analog output must be 0..{}, got {}",
                                  kMaxOutputIndex, spec.segment_output));
+  }
+  if (spec.approach_feed_mm_per_min) {
+    const double a = *spec.approach_feed_mm_per_min;
+    const double lowest =
+        *std::min_element(spec.feeds_mm_per_min.begin(), spec.feeds_mm_per_min.end());
+    if (!finite(a) || a <= 0.0) {
+      throw UsageError(fmt::format("--approach-feed: must be positive, got {}", header_number(a)));
+    }
+    if (a > lowest) {
+      throw UsageError(
+          fmt::format("--approach-feed: {} is above the test feed {}; the approach must be slower",
+                      header_number(a), header_number(lowest)));
+    }
+  }
+  if (spec.instrument == Instrument::ballbar) {
+    if (!finite(spec.feed_in_mm) || spec.feed_in_mm < kBallbarMinFeedInMm ||
+        spec.feed_in_mm > kBallbarMaxFeedInMm) {
+      throw UsageError(fmt::format("--feed-in: the ballbar feed-in must be {}..{} mm, got {}",
+                                   header_number(kBallbarMinFeedInMm),
+                                   header_number(kBallbarMaxFeedInMm),
+                                   header_number(spec.feed_in_mm)));
+    }
+    if (spec.radius_mm < kBallbarMinRadiusMm || spec.radius_mm > kBallbarMaxRadiusMm) {
+      throw UsageError(fmt::format(
+          "--instrument ballbar: radius {} mm is outside the {}..{} mm a telescoping ball bar "
+          "with its extensions spans",
+          header_number(spec.radius_mm), header_number(kBallbarMinRadiusMm),
+          header_number(kBallbarMaxRadiusMm)));
+    }
+    for (double f : spec.feeds_mm_per_min) {
+      if (f > kBallbarMaxFeedMmPerMin) {
+        throw UsageError(fmt::format(
+            "--instrument ballbar: feed {} mm/min is above the {} mm/min circgen allows a ball "
+            "bar [see docs/circgen.md]",
+            header_number(f), header_number(kBallbarMaxFeedMmPerMin)));
+      }
+    }
   }
   for (const auto& [key, value] : spec.extra_header) {
     if (key.find_first_of("():\n") != std::string::npos ||
@@ -333,6 +446,26 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
     if (inch) add("safe_in", header_number(*spec.safe_mm * to_units));
   }
   add("motion_mode", "G61");
+  add("motion_mode_after", "G64");
+  add("feed_override", "off during the runs by M50 P0, back on after by M50 P1");
+  add("instrument", instrument_name(spec.instrument));
+  add("approach_feed_mm_per_min", header_number(approach_feed_mm_per_min(spec)));
+  if (inch)
+    add("approach_feed_in_per_min", header_number(approach_feed_mm_per_min(spec) * to_units));
+  if (spec.instrument == Instrument::ballbar) {
+    add("feed_in_mm", header_number(spec.feed_in_mm));
+    if (inch) add("feed_in_in", header_number(spec.feed_in_mm * to_units));
+  }
+  // circgen never sets G54..G59.3 or G43/G49: the program runs in whatever the operator set.
+  add("work_offset", "inherited, not set by the program");
+  add("tool_length_offset", "inherited, not set by the program");
+  if (spec.work_offset_mm) {
+    std::vector<double> machine;
+    for (int i = 0; i < 3; ++i) machine.push_back(spec.centre_mm[i] + (*spec.work_offset_mm)[i]);
+    add("work_offset_origin_machine_mm",
+        header_list({spec.work_offset_mm->begin(), spec.work_offset_mm->end()}));
+    add("centre_machine_mm", header_list(machine));
+  }
   add("marker_output", std::to_string(spec.marker_output));
   add("segment_output", std::to_string(spec.segment_output));
   add("segments", segments_value(spec, program.runs, w));
@@ -353,41 +486,91 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
   const std::string plane_word = fmt::format("G{}", plane_gcode(spec.plane));
   const std::string marker = fmt::format("P{}", spec.marker_output);
   const std::string segment = fmt::format("E{}", spec.segment_output);
+  const bool ballbar = spec.instrument == Instrument::ballbar;
+  const char N = upper(axes.normal);
+  const std::string normal(1, axes.normal);
+  const std::string in_plane{axes.first, axes.second};
+  const std::string approach_f = w.feed(approach_feed_mm_per_min(spec));
+  const std::string centre_normal = w.number(w.centre()[axis_index(axes.normal)]);
+  // The ballbar's radial moves run between the circle and a point this far outside it.
+  const double outside = ballbar ? w.to_units(spec.feed_in_mm) : 0.0;
+  const std::string feed_in_text = w.number(outside);
+  const MeasuredRun& first = program.runs.front();
+  const double first_lead_deg = lead_in_start_deg(spec, first.direction);
+  const std::array<double, 3> start = w.point_at(first_lead_deg, outside);
+  std::string feeds_text;
+  for (double f : spec.feeds_mm_per_min)
+    feeds_text += (feeds_text.empty() ? "F" : ",F") + w.feed(f);
+  std::string dirs_text;
+  for (Direction d : spec.directions)
+    dirs_text += (dirs_text.empty() ? "" : " then ") + std::string(direction_name(d));
+
+  // Nothing moves before the operator has read where the program goes and said go (M0).
+  w.line("M5 M9 (spindle and coolant off)");
   w.line(fmt::format("{} {} G90 G91.1 G94 G40 G80", inch ? "G20" : "G21", plane_word));
   // G61 (exact path): no blend arcs or parabolic blends, so no join can round off the
   // circle, while tangent joins (lead arc to measured arc) still pass at the feed.
   w.line("G61");
   w.line(fmt::format("M65 {}", marker));
   w.line(fmt::format("M68 {} Q0", segment));
+  const char* u = length_unit_name(spec.units);
+  w.line(fmt::format("(MSG, circtest: {} test in {} {}, R{} {}, {} at {} {}/min, centre {})",
+                     instrument_name(spec.instrument), plane_name(spec.plane), plane_word,
+                     w.number(w.to_units(spec.radius_mm)), u, dirs_text, feeds_text, u,
+                     w.point_text(w.centre())));
+  if (spec.safe_mm) {
+    w.line(
+        fmt::format("(MSG, Next: {} rapid alone to {}, rapid in the plane to above {}, "
+                    "{} down to {} at F{})",
+                    N, w.number(*spec.safe_mm * to_units), w.plane_point_text(start), N,
+                    centre_normal, approach_f));
+  } else {
+    w.line(
+        fmt::format("(MSG, Raise {} clear of the set-up now. Next: rapid in the plane at "
+                    "this {} height to above {}, then {} alone to {} at F{})",
+                    N, N, w.plane_point_text(start), N, centre_normal, approach_f));
+  }
+  w.line(
+      fmt::format("(MSG, Check: work offset and tool length as intended, the path clear{}, "
+                  "then cycle start)",
+                  ballbar ? ", ballbar NOT mounted yet"
+                          : (spec.instrument == Instrument::grid ? ", grid head mounted" : "")));
+  w.line("M0 (operator check before any motion)");
 
-  const MeasuredRun& first = program.runs.front();
-  const double first_feed = first.feed_mm_per_min;
-  const std::array<double, 3> start = w.point_at(lead_in_start_deg(spec, first.direction));
-  const std::string normal(1, axes.normal);
-  const std::string in_plane{axes.first, axes.second};
+  // Approach: the normal axis and the plane's axes never move together.
   if (spec.safe_mm) {
     std::array<double, 3> safe = start;
     safe[axis_index(axes.normal)] = *spec.safe_mm * to_units;
     w.move("G0", safe, normal, " (clearance)");
-    w.move("G0", safe, in_plane, " (above the lead-in start)");
-    w.move("G1", start, normal, fmt::format(" F{} (approach)", w.feed(first_feed)));
+    w.move("G0", safe, in_plane, " (above the start)");
   } else {
-    w.move("G1", start, "xyz", fmt::format(" F{} (approach)", w.feed(first_feed)));
+    w.move("G0", start, in_plane, " (in the plane, at the height the operator left)");
   }
+  w.move("G1", start, normal, fmt::format(" F{} (approach)", approach_f));
+  if (ballbar) {
+    w.line(
+        fmt::format("(MSG, Mount the ballbar now: centre pivot at {}, tool cup here, {} {} "
+                    "outside the circle; next a radial feed-in of {} {} at F{})",
+                    w.point_text(w.centre()), feed_in_text, u, feed_in_text, u, approach_f));
+    w.line("M0 (mount the ballbar)");
+  }
+  // The feed override would change the feed of the measured arcs.
+  w.line("M50 P0 (feed override off for the runs)");
 
-  double angle_deg = lead_in_start_deg(spec, first.direction);
+  double angle_deg = first_lead_deg;
   std::optional<Direction> previous;
   for (const MeasuredRun& run : program.runs) {
     const std::string f = w.feed(run.feed_mm_per_min);
     const double lead_start = lead_in_start_deg(spec, run.direction);
     if (previous) {
       // A single-direction sweep must get back to the lead-in start; going back through the
-      // tested range keeps a partial arc clear of whatever made it partial.
+      // tested range keeps a partial arc clear of whatever made it partial. A ballbar goes
+      // back outside the circle, after its feed-out.
       const double gap = *previous == Direction::CCW ? normalize_deg(angle_deg - lead_start)
                                                      : normalize_deg(lead_start - angle_deg);
       if (gap > kAngleEpsilonDeg) {
         const Direction back = *previous == Direction::CCW ? Direction::CW : Direction::CCW;
-        w.arc(back, angle_deg, gap, fmt::format(" F{} (back to the lead-in start)", f));
+        w.arc(back, angle_deg, gap, fmt::format(" F{} (back to the lead-in start)", f), outside);
       } else if (*previous != run.direction && spec.dwell_s > 0.0) {
         w.line(fmt::format("G4 P{}", header_number(spec.dwell_s)));
       }
@@ -397,7 +580,12 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
     const double sign = ccw ? 1.0 : -1.0;
     w.line(fmt::format("(run {}: {} {} F{})", run.segment_id, direction_name(run.direction),
                        direction_label(spec.plane, run.direction), f));
-    w.arc(run.direction, angle_deg, spec.lead_deg, fmt::format(" F{} (lead-in)", f));
+    if (ballbar) {
+      w.move("G1", w.point_at(angle_deg), in_plane,
+             fmt::format(" F{} (feed-in {})", approach_f, feed_in_text));
+    }
+    w.arc(run.direction, angle_deg, spec.lead_deg,
+          fmt::format(" F{} ({})", f, ballbar ? "overshoot" : "lead-in"));
     angle_deg += sign * spec.lead_deg;
     w.line(fmt::format("M67 {} Q{}", segment, run.segment_id));
     w.line(fmt::format("M62 {}", marker));
@@ -407,12 +595,26 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
     // the marker and the id drop exactly where the measured arc ends.
     w.line(fmt::format("M63 {}", marker));
     w.line(fmt::format("M67 {} Q0", segment));
-    w.arc(run.direction, angle_deg, spec.lead_deg, " (lead-out)");
+    w.arc(run.direction, angle_deg, spec.lead_deg, ballbar ? " (overshoot)" : " (lead-out)");
     angle_deg += sign * spec.lead_deg;
+    if (ballbar) {
+      w.move("G1", w.point_at(angle_deg, outside), in_plane,
+             fmt::format(" F{} (feed-out {})", approach_f, feed_in_text));
+    }
     previous = run.direction;
   }
+  w.line("M50 P1 (feed override back on)");
+  w.line("G64 (path blending back on)");
+  if (ballbar) {
+    w.line(
+        spec.safe_mm
+            ? fmt::format("(MSG, Remove the ballbar now: next {} rapids to {})", N,
+                          w.number(*spec.safe_mm * to_units))
+            : std::string("(MSG, Remove the ballbar now: the program then ends without moving)"));
+    w.line("M0 (remove the ballbar before any retract)");
+  }
   if (spec.safe_mm) {
-    std::array<double, 3> safe{};
+    std::array<double, 3> safe = w.position();
     safe[axis_index(axes.normal)] = *spec.safe_mm * to_units;
     w.move("G0", safe, normal, " (clearance)");
   }

@@ -152,6 +152,8 @@ CanonProgram parse_canon(const std::string& text) {
   std::array<double, 3> position{0.0, 0.0, 0.0};
   char first = 'x', second = 'y', normal = 'z';
   double feed = 0.0;
+  bool feed_override = true;
+  std::string control_mode;
   std::map<int, bool> bits, pending_bits;
   std::map<int, double> values, pending_values;
   std::istringstream in(text);
@@ -167,6 +169,8 @@ CanonProgram parse_canon(const std::string& text) {
     }
     const std::string name = line.substr(dots + 7, open - dots - 7);
     program.calls.push_back(name);
+    program.call_log.push_back(
+        {name, line.substr(open + 1, close - open - 1), program.motions.size()});
     if (name == "COMMENT" || name == "MESSAGE") continue;
     const auto args = split_args(line.substr(open + 1, close - open - 1));
     auto motion = [&](CanonMotion::Kind kind, const std::array<double, 3>& end) {
@@ -181,6 +185,8 @@ CanonProgram parse_canon(const std::string& text) {
       m.end = end;
       m.first = first, m.second = second;
       m.feed = feed;
+      m.feed_override = feed_override;
+      m.control_mode = control_mode;
       m.bits = bits, m.values = values;
       position = end;
       return m;
@@ -192,6 +198,12 @@ CanonProgram parse_canon(const std::string& text) {
       if (args.at(0) == "CANON_PLANE_XY") first = 'x', second = 'y', normal = 'z';
       if (args.at(0) == "CANON_PLANE_YZ") first = 'y', second = 'z', normal = 'x';
       if (args.at(0) == "CANON_PLANE_XZ") first = 'z', second = 'x', normal = 'y';
+    } else if (name == "DISABLE_FEED_OVERRIDE") {
+      feed_override = false;
+    } else if (name == "ENABLE_FEED_OVERRIDE") {
+      feed_override = true;
+    } else if (name == "SET_MOTION_CONTROL_MODE") {
+      control_mode = args.at(0);
     } else if (name == "SET_FEED_RATE") {
       feed = num(args, 0);
     } else if (name == "STRAIGHT_FEED" || name == "STRAIGHT_TRAVERSE") {

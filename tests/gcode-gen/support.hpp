@@ -48,6 +48,8 @@ struct CanonMotion {
   char first = 'x', second = 'y';  // the arc's in-plane axes, as ARC_FEED orders them
   int rotation = 0;                // ARC_FEED's turn count, signed
   double feed = 0.0;               // SET_FEED_RATE in effect
+  bool feed_override = true;       // DISABLE/ENABLE_FEED_OVERRIDE in effect
+  std::string control_mode;        // SET_MOTION_CONTROL_MODE in effect, e.g. CANON_EXACT_PATH
   std::map<int, bool> bits;        // motion digital outputs during the move
   std::map<int, double> values;    // motion analog outputs during the move
   double sweep_deg() const;        // signed, + from `first` toward `second`
@@ -56,11 +58,19 @@ struct CanonMotion {
   double radius_end() const;
 };
 
+// One canonical call in program order, placed among the motions.
+struct CanonCall {
+  std::string name;
+  std::string args;                // the text between the parentheses
+  std::size_t motions_before = 0;  // motions that precede this call
+};
+
 struct CanonProgram {
   std::string units;  // "mm" or "inch" (last USE_LENGTH_UNITS)
   std::vector<CanonMotion> motions;
-  std::vector<std::string> calls;  // every call name in order, for sequence checks
-  bool ended = false;              // PROGRAM_END seen
+  std::vector<std::string> calls;   // every call name in order, for sequence checks
+  std::vector<CanonCall> call_log;  // the same calls with their arguments and position
+  bool ended = false;               // PROGRAM_END seen
 };
 
 // Parses rs274's canon output (saicanon's ECHO format: "  N N..... NAME(args)").

@@ -109,10 +109,38 @@ std::vector<BadCase> usage_cases() {
        2,
        "--marker: digital output must be 0..63"},
       {"long_dwell", {"--d", "150", "--f", "300", "--dwell", "5"}, 2, "--dwell: must be 0..2 s"},
-      {"offset_without_ini",
-       {"--d", "150", "--f", "300", "--offset", "0,0,0"},
+      {"unknown_instrument",
+       {"--d", "150", "--f", "300", "--instrument", "laser"},
        2,
-       "--offset is only used with --ini"},
+       "--instrument: 'laser' is not encoder, grid or ballbar"},
+      {"approach_faster_than_test",
+       {"--d", "150", "--f", "300", "--approach-feed", "400"},
+       2,
+       "--approach-feed: 400 is above the test feed 300"},
+      {"approach_zero",
+       {"--d", "150", "--f", "300", "--approach-feed", "0"},
+       2,
+       "--approach-feed: must be positive"},
+      {"ballbar_radius_too_small",
+       {"--d", "80", "--f", "300", "--instrument", "ballbar"},
+       2,
+       "radius 40 mm is outside the 50..600 mm"},
+      {"ballbar_radius_too_large",
+       {"--d", "1300", "--f", "300", "--instrument", "ballbar"},
+       2,
+       "radius 650 mm is outside the 50..600 mm"},
+      {"ballbar_feed_too_high",
+       {"--d", "200", "--feeds", "1000,12000", "--instrument", "ballbar"},
+       2,
+       "feed 12000 mm/min is above the 10000 mm/min"},
+      {"ballbar_feed_in_too_long",
+       {"--d", "200", "--f", "1000", "--instrument", "ballbar", "--feed-in", "5"},
+       2,
+       "--feed-in: the ballbar feed-in must be 0.5..3 mm, got 5"},
+      {"feed_in_without_ballbar",
+       {"--d", "200", "--f", "1000", "--feed-in", "1"},
+       2,
+       "--feed-in is only used with --instrument ballbar"},
   };
 }
 
@@ -249,6 +277,61 @@ TEST_F(gcode_CliIni, InchMachineLimitsAreConverted) {
   spit(ini(), text);
   expect_refused(run({"--d", "300", "--f", "300"}), 6,
                  "X = 5.905511811023622 inch in machine coordinates, above [AXIS_X] MAX_LIMIT = 5");
+}
+
+TEST_F(gcode_CliIni, BallbarFeedInStartCountsForTheSoftLimits) {
+  // R 199 reaches X 199 on the circle; the feed-in starts 1.5 mm further out, at 200.5.
+  EXPECT_EQ(run({"--d", "398", "--f", "300"}).exit_code, 0);
+  expect_refused(run({"--d", "398", "--f", "300", "--instrument", "ballbar"}), 6,
+                 "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+}
+
+TEST(gcode_Cli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
+  const CommandResult r =
+      run_circgen({"--d", "150", "--f", "300", "--centre", "10,20,-5", "--offset", "100,-50,-200"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("(circtest: work_offset: inherited, not set by the program)"),
+            std::string::npos);
+  EXPECT_NE(r.out.find("(circtest: tool_length_offset: inherited, not set by the program)"),
+            std::string::npos);
+  EXPECT_NE(r.out.find("(circtest: centre_machine_mm: 110,-30,-205)"), std::string::npos);
+  EXPECT_EQ(run_circgen({"--d", "150", "--f", "300"}).out.find("centre_machine_mm"),
+            std::string::npos);
+}
+
+TEST(gcode_Cli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
+  // ZX: +Z is 0 deg, the bottom 180 deg. 180 deg from 90 with 10 deg leads covers 80..280.
+  const CommandResult below =
+      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180", "--start", "90"});
+  ASSERT_EQ(below.exit_code, 0) << below.err;
+  EXPECT_TRUE(below.err.starts_with("circgen: warning: the 180 deg arc")) << below.err;
+  EXPECT_NE(below.err.find("passes below the centre in ZX"), std::string::npos);
+  EXPECT_FALSE(below.out.empty());
+  // Without --start the partial arc is centred on top: no warning, and the start says so.
+  const CommandResult top =
+      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180"});
+  EXPECT_TRUE(top.err.empty()) << top.err;
+  EXPECT_NE(top.out.find("(circtest: start_deg: 270)"), std::string::npos);
+  const CommandResult yz =
+      run_circgen({"--plane", "YZ", "--d", "150", "--f", "300", "--arc", "120"});
+  EXPECT_TRUE(yz.err.empty()) << yz.err;
+  EXPECT_NE(yz.out.find("(circtest: start_deg: 30)"), std::string::npos);
+  // A ballbar in a vertical plane defaults to 180 deg of data with 20 deg overshoots on top.
+  const CommandResult bar =
+      run_circgen({"--plane", "YZ", "--d", "200", "--f", "500", "--instrument", "ballbar"});
+  ASSERT_EQ(bar.exit_code, 0) << bar.err;
+  EXPECT_TRUE(bar.err.empty()) << bar.err;
+  EXPECT_NE(bar.out.find("(circtest: arc_deg: 180)"), std::string::npos);
+  EXPECT_NE(bar.out.find("(circtest: start_deg: 0)"), std::string::npos);
+  EXPECT_NE(bar.out.find("(circtest: lead_deg: 20)"), std::string::npos);
+  // A full circle with a ballbar in a vertical plane goes through the bottom: warned.
+  const CommandResult full = run_circgen(
+      {"--plane", "YZ", "--d", "200", "--f", "500", "--instrument", "ballbar", "--arc", "360"});
+  EXPECT_EQ(full.exit_code, 0);
+  EXPECT_NE(full.err.find("passes below the centre in YZ"), std::string::npos) << full.err;
+  // XY has no below.
+  EXPECT_TRUE(
+      run_circgen({"--d", "150", "--f", "300", "--arc", "180", "--start", "90"}).err.empty());
 }
 
 TEST(gcode_Cli, OutputFileIsWrittenAndStdoutStaysEmpty) {

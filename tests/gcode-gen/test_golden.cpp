@@ -29,16 +29,24 @@ TEST_P(gcode_Golden, ProgramMatchesTheReviewedFile) {
 
 INSTANTIATE_TEST_SUITE_P(
     Programs, gcode_Golden,
-    ::testing::Values(Golden{"default_d150_f300", {"--d", "150", "--f", "300"}},
-                      Golden{
-                          "zx_partial_safe",
-                          {"--plane", "ZX", "--d", "100", "--f", "500", "--arc", "180", "--start",
-                           "0", "--lead", "15", "--centre", "0,-20,-50", "--safe-z", "10"}},
-                      Golden{"inch_sweep_cw",
-                             {"--inch", "--d", "4", "--feeds", "10,20", "--dir", "cw", "--marker",
-                              "1", "--segment-out", "2"}},
-                      Golden{"annex_c_d125",
-                             {"--d", "125", "--ref-d", "100", "--ref-f", "500", "--dwell", "0.5"}}),
+    ::testing::Values(
+        Golden{"default_d150_f300", {"--d", "150", "--f", "300"}},
+        Golden{"zx_partial_safe",
+               {"--plane", "ZX", "--d", "100", "--f", "500", "--arc", "180", "--start", "0",
+                "--lead", "15", "--centre", "0,-20,-50", "--safe-z", "10"}},
+        Golden{"inch_sweep_cw",
+               {"--inch", "--d", "4", "--feeds", "10,20", "--dir", "cw", "--marker", "1",
+                "--segment-out", "2"}},
+        Golden{"annex_c_d125",
+               {"--d", "125", "--ref-d", "100", "--ref-f", "500", "--dwell", "0.5"}},
+        Golden{"ballbar_xy_safe",
+               {"--instrument", "ballbar", "--d", "200", "--f", "1000", "--safe-z", "30",
+                "--offset", "250,-120,-400"}},
+        Golden{"ballbar_yz_default",
+               {"--instrument", "ballbar", "--plane", "YZ", "--d", "300", "--f", "800"}},
+        Golden{"grid_xy_sweep",
+               {"--instrument", "grid", "--d", "140", "--feeds", "500,2000", "--safe-z", "5",
+                "--approach-feed", "300"}}),
     [](const ::testing::TestParamInfo<Golden>& p) { return p.param.name; });
 
 }  // namespace

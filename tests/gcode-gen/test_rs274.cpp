@@ -2,7 +2,11 @@
 // it prints are checked against geometry computed here from the variant's own numbers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -67,7 +71,7 @@ std::vector<Variant> variants() {
        {400},
        {CCW, CW},
        180,
-       0,
+       270,  // a partial arc in ZX is centred on top (+Z) by default
        20},
       {"yz_partial_90_cw_sweep",
        {"--plane", "YZ", "--d", "100", "--arc", "90", "--start", "45", "--dir", "cw", "--feeds",
@@ -132,7 +136,113 @@ std::vector<Variant> variants() {
        {0, 0, 0},
        {559},
        {CCW, CW}},
+      {"ballbar_xy_safe",
+       {"--instrument", "ballbar", "--d", "200", "--f", "1000", "--centre", "10,20,-50", "--safe-z",
+        "30"},
+       Plane::XY,
+       100,
+       {10, 20, -50},
+       {1000},
+       {CCW, CW},
+       360,
+       0,
+       20},
+      {"ballbar_xy_ccw_sweep_feed_in_approach",
+       {"--instrument", "ballbar", "--d", "150", "--feeds", "500,1000", "--dir", "ccw", "--feed-in",
+        "2", "--approach-feed", "120", "--start", "45"},
+       Plane::XY,
+       75,
+       {0, 0, 0},
+       {500, 1000},
+       {CCW},
+       360,
+       45,
+       20},
+      {"ballbar_yz_default_top",
+       {"--instrument", "ballbar", "--plane", "YZ", "--d", "300", "--f", "800", "--centre",
+        "0,0,100", "--safe-z", "50"},
+       Plane::YZ,
+       150,
+       {0, 0, 100},
+       {800},
+       {CCW, CW},
+       180,
+       0,
+       20},
+      {"ballbar_zx_partial_cw_sweep",
+       {"--instrument", "ballbar", "--plane", "ZX", "--d", "200", "--feeds", "300,600", "--dir",
+        "cw"},
+       Plane::ZX,
+       100,
+       {0, 0, 0},
+       {300, 600},
+       {CW},
+       180,
+       270,
+       20},
+      {"ballbar_inch_xy",
+       {"--instrument", "ballbar", "--inch", "--d", "8", "--f", "40", "--safe-z", "2"},
+       Plane::XY,
+       4,
+       {0, 0, 0},
+       {40},
+       {CCW, CW},
+       360,
+       0,
+       20,
+       "inch"},
+      {"grid_xy_safe",
+       {"--instrument", "grid", "--d", "140", "--f", "2000", "--safe-z", "5", "--approach-feed",
+        "300"},
+       Plane::XY,
+       70,
+       {0, 0, 0},
+       {2000},
+       {CCW, CW}},
+      {"grid_yz_partial",
+       {"--instrument", "grid", "--plane", "YZ", "--d", "100", "--f", "1000", "--arc", "200"},
+       Plane::YZ,
+       50,
+       {0, 0, 0},
+       {1000},
+       {CCW, CW},
+       200,
+       350},
+      {"encoder_zx_partial_safe",
+       {"--plane", "ZX", "--d", "100", "--f", "500", "--arc", "120", "--safe-z", "-10"},
+       Plane::ZX,
+       50,
+       {0, 0, 0},
+       {500},
+       {CCW, CW},
+       120,
+       300},
   };
+}
+
+// The value of an option in the variant's arguments, if given.
+std::optional<std::string> arg(const Variant& v, const std::string& name) {
+  for (std::size_t i = 0; i + 1 < v.args.size(); ++i)
+    if (v.args[i] == name) return v.args[i + 1];
+  return std::nullopt;
+}
+
+bool is_ballbar(const Variant& v) {
+  return arg(v, "--instrument") == "ballbar";
+}
+
+// The ballbar's feed-in in program units: 1.5 mm unless --feed-in says otherwise.
+double feed_in(const Variant& v) {
+  if (!is_ballbar(v)) return 0.0;
+  if (const auto f = arg(v, "--feed-in")) return std::stod(*f);
+  return v.units == "mm" ? 1.5 : 1.5 / 25.4;
+}
+
+// --approach-feed, or min(200 mm/min, half the lowest feed), in program units.
+double approach_feed(const Variant& v) {
+  if (const auto f = arg(v, "--approach-feed")) return std::stod(*f);
+  const double per_mm = v.units == "mm" ? 1.0 : 1.0 / 25.4;
+  return std::min(200.0 * per_mm, *std::min_element(v.feeds.begin(), v.feeds.end()) / 2.0);
 }
 
 double wrap360(double deg) {
@@ -236,8 +346,13 @@ TEST_P(gcode_Rs274Variant, InterpreterAcceptsAndArcsMatchTheTest) {
       EXPECT_TRUE(!m.values.count(v.segment) || m.values.at(v.segment) == 0.0) << m.source_line;
     }
     if (m.kind != CanonMotion::arc) continue;
-    EXPECT_NEAR(m.radius_start(), v.radius, tol) << m.source_line;
-    EXPECT_NEAR(m.radius_end(), v.radius, tol) << m.source_line;
+    // A ballbar goes back to the lead-in start of a sweep outside the circle, after its
+    // feed-out; every other arc is on the test circle.
+    const double r = std::abs(m.radius_start() - v.radius) > tol && is_ballbar(v)
+                         ? v.radius + feed_in(v)
+                         : v.radius;
+    EXPECT_NEAR(m.radius_start(), r, tol) << m.source_line;
+    EXPECT_NEAR(m.radius_end(), r, tol) << m.source_line;
     if (v.arc_deg < 360.0) {
       const double s = m.start_angle_deg();
       const double e = s + m.sweep_deg();
@@ -247,6 +362,193 @@ TEST_P(gcode_Rs274Variant, InterpreterAcceptsAndArcsMatchTheTest) {
       }
       EXPECT_LE(std::abs(m.sweep_deg()), range_high - range_low + 0.01);
     }
+  }
+}
+
+// The safe program structure (docs/circgen.md "Program layout"), from the interpreter's
+// canonical calls: no motion before the first M0, no move that changes an in-plane and the
+// normal axis together, the approach and the radial moves at the approach feed, M50 P0/P1
+// around the measured arcs, G64 back before the end, and for a ballbar the mount pause, the
+// radial feed-in/out of the right length and direction, and the remove pause before any retract.
+TEST_P(gcode_Rs274Variant, SafeProgramStructure) {
+  if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
+  const Variant& v = GetParam();
+  const CommandResult gen = run_circgen(v.args);
+  ASSERT_EQ(gen.exit_code, 0) << gen.err;
+  const Rs274Result rs = run_rs274(gen.out);
+  ASSERT_EQ(rs.exit_code, 0) << rs.output;
+  const CanonProgram& canon = rs.canon;
+  const auto& motions = canon.motions;
+  const double tol = v.units == "mm" ? 2e-3 : 1e-4;
+  const double feed_tol = v.units == "mm" ? 1e-9 : 0.051;  // inch feeds have one decimal
+  const PlaneAxes axes = plane_axes(v.plane);
+  const int a = axes.first - 'x', b = axes.second - 'x', n = axes.normal - 'x';
+  const bool ballbar = is_ballbar(v);
+  const auto safe = arg(v, "--safe-z");
+  const double fi = feed_in(v);
+
+  // Spindle and coolant off before the first pause, in the program text itself (rs274 also
+  // reports them for its own reset).
+  const auto first_m0 = gen.out.find("\nM0");
+  ASSERT_NE(first_m0, std::string::npos);
+  EXPECT_LT(gen.out.find("\nM5 M9"), first_m0);
+  for (std::size_t pos = 0, end; pos < gen.out.size(); pos = end + 1) {
+    end = gen.out.find('\n', pos);
+    EXPECT_LE(end - pos, 200u) << "line too long for an operator message";
+  }
+
+  std::vector<std::size_t> stops;  // motions before each PROGRAM_STOP
+  std::vector<std::string> messages_before_first_stop, all_messages;
+  std::vector<std::size_t> message_positions;
+  for (const CanonCall& c : canon.call_log) {
+    if (c.name == "PROGRAM_STOP") stops.push_back(c.motions_before);
+    if (c.name == "MESSAGE") {
+      if (stops.empty()) messages_before_first_stop.push_back(c.args);
+      all_messages.push_back(c.args);
+      message_positions.push_back(c.motions_before);
+    }
+  }
+  ASSERT_FALSE(stops.empty());
+  EXPECT_EQ(stops.front(), 0u) << "motion before the first M0";
+  ASSERT_FALSE(messages_before_first_stop.empty());
+  std::string first_text;
+  for (const auto& m : messages_before_first_stop) first_text += m + "\n";
+  EXPECT_NE(first_text.find(std::string(plane_name(v.plane))), std::string::npos) << first_text;
+  EXPECT_NE(first_text.find("Check:"), std::string::npos) << first_text;
+  for (double f : v.feeds) {
+    std::ostringstream word;
+    word << "F" << f;
+    EXPECT_NE(first_text.find(word.str()), std::string::npos) << word.str() << " " << first_text;
+  }
+
+  // No move changes an in-plane axis and the normal axis together; arcs keep the normal.
+  auto moved = [](double from, double to) { return std::abs(to - from) > 1e-9; };
+  for (const CanonMotion& m : motions) {
+    const bool plane_moves = moved(m.start[a], m.end[a]) || moved(m.start[b], m.end[b]);
+    EXPECT_FALSE(plane_moves && moved(m.start[n], m.end[n]))
+        << "mixed in-plane and normal move, canon line " << m.source_line;
+  }
+
+  // Measured arcs, marked by the output bit.
+  std::vector<std::size_t> measured;
+  for (std::size_t i = 0; i < motions.size(); ++i)
+    if (motions[i].bits.count(v.marker) && motions[i].bits.at(v.marker)) measured.push_back(i);
+  ASSERT_FALSE(measured.empty());
+  const std::size_t first_run = measured.front() - (ballbar ? 2 : 1);  // feed-in or lead-in
+
+  // The approach: nothing but straight moves before the first run, in-plane moves only at the
+  // clearance (with --safe-z) or after the raise pause, and the one feed move is the descent
+  // alone to the circle's height at the approach feed.
+  std::size_t descents = 0;
+  for (std::size_t i = 0; i < first_run; ++i) {
+    const CanonMotion& m = motions[i];
+    ASSERT_NE(m.kind, CanonMotion::arc) << m.source_line;
+    const bool plane_moves = moved(m.start[a], m.end[a]) || moved(m.start[b], m.end[b]);
+    if (plane_moves) {
+      EXPECT_EQ(m.kind, CanonMotion::traverse) << m.source_line;
+      if (safe) {
+        EXPECT_NEAR(m.start[n], std::stod(*safe), tol) << m.source_line;
+      }
+    }
+    if (m.kind == CanonMotion::linear) {
+      ++descents;
+      EXPECT_FALSE(plane_moves) << m.source_line;
+      EXPECT_NEAR(m.end[n], v.centre[n], tol) << m.source_line;
+      EXPECT_NEAR(m.feed, approach_feed(v), feed_tol) << m.source_line;
+      EXPECT_TRUE(m.feed_override) << "the operator keeps the override on the approach";
+    }
+  }
+  EXPECT_EQ(descents, 1u);
+  if (safe) {
+    ASSERT_GE(first_run, 2u);
+    EXPECT_EQ(motions[0].kind, CanonMotion::traverse);
+    EXPECT_NEAR(motions[0].end[n], std::stod(*safe), tol) << "clearance first";
+    // The last motion goes back to the clearance along the normal alone.
+    EXPECT_EQ(motions.back().kind, CanonMotion::traverse);
+    EXPECT_NEAR(motions.back().end[n], std::stod(*safe), tol);
+  } else {
+    EXPECT_NE(first_text.find("Raise"), std::string::npos) << first_text;
+    // From wherever the operator left the normal axis: the in-plane move does not set it.
+    EXPECT_NE(motions[0].kind, CanonMotion::linear);
+  }
+  // The start point the first pause announces is where the in-plane approach goes.
+  {
+    const std::size_t above = first_text.find("above ");
+    ASSERT_NE(above, std::string::npos) << first_text;
+    std::istringstream in(first_text.substr(above + 6));
+    std::array<double, 2> p{};
+    std::array<char, 2> letter{};
+    in >> letter[0] >> p[0] >> letter[1] >> p[1];
+    EXPECT_EQ(letter[0], std::toupper(axes.first));
+    EXPECT_EQ(letter[1], std::toupper(axes.second));
+    const CanonMotion& descent = motions[first_run - 1];
+    EXPECT_NEAR(p[0], descent.end[a], tol);
+    EXPECT_NEAR(p[1], descent.end[b], tol);
+  }
+
+  // Feed override off exactly over the runs; exact path during them, G64 before the end.
+  for (std::size_t i = first_run; i <= measured.back(); ++i) {
+    EXPECT_FALSE(motions[i].feed_override) << "canon line " << motions[i].source_line;
+    EXPECT_EQ(motions[i].control_mode, "CANON_EXACT_PATH") << motions[i].source_line;
+  }
+  std::optional<std::size_t> enable_at;
+  std::string last_mode;
+  for (const CanonCall& c : canon.call_log) {
+    if (c.name == "ENABLE_FEED_OVERRIDE" && c.motions_before > measured.back()) {
+      enable_at = c.motions_before;
+    }
+    if (c.name == "SET_MOTION_CONTROL_MODE") last_mode = c.args;
+  }
+  ASSERT_TRUE(enable_at) << "M50 P1 after the runs";
+  EXPECT_TRUE(last_mode.starts_with("CANON_CONTINUOUS")) << last_mode;
+
+  // Every straight feed move from the first run on: a ballbar's radial move at the approach
+  // feed, feed-in right before each lead-in and feed-out right after each lead-out.
+  for (std::size_t i = first_run; i < motions.size(); ++i) {
+    const CanonMotion& m = motions[i];
+    if (m.kind != CanonMotion::linear) continue;
+    ASSERT_TRUE(ballbar) << "a straight feed move in a run of a profile without radial moves, "
+                         << "canon line " << m.source_line;
+    EXPECT_NEAR(m.feed, approach_feed(v), feed_tol) << m.source_line;
+  }
+  if (ballbar) {
+    for (std::size_t i : measured) {
+      ASSERT_GE(i, 2u);
+      ASSERT_LT(i + 2, motions.size());
+      const CanonMotion& in = motions[i - 2];
+      const CanonMotion& out = motions[i + 2];
+      for (const CanonMotion* r : {&in, &out}) {
+        ASSERT_EQ(r->kind, CanonMotion::linear) << r->source_line;
+        const double r0 = std::hypot(r->start[a] - v.centre[a], r->start[b] - v.centre[b]);
+        const double r1 = std::hypot(r->end[a] - v.centre[a], r->end[b] - v.centre[b]);
+        const bool inward = r == &in;
+        EXPECT_NEAR(r0, inward ? v.radius + fi : v.radius, tol) << r->source_line;
+        EXPECT_NEAR(r1, inward ? v.radius : v.radius + fi, tol) << r->source_line;
+        // Radial: start, end and centre on one line.
+        const double cross = (r->start[a] - v.centre[a]) * (r->end[b] - v.centre[b]) -
+                             (r->start[b] - v.centre[b]) * (r->end[a] - v.centre[a]);
+        EXPECT_NEAR(cross / (r0 * r1), 0.0, 1e-4) << r->source_line;
+      }
+    }
+    // Mount pause: after the descent, before the first feed-in, with its message.
+    ASSERT_GE(stops.size(), 3u);
+    EXPECT_EQ(stops[1], first_run);
+    // Remove pause: after the last feed-out, before any motion that follows (the retract).
+    EXPECT_EQ(stops.back(), measured.back() + 3);
+    bool mount = false, remove = false;
+    for (std::size_t k = 0; k < all_messages.size(); ++k) {
+      if (all_messages[k].find("Mount the ballbar") != std::string::npos) {
+        mount = true;
+        EXPECT_EQ(message_positions[k], first_run);
+      }
+      if (all_messages[k].find("Remove the ballbar") != std::string::npos) {
+        remove = true;
+        EXPECT_EQ(message_positions[k], measured.back() + 3);
+      }
+    }
+    EXPECT_TRUE(mount && remove);
+  } else {
+    EXPECT_EQ(stops.size(), 1u) << "only the start pause without a contact instrument";
   }
 }
 

@@ -4,6 +4,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -12,6 +13,29 @@
 namespace circtest {
 
 enum class LengthUnit { mm, inch };
+
+// What measures the circle; it decides the pauses and moves around the runs
+// (docs/circgen.md "Instrument profiles").
+//   encoder: nothing mounted (the machine's own feedback, or a non-contact head left in place)
+//   grid:    a non-contact 2-D grid encoder: lead arcs only, no radial moves
+//   ballbar: a telescoping ball bar: mount pause, radial feed-in/feed-out around each run,
+//            overshoot arcs, remove pause before any retract
+enum class Instrument { encoder, grid, ballbar };
+
+const char* instrument_name(Instrument instrument) noexcept;
+std::optional<Instrument> parse_instrument(std::string_view text);
+
+// Limits circgen assumes for a telescoping ball bar (documented in docs/circgen.md).
+inline constexpr double kBallbarMinRadiusMm = 50.0;
+inline constexpr double kBallbarMaxRadiusMm = 600.0;
+inline constexpr double kBallbarMaxFeedMmPerMin = 10000.0;
+inline constexpr double kBallbarMinFeedInMm = 0.5;
+inline constexpr double kBallbarMaxFeedInMm = 3.0;
+inline constexpr double kBallbarDefaultFeedInMm = 1.5;
+inline constexpr double kBallbarDefaultOvershootDeg = 20.0;
+
+// The approach feed when --approach-feed is not given: well below the test feed.
+inline constexpr double kDefaultApproachFeedMmPerMin = 200.0;
 
 inline constexpr double kMmPerInch = 25.4;
 
@@ -36,7 +60,15 @@ struct CircleTestSpec {
   double start_deg = 0.0;                          // from the plane's first axis toward its second
   double lead_deg = 10.0;                          // lead-in and lead-out arcs on the same circle
   std::optional<double> safe_mm;                   // clearance position on the plane's normal axis
-  double dwell_s = 0.0;                            // pause where the direction reverses
+  Instrument instrument = Instrument::encoder;
+  // Feed of the descent to the circle's height and of the ballbar's radial moves; unset:
+  // default_approach_feed_mm_per_min().
+  std::optional<double> approach_feed_mm_per_min;
+  double feed_in_mm = kBallbarDefaultFeedInMm;  // ballbar: radial feed-in/out, outside the circle
+  // Origin of the active work offset in machine coordinates, when known (--offset): the
+  // header then states the centre's machine position.
+  std::optional<std::array<double, 3>> work_offset_mm;
+  double dwell_s = 0.0;  // pause where the direction reverses
   LengthUnit units = LengthUnit::mm;
   int marker_output = 0;   // M62/M63 P
   int segment_output = 0;  // M67 E
@@ -69,6 +101,17 @@ std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec);
 
 // Validates and builds the whole program in memory.
 TestProgram generate_test_program(const CircleTestSpec& spec);
+
+// min(kDefaultApproachFeedMmPerMin, half the lowest test feed), or the given one.
+double approach_feed_mm_per_min(const CircleTestSpec& spec);
+
+// The default start angle: 0, or for a partial arc in YZ/ZX the start that centres the
+// swept range (leads included) on the top of the circle (+Z), away from the table.
+double default_start_deg(Plane plane, double arc_deg);
+
+// Non-fatal concerns about a valid spec, one line each (e.g. a vertical-plane arc that
+// passes below the centre, towards the table).
+std::vector<std::string> program_warnings(const CircleTestSpec& spec);
 
 // The angular range every motion of the test stays in, [first, last] degrees (CCW sense);
 // a range of 360 deg or more means the whole circle.
