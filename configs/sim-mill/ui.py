@@ -5,6 +5,10 @@ Resets estop, switches the machine on, homes, opens the program, starts the reco
 runs the program to its end and stops the recorder. LinuxCNC exits with this script's
 exit code. Glue only: the logging is circlog-record, the analysis circana.
 
+circgen's programs stop at operator pauses (M0, each after an (MSG, ...)): the driver logs
+every operator message and resumes the program when it pauses, as an operator pressing
+cycle start would. The number of pauses answered is logged at the end.
+
 Environment (set by circtest-run):
   CIRCTEST_PROGRAM   the G-code program to run (required)
   CIRCTEST_RECORD    the recorder command line, run through the shell (optional)
@@ -85,6 +89,7 @@ def main():
     # Wait until the interpreter has started, then until it and motion are idle again.
     wait_for(lambda s: s.interp_state != linuxcnc.INTERP_IDLE, 10, "program start", stat)
     failed = None
+    pauses = 0
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         stat.poll()
@@ -92,6 +97,18 @@ def main():
         if e and e[0] in (linuxcnc.NML_ERROR, linuxcnc.OPERATOR_ERROR):
             failed = e[1]
             break
+        if e and e[0] in (linuxcnc.OPERATOR_DISPLAY, linuxcnc.OPERATOR_TEXT,
+                          linuxcnc.NML_DISPLAY, linuxcnc.NML_TEXT):
+            log("message: " + str(e[1]).strip())
+            continue  # read every queued message before acting on a pause
+        if stat.interp_state == linuxcnc.INTERP_PAUSED or stat.task_paused:
+            # An M0 pause: the operator would read the message and press cycle start.
+            pauses += 1
+            log("program paused (M0 #%d, line %d): resuming" % (pauses, stat.motion_line))
+            cmd.auto(linuxcnc.AUTO_RESUME)
+            wait_for(lambda s: s.interp_state != linuxcnc.INTERP_PAUSED and not s.task_paused,
+                     10, "resume after M0", stat)
+            continue
         if stat.interp_state == linuxcnc.INTERP_IDLE and stat.queue == 0 and stat.inpos:
             break
         if os.environ.get("CIRCTEST_DEBUG") and int(time.monotonic() * 20) % 20 == 0:
@@ -102,7 +119,8 @@ def main():
     else:
         failed = "program still running after %.0f s" % timeout
 
-    log("program finished" if not failed else "program stopped")
+    log(("program finished" if not failed else "program stopped") +
+        " after %d operator pause(s)" % pauses)
     code = 0
     if recorder is not None:
         recorder.send_signal(signal.SIGINT)

@@ -80,6 +80,11 @@ class SimMachine : public ::testing::Test {
     for (const auto& [k, v] : all) cmd += " --set SIM." + k + "=" + v;
     const int rc = run(cmd + " >" + (out_ / "run.log").string() + " 2>&1");
     ASSERT_EQ(rc, 0) << slurp(out_ / "run.log") << slurp(out_ / "run" / "linuxcnc.log");
+    // circgen's program stops once before any motion (M0 after its messages); the headless
+    // driver logs the messages and answers the pause like an operator at cycle start.
+    const std::string log = slurp(out_ / "run" / "linuxcnc.log");
+    EXPECT_NE(log.find("message: Check: work offset and tool length"), std::string::npos) << log;
+    EXPECT_NE(log.find("program finished after 1 operator pause(s)"), std::string::npos) << log;
   }
 
   json analyse(const std::string& extra = "") {
