@@ -6,6 +6,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <numbers>
 
@@ -91,8 +92,10 @@ MachineLimits parse_machine_limits(const std::string& text, const std::string& s
     const std::string key = upper(trim(std::string_view(line).substr(0, eq)));
     const std::string value = trim(std::string_view(line).substr(eq + 1));
     const std::string full = section + "/" + key;
+    if (section == "HAL" && key == "HALFILE") limits.hal_files.push_back(value);
     if (std::find(seen.begin(), seen.end(), full) != seen.end()) continue;
     seen.push_back(full);
+    limits.values.emplace(full, value);
 
     if (section == "TRAJ") {
       if (key == "LINEAR_UNITS") {
@@ -143,8 +146,94 @@ MachineLimits parse_machine_limits(const std::string& text, const std::string& s
   return limits;
 }
 
+std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
+                                                 const std::string& source,
+                                                 const MachineLimits& ini) {
+  // "[SECTION]KEY" is replaced by the INI value, as halcmd does with -i.
+  auto substitute = [&ini](const std::string& word) {
+    if (word.size() < 3 || word[0] != '[') return word;
+    const auto close = word.find(']');
+    if (close == std::string::npos) return word;
+    const auto it =
+        ini.values.find(upper(word.substr(1, close - 1)) + "/" + word.substr(close + 1));
+    return it == ini.values.end() ? word : it->second;
+  };
+  const auto emcmot = ini.values.find("EMCMOT/EMCMOT");
+  const std::string module = emcmot == ini.values.end() ? "motmod" : emcmot->second;
+  std::size_t line_no = 0, begin = 0;
+  std::string logical;
+  std::size_t logical_line = 0;
+  while (begin <= hal_text.size()) {
+    std::size_t end = hal_text.find('\n', begin);
+    if (end == std::string::npos) end = hal_text.size();
+    std::string line = hal_text.substr(begin, end - begin);
+    begin = end + 1;
+    ++line_no;
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
+    line = trim(line);
+    if (logical.empty()) logical_line = line_no;
+    if (!line.empty() && line.back() == '\\') {
+      line.pop_back();
+      logical += line + ' ';
+      if (begin <= hal_text.size()) continue;
+    } else {
+      logical += line;
+    }
+    std::vector<std::string> words;
+    std::size_t pos = 0;
+    while (pos < logical.size()) {
+      const auto start = logical.find_first_not_of(" \t\r", pos);
+      if (start == std::string::npos) break;
+      const auto stop = logical.find_first_of(" \t\r", start);
+      words.push_back(logical.substr(start, stop == std::string::npos ? stop : stop - start));
+      pos = stop == std::string::npos ? logical.size() : stop;
+    }
+    logical.clear();
+    if (words.size() < 2 || words[0] != "loadrt") continue;
+    const std::string loaded = substitute(words[1]);
+    if (loaded != module && loaded != "motmod") continue;
+    MotionOutputs outputs;
+    outputs.where = fmt::format("{}:{}", source, logical_line);
+    for (std::size_t i = 2; i < words.size(); ++i) {
+      const auto eq = words[i].find('=');
+      if (eq == std::string::npos) continue;
+      const std::string name = words[i].substr(0, eq);
+      if (name != "num_dio" && name != "num_aio") continue;
+      const std::string value = substitute(words[i].substr(eq + 1));
+      int count = -1;
+      const auto [ptr, ec] = std::from_chars(value.data(), value.data() + value.size(), count);
+      if (ec != std::errc() || ptr != value.data() + value.size() || count < 0) {
+        throw ParseError(
+            source, logical_line,
+            fmt::format("loadrt {}: {}='{}' is not a whole number", loaded, name, value));
+      }
+      (name == "num_dio" ? outputs.num_dio : outputs.num_aio) = count;
+    }
+    return outputs;
+  }
+  return std::nullopt;
+}
+
 MachineLimits read_machine_limits(const std::string& path) {
-  return parse_machine_limits(read_file(path), path);
+  MachineLimits limits = parse_machine_limits(read_file(path), path);
+  // HAL files are found beside the INI (LinuxCNC runs halcmd in the configuration's
+  // folder), LIB: ones in the installed HAL library. A file that is not there (or a .tcl
+  // one) is not checked: the output check then says nothing rather than guess.
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  for (const std::string& name : limits.hal_files) {
+    std::filesystem::path file;
+    if (name.starts_with("LIB:")) {
+      file = std::filesystem::path("/usr/share/linuxcnc/hallib") / name.substr(4);
+    } else {
+      file = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : dir / name;
+    }
+    if (file.extension() != ".hal" || !std::filesystem::is_regular_file(file)) continue;
+    if (auto outputs = find_motion_outputs(read_file(file.string()), file.string(), limits)) {
+      limits.motion_outputs = std::move(outputs);
+      break;
+    }
+  }
+  return limits;
 }
 
 std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
@@ -292,6 +381,22 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
   }
   std::vector<std::string> checks{"soft limits", "velocity"};
   if (std::isfinite(a_max)) checks.push_back("acceleration"), checks.push_back("lead run-up");
+  if (limits.motion_outputs) {
+    const MotionOutputs& m = *limits.motion_outputs;
+    if (spec.marker_output >= m.num_dio) {
+      throw LimitError(fmt::format(
+          "{}: --marker {}: the motion module loaded at {} has num_dio={} (M62/M63 P0..P{}); "
+          "raise num_dio there or use another output",
+          limits.source, spec.marker_output, m.where, m.num_dio, m.num_dio - 1));
+    }
+    if (spec.segment_output >= m.num_aio) {
+      throw LimitError(fmt::format(
+          "{}: --segment-out {}: the motion module loaded at {} has num_aio={} (M67 E0..E{}); "
+          "raise num_aio there or use another output",
+          limits.source, spec.segment_output, m.where, m.num_aio, m.num_aio - 1));
+    }
+    checks.push_back("motion outputs");
+  }
   return checks;
 }
 

@@ -286,6 +286,26 @@ TEST_F(gcode_CliIni, BallbarFeedInStartCountsForTheSoftLimits) {
                  "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
 }
 
+TEST_F(gcode_CliIni, MarkerAndSegmentOutputsAgainstTheMotionModule) {
+  std::string text = kMachineIni;
+  text += "\n[HAL]\nHALFILE = LIB:basic_sim.tcl\nHALFILE = missing.hal\nHALFILE = machine.hal\n";
+  spit(ini(), text);
+  spit(dir_.file("machine.hal"), "loadrt trivkins\nloadrt motmod num_joints=3 num_dio=2\n");
+  const CommandResult ok = run({"--d", "150", "--f", "300", "--marker", "1", "--segment-out", "3"});
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.out.find("lead run-up,motion outputs)"), std::string::npos);
+  expect_refused(run({"--d", "150", "--f", "300", "--marker", "2"}), 6,
+                 "--marker 2: the motion module loaded at " + dir_.file("machine.hal") +
+                     ":2 has num_dio=2 (M62/M63 P0..P1)");
+  expect_refused(run({"--d", "150", "--f", "300", "--segment-out", "4"}), 6,
+                 "has num_aio=4 (M67 E0..E3)");
+  // Without a HAL file that loads the module there is nothing to check against.
+  spit(dir_.file("machine.hal"), "loadrt trivkins\n");
+  const CommandResult unchecked = run({"--d", "150", "--f", "300", "--marker", "9"});
+  ASSERT_EQ(unchecked.exit_code, 0) << unchecked.err;
+  EXPECT_EQ(unchecked.out.find("motion outputs"), std::string::npos);
+}
+
 TEST(gcode_Cli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
   const CommandResult r =
       run_circgen({"--d", "150", "--f", "300", "--centre", "10,20,-5", "--offset", "100,-50,-200"});

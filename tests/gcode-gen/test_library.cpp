@@ -107,3 +107,57 @@ TEST(gcode_MachineLimits, FirstOccurrenceWinsAndUnitsConvert) {
 
 }  // namespace
 }  // namespace circtest
+
+namespace circtest {
+namespace {
+
+TEST(gcode_MotionOutputs, FindsTheMotionModuleLineWithItsCounts) {
+  MachineLimits ini = parse_machine_limits(
+      "[EMCMOT]\nEMCMOT = motmod\nSERVO_PERIOD = 1000000\n[CIRCTEST]\nDIO = 8\n[HAL]\n"
+      "HALFILE = a.hal\nHALFILE = b.hal\n",
+      "m.ini");
+  EXPECT_EQ(ini.hal_files, (std::vector<std::string>{"a.hal", "b.hal"}));
+  const auto found = find_motion_outputs(
+      "# the machine\nloadrt trivkins\nloadrt [EMCMOT]EMCMOT servo_period_nsec=[EMCMOT]SERVO_PERIOD"
+      " \\\n   num_joints=3 num_dio=[CIRCTEST]DIO # eight bits\nloadrt motmod num_dio=2\n",
+      "a.hal", ini);
+  ASSERT_TRUE(found);
+  EXPECT_EQ(found->num_dio, 8);  // through the INI substitution, on the continued line
+  EXPECT_EQ(found->num_aio, 4);  // motmod's default
+  EXPECT_EQ(found->where, "a.hal:3");
+  EXPECT_FALSE(find_motion_outputs("loadrt circlog channels=8\n# loadrt motmod\n", "b.hal", ini));
+  try {
+    find_motion_outputs("\nloadrt motmod num_aio=four\n", "c.hal", ini);
+    FAIL() << "no error";
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("c.hal:2"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("num_aio='four'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(gcode_MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
+  MachineLimits limits = parse_machine_limits("[AXIS_X]\n[AXIS_Y]\n[AXIS_Z]\n", "m.ini");
+  limits.motion_outputs = MotionOutputs{2, 1, "m.hal:5"};
+  CircleTestSpec spec;
+  spec.radius_mm = 50;
+  spec.feeds_mm_per_min = {500};
+  spec.marker_output = 1;
+  const auto checks = check_against_machine(spec, limits, {0, 0, 0});
+  EXPECT_EQ(checks.back(), "motion outputs");
+  spec.marker_output = 2;
+  EXPECT_THROW(check_against_machine(spec, limits, {0, 0, 0}), LimitError);
+  spec.marker_output = 0;
+  spec.segment_output = 1;
+  try {
+    check_against_machine(spec, limits, {0, 0, 0});
+    FAIL() << "no error";
+  } catch (const LimitError& e) {
+    EXPECT_NE(std::string(e.what()).find("--segment-out 1: the motion module loaded at m.hal:5 "
+                                         "has num_aio=1"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace circtest

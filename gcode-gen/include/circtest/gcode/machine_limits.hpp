@@ -1,6 +1,7 @@
 #pragma once
 // The machine limits circgen checks a test against, read from a LinuxCNC 2.9 INI file.
 #include <array>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,18 +19,36 @@ struct AxisLimits {
   std::optional<double> max_acceleration_mm_per_s2;
 };
 
+// The motion module's synchronized output counts, from the HAL file line that loads it.
+struct MotionOutputs {
+  int num_dio = 4;  // motmod's default in LinuxCNC 2.9
+  int num_aio = 4;
+  std::string where;  // "file:line" of the loadrt, for messages
+};
+
 struct MachineLimits {
   std::string source;                                       // the INI file, for messages
   double mm_per_machine_unit = 1.0;                         // from [TRAJ] LINEAR_UNITS
   std::array<AxisLimits, 3> axes{};                         // x, y, z
   std::optional<double> max_linear_velocity_mm_per_s;       // [TRAJ] MAX_LINEAR_VELOCITY
   std::optional<double> max_linear_acceleration_mm_per_s2;  // [TRAJ] MAX_LINEAR_ACCELERATION
+  std::vector<std::string> hal_files;           // every [HAL] HALFILE, in order, as written
+  std::map<std::string, std::string> values;    // "SECTION/KEY" -> first value, for HAL [S]K
+  std::optional<MotionOutputs> motion_outputs;  // when a HAL file loads the motion module
 };
 
 // Reads the keys circgen needs. Throws IoError, or ParseError naming file:line for a line
 // that is neither a section, a key = value pair nor a comment, or a limit that is no number.
 MachineLimits read_machine_limits(const std::string& path);
 MachineLimits parse_machine_limits(const std::string& text, const std::string& source);
+
+// The motion module's loadrt line in one HAL file: `loadrt [EMCMOT]EMCMOT ...` or `loadrt
+// motmod ...`, with num_dio=/num_aio= (literal or [SECTION]KEY from the INI; missing: 4).
+// Handles comments and backslash continuations. nullopt when the file does not load it;
+// ParseError (file:line) for a count that is not a whole number.
+std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
+                                                 const std::string& source,
+                                                 const MachineLimits& ini);
 
 // Throws LimitError naming the INI limit the test would violate: a position outside
 // MIN_LIMIT/MAX_LIMIT (work offset origin added), a feed above MAX_VELOCITY, a centripetal
