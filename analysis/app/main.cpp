@@ -7,6 +7,7 @@
 
 #include "circtest/analysis/commands.hpp"
 #include "circtest/core/cli.hpp"
+#include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 
@@ -20,7 +21,9 @@ const char* kUsage =
     "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
     "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
     "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
-    "                     [--svg PLOT.svg]\n"
+    "                     [--svg PLOT.svg] [--scale-um-per-div UM]\n"
+    "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
+    "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n";
 
 po::variables_map parse(const po::options_description& desc,
@@ -45,6 +48,22 @@ std::pair<std::string, std::string> column_pair(const std::string& text) {
   return {text.substr(0, comma), text.substr(comma + 1)};
 }
 
+// --machine, --operator, ... (core/conditions): the clause 4.4 / 6 conditions.
+void add_condition_options(po::options_description& desc) {
+  for (const auto& c : condition_options()) {
+    desc.add_options()(c.option, po::value<std::string>()->value_name(c.value_name), c.help);
+  }
+}
+
+std::vector<std::pair<std::string, std::string>> condition_values(const po::variables_map& vm) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& c : condition_options()) {
+    if (vm.count(c.option))
+      out.emplace_back(c.key, condition_value(c, vm[c.option].as<std::string>()));
+  }
+  return out;
+}
+
 int analyze(const std::vector<std::string>& args) {
   po::options_description desc("analyze");
   desc.add_options()("trace", po::value<std::string>()->required(), "trace file")(
@@ -54,10 +73,11 @@ int analyze(const std::vector<std::string>& args) {
       "g-method", po::value<std::string>()->default_value("min-zone"), "")(
       "f-centre", po::value<std::string>()->default_value("auto"), "")(
       "columns", po::value<std::string>(), "position columns A,B")(
-      "t-machine", po::value<std::string>(), "")("t-instrument", po::value<std::string>(), "")(
       "alpha-machine", po::value<std::string>(), "")("alpha-instrument", po::value<std::string>(),
                                                      "")("json", "JSON on stdout")(
-      "svg", po::value<std::string>(), "write the plot of the paths to this SVG file");
+      "svg", po::value<std::string>(), "write the plot of the paths to this SVG file")(
+      "scale-um-per-div", po::value<std::string>(), "fixed plot scale, um per division");
+  add_condition_options(desc);
   po::positional_options_description pos;
   pos.add("trace", 1);
   const auto vm = parse(desc, pos, args);
@@ -108,8 +128,13 @@ int analyze(const std::vector<std::string>& args) {
   }
   if (vm.count("columns"))
     std::tie(o.column_a, o.column_b) = column_pair(vm["columns"].as<std::string>());
+  o.conditions = condition_values(vm);
   o.temperatures.machine_C = number("t-machine");
   o.temperatures.instrument_C = number("t-instrument");
+  if (auto d = number("scale-um-per-div")) {
+    if (*d <= 0) throw UsageError("--scale-um-per-div: expected a positive number");
+    req.plot.mm_per_division = *d / 1000.0;
+  }
   if (auto a = number("alpha-machine")) o.temperatures.machine_expansion_per_K = *a;
   if (auto a = number("alpha-instrument")) o.temperatures.instrument_expansion_per_K = *a;
   return run_analyze(req, std::cout);

@@ -25,7 +25,8 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace trace = read_trace(request.trace_path, ro);
   const Evaluation ev = evaluate(trace, request.options);
   const std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
-  if (!request.svg_path.empty()) write_file_atomic(request.svg_path, svg_plot(ev, trace));
+  if (!request.svg_path.empty())
+    write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));
   out << text;
   out.flush();
   return 0;

@@ -173,6 +173,7 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
   Evaluation ev;
   ev.source = trace.source;
   ev.conditions = trace.metadata;
+  for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
   ev.g_method = options.g_method;
 
   // Plane: the option, else metadata, else XY.
@@ -189,6 +190,8 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
 
   const PlaneColumns cols = plane_columns(trace, ev.plane, options.column_a, options.column_b);
   ev.columns = cols;
+  ev.channel_a = trace.columns[static_cast<std::size_t>(cols.a)];
+  ev.channel_b = trace.columns[static_cast<std::size_t>(cols.b)];
   const auto& col_a = trace.values[static_cast<std::size_t>(cols.a)];
   const auto& col_b = trace.values[static_cast<std::size_t>(cols.b)];
 

@@ -51,16 +51,23 @@ struct Polar {
   double dev_mm;
 };
 
-}  // namespace
+struct Layer {
+  const Evaluation* ev;
+  std::string label;
+  Circle ref;
+  std::vector<std::vector<Polar>> paths;  // one per run
+};
 
-std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions& options) {
+// Deviations of each run from the reference circle, decimated.
+Layer polar_paths(const PlotLayer& in, const PlotOptions& options, double& dmax) {
+  const Evaluation& ev = *in.evaluation;
+  const Trace& trace = *in.trace;
   const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
   const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  Layer layer{&ev, in.label, {}, {}};
   // One centre and reference circle for all runs, so that both directions compare as in H.
-  Circle ref = ev.hysteresis.empty() ? ev.runs.front().lsc : ev.hysteresis.front().common_lsc;
-
-  std::vector<std::vector<Polar>> paths;
-  double dmax = 1e-4;  // mm: a perfect path still gets a readable 0.1 um grid
+  layer.ref = ev.hysteresis.empty() ? ev.runs.front().lsc : ev.hysteresis.front().common_lsc;
+  const Circle& ref = layer.ref;
   for (const RunResult& r : ev.runs) {
     std::vector<Polar> path;
     const std::size_t n = r.run.size();
@@ -78,27 +85,86 @@ std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions
         if (rad < rlo) rlo = rad, lo = i;
         if (rad > rhi) rhi = rad, hi = i;
       }
-      for (std::size_t i : {std::min(lo, hi), std::max(lo, hi)}) {
+      // The run's first sample stays first: it is the start point drawn on the plot.
+      std::vector<std::size_t> keep;
+      if (s == 0 && std::min(lo, hi) != r.run.begin) keep.push_back(r.run.begin);
+      keep.push_back(std::min(lo, hi));
+      keep.push_back(std::max(lo, hi));
+      for (std::size_t i : keep) {
         const double da = col_a[i] - ref.centre_a_mm, db = col_b[i] - ref.centre_b_mm;
         const double dev = std::hypot(da, db) - ref.radius_mm;
         path.push_back({std::atan2(db, da), dev});
         dmax = std::max(dmax, std::abs(dev));
       }
     }
-    paths.push_back(std::move(path));
+    layer.paths.push_back(std::move(path));
   }
+  return layer;
+}
+
+}  // namespace
+
+std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions& options) {
+  return svg_plot(std::vector<PlotLayer>{{&ev, &trace, ""}}, options);
+}
+
+std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& options) {
+  double dmax = 1e-4;  // mm: a perfect path still gets a readable 0.1 um grid
+  std::vector<Layer> layers;
+  for (const PlotLayer& in : inputs) layers.push_back(polar_paths(in, options, dmax));
+  const Evaluation& first = *layers.front().ev;
 
   const double size = options.size_px;
   const double c = size / 2.0;
   const double ring_px = 0.30 * size;  // the reference circle
   const double band_px = 0.15 * size;  // +-4 divisions of deviation
-  const double div_mm = nice_at_least(dmax / 4.0);
+  const double div_mm =
+      options.mm_per_division ? *options.mm_per_division : nice_at_least(dmax / 4.0);
   const double px_per_mm = band_px / (4.0 * div_mm);
-  const double magnification = px_per_mm / (ring_px / ref.radius_mm);
+  const double magnification = px_per_mm / (ring_px / layers.front().ref.radius_mm);
+
+  // The legend, first: the height of the document follows from its length.
+  std::vector<std::pair<std::string, std::string>> legend;  // text, colour
+  static constexpr const char* kColours[] = {"#1f5fbf", "#c0392b", "#27ae60", "#8e44ad",
+                                             "#d35400", "#16a085", "#7f8c8d", "#2c3e50"};
+  constexpr std::size_t kNColours = std::size(kColours);
+  legend.emplace_back(fmt::format("Deviations from the least-squares circle of the runs "
+                                  "(radius {:.4f} mm)",
+                                  layers.front().ref.radius_mm),
+                      "black");
+  legend.emplace_back(fmt::format("magnified x{:.0f}: 1 division = {:g} um{}", magnification,
+                                  div_mm * 1000.0, options.mm_per_division ? " (fixed)" : ""),
+                      "black");
+  std::size_t colour = 0;
+  for (std::size_t l = 0; l < layers.size(); ++l) {
+    const Evaluation& ev = *layers[l].ev;
+    const std::string prefix = layers[l].label.empty() ? "" : layers[l].label + ": ";
+    legend.emplace_back(fmt::format("{}channels evaluated {}{}", prefix, channels_text(ev),
+                                    l > 0 ? " (dashed)" : ""),
+                        "black");
+    for (const auto& h : ev.hysteresis) {
+      legend.emplace_back(
+          fmt::format("{}H_{} = {:.1f} um at {} (runs {}/{})", prefix, ev.runs[h.run_ccw].label,
+                      h.h_mm * 1000.0, feed_text(ev.runs[h.run_ccw].feed_mm_per_min), h.run_ccw + 1,
+                      h.run_cw + 1),
+          "black");
+    }
+    for (std::size_t p = 0; p < ev.runs.size(); ++p, ++colour) {
+      const RunResult& r = ev.runs[p];
+      std::string f = r.f_max_mm ? fmt::format("F_max = {:+.1f} um, F_min = {:+.1f} um",
+                                               *r.f_max_mm * 1000.0, *r.f_min_mm * 1000.0)
+                                 : std::string("F: n/a");
+      legend.emplace_back(
+          fmt::format("{}run {} {} ({}) at {}: G = {:.1f} um ({}), {}", prefix, p + 1,
+                      direction_name(r.run.direction), r.label, feed_text(r.feed_mm_per_min),
+                      r.g_mm(ev.g_method) * 1000.0, g_method_name(ev.g_method), f),
+          kColours[colour % kNColours]);
+    }
+  }
 
   std::string s;
   auto out = std::back_inserter(s);
-  const double height = size + 40.0 + 18.0 * static_cast<double>(ev.runs.size() + 3);
+  const double height = size + 20.0 + 18.0 * static_cast<double>(legend.size());
   fmt::format_to(out,
                  "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
                  "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"12\">\n"
@@ -107,8 +173,8 @@ std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions
   fmt::format_to(out,
                  "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
                  "circular test, plane {}</text>\n",
-                 plane_name(ev.plane));
-  fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", escape(ev.source));
+                 plane_name(first.plane));
+  fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", escape(first.source));
   // Grid: the reference circle and rings every division, spokes every 45 deg.
   for (int j = -4; j <= 4; ++j) {
     fmt::format_to(out,
@@ -126,51 +192,63 @@ std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions
                    c + r0 * std::cos(t), c - r0 * std::sin(t), c + r1 * std::cos(t),
                    c - r1 * std::sin(t));
   }
-  const PlaneAxes axes = plane_axes(ev.plane);
+  const PlaneAxes axes = plane_axes(first.plane);
   fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\">+{}</text>\n", c + ring_px + band_px + 6,
                  c + 4, static_cast<char>(std::toupper(axes.first)));
   fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\">+{}</text>\n", c - 6,
                  c - ring_px - band_px - 8, static_cast<char>(std::toupper(axes.second)));
 
-  static constexpr const char* kColours[] = {"#1f5fbf", "#c0392b", "#27ae60", "#8e44ad"};
-  for (std::size_t p = 0; p < paths.size(); ++p) {
-    std::string pts;
-    for (const Polar& q : paths[p]) {
-      const double rr = ring_px + q.dev_mm * px_per_mm;
-      fmt::format_to(std::back_inserter(pts), "{:.1f},{:.1f} ", c + rr * std::cos(q.theta),
-                     c - rr * std::sin(q.theta));
+  colour = 0;
+  for (std::size_t l = 0; l < layers.size(); ++l) {
+    const Evaluation& ev = *layers[l].ev;
+    for (std::size_t p = 0; p < layers[l].paths.size(); ++p, ++colour) {
+      const auto& path = layers[l].paths[p];
+      const char* col = kColours[colour % kNColours];
+      std::string pts;
+      for (const Polar& q : path) {
+        // A fixed scale can put a large deviation past the centre: clamp, never fold over.
+        const double rr = std::max(0.0, ring_px + q.dev_mm * px_per_mm);
+        fmt::format_to(std::back_inserter(pts), "{:.1f},{:.1f} ", c + rr * std::cos(q.theta),
+                       c - rr * std::sin(q.theta));
+      }
+      fmt::format_to(out,
+                     "<polyline points=\"{}\" class=\"run\" fill=\"none\" stroke=\"{}\" "
+                     "stroke-width=\"1.2\"{}/>\n",
+                     pts, col, l > 0 ? " stroke-dasharray=\"5,3\"" : "");
+      if (path.empty()) continue;
+      // Start point (a dot on the path) and the direction of motion (an arrow outside the
+      // band, along the path from the start).
+      const Polar& s0 = path.front();
+      const double r0 = std::max(0.0, ring_px + s0.dev_mm * px_per_mm);
+      fmt::format_to(out,
+                     "<circle class=\"start\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"4\" fill=\"{}\"/>\n",
+                     c + r0 * std::cos(s0.theta), c - r0 * std::sin(s0.theta), col);
+      const double sign = ev.runs[p].run.direction == Direction::CCW ? 1.0 : -1.0;
+      const double ra = ring_px + band_px + 12.0 + 10.0 * static_cast<double>(colour % 4);
+      const double t0 = s0.theta, t1 = s0.theta + sign * 0.25;
+      std::string arc;
+      for (int k = 0; k <= 8; ++k) {
+        const double t = t0 + (t1 - t0) * k / 8.0;
+        fmt::format_to(std::back_inserter(arc), "{:.1f},{:.1f} ", c + ra * std::cos(t),
+                       c - ra * std::sin(t));
+      }
+      // Arrow head at t1, pointing along the tangent of the motion.
+      const double hx = c + ra * std::cos(t1), hy = c - ra * std::sin(t1);
+      const double tx = -std::sin(t1) * sign, ty = -std::cos(t1) * sign;  // screen tangent
+      const double nx = -ty, ny = tx;
+      fmt::format_to(out,
+                     "<polyline points=\"{}\" class=\"direction\" fill=\"none\" stroke=\"{}\" "
+                     "stroke-width=\"1.5\"/>\n<polygon points=\"{:.1f},{:.1f} {:.1f},{:.1f} "
+                     "{:.1f},{:.1f}\" fill=\"{}\"/>\n",
+                     arc, col, hx + 8 * tx, hy + 8 * ty, hx + 4 * nx, hy + 4 * ny, hx - 4 * nx,
+                     hy - 4 * ny, col);
     }
-    fmt::format_to(out,
-                   "<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.2\"/>\n",
-                   pts, kColours[p % 4]);
   }
 
   double y = size + 10;
-  fmt::format_to(out,
-                 "<text x=\"10\" y=\"{:.0f}\">Deviations from the least-squares circle of the "
-                 "runs (radius {:.4f} mm)</text>\n",
-                 y, ref.radius_mm);
-  y += 18;
-  fmt::format_to(out,
-                 "<text x=\"10\" y=\"{:.0f}\">magnified x{:.0f}: 1 division = {:g} um</text>\n", y,
-                 magnification, div_mm * 1000.0);
-  y += 18;
-  if (!ev.hysteresis.empty()) {
-    fmt::format_to(out, "<text x=\"10\" y=\"{:.0f}\">H_{} = {:.1f} um</text>\n", y,
-                   ev.runs[ev.hysteresis.front().run_ccw].label,
-                   ev.hysteresis.front().h_mm * 1000.0);
-    y += 18;
-  }
-  for (std::size_t p = 0; p < ev.runs.size(); ++p) {
-    const RunResult& r = ev.runs[p];
-    std::string f = r.f_max_mm ? fmt::format("F_max = {:+.1f} um, F_min = {:+.1f} um",
-                                             *r.f_max_mm * 1000.0, *r.f_min_mm * 1000.0)
-                               : std::string("F: n/a");
-    fmt::format_to(out,
-                   "<text x=\"10\" y=\"{:.0f}\" fill=\"{}\">run {} {} ({}): G = {:.1f} um ({}), "
-                   "{}</text>\n",
-                   y, kColours[p % 4], p + 1, direction_name(r.run.direction), r.label,
-                   r.g_mm(ev.g_method) * 1000.0, g_method_name(ev.g_method), f);
+  for (const auto& [text, col] : legend) {
+    fmt::format_to(out, "<text class=\"legend\" x=\"10\" y=\"{:.0f}\" fill=\"{}\">{}</text>\n", y,
+                   col, escape(text));
     y += 18;
   }
   s += "</svg>\n";

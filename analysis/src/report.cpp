@@ -4,8 +4,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <iterator>
+#include <set>
 
 namespace circtest {
 
@@ -36,6 +39,7 @@ json to_json(const Evaluation& ev) {
   j["units"] = "mm";
   j["source"] = ev.source;
   j["plane"] = std::string(plane_name(ev.plane));
+  j["channels"] = json::array({ev.channel_a, ev.channel_b});
   j["segmentation"] = segmentation_method_name(ev.segmentation);
   j["g_method"] = g_method_name(ev.g_method);
   j["nominal_radius"] = opt(ev.nominal_radius_mm);
@@ -98,66 +102,160 @@ json to_json(const Evaluation& ev) {
   return j;
 }
 
+std::string channels_text(const Evaluation& ev) {
+  std::string s = fmt::format("{}, {}", ev.channel_a, ev.channel_b);
+  std::string described;
+  for (const std::string* name : {&ev.channel_a, &ev.channel_b}) {
+    if (const std::string* d = ev.conditions.find("channel." + *name)) {
+      described += fmt::format("{}{}: {}", described.empty() ? "" : "; ", *name, *d);
+    }
+  }
+  if (!described.empty()) s += " (" + described + ")";
+  return s;
+}
+
+std::string feed_text(const std::optional<double>& feed_mm_per_min) {
+  return feed_mm_per_min ? fmt::format("{:.0f} mm/min", *feed_mm_per_min) : std::string("feed ?");
+}
+
 std::string text_report(const Evaluation& ev) {
   std::string s;
   auto out = std::back_inserter(s);
-  fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
-  // Clause 6: date, machine, instrument and the 4.4 conditions the trace recorded.
-  static constexpr std::pair<const char*, const char*> kConditions[] = {
-      {"date", "Date"},
-      {"start_time", "Recorded"},
-      {"machine", "Machine"},
-      {"instrument", "Instrument"},
-      {"feed_mm_per_min", "Feed (mm/min)"},
-      {"feeds_mm_per_min", "Feeds (mm/min)"},
-      {"directions", "Directions"},
-      {"axes", "Axes"},
-      {"centre_mm", "Centre X,Y,Z (mm)"},
-      {"temperature_air_C", "Air temperature (deg C)"},
-      {"compensation", "Compensations in use"},
-      {"other_axes", "Axes not under test"},
-      {"sample_period_s", "Sample period (s)"},
-      {"lost_samples", "Lost samples"},
+  constexpr const char* kNone = "not recorded";
+  auto meta = [&ev](const char* key) -> std::string {
+    const std::string* v = ev.conditions.find(key);
+    return v && !v->empty() ? *v : std::string(kNone);
   };
-  for (const auto& [key, title] : kConditions) {
-    if (const std::string* v = ev.conditions.find(key)) fmt::format_to(out, "{}: {}\n", title, *v);
+  auto line = [&out](const char* title, const std::string& value) {
+    fmt::format_to(out, "  {:<28}{}\n", std::string(title) + ":", value);
+  };
+  fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
+  // Clause 6: every item is printed, "not recorded" when neither the trace nor an option
+  // gave it, so a missing condition is visible instead of silently absent.
+  s += "Test (clause 6)\n";
+  {
+    std::string date = meta("date");
+    if (date == kNone) date = meta("start_time");
+    line("Date", date);
   }
-  fmt::format_to(out, "Plane {} ({} runs found by {} segmentation)\n", plane_name(ev.plane),
-                 ev.runs.size(), segmentation_method_name(ev.segmentation));
+  line("Machine", meta("machine"));
+  line("Machine serial", meta("machine_serial"));
+  line("Location", meta("location"));
+  line("Operator", meta("operator"));
+  line("Instrument", meta("instrument"));
+  line("Channels evaluated", channels_text(ev));
+  line("Notes", meta("notes"));
+  s += "Conditions (clause 4.4)\n";
   if (ev.nominal_radius_mm) {
-    fmt::format_to(out, "Nominal path: radius {:.4f} mm (diameter {:.4f} mm, from {})",
-                   *ev.nominal_radius_mm, 2 * *ev.nominal_radius_mm, ev.nominal_radius_source);
-    if (ev.centre_a_mm) {
-      fmt::format_to(out, ", centre {:.4f}, {:.4f} mm (from {})", *ev.centre_a_mm, *ev.centre_b_mm,
-                     ev.centre_source);
-    }
-    s += '\n';
-  }
-  if (ev.temperatures.available()) {
-    fmt::format_to(out,
-                   "F corrected to 20 deg C: machine {} deg C, instrument {} deg C, factor "
-                   "{:.8f}\n",
-                   ev.temperatures.machine_C ? fmt::format("{:.2f}", *ev.temperatures.machine_C)
-                                             : std::string("-"),
-                   ev.temperatures.instrument_C
-                       ? fmt::format("{:.2f}", *ev.temperatures.instrument_C)
-                       : std::string("-"),
-                   ev.temperature_factor);
+    line("Diameter", fmt::format("{:.4f} mm (radius {:.4f} mm, from {})", 2 * *ev.nominal_radius_mm,
+                                 *ev.nominal_radius_mm, ev.nominal_radius_source));
   } else {
-    s += "F not temperature-corrected (no temperatures recorded; taken as 20 deg C)\n";
+    line("Diameter", kNone);
+  }
+  {
+    std::string feed = meta("feeds_mm_per_min");
+    if (feed == kNone) feed = meta("feed_mm_per_min");
+    line("Programmed feed (mm/min)", feed);
+  }
+  {
+    std::string dirs;
+    for (const auto& r : ev.runs) {
+      dirs += fmt::format("{}{} ({}, {})", dirs.empty() ? "" : ", ",
+                          direction_name(r.run.direction), r.label, feed_text(r.feed_mm_per_min));
+    }
+    line("Runs (direction, feed)", dirs.empty() ? std::string(kNone) : dirs);
+  }
+  {
+    const PlaneAxes axes = plane_axes(ev.plane);
+    line("Axes", fmt::format("{}, {} (plane {})", static_cast<char>(std::toupper(axes.first)),
+                             static_cast<char>(std::toupper(axes.second)), plane_name(ev.plane)));
+  }
+  line("Circle centre (mm)", meta("centre_mm"));
+  if (ev.centre_a_mm) {
+    line("Nominal centre", fmt::format("{:.4f}, {:.4f} mm (from {})", *ev.centre_a_mm,
+                                       *ev.centre_b_mm, ev.centre_source));
+  }
+  line("Tool-side offset (mm)", meta("offset_tool_mm"));
+  line("Workpiece-side offset (mm)", meta("offset_workpiece_mm"));
+  auto temp = [](const std::optional<double>& t) {
+    return t ? fmt::format("{:.2f} deg C", *t) : std::string(kNone);
+  };
+  line("Machine temperature", temp(ev.temperatures.machine_C));
+  line("Instrument temperature", temp(ev.temperatures.instrument_C));
+  line("Air temperature", meta("temperature_air_C") == kNone
+                              ? std::string(kNone)
+                              : meta("temperature_air_C") + " deg C");
+  if (ev.temperatures.available()) {
+    line("F at 20 deg C", fmt::format("corrected, radius factor {:.8f}", ev.temperature_factor));
+  } else {
+    line("F at 20 deg C", "not corrected (no temperatures recorded; taken as 20 deg C)");
+  }
+  line("Compensations in use", meta("compensation"));
+  line("Axes not under test", meta("other_axes"));
+  {
+    std::string capture = fmt::format("{} runs by {} segmentation, no smoothing", ev.runs.size(),
+                                      segmentation_method_name(ev.segmentation));
+    if (const std::string* p = ev.conditions.find("sample_period_s")) {
+      capture += ", sample period " + *p + " s";
+    }
+    if (const std::string* l = ev.conditions.find("lost_samples")) {
+      capture += ", lost samples " + *l;
+    }
+    line("Data capture", capture);
+  }
+  // Conditions the trace carries that have no line above: shown as they are.
+  static const std::set<std::string, std::less<>> kShown = {"date",
+                                                            "start_time",
+                                                            "machine",
+                                                            "machine_serial",
+                                                            "location",
+                                                            "operator",
+                                                            "instrument",
+                                                            "notes",
+                                                            "feeds_mm_per_min",
+                                                            "feed_mm_per_min",
+                                                            "centre_mm",
+                                                            "offset_tool_mm",
+                                                            "offset_workpiece_mm",
+                                                            "temperature_machine_C",
+                                                            "temperature_instrument_C",
+                                                            "temperature_air_C",
+                                                            "compensation",
+                                                            "other_axes",
+                                                            "sample_period_s",
+                                                            "lost_samples",
+                                                            "plane",
+                                                            "radius_mm",
+                                                            "diameter_mm",
+                                                            "channels"};
+  std::set<std::string, std::less<>> seen;
+  for (const auto& [key, value] : ev.conditions.entries()) {
+    if (kShown.count(key) || key.rfind("channel.", 0) == 0) continue;
+    if (!seen.insert(key).second) continue;
+    fmt::format_to(out, "  {:<28}{}\n", key + ":", *ev.conditions.find(key));
   }
   s += "\n";
   for (const auto& h : ev.hysteresis) {
-    fmt::format_to(out, "a) Circular hysteresis H_{} = {}  (largest at {:.1f} deg, runs {}/{})\n",
-                   ev.runs[h.run_ccw].label, um_abs(h.h_mm), h.at_angle_deg, h.run_ccw + 1,
-                   h.run_cw + 1);
+    // A feed sweep has one H per feed: each line names its runs' feeds.
+    const auto& ccw = ev.runs[h.run_ccw];
+    const auto& cw = ev.runs[h.run_cw];
+    const std::string feeds =
+        ccw.feed_mm_per_min && cw.feed_mm_per_min &&
+                std::abs(*ccw.feed_mm_per_min - *cw.feed_mm_per_min) <
+                    0.05 * std::max(*ccw.feed_mm_per_min, *cw.feed_mm_per_min)
+            ? feed_text(ccw.feed_mm_per_min)
+            : feed_text(ccw.feed_mm_per_min) + " / " + feed_text(cw.feed_mm_per_min);
+    fmt::format_to(out,
+                   "a) Circular hysteresis H_{} = {}  at {}  (largest at {:.1f} deg, runs {}/{})\n",
+                   ccw.label, um_abs(h.h_mm), feeds, h.at_angle_deg, h.run_ccw + 1, h.run_cw + 1);
   }
   if (ev.hysteresis.empty()) s += "a) Circular hysteresis H: not available\n";
   fmt::format_to(out, "b) Circular deviation G ({})\n", g_method_name(ev.g_method));
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
     const auto& r = ev.runs[i];
-    fmt::format_to(out, "   run {} {:>3} G_{} = {}   (other method: {})\n", i + 1,
-                   direction_name(r.run.direction), r.label, um_abs(r.g_mm(ev.g_method)),
+    fmt::format_to(out, "   run {} {:>3} {:>12} G_{} = {}   (other method: {})\n", i + 1,
+                   direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
+                   um_abs(r.g_mm(ev.g_method)),
                    um_abs(r.g_mm(ev.g_method == GMethod::min_zone ? GMethod::least_squares
                                                                   : GMethod::min_zone)));
   }
@@ -165,9 +263,9 @@ std::string text_report(const Evaluation& ev) {
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
     const auto& r = ev.runs[i];
     if (r.f_max_mm) {
-      fmt::format_to(out, "   run {} {:>3} F_{},max = {}  F_{},min = {}  (centre: {})\n", i + 1,
-                     direction_name(r.run.direction), r.label, um(*r.f_max_mm), r.label,
-                     um(*r.f_min_mm), r.f_centre_method);
+      fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}  (centre: {})\n",
+                     i + 1, direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
+                     um(*r.f_max_mm), r.label, um(*r.f_min_mm), r.f_centre_method);
     } else {
       fmt::format_to(out, "   run {} {:>3} F: not available\n", i + 1,
                      direction_name(r.run.direction));

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
 
@@ -95,6 +96,12 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
       "decimals of the channel values (default 6: 1 nm in mm)")(
       "poll", po::value(&o.poll_s)->value_name("S"),
       "sleep between polls of an empty ring (default 0.005)");
+  // The test conditions of clauses 4.4 and 6, written as metadata (docs/trace-format.md).
+  std::vector<std::string> condition_values(condition_options().size());
+  for (std::size_t i = 0; i < condition_options().size(); ++i) {
+    const auto& c = condition_options()[i];
+    desc.add_options()(c.option, po::value(&condition_values[i])->value_name(c.value_name), c.help);
+  }
   po::variables_map vm;
   try {
     po::store(po::command_line_parser(argc, argv).options(desc).run(), vm);
@@ -139,6 +146,11 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
         throw UsageError(fmt::format("--columns: '{}' is given twice", name));
       }
     }
+  }
+  for (std::size_t i = 0; i < condition_options().size(); ++i) {
+    const auto& c = condition_options()[i];
+    if (vm.count(c.option))
+      o.conditions.emplace_back(c.key, condition_value(c, condition_values[i]));
   }
   for (const auto& d : describe) {
     const auto eq = d.find('=');
@@ -264,6 +276,9 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
   if (!options_.program.empty()) {
     meta.set("program", options_.program);
     for (auto& [key, value] : read_program_header(options_.program)) {
+      const bool given = std::any_of(options_.conditions.begin(), options_.conditions.end(),
+                                     [&key](const auto& c) { return c.first == key; });
+      if (given) continue;  // the command line states it
       if (kReservedKeys.count(key) || key.rfind("channel.", 0) == 0) {
         std::fprintf(log_, "circlog-record: %s: header key '%s' is the recorder's own; skipped\n",
                      options_.program.c_str(), key.c_str());
@@ -272,6 +287,8 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
       meta.set(key, value);
     }
   }
+
+  for (const auto& [key, value] : options_.conditions) meta.set(key, value);
 
   std::vector<TraceColumn> columns;
   columns.push_back({"t", ColumnKind::real, 9});

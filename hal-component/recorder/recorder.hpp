@@ -20,6 +20,8 @@ struct Options {
   std::optional<double> duration_s;
   std::optional<double> idle_s;  // --until-idle
   std::string program;           // G-code file whose (key: value) header is copied
+  // --machine, --operator, ...: metadata key and value; they win over the program header.
+  std::vector<std::pair<std::string, std::string>> conditions;
   int decimals = 6;
   double poll_s = 0.005;
 };

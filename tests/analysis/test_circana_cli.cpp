@@ -180,3 +180,41 @@ TEST_F(CircanaCli, FitOfAHalfArcHasNoInscribedCircleButTheOtherFits) {
   EXPECT_NEAR(j["mzc"]["radius"].get<double>(), 20.0, 1e-5);
   EXPECT_NEAR(j["lsc"]["centre"][0].get<double>(), 10.0, 1e-4);
 }
+
+// The clause 4.4 / 6 conditions as options: into the report, the JSON and the plot.
+TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
+  const std::string trace = (dir_ / "c.csv").string();
+  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace + " --period 0.004").c_str()),
+            0);
+  const std::string opts =
+      " --machine 'VMC 3' --serial SN-1 --instrument 'grid encoder' --operator 'A. Sato'"
+      " --location 'hall 2' --t-machine 21 --t-instrument 20.5 --notes 'after crash'";
+  Result r =
+      run("analyze " + trace + opts + " --columns x_cmd,y_cmd --svg " + (dir_ / "p.svg").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* line :
+       {"  Machine:                    VMC 3\n", "  Machine serial:             SN-1\n",
+        "  Instrument:                 grid encoder\n", "  Operator:                   A. Sato\n",
+        "  Location:                   hall 2\n", "  Notes:                      after crash\n",
+        "  Machine temperature:        21.00 deg C\n",
+        "  Instrument temperature:     20.50 deg C\n",
+        "  Channels evaluated:         x_cmd, y_cmd\n"}) {
+    EXPECT_NE(r.out.find(line), std::string::npos) << line << r.out;
+  }
+  EXPECT_NE(slurp(dir_ / "p.svg").find("channels evaluated x_cmd, y_cmd"), std::string::npos);
+  r = run("analyze " + trace + opts + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["conditions"]["machine"], "VMC 3");
+  EXPECT_EQ(j["conditions"]["machine_serial"], "SN-1");
+  EXPECT_EQ(j["conditions"]["temperature_machine_C"], "21");
+  EXPECT_EQ(j["temperature"]["machine_C"], 21.0);
+  EXPECT_EQ(j["channels"], nlohmann::json::array({"x", "y"}));
+
+  expect_error("analyze " + trace + " --t-machine warm", 2,
+               "--t-machine: expected a number, got 'warm'");
+  expect_error("analyze " + trace + " --machine ' '", 2,
+               "--machine: expected a value, got nothing");
+  expect_error("analyze " + trace + " --scale-um-per-div 0", 2,
+               "--scale-um-per-div: expected a positive number");
+}

@@ -141,6 +141,28 @@ TEST(CirclogRecordOptions, ParsesAndValidates) {
   EXPECT_FALSE(parse({"--help"}));
 }
 
+// The clause 4.4 / 6 conditions: metadata keys of core/conditions, values checked.
+TEST(CirclogRecordOptions, TestConditionsBecomeMetadataKeys) {
+  const auto o =
+      parse({"-o", "a.csv", "--machine", "VMC-3", "--serial", "SN 1234", "--instrument",
+             "grid encoder KGM 182", "--operator", "A. Sato", "--location", "hall 2", "--t-machine",
+             "21.5", "--t-instrument", " 20.25 ", "--notes", "after crash"});
+  ASSERT_TRUE(o);
+  using KV = std::pair<std::string, std::string>;
+  EXPECT_EQ(o->conditions, (std::vector<KV>{{"machine", "VMC-3"},
+                                            {"machine_serial", "SN 1234"},
+                                            {"instrument", "grid encoder KGM 182"},
+                                            {"operator", "A. Sato"},
+                                            {"location", "hall 2"},
+                                            {"temperature_machine_C", "21.5"},
+                                            {"temperature_instrument_C", "20.25"},
+                                            {"notes", "after crash"}}));
+  EXPECT_THROW(parse({"-o", "a", "--t-machine", "warm"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--t-instrument", "inf"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--machine", "  "}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--notes", "two\nlines"}), circtest::UsageError);
+}
+
 TEST(CirclogRecordOptions, RefusesBadValues) {
   EXPECT_THROW(parse({}), circtest::UsageError);
   EXPECT_THROW(parse({"-o", "a", "--columns", "x,x"}), circtest::UsageError);
@@ -183,8 +205,9 @@ TEST_F(RecorderTest, RecordsARunAndStopsWhenIdle) {
   o.columns = {"x", "y"};
   o.descriptions = {{"x", "grid encoder"}};
   o.idle_s = 0.1;
-  std::ofstream(path("p.ngc")) << "(plane: XY)\n(rows: 12)\nG0 X0\n";
+  std::ofstream(path("p.ngc")) << "(plane: XY)\n(rows: 12)\n(machine: from program)\nG0 X0\n";
   o.program = path("p.ngc");
+  o.conditions = {{"machine", "VMC-3"}, {"temperature_machine_C", "21.5"}};
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.rows, 301u);  // 300 enabled periods and the one where enable fell
   EXPECT_EQ(s.runs, 1u);
@@ -210,6 +233,11 @@ TEST_F(RecorderTest, RecordsARunAndStopsWhenIdle) {
   EXPECT_EQ(*m.find("rows"), "301");  // the trailer, not the program's "rows: 12"
   EXPECT_EQ(*m.find("lost_samples"), "0");
   EXPECT_EQ(*m.find("start_time"), "2026-01-02T03:04:05.000Z");
+  EXPECT_EQ(*m.find("machine"), "VMC-3");  // the command line wins over the program header
+  EXPECT_EQ(*m.find("temperature_machine_C"), "21.5");
+  std::size_t machine_lines = 0;
+  for (const auto& [k, v] : m.entries()) machine_lines += k == "machine";
+  EXPECT_EQ(machine_lines, 1u);
   EXPECT_NE(log_text().find("header key 'rows'"), std::string::npos);
 }
 

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/plot.hpp"
 
 namespace circtest {
 
@@ -12,6 +13,7 @@ struct AnalyzeRequest {
   EvaluationOptions options;
   bool json = false;
   std::string svg_path;  // also write the clause 6 plot there (atomically), when set
+  PlotOptions plot;
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code.

@@ -36,6 +36,9 @@ struct EvaluationOptions {
   FCentre f_centre = FCentre::automatic;
   Temperatures temperatures;
   double min_arc_deg = 90.0;
+  // Test conditions stated on the command line (--machine, --operator, ...: metadata key
+  // and value); they override the trace's metadata in the report.
+  std::vector<std::pair<std::string, std::string>> conditions;
 };
 
 struct RunResult {
@@ -70,7 +73,9 @@ struct HysteresisResult {
 struct Evaluation {
   std::string source;
   Plane plane = Plane::XY;
-  PlaneColumns columns;  // the position columns evaluated, indices into the trace
+  PlaneColumns columns;   // the position columns evaluated, indices into the trace
+  std::string channel_a;  // their names, e.g. "x", "y" (instrument) or "x_fb", "y_fb"
+  std::string channel_b;
   SegmentationMethod segmentation = SegmentationMethod::automatic;
   GMethod g_method = GMethod::min_zone;
   std::optional<double> nominal_radius_mm;

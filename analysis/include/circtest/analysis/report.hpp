@@ -28,4 +28,9 @@ std::string text_report(const FitReport& report);
 
 const char* g_method_name(GMethod method) noexcept;  // "min-zone", "least-squares"
 
+// "x, y (x: table X, grid encoder; ...)": the channels evaluated, with their descriptions.
+std::string channels_text(const Evaluation& evaluation);
+// "1000 mm/min", or "feed ?" when the trace had no time column.
+std::string feed_text(const std::optional<double>& feed_mm_per_min);
+
 }  // namespace circtest
