@@ -21,10 +21,11 @@ const char* kUsage =
     "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
     "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
     "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
-    "                     [--svg PLOT.svg] [--scale-um-per-div UM]\n"
+    "                     [--svg PLOT.svg] [--scale-um-per-div UM] [--radial]\n"
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
-    "       circana fit POINTS.csv [--columns A,B] [--json]\n";
+    "       circana fit POINTS.csv [--columns A,B] [--json]\n"
+    "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n";
 
 po::variables_map parse(const po::options_description& desc,
                         const po::positional_options_description& pos,
@@ -76,7 +77,8 @@ int analyze(const std::vector<std::string>& args) {
       "alpha-machine", po::value<std::string>(), "")("alpha-instrument", po::value<std::string>(),
                                                      "")("json", "JSON on stdout")(
       "svg", po::value<std::string>(), "write the plot of the paths to this SVG file")(
-      "scale-um-per-div", po::value<std::string>(), "fixed plot scale, um per division");
+      "scale-um-per-div", po::value<std::string>(), "fixed plot scale, um per division")(
+      "radial", "evaluate the length channel r (ball bar) even if the trace has x,y");
   add_condition_options(desc);
   po::positional_options_description pos;
   pos.add("trace", 1);
@@ -90,6 +92,7 @@ int analyze(const std::vector<std::string>& args) {
   AnalyzeRequest req;
   req.trace_path = vm["trace"].as<std::string>();
   req.json = vm.count("json") > 0;
+  req.radial = vm.count("radial") > 0;
   if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
   auto& o = req.options;
   o.nominal_radius_mm = number("radius");
@@ -155,11 +158,34 @@ int fit(const std::vector<std::string>& args) {
   return run_fit(req, std::cout);
 }
 
+int import_polar(const std::vector<std::string>& args) {
+  po::options_description desc("import-polar");
+  desc.add_options()("input", po::value<std::string>()->required(), "polar export")(
+      "output,o", po::value<std::string>()->required(), "trace to write")(
+      "radius", po::value<std::string>()->required(), "nominal radius, mm")(
+      "plane", po::value<std::string>()->default_value("XY"), "XY, YZ or ZX");
+  po::positional_options_description pos;
+  pos.add("input", 1);
+  const auto vm = parse(desc, pos, args);
+  ImportPolarRequest req;
+  req.input_path = vm["input"].as<std::string>();
+  req.output_path = vm["output"].as<std::string>();
+  req.radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>());
+  const auto plane = parse_plane(vm["plane"].as<std::string>());
+  if (!plane) {
+    throw UsageError("--plane: expected XY, YZ or ZX, got '" + vm["plane"].as<std::string>() + "'");
+  }
+  req.plane = *plane;
+  return run_import_polar(req, std::cout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   return run_cli("circana", [&]() -> int {
-    if (argc < 2) throw UsageError("missing command: expected analyze or fit (see circana --help)");
+    if (argc < 2)
+      throw UsageError(
+          "missing command: expected analyze, fit or import-polar (see circana --help)");
     const std::string command = argv[1];
     const std::vector<std::string> args(argv + 2, argv + argc);
     if (command == "--help" || command == "-h" || command == "help") {
@@ -168,6 +194,7 @@ int main(int argc, char** argv) {
     }
     if (command == "analyze") return analyze(args);
     if (command == "fit") return fit(args);
-    throw UsageError("unknown command '" + command + "': expected analyze or fit");
+    if (command == "import-polar") return import_polar(args);
+    throw UsageError("unknown command '" + command + "': expected analyze, fit or import-polar");
   });
 }

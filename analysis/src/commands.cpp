@@ -2,7 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+#include <optional>
+
 #include "circtest/analysis/plot.hpp"
+#include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/report.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
@@ -11,8 +15,8 @@ namespace circtest {
 
 namespace {
 std::vector<std::string> analysis_columns(const std::string& a, const std::string& b) {
-  std::vector<std::string> keep = {"t", "marker", "segment", "x",    "y",
-                                   "z", "x_cmd",  "y_cmd",   "z_cmd"};
+  std::vector<std::string> keep = {"t", "marker", "segment", "x",     "y",
+                                   "z", "x_cmd",  "y_cmd",   "z_cmd", std::string(kRadialColumn)};
   if (!a.empty()) keep.push_back(a);
   if (!b.empty()) keep.push_back(b);
   return keep;
@@ -22,8 +26,28 @@ std::vector<std::string> analysis_columns(const std::string& a, const std::strin
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   TraceReadOptions ro;
   ro.keep = analysis_columns(request.options.column_a, request.options.column_b);
-  const Trace trace = read_trace(request.trace_path, ro);
-  const Evaluation ev = evaluate(trace, request.options);
+  const Trace read = read_trace(request.trace_path, ro);
+  EvaluationOptions options = request.options;
+  // A ball bar's trace: positions from the bar's length along the commanded angle.
+  std::optional<RadialPositions> radial;
+  if (request.radial ||
+      (options.column_a.empty() && is_radial_trace(read, trace_plane(read, options.plane)))) {
+    RadialOptions ro_radial;
+    ro_radial.plane = options.plane;
+    ro_radial.centre_a_mm = options.centre_a_mm;
+    ro_radial.centre_b_mm = options.centre_b_mm;
+    ro_radial.radius_mm = options.nominal_radius_mm;
+    radial = radial_positions(read, ro_radial);
+    options.column_a = radial->column_a;
+    options.column_b = radial->column_b;
+    if (!options.centre_a_mm) {
+      options.centre_a_mm = radial->centre_a_mm;
+      options.centre_b_mm = radial->centre_b_mm;
+    }
+  }
+  const Trace& trace = radial ? radial->trace : read;
+  Evaluation ev = evaluate(trace, options);
+  if (radial) ev.notes.insert(ev.notes.begin(), radial->note);
   const std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
   if (!request.svg_path.empty())
     write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));
@@ -47,6 +71,21 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   const auto& b = *trace.column(request.column_b);
   const FitReport report = fit_all(request.points_path, a, b);
   out << (request.json ? to_json(report).dump(2) + "\n" : text_report(report));
+  out.flush();
+  return 0;
+}
+
+int run_import_polar(const ImportPolarRequest& request, std::ostream& out) {
+  if (!(request.radius_mm > 0.0) || !std::isfinite(request.radius_mm)) {
+    throw UsageError("--radius: the nominal radius of the test must be positive");
+  }
+  const std::vector<PolarPoint> points =
+      parse_polar_text(read_file(request.input_path), request.input_path);
+  const Trace trace = polar_to_trace(points, request.plane, request.radius_mm, request.input_path);
+  write_trace(request.output_path, trace);
+  const auto runs = trace.values[4].empty() ? 0 : static_cast<int>(trace.values[4].back());
+  out << fmt::format("{}: {} points, {} run(s) -> {}\n", request.input_path, points.size(), runs,
+                     request.output_path);
   out.flush();
   return 0;
 }

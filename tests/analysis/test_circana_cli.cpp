@@ -126,7 +126,7 @@ TEST_F(CircanaCli, BadOptions) {
   expect_error("analyze " + t + " --centre 1", 2,
                "--centre: expected 2 comma-separated numbers, got '1'");
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
-  expect_error("frobnicate", 2, "unknown command 'frobnicate': expected analyze or fit");
+  expect_error("frobnicate", 2, "unknown command 'frobnicate': expected analyze, fit or import-polar");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
@@ -152,6 +152,52 @@ TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
     EXPECT_EQ(run["centre"].size(), 2u);
     EXPECT_NEAR(run["arc_deg"].get<double>(), 360.0, 0.5);
   }
+}
+
+TEST_F(CircanaCli, RadialTraceGivesTheResultsOfItsXyForm) {
+  const std::string trace = (dir_ / "bar.csv").string();
+  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
+                         " --squareness 50e-6 --backlash-x 0.01 --radial --bar-length 75")
+                            .c_str()),
+            0);
+  const Result xy = run("analyze " + trace + " --json");
+  const Result bar = run("analyze " + trace + " --json --radial");
+  ASSERT_EQ(xy.code, 0) << xy.err;
+  ASSERT_EQ(bar.code, 0) << bar.err;
+  const auto jx = nlohmann::json::parse(xy.out);
+  const auto jb = nlohmann::json::parse(bar.out);
+  EXPECT_NEAR(jb["H"].get<double>(), jx["H"].get<double>(), 1e-4);
+  for (std::size_t k = 0; k < 2; ++k) {
+    for (const char* key : {"G", "F_max", "F_min"}) {
+      EXPECT_NEAR(jb["runs"][k][key].get<double>(), jx["runs"][k][key].get<double>(), 1e-4) << key;
+    }
+  }
+  ASSERT_FALSE(jb["notes"].empty());
+  EXPECT_NE(jb["notes"][0].get<std::string>().find("radial trace"), std::string::npos);
+  EXPECT_TRUE(jx["notes"].empty() ||
+              jx["notes"][0].get<std::string>().find("radial") == std::string::npos);
+}
+
+TEST_F(CircanaCli, ImportPolarWritesARadialTrace) {
+  std::string text = "Angle (deg), Deviation (um)\n";
+  for (int i = 0; i <= 360; ++i) text += std::to_string(i) + "," + (i == 90 ? "4.5" : "0.5") + "\n";
+  const std::string in = write("export.txt", text);
+  const std::string out = (dir_ / "imported.csv").string();
+  const Result r = run("import-polar " + in + " --radius 50 -o " + out);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("361 points, 1 run(s)"), std::string::npos) << r.out;
+  const Result a = run("analyze " + out + " --json --f-centre nominal --centre 0,0");
+  ASSERT_EQ(a.code, 0) << a.err;
+  const auto j = nlohmann::json::parse(a.out);
+  ASSERT_EQ(j["runs"].size(), 1u);
+  EXPECT_NEAR(j["runs"][0]["F_max"].get<double>(), 0.0045, 1e-6);
+  EXPECT_NEAR(j["runs"][0]["F_min"].get<double>(), 0.0005, 1e-6);
+  expect_error(
+      "import-polar " + write("bad.txt", "0 1\n1 one\n") + " --radius 50 -o " + out, 4,
+      (dir_ / "bad.txt").string() +
+          ":2: expected two numbers: angle in deg and radial deviation in um, got '1 one'");
+  expect_error("import-polar " + in + " --radius -5 -o " + out, 2,
+               "--radius: the nominal radius of the test must be positive");
 }
 
 TEST_F(CircanaCli, FitOfTheCertifiedCaseC09) {

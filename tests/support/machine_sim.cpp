@@ -41,6 +41,10 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
   trace.metadata.set("feed_mm_per_min", fmt::format("{}", program.feed_mm_per_min));
   trace.metadata.set("sample_period_s", fmt::format("{}", T));
   trace.columns = {"t", "x", "y", "z", "x_cmd", "y_cmd", "z_cmd", "marker", "segment"};
+  if (program.radial) trace.columns.push_back("r");
+  if (program.radial && program.bar_length_mm) {
+    trace.metadata.set("bar_length_mm", fmt::format("{}", *program.bar_length_mm));
+  }
   trace.values.assign(trace.columns.size(), {});
 
   std::mt19937_64 rng(machine.seed);
@@ -87,6 +91,12 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
                            marker,
                            segment};
     for (std::size_t c = 0; c < 9; ++c) trace.values[c].push_back(row[c]);
+    if (program.radial) {
+      const double length =
+          std::hypot(table[0] - program.centre_mm[0], table[1] - program.centre_mm[1],
+                     table[2] - program.centre_mm[2]);
+      trace.values[9].push_back(length - program.bar_length_mm.value_or(0.0));
+    }
     trace.line_of_row.push_back(static_cast<std::uint32_t>(k + 2));
     ++k;
   };

@@ -4,6 +4,7 @@
 // squareness of the first plane axis to the second, sampled every period like circlog.
 // Its injected errors are the independent truth the analysis is checked against.
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "circtest/core/plane.hpp"
@@ -39,9 +40,15 @@ struct CircleProgram {
   double lead_deg = 30.0;  // lead-in and lead-out arcs on the same circle, marker off
   double dwell_s = 0.2;    // at rest before the first run and between runs
   double period_s = 0.001;
+  // A ball bar between the nominal centre (its pivot) and the tool: adds a column `r`, the
+  // 3-D distance from the centre to the measured position; with bar_length_mm set, its
+  // change from that length instead (and a bar_length_mm metadata line).
+  bool radial = false;
+  std::optional<double> bar_length_mm;
 };
 
-// Columns: t, x, y, z (measured), x_cmd, y_cmd, z_cmd, marker, segment (1, 2, ... per run).
+// Columns: t, x, y, z (measured), x_cmd, y_cmd, z_cmd, marker, segment (1, 2, ... per run),
+// and r with `radial`.
 // Metadata: plane, radius, centre, feed.
 Trace simulate(const MachineModel& machine, const CircleProgram& program);
 

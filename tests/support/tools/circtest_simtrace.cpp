@@ -27,7 +27,9 @@ int main(int argc, char** argv) {
         "backlash-x", po::value(&m.x.backlash_mm), "mm")(
         "backlash-y", po::value(&m.y.backlash_mm), "mm")("scale-x", po::value(&m.x.scale), "")(
         "scale-y", po::value(&m.y.scale), "")("squareness", po::value(&m.squareness_rad), "rad")(
-        "noise", po::value(&m.noise_mm), "mm")("seed", po::value(&m.seed), "");
+        "noise", po::value(&m.noise_mm), "mm")("seed", po::value(&m.seed), "")(
+        "radial", "add a ball bar's length column r")(
+        "bar-length", po::value<double>(), "with --radial: r is the change from this length, mm");
     po::variables_map vm;
     try {
       po::store(po::parse_command_line(argc, argv, desc), vm);
@@ -43,6 +45,8 @@ int main(int argc, char** argv) {
     if (!pl) throw UsageError("--plane: expected XY, YZ or ZX");
     p.plane = *pl;
     p.radius_mm = d / 2.0;
+    p.radial = vm.count("radial") > 0;
+    if (vm.count("bar-length")) p.bar_length_mm = vm["bar-length"].as<double>();
     Trace t = sim::simulate(m, p);
     write_trace(out, t);
     return 0;

@@ -14,6 +14,9 @@ struct AnalyzeRequest {
   bool json = false;
   std::string svg_path;  // also write the clause 6 plot there (atomically), when set
   PlotOptions plot;
+  // Evaluate the radial channel `r` even when the plane's position columns exist (a trace
+  // without them is evaluated from `r` anyway).
+  bool radial = false;
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code.
@@ -26,5 +29,15 @@ struct FitRequest {
   bool json = false;
 };
 int run_fit(const FitRequest& request, std::ostream& out);
+
+// circana import-polar: a plain two-column polar export (angle deg, radial deviation um)
+// written as a radial trace (docs/trace-format.md "Radial traces").
+struct ImportPolarRequest {
+  std::string input_path;
+  std::string output_path;
+  double radius_mm = 0.0;  // the nominal radius the deviations are taken from
+  Plane plane = Plane::XY;
+};
+int run_import_polar(const ImportPolarRequest& request, std::ostream& out);
 
 }  // namespace circtest
