@@ -448,7 +448,9 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
   add("motion_mode", "G61");
   add("motion_mode_after", "G64");
   add("feed_override", "off during the runs by M50 P0, back on after by M50 P1");
-  add("instrument", instrument_name(spec.instrument));
+  // Not `instrument`: that key is the clause 6 description of the instrument (circlog-record
+  // --instrument), which the recorder would mix up with this copied header line.
+  add("instrument_profile", instrument_name(spec.instrument));
   add("approach_feed_mm_per_min", header_number(approach_feed_mm_per_min(spec)));
   if (inch)
     add("approach_feed_in_per_min", header_number(approach_feed_mm_per_min(spec) * to_units));
