@@ -23,7 +23,7 @@ cp "$out/run/trace.csv" "$out/trace.csv"
 "$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --columns x_fb,y_fb >"$out/report-motor.txt"
 cat "$out/report.txt"
 
-sim() { awk -F= -v k="$1" '/^\[/{s=($1=="[SIM]")} s && $1 ~ "^"k"[ \t]*$" {gsub(/[ \t]/,"",$2); print $2}' "$ini"; }
+sim() { "$BUILD_DIR/core/circtest-ini" get "$ini" SIM "$1"; }
 echo
 echo "circtest: done. Files in $out/:"
 echo "  test.ngc          the ISO 230-4 test program (circgen --d 150 --f 1000)"

@@ -12,40 +12,67 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/ini.hpp"
 #include "circtest/core/numbers.hpp"
 
 namespace circtest {
 
 namespace {
 
-std::string trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t\r");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t\r");
-  return std::string(text.substr(first, last - first + 1));
-}
-
 std::string upper(std::string text) {
   for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return text;
 }
 
-double parse_ini_number(const std::string& source, std::size_t line, const std::string& section,
-                        const std::string& key, const std::string& value) {
-  const auto number = parse_finite(value);
+std::optional<double> ini_number(const IniDocument& ini, const char* section, const char* key) {
+  const auto entry = ini.find(section, key);
+  if (!entry || entry->value.empty()) return std::nullopt;
+  const auto number = parse_finite(entry->value);
   if (!number) {
-    throw ParseError(source, line,
-                     fmt::format("[{}] {}: '{}' is not a number", section, key, value));
+    throw ParseError(entry->file, entry->line,
+                     fmt::format("[{}] {}: '{}' is not a number", section, key, entry->value));
   }
   return *number;
 }
 
-// LinuxCNC 2.9 (emcIniLoad) accepts these spellings for [TRAJ] LINEAR_UNITS.
-std::optional<double> mm_per_unit(const std::string& value) {
-  const std::string v = upper(value);
+// [TRAJ] LINEAR_UNITS as LinuxCNC 2.9 reads it (emcIniFile linearUnitsMap): machine units per
+// mm as a number, or a name, case-insensitive.
+double mm_per_unit(const IniDocument& ini) {
+  const auto entry = ini.find("TRAJ", "LINEAR_UNITS");
+  if (!entry || entry->value.empty()) return 1.0;
+  if (const auto units_per_mm = parse_finite(entry->value)) {
+    if (*units_per_mm <= 0.0) {
+      throw ParseError(entry->file, entry->line,
+                       fmt::format("[TRAJ] LINEAR_UNITS: expected a positive number of units "
+                                   "per mm, got '{}'",
+                                   entry->value));
+    }
+    return 1.0 / *units_per_mm;
+  }
+  const std::string v = upper(entry->value);
   if (v == "MM" || v == "METRIC") return 1.0;
   if (v == "INCH" || v == "IMPERIAL" || v == "IN") return kMmPerInch;
-  return std::nullopt;
+  throw ParseError(entry->file, entry->line,
+                   fmt::format("[TRAJ] LINEAR_UNITS: unknown unit '{}' (expected mm, metric, "
+                               "in, inch, imperial or units per mm)",
+                               entry->value));
+}
+
+// The axis letters the machine has: [TRAJ] COORDINATES, else the kinematics' coordinates=;
+// empty when neither says.
+std::string coordinate_letters(const IniDocument& ini) {
+  std::string letters;
+  if (const auto coordinates = ini.get("TRAJ", "COORDINATES")) {
+    letters = *coordinates;
+  } else if (const auto kins = ini.get("KINS", "KINEMATICS")) {
+    const auto at = kins->find("coordinates=");
+    if (at != std::string::npos) letters = kins->substr(at + 12, kins->find(' ', at) - at - 12);
+  }
+  std::string out;
+  for (char c : letters) {
+    if (std::isalpha(static_cast<unsigned char>(c))) out += static_cast<char>(std::toupper(c));
+  }
+  return out;
 }
 
 double deg_to_rad(double deg) {
@@ -54,94 +81,40 @@ double deg_to_rad(double deg) {
 
 }  // namespace
 
-MachineLimits parse_machine_limits(const std::string& text, const std::string& source) {
+MachineLimits machine_limits_from(const IniDocument& ini) {
   MachineLimits limits;
-  limits.source = source;
-  for (int i = 0; i < 3; ++i) limits.axes[i].axis = static_cast<char>('x' + i);
-
-  // Raw values in machine units; converted once LINEAR_UNITS is known (it may come last).
-  struct Pending {
-    std::optional<double>* target;
-    double value;
-    bool is_length;
+  limits.source = ini.path();
+  limits.mm_per_machine_unit = mm_per_unit(ini);
+  const double unit = limits.mm_per_machine_unit;
+  auto length = [unit](std::optional<double> v) {
+    return v ? std::optional<double>(*v * unit) : std::nullopt;
   };
-  std::vector<Pending> pending;
-  std::vector<std::string> seen;  // LinuxCNC's INI reader returns a key's first occurrence
-  std::string section;
-  std::size_t line_no = 0;
-  std::size_t begin = 0;
-  while (begin < text.size()) {
-    std::size_t end = text.find('\n', begin);
-    if (end == std::string::npos) end = text.size();
-    const std::string line = trim(std::string_view(text).substr(begin, end - begin));
-    begin = end + 1;
-    ++line_no;
-    if (line.empty() || line[0] == '#' || line[0] == ';') continue;
-    if (line[0] == '[') {
-      const auto close = line.find(']');
-      if (close == std::string::npos) {
-        throw ParseError(source, line_no, fmt::format("section header without ']': {}", line));
-      }
-      section = upper(trim(std::string_view(line).substr(1, close - 1)));
-      continue;
-    }
-    const auto eq = line.find('=');
-    if (eq == std::string::npos) {
-      throw ParseError(source, line_no, fmt::format("expected KEY = VALUE, got '{}'", line));
-    }
-    const std::string key = upper(trim(std::string_view(line).substr(0, eq)));
-    const std::string value = trim(std::string_view(line).substr(eq + 1));
-    const std::string full = section + "/" + key;
-    if (section == "HAL" && key == "HALFILE") limits.hal_files.push_back(value);
-    if (std::find(seen.begin(), seen.end(), full) != seen.end()) continue;
-    seen.push_back(full);
-    limits.values.emplace(full, value);
-
-    if (section == "TRAJ") {
-      if (key == "LINEAR_UNITS") {
-        const auto unit = mm_per_unit(value);
-        if (!unit) {
-          throw ParseError(source, line_no,
-                           fmt::format("[TRAJ] LINEAR_UNITS: unknown unit '{}'", value));
-        }
-        limits.mm_per_machine_unit = *unit;
-      } else if (key == "MAX_LINEAR_VELOCITY") {
-        pending.push_back({&limits.max_linear_velocity_mm_per_s,
-                           parse_ini_number(source, line_no, section, key, value), true});
-      } else if (key == "MAX_LINEAR_ACCELERATION") {
-        pending.push_back({&limits.max_linear_acceleration_mm_per_s2,
-                           parse_ini_number(source, line_no, section, key, value), true});
-      }
-      continue;
-    }
-    if (section.size() == 6 && section.starts_with("AXIS_")) {
-      const char letter = static_cast<char>(std::tolower(static_cast<unsigned char>(section[5])));
-      if (letter < 'x' || letter > 'z') continue;
-      AxisLimits& axis = limits.axes[letter - 'x'];
-      axis.present = true;
-      std::optional<double>* target = nullptr;
-      if (key == "MIN_LIMIT") target = &axis.min_limit_mm;
-      if (key == "MAX_LIMIT") target = &axis.max_limit_mm;
-      if (key == "MAX_VELOCITY") target = &axis.max_velocity_mm_per_s;
-      if (key == "MAX_ACCELERATION") target = &axis.max_acceleration_mm_per_s2;
-      if (target) {
-        pending.push_back({target, parse_ini_number(source, line_no, section, key, value), true});
-      }
-    }
+  limits.max_linear_velocity_mm_per_s = length(ini_number(ini, "TRAJ", "MAX_LINEAR_VELOCITY"));
+  limits.max_linear_acceleration_mm_per_s2 =
+      length(ini_number(ini, "TRAJ", "MAX_LINEAR_ACCELERATION"));
+  const std::string letters = coordinate_letters(ini);
+  for (int i = 0; i < 3; ++i) {
+    AxisLimits& axis = limits.axes[i];
+    axis.axis = static_cast<char>('x' + i);
+    const char letter = static_cast<char>('X' + i);
+    const std::string section = fmt::format("AXIS_{}", letter);
+    const bool has_section = ini.has_section(section);
+    axis.present = has_section || letters.find(letter) != std::string::npos;
+    if (!axis.present) continue;
+    axis.min_limit_mm = length(ini_number(ini, section.c_str(), "MIN_LIMIT"));
+    axis.max_limit_mm = length(ini_number(ini, section.c_str(), "MAX_LIMIT"));
+    axis.max_velocity_mm_per_s = length(ini_number(ini, section.c_str(), "MAX_VELOCITY"));
+    axis.max_acceleration_mm_per_s2 = length(ini_number(ini, section.c_str(), "MAX_ACCELERATION"));
+    // LinuxCNC 2.9 (iniaxis.cc, emccfg.h) gives an axis without these keys 1 unit/s and
+    // 1 unit/s^2, and limits of +-1e99: a real machine limit, checked as such.
+    if (!axis.max_velocity_mm_per_s) axis.max_velocity_mm_per_s = unit * 1.0;
+    if (!axis.max_acceleration_mm_per_s2) axis.max_acceleration_mm_per_s2 = unit * 1.0;
   }
-  // A section with no keys still counts as present.
-  std::size_t pos = 0;
-  while ((pos = text.find('[', pos)) != std::string::npos) {
-    const auto close = text.find(']', pos);
-    if (close == std::string::npos) break;
-    const std::string name = upper(trim(std::string_view(text).substr(pos + 1, close - pos - 1)));
-    if (name.size() == 6 && name.starts_with("AXIS_") && name[5] >= 'X' && name[5] <= 'Z') {
-      limits.axes[name[5] - 'X'].present = true;
+  for (const auto& entry : ini.get_all("HAL", "HALFILE")) limits.hal_files.push_back(entry.value);
+  for (const std::string& section : ini.sections()) {
+    for (const auto& entry : ini.entries(section)) {
+      limits.values.emplace(upper(section) + "/" + upper(entry.key), entry.value);
     }
-    pos = close;
-  }
-  for (const Pending& p : pending) {
-    *p.target = p.is_length ? p.value * limits.mm_per_machine_unit : p.value;
   }
   return limits;
 }
@@ -214,8 +187,12 @@ std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
   return std::nullopt;
 }
 
+MachineLimits parse_machine_limits(const std::string& text, const std::string& source) {
+  return machine_limits_from(IniDocument::parse(text, source));
+}
+
 MachineLimits read_machine_limits(const std::string& path) {
-  MachineLimits limits = parse_machine_limits(read_file(path), path);
+  MachineLimits limits = machine_limits_from(IniDocument::load(path));
   // HAL files are found beside the INI (LinuxCNC runs halcmd in the configuration's
   // folder), LIB: ones in the installed HAL library. A file that is not there (or a .tcl
   // one) is not checked: the output check then says nothing rather than guess.
@@ -250,8 +227,9 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
   for (char axis : {axes.first, axes.second, axes.normal}) {
     if (!limits.axes[axis - 'x'].present) {
       throw ParseError(limits.source, 0,
-                       fmt::format("no {} section: cannot check the {} axis of the test",
-                                   section(axis), static_cast<char>(std::toupper(axis))));
+                       fmt::format("the machine has no {} axis (not in [TRAJ] COORDINATES, "
+                                   "no {} section): cannot run the test there",
+                                   static_cast<char>(std::toupper(axis)), section(axis)));
     }
   }
 

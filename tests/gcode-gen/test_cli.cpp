@@ -251,9 +251,36 @@ TEST_F(gcode_CliIni, ParseErrorsNameFileAndLine) {
   spit(ini(), text);
   expect_refused(run({"--d", "150", "--f", "300"}), 4,
                  ini() + ":23: [AXIS_Z] MAX_LIMIT: 'ten' is not a number");
-  spit(ini(), "[TRAJ]\nLINEAR_UNITS = mm\nthis is not a key\n");
+  text = kMachineIni;
+  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = furlong");
+  spit(ini(), text);
+  expect_refused(run({"--d", "150", "--f", "300"}), 4, "LINEAR_UNITS: unknown unit 'furlong'");
+}
+
+// LinuxCNC 2.9 starts these, so circgen reads them: a line without '=' (ignored), a
+// continuation line, LINEAR_UNITS as units per mm, sections from an #INCLUDEd file.
+TEST_F(gcode_CliIni, ReadsWhatLinuxcncReads) {
+  std::string text = kMachineIni;
+  text.insert(text.find("[TRAJ]"), "[APPLICATIONS]\nthis is not a key\nAPP = a \\\n   b\n");
+  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = 1.0");
+  spit(ini(), text);
+  EXPECT_EQ(run({"--d", "150", "--f", "300"}).exit_code, 0);
+  expect_refused(run({"--d", "450", "--f", "300"}), 6, "MIN_LIMIT = -200");
+  // 0.03937 units per mm is inch: the 200 unit X limit is 5080 mm.
+  text.replace(text.find("LINEAR_UNITS = 1.0"), 18, "LINEAR_UNITS = 0.03937007874");
+  spit(ini(), text);
+  const auto r = run({"--d", "450", "--f", "300"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  // The [AXIS_Z] section in an included file.
+  text = kMachineIni;
+  const auto z = text.find("[AXIS_Z]");
+  spit(dir_.file("axis_z.inc"), text.substr(z));
+  spit(ini(), text.substr(0, z) + "#INCLUDE axis_z.inc\n");
+  EXPECT_EQ(run({"--d", "150", "--f", "300"}).exit_code, 0);
+  text.replace(text.find("MAX_LIMIT = 10"), 14, "MAX_LIMIT = ten");
+  spit(dir_.file("axis_z.inc"), text.substr(z));
   expect_refused(run({"--d", "150", "--f", "300"}), 4,
-                 ini() + ":3: expected KEY = VALUE, got 'this is not a key'");
+                 dir_.file("axis_z.inc") + ":3: [AXIS_Z] MAX_LIMIT: 'ten' is not a number");
 }
 
 TEST_F(gcode_CliIni, MissingAxisSectionIsAnError) {

@@ -10,9 +10,12 @@
 
 namespace circtest {
 
+class IniDocument;
+
 struct AxisLimits {
   char axis = 'x';
-  bool present = false;  // the INI has an [AXIS_<L>] section
+  bool present =
+      false;  // in [TRAJ] COORDINATES (or kinematics coordinates=), or an [AXIS_<L>] section
   std::optional<double> min_limit_mm;
   std::optional<double> max_limit_mm;
   std::optional<double> max_velocity_mm_per_s;
@@ -37,9 +40,11 @@ struct MachineLimits {
   std::optional<MotionOutputs> motion_outputs;  // when a HAL file loads the motion module
 };
 
-// Reads the keys circgen needs. Throws IoError, or ParseError naming file:line for a line
-// that is neither a section, a key = value pair nor a comment, or a limit that is no number.
+// Reads the keys circgen needs as LinuxCNC 2.9 reads them (core IniDocument: #INCLUDE,
+// continuation lines, first occurrence wins). Throws IoError, or ParseError naming file:line
+// for a limit that is no number or a LINEAR_UNITS LinuxCNC would not accept.
 MachineLimits read_machine_limits(const std::string& path);
+MachineLimits machine_limits_from(const IniDocument& ini);
 MachineLimits parse_machine_limits(const std::string& text, const std::string& source);
 
 // The motion module's loadrt line in one HAL file: `loadrt [EMCMOT]EMCMOT ...` or `loadrt
