@@ -136,7 +136,12 @@ TEST(gcode_MotionOutputs, FindsTheMotionModuleLineWithItsCounts) {
 }
 
 TEST(gcode_MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
-  MachineLimits limits = parse_machine_limits("[AXIS_X]\n[AXIS_Y]\n[AXIS_Z]\n", "m.ini");
+  // Without MAX_VELOCITY LinuxCNC gives an axis 1 unit/s: state generous ones.
+  std::string ini;
+  for (const char* axis : {"X", "Y", "Z"}) {
+    ini += std::string("[AXIS_") + axis + "]\nMAX_VELOCITY = 100\nMAX_ACCELERATION = 5000\n";
+  }
+  MachineLimits limits = parse_machine_limits(ini, "m.ini");
   limits.motion_outputs = MotionOutputs{2, 1, "m.hal:5"};
   CircleTestSpec spec;
   spec.radius_mm = 50;
