@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <boost/program_options.hpp>
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -75,6 +76,10 @@ int run(int argc, char** argv) {
     ("marker", po::value<std::string>()->default_value("0"), "digital output for M62/M63")
     ("segment-out", po::value<std::string>()->default_value("0"), "analog output for M67 ids")
     ("ini", po::value<std::string>(), "LinuxCNC INI file: refuse a test beyond its limits")
+    ("work-offset", po::value<std::string>(),
+     "select this work offset (G54..G59.3) in the program (default: the one in use)")
+    ("tool", po::value<std::string>(),
+     "apply this tool's length offset with G43 H<n> (default: the one in use)")
     ("offset", po::value<std::string>(),
      "work offset origin X,Y,Z in machine coordinates: the --ini check and the header's "
      "centre_machine_mm (0,0,0 with --ini)")
@@ -185,6 +190,12 @@ int run(int argc, char** argv) {
   spec.dwell_s = number("dwell");
   spec.marker_output = parse_option_index("marker", text("marker"));
   spec.segment_output = parse_option_index("segment-out", text("segment-out"));
+  if (vm.count("work-offset")) {
+    std::string code = text("work-offset");
+    for (char& c : code) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    spec.work_offset_code = code;
+  }
+  if (vm.count("tool")) spec.tool_length_offset = parse_option_index("tool", text("tool"));
   spec.date = header_date();
   std::array<double, 3> offset{0.0, 0.0, 0.0};
   if (vm.count("offset")) {

@@ -331,6 +331,18 @@ void validate(const CircleTestSpec& spec) {
                       header_number(a), header_number(lowest)));
     }
   }
+  if (spec.work_offset_code) {
+    static const char* const kCodes[] = {"G54", "G55",   "G56",   "G57",  "G58",
+                                         "G59", "G59.1", "G59.2", "G59.3"};
+    if (std::find(std::begin(kCodes), std::end(kCodes), *spec.work_offset_code) ==
+        std::end(kCodes)) {
+      throw UsageError(fmt::format("--work-offset: '{}' is not G54..G59, G59.1, G59.2 or G59.3",
+                                   *spec.work_offset_code));
+    }
+  }
+  if (spec.tool_length_offset && *spec.tool_length_offset <= 0) {
+    throw UsageError("--tool: the tool number for G43 H must be 1 or more");
+  }
   if (spec.instrument == Instrument::ballbar) {
     if (!finite(spec.feed_in_mm) || spec.feed_in_mm < kBallbarMinFeedInMm ||
         spec.feed_in_mm > kBallbarMaxFeedInMm) {
@@ -458,9 +470,14 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
     add("feed_in_mm", header_number(spec.feed_in_mm));
     if (inch) add("feed_in_in", header_number(spec.feed_in_mm * to_units));
   }
-  // circgen never sets G54..G59.3 or G43/G49: the program runs in whatever the operator set.
-  add("work_offset", "inherited, not set by the program");
-  add("tool_length_offset", "inherited, not set by the program");
+  // Unless asked to, circgen never sets G54..G59.3 or G43/G49: the program runs in whatever
+  // the operator set, and the header says so.
+  add("work_offset", spec.work_offset_code
+                         ? fmt::format("{}, set by the program", *spec.work_offset_code)
+                         : std::string("inherited, not set by the program"));
+  add("tool_length_offset",
+      spec.tool_length_offset ? fmt::format("G43 H{}, set by the program", *spec.tool_length_offset)
+                              : std::string("inherited, not set by the program"));
   if (spec.work_offset_mm) {
     std::vector<double> machine;
     for (int i = 0; i < 3; ++i) machine.push_back(spec.centre_mm[i] + (*spec.work_offset_mm)[i]);
@@ -513,6 +530,11 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
   // G61 (exact path): no blend arcs or parabolic blends, so no join can round off the
   // circle, while tangent joins (lead arc to measured arc) still pass at the feed.
   w.line("G61");
+  // Neither causes motion: axes not written in a later move stay where they are.
+  if (spec.work_offset_code) w.line(fmt::format("{} (work offset)", *spec.work_offset_code));
+  if (spec.tool_length_offset) {
+    w.line(fmt::format("G43 H{} (tool length offset)", *spec.tool_length_offset));
+  }
   w.line(fmt::format("M65 {}", marker));
   w.line(fmt::format("M68 {} Q0", segment));
   const char* u = length_unit_name(spec.units);
@@ -532,9 +554,17 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
                     "this {} height to above {}, then {} alone to {} at F{})",
                     N, N, w.plane_point_text(start), N, centre_normal, approach_f));
   }
+  const std::string offsets =
+      spec.work_offset_code || spec.tool_length_offset
+          ? fmt::format("work offset {} and tool length {} as measured for this set-up",
+                        spec.work_offset_code.value_or("in use"),
+                        spec.tool_length_offset ? fmt::format("G43 H{}", *spec.tool_length_offset)
+                                                : std::string("in use"))
+          : std::string("work offset and tool length as intended");
   w.line(
-      fmt::format("(MSG, Check: work offset and tool length as intended, the path clear{}, "
+      fmt::format("(MSG, Check: {}, the path clear{}, "
                   "then cycle start)",
+                  offsets,
                   ballbar ? ", ballbar NOT mounted yet"
                           : (spec.instrument == Instrument::grid ? ", grid head mounted" : "")));
   w.line("M0 (operator check before any motion)");

@@ -154,6 +154,7 @@ CanonProgram parse_canon(const std::string& text) {
   double feed = 0.0;
   bool feed_override = true;
   std::string control_mode;
+  std::array<double, 3> work_offset{0.0, 0.0, 0.0}, tool_offset{0.0, 0.0, 0.0};
   std::map<int, bool> bits, pending_bits;
   std::map<int, double> values, pending_values;
   std::istringstream in(text);
@@ -198,6 +199,16 @@ CanonProgram parse_canon(const std::string& text) {
       if (args.at(0) == "CANON_PLANE_XY") first = 'x', second = 'y', normal = 'z';
       if (args.at(0) == "CANON_PLANE_YZ") first = 'y', second = 'z', normal = 'x';
       if (args.at(0) == "CANON_PLANE_XZ") first = 'z', second = 'x', normal = 'y';
+    } else if (name == "SET_G5X_OFFSET" || name == "USE_TOOL_LENGTH_OFFSET") {
+      // A new work or tool offset moves nothing: the axes stay where they are, so the
+      // current point moves in the program frame by the change of the offset.
+      const std::size_t first_arg = name == "SET_G5X_OFFSET" ? 1 : 0;
+      auto& old = name == "SET_G5X_OFFSET" ? work_offset : tool_offset;
+      for (int i = 0; i < 3; ++i) {
+        const double now = num(args, first_arg + static_cast<std::size_t>(i));
+        position[static_cast<std::size_t>(i)] += old[static_cast<std::size_t>(i)] - now;
+        old[static_cast<std::size_t>(i)] = now;
+      }
     } else if (name == "DISABLE_FEED_OVERRIDE") {
       feed_override = false;
     } else if (name == "ENABLE_FEED_OVERRIDE") {

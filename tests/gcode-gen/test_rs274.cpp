@@ -208,6 +208,24 @@ std::vector<Variant> variants() {
        {CCW, CW},
        200,
        350},
+      {"xy_work_offset_and_tool",
+       {"--d", "100", "--f", "600", "--work-offset", "G55", "--tool", "3"},
+       Plane::XY,
+       50,
+       {0, 0, 0},
+       {600},
+       {CCW, CW}},
+      {"ballbar_zx_safe_tool",
+       {"--instrument", "ballbar", "--plane", "ZX", "--d", "200", "--f", "800", "--safe-z", "40",
+        "--tool", "3", "--work-offset", "G59.1"},
+       Plane::ZX,
+       100,
+       {0, 0, 0},
+       {800},
+       {CCW, CW},
+       180,
+       270,
+       20},
       {"encoder_zx_partial_safe",
        {"--plane", "ZX", "--d", "100", "--f", "500", "--arc", "120", "--safe-z", "-10"},
        Plane::ZX,
@@ -388,10 +406,24 @@ TEST_P(gcode_Rs274Variant, SafeProgramStructure) {
   const double fi = feed_in(v);
 
   // Spindle and coolant off before the first pause, in the program text itself (rs274 also
-  // reports them for its own reset).
+  // reports them for its own reset); a work or tool offset the program sets, too.
   const auto first_m0 = gen.out.find("\nM0");
   ASSERT_NE(first_m0, std::string::npos);
   EXPECT_LT(gen.out.find("\nM5 M9"), first_m0);
+  if (const auto wo = arg(v, "--work-offset")) {
+    EXPECT_LT(gen.out.find("\n" + *wo + " "), first_m0);
+  }
+  if (const auto tool = arg(v, "--tool")) {
+    EXPECT_LT(gen.out.find("\nG43 H" + *tool + " "), first_m0);
+    std::size_t uses = 0;
+    for (const CanonCall& c : canon.call_log) {
+      if (c.name == "USE_TOOL_LENGTH_OFFSET" && c.args.find("0.0000 0.0000 0.0000,") != 0) {
+        ++uses;
+        EXPECT_EQ(c.motions_before, 0u);
+      }
+    }
+    EXPECT_EQ(uses, 1u) << "G43 reached the interpreter once, before any motion";
+  }
   for (std::size_t pos = 0, end; pos < gen.out.size(); pos = end + 1) {
     end = gen.out.find('\n', pos);
     EXPECT_LE(end - pos, 200u) << "line too long for an operator message";

@@ -68,7 +68,9 @@ struct CircleTestSpec {
   // Origin of the active work offset in machine coordinates, when known (--offset): the
   // header then states the centre's machine position.
   std::optional<std::array<double, 3>> work_offset_mm;
-  double dwell_s = 0.0;  // pause where the direction reverses
+  std::optional<std::string> work_offset_code;  // "G54".."G59.3" to select; unset: inherited
+  std::optional<int> tool_length_offset;        // G43 H<n>; unset: inherited
+  double dwell_s = 0.0;                         // pause where the direction reverses
   LengthUnit units = LengthUnit::mm;
   int marker_output = 0;   // M62/M63 P
   int segment_output = 0;  // M67 E
