@@ -51,11 +51,11 @@ class SimMachine : public ::testing::Test {
     generate("XY");
   }
 
-  void generate(const std::string& plane) {
+  void generate(const std::string& plane, const std::string& extra = "") {
     const std::string program = (out_ / "test.ngc").string();
     ASSERT_EQ(run(std::string(CIRCGEN_PATH) + " --d " + std::to_string(2 * kRadius) + " --f " +
                   std::to_string(kFeed) + " --plane " + plane + " --ini " + CIRCTEST_SIM_INI +
-                  " -o " + program),
+                  " -o " + program + " " + extra),
               0);
   }
   void TearDown() override {
@@ -84,7 +84,7 @@ class SimMachine : public ::testing::Test {
     // driver logs the messages and answers the pause like an operator at cycle start.
     const std::string log = slurp(out_ / "run" / "linuxcnc.log");
     EXPECT_NE(log.find("message: Check: work offset and tool length"), std::string::npos) << log;
-    EXPECT_NE(log.find("program finished after 1 operator pause(s)"), std::string::npos) << log;
+    EXPECT_NE(log.find(fmt_pauses(expected_pauses_)), std::string::npos) << log;
   }
 
   json analyse(const std::string& extra = "") {
@@ -96,7 +96,12 @@ class SimMachine : public ::testing::Test {
     return json::parse(slurp(js));
   }
 
+  static std::string fmt_pauses(int n) {
+    return "program finished after " + std::to_string(n) + " operator pause(s)";
+  }
+
   fs::path out_;
+  int expected_pauses_ = 1;  // circgen's start pause; a ballbar adds mount and remove
 };
 
 }  // namespace
@@ -125,6 +130,22 @@ TEST_F(SimMachine, BacklashShowsAsHysteresisOnTheTableOnly) {
 
   const json motor = analyse("--columns x_fb,y_fb");
   EXPECT_LT(motor["H"].get<double>(), 0.0005) << "the motor encoder cannot see screw backlash";
+}
+
+// The ballbar profile on the real controller: start, mount and remove pauses answered, the
+// radial feed-in/out outside the circle and the overshoot arcs, and the marked runs still
+// the measured arcs: H is the 20 um play as with the default program.
+TEST_F(SimMachine, BallbarProgramRunsWithItsPauses) {
+  generate("XY", "--instrument ballbar --safe-z 20");
+  expected_pauses_ = 3;
+  run_machine({{"BACKLASH_X", "0.020"}});
+  const std::string log = slurp(out_ / "run" / "linuxcnc.log");
+  EXPECT_NE(log.find("message: Mount the ballbar now"), std::string::npos) << log;
+  EXPECT_NE(log.find("message: Remove the ballbar now"), std::string::npos) << log;
+  const json table = analyse();
+  ASSERT_EQ(table["runs"].size(), 2u);
+  for (const auto& r : table["runs"]) EXPECT_NEAR(r["arc_deg"].get<double>(), 360.0, 0.5);
+  EXPECT_NEAR(table["H"].get<double>(), 0.020, 0.001);
 }
 
 // Squareness 100 urad and equal position-loop gains 30/s: the instrument sees an ellipse at
