@@ -10,6 +10,7 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/version.hpp"
 
 namespace po = boost::program_options;
 using namespace circtest;
@@ -27,9 +28,28 @@ const char* kUsage =
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
     "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n";
 
+// Thrown once `circana COMMAND --help|--version` has printed its text: exit 0, no work.
+struct InfoShown {};
+
+// --help and --version are answered by every command before its options are checked.
+void answer_info(const po::options_description& desc, const std::vector<std::string>& args) {
+  for (const auto& arg : args) {
+    if (arg == "--") break;
+    if (arg == "--version") {
+      std::cout << version_line("circana") << '\n';
+      throw InfoShown{};
+    }
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kUsage << "(man circana for the details)\n\n" << desc;
+      throw InfoShown{};
+    }
+  }
+}
+
 po::variables_map parse(const po::options_description& desc,
                         const po::positional_options_description& pos,
                         const std::vector<std::string>& args) {
+  answer_info(desc, args);
   po::variables_map vm;
   try {
     po::store(po::command_line_parser(args).options(desc).positional(pos).run(), vm);
@@ -192,9 +212,17 @@ int main(int argc, char** argv) {
       std::cout << kUsage;
       return 0;
     }
-    if (command == "analyze") return analyze(args);
-    if (command == "fit") return fit(args);
-    if (command == "import-polar") return import_polar(args);
+    if (command == "--version") {
+      std::cout << version_line("circana") << '\n';
+      return 0;
+    }
+    try {
+      if (command == "analyze") return analyze(args);
+      if (command == "fit") return fit(args);
+      if (command == "import-polar") return import_polar(args);
+    } catch (const InfoShown&) {
+      return 0;
+    }
     throw UsageError("unknown command '" + command + "': expected analyze, fit or import-polar");
   });
 }

@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/version.hpp"
 
 namespace circtest {
 
@@ -255,7 +256,7 @@ const char* length_unit_name(LengthUnit units) noexcept {
 }
 
 std::string generator_version() {
-  return std::string("circgen ") + CIRCTEST_VERSION;
+  return version_line("circgen");
 }
 
 void validate(const CircleTestSpec& spec) {

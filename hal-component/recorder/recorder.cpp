@@ -13,6 +13,7 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
+#include "circtest/core/version.hpp"
 
 namespace circtest::circlog_record {
 
@@ -79,7 +80,7 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
   po::options_description desc(
       "circlog-record: writes what the circlog HAL component logs to a trace file.\n"
       "Usage: circlog-record -o FILE [options]\nOptions");
-  desc.add_options()("help,h", "print this help")(
+  desc.add_options()("help,h", "print this help")("version", "print the version")(
       "output,o", po::value(&o.output)->value_name("FILE"), "trace file to write (required)")(
       "columns", po::value(&columns)->value_name("NAME,..."),
       "one name per circlog channel, in pin order (default in-00,in-01,...); axis "
@@ -113,6 +114,10 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
     std::ostringstream text;
     text << desc;
     std::fputs(text.str().c_str(), out);
+    return std::nullopt;
+  }
+  if (vm.count("version")) {
+    std::fprintf(out, "%s\n", circtest::version_line("circlog-record").c_str());
     return std::nullopt;
   }
   if (o.output.empty()) throw UsageError("-o FILE is required");

@@ -26,7 +26,7 @@ struct Options {
   double poll_s = 0.005;
 };
 
-// Parses the command line; nullopt when --help was given (usage printed to `out`).
+// Parses the command line; nullopt when --help or --version was given (printed to `out`).
 // Throws UsageError.
 std::optional<Options> parse_options(int argc, const char* const* argv, std::FILE* out);
 
