@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# The README's test command: set up, build, run every test (labels unit, hal, e2e).
+# The README's test command: set up, build, lint (clang-format on every C/C++ file, clang-tidy
+# on the last commit's C++ files: scripts/lint.sh), run every test (labels unit, hal, e2e, ...).
 # Extra arguments go to ctest, e.g. `scripts/test.sh -L unit`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
+scripts/lint.sh "$BUILD_DIR"
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(nproc)" "$@"

@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Style and static checks, run by scripts/test.sh:
+#  - clang-format (the repository's .clang-format) on every tracked C/C++ file: fails with the
+#    list of files that are not formatted (fix: clang-format -i FILE);
+#  - clang-tidy (.clang-tidy, tests/.clang-tidy) on the C++ sources changed by the last commit,
+#    or on all of them when the commit has no parent, with the build's compile_commands.json.
+#   scripts/lint.sh [BUILD_DIR]     (default: build, or $CIRCTEST_BUILD_DIR)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+build=${1:-${CIRCTEST_BUILD_DIR:-build}}
+format=clang-format-14 tidy=clang-tidy-14
+
+git rev-parse --is-inside-work-tree >/dev/null 2>&1 ||
+  { echo "lint: $root is not a git checkout (the checks need the tracked files and the last commit)" >&2; exit 1; }
+mapfile -t sources < <(git ls-files '*.c' '*.h' '*.cpp' '*.hpp' '*.cc' '*.hh')
+unformatted=()
+for f in "${sources[@]}"; do
+  [ -f "$f" ] || continue
+  "$format" --dry-run --Werror "$f" >/dev/null 2>&1 || unformatted+=("$f")
+done
+if [ ${#unformatted[@]} -gt 0 ]; then
+  echo "lint: not formatted with $format (run '$format -i' on them):" >&2
+  printf '  %s\n' "${unformatted[@]}" >&2
+  exit 1
+fi
+echo "lint: clang-format: ${#sources[@]} files ok"
+
+[ -f "$build/compile_commands.json" ] ||
+  { echo "lint: $build/compile_commands.json missing (configure with CMAKE_EXPORT_COMPILE_COMMANDS=ON)" >&2; exit 1; }
+if git rev-parse -q --verify HEAD~1 >/dev/null; then
+  mapfile -t changed < <(git diff --name-only --diff-filter=d HEAD~1 HEAD -- '*.cpp' '*.cc')
+  what="changed by the last commit"
+else
+  mapfile -t changed < <(git ls-files '*.cpp' '*.cc')
+  what="all (no parent commit)"
+fi
+# Only files the build compiles (a source of a part switched off has no compile command).
+files=()
+for f in "${changed[@]}"; do
+  grep -qF "\"file\": \"$root/$f\"" "$build/compile_commands.json" && files+=("$f")
+done
+if [ ${#files[@]} = 0 ]; then
+  echo "lint: clang-tidy: no C++ source $what"
+  exit 0
+fi
+echo "lint: clang-tidy on ${#files[@]} file(s) $what"
+headers="^$root/(core|analysis|gcode-gen|hal-component|compensation|configs|tests|bench)/"
+printf '%s\n' "${files[@]}" |
+  xargs -P "$(nproc)" -n 1 "$tidy" -p "$build" --quiet --header-filter="$headers" 2>/dev/null ||
+  { echo "lint: clang-tidy found problems (above)" >&2; exit 1; }
+echo "lint: clang-tidy ok"
