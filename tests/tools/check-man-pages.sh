@@ -1,0 +1,53 @@
+#!/bin/bash
+# The man pages (docs/man) and the markdown docs describe the programs as they are: every
+# option a program's --help lists is in its man page and in its markdown doc, every pin the
+# circlog HAL adapter creates is in circlog(9) and docs/circlog.md, and each page renders
+# without a groff warning.
+#   check-man-pages.sh SOURCE_DIR CIRCGEN CIRCANA CIRCLOG_RECORD
+set -u  # no pipefail: grep -q may close a pipe early
+src=$1 circgen=$2 circana=$3 recorder=$4
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+# A man page's text with groff's escaped hyphens made plain.
+plain() { sed -e 's/\\-/-/g' -e 's/\\f[BIRP]//g' "$1"; }
+
+# Long options of a --help text (boost::program_options layout: "  --name arg  text").
+options_of() { sed -n 's/^  \(-[a-z] \[ \)\{0,1\}--\([a-z][a-z0-9-]*\).*/\2/p'; }
+
+# check_options WHAT HELP_TEXT MAN_PAGE DOC...: every option in the man page and in one of the docs.
+check_options() {
+  local what=$1 help=$2 page=$3 opt n=0
+  shift 3
+  for opt in $(options_of <<<"$help"); do
+    n=$((n + 1))
+    plain "$src/docs/man/$page" | grep -qe "--$opt\b" || fail "$what: --$opt is not in docs/man/$page"
+    case $opt in help | version | trace | points) continue ;; esac  # positional or generic
+    cat "$@" | grep -qe "--$opt\b" || fail "$what: --$opt is not in ${*#$src/}"
+  done
+  [ $n -gt 2 ] || fail "$what: --help lists no options"
+  echo "ok: $what: $n options in docs/man/$page and the docs"
+}
+
+check_options circgen "$("$circgen" --help)" circgen.1 "$src/docs/circgen.md"
+check_options circlog-record "$("$recorder" --help)" circlog-record.1 "$src/docs/circlog.md"
+commands=$("$circana" --help | sed -n 's/^.*circana \([a-z][a-z-]*\).*/\1/p' | sort -u)
+for c in $commands; do
+  check_options "circana $c" "$("$circana" "$c" --help)" circana.1 "$src/README.md" "$src"/docs/*.md
+done
+
+pins=$(grep -o '"circlog\.0\.[a-z-]*' "$src/hal-component/src/circlog_hal.cpp" | tr -d '"' | sort -u)
+[ -n "$pins" ] || fail "no pin names found in hal-component/src/circlog_hal.cpp"
+for pin in $pins; do
+  name=${pin%-}  # "circlog.0.in-%02d" -> circlog.0.in
+  plain "$src/docs/man/circlog.9" | grep -qF "$name" || fail "circlog(9) does not name $name"
+  grep -qF "${name#circlog.0.}" "$src/docs/circlog.md" || fail "docs/circlog.md does not name $name"
+done
+echo "ok: circlog: $(wc -w <<<"$pins") pins and parameters in circlog(9) and docs/circlog.md"
+
+for page in "$src"/docs/man/*.[19]; do
+  warnings=$(groff -man -Tutf8 -ww -z "$page" 2>&1)
+  [ -z "$warnings" ] || fail "$(basename "$page"): groff warns: $warnings"
+done
+
+[ "$failures" = 0 ] || { echo "$failures failure(s)"; exit 1; }
