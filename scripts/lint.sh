@@ -14,16 +14,17 @@ format=clang-format-14 tidy=clang-tidy-14
 git rev-parse --is-inside-work-tree >/dev/null 2>&1 ||
   { echo "lint: $root is not a git checkout (the checks need the tracked files and the last commit)" >&2; exit 1; }
 mapfile -t sources < <(git ls-files '*.c' '*.h' '*.cpp' '*.hpp' '*.cc' '*.hh')
-unformatted=()
-for f in "${sources[@]}"; do
-  [ -f "$f" ] || continue
-  "$format" --dry-run --Werror "$f" >/dev/null 2>&1 || unformatted+=("$f")
-done
+# One clang-format run for all files; its diagnostics name the files that differ.
+rc=0
+report=$("$format" --dry-run --Werror "${sources[@]}" 2>&1) || rc=$?
+mapfile -t unformatted < <(sed -n \
+  's/^\(.*\):[0-9]*:[0-9]*: error: code should be clang-formatted.*/\1/p' <<<"$report" | sort -u)
 if [ ${#unformatted[@]} -gt 0 ]; then
   echo "lint: not formatted with $format (run '$format -i' on them):" >&2
   printf '  %s\n' "${unformatted[@]}" >&2
   exit 1
 fi
+[ "$rc" = 0 ] || { echo "$report" >&2; echo "lint: $format failed (exit $rc)" >&2; exit 1; }
 echo "lint: clang-format: ${#sources[@]} files ok"
 
 [ -f "$build/compile_commands.json" ] ||
