@@ -38,22 +38,18 @@ cat >"$dir/test.sh" <<SH
 set -euo pipefail
 source "\$CIRCLOG_TESTS/lib.sh"
 hal_start "\$TEST_DIR/test.hal"
-"\$CIRCLOG_RECORDER" -o soak.csv --columns x_cmd,y_cmd,z_cmd,a,x,y,z,b --duration $duration \
-  2>recorder.err &
-recorder=\$!
-wait_for_value circlog.0.reading TRUE
+start_recorder -o soak.csv --columns x_cmd,y_cmd,z_cmd,a,x,y,z,b --duration $duration
 : >times.txt
 while kill -0 \$recorder 2>/dev/null; do
   halcmd getp circlog.0.time >>times.txt
   sleep 1
 done
-rc=0
-wait \$recorder || rc=\$?
+wait_recorder
 tmax=\$(halcmd getp circlog.0.tmax)
 bytes=\$(ipcs -m | awk 'tolower(\$1) == "0x43434c00" { print \$5 }')
 hal_stop
 cat recorder.err
-echo "recorder exit code: \$rc"
+echo "recorder exit code: \$recorder_rc"
 grep -E '^# (rows|overruns|gaps|lost_samples|ring_high_water|module.depth|sample_period_s|end_period|start_period):' soak.csv
 mhz=\$(awk -F: '/^cpu MHz/ { print \$2; exit }' /proc/cpuinfo)
 sort -n times.txt | awk -v tmax="\$tmax" -v mhz="\$mhz" '

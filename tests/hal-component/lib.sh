@@ -25,6 +25,20 @@ wait_for_value() {
   return 1
 }
 
+# Starts circlog-record in the background with ARGS (stderr to recorder.err), sets $recorder to
+# its PID and waits until it has attached to the ring (circlog.0.reading).
+start_recorder() {
+  "$CIRCLOG_RECORDER" "$@" 2>recorder.err &
+  recorder=$!
+  wait_for_value circlog.0.reading TRUE
+}
+
+# Waits for the recorder started by start_recorder; sets $recorder_rc to its exit code.
+wait_recorder() {
+  recorder_rc=0
+  wait "$recorder" || recorder_rc=$?
+}
+
 # Number of samples waiting in sampler.0's fifo, then prints them (halsampler).
 dump_sampler() {
   local n

@@ -2,13 +2,10 @@
 # Runs one circlog HAL test (a directory with test.sh and expected) against the module in the
 # build tree, without installing anything (without `expected`, prints test.sh's output):
 #   run-hal-test.sh TEST_DIR MODULE.so RECORDER
-# As root it re-runs itself in private mount, IPC, PID and network namespaces: the bind mount
-# puts circlog.so beside the system modules only for this test, the private SysV IPC and PID
-# spaces keep this HAL session apart from any other LinuxCNC on the machine (halrun refuses to
-# start while any rtapi_app is visible), and when the namespace's first process exits the
-# kernel kills whatever is left, so no rtapi_app or recorder can outlive a failing test.
-# rtapi_app refuses to run as root, so it runs as `nobody` (RTAPI_UID), present on every
-# Debian system; no user has to be created.
+# As root it re-runs itself through scripts/hal-sandbox (private mount, IPC, PID and network
+# namespaces; the build's circlog.so beside the system modules; realtime as `nobody`; every
+# process killed when the test ends), so a LinuxCNC running elsewhere on the machine is
+# neither seen nor disturbed and no rtapi_app or recorder can outlive a failing test.
 set -euo pipefail
 
 test_dir=$(cd "$1" && pwd)
@@ -22,16 +19,11 @@ if [ "${CIRCLOG_TEST_INSIDE:-}" != 1 ]; then
     echo "SKIP: the HAL tests need root (for a private mount namespace over $system_modules)"
     exit 77
   fi
-  for tool in halrun halcmd unshare mount; do
-    command -v "$tool" >/dev/null || { echo "missing $tool (install linuxcnc-uspace)" >&2; exit 1; }
-  done
   work=$(mktemp -d /tmp/circlog-test.XXXXXX)
   chmod 755 "$work"
   rc=0
-  propagation=$("$here/../../scripts/unshare-propagation") || exit 1
   CIRCLOG_TEST_INSIDE=1 CIRCLOG_WORK=$work \
-    unshare --mount --ipc --pid --fork --mount-proc --net --propagation "$propagation" \
-    "$0" "$@" || rc=$?
+    "$here/../../scripts/hal-sandbox" --work "$work" --module "$module" --net -- "$0" "$@" || rc=$?
   if [ "$rc" = 0 ] && [ -z "${CIRCLOG_KEEP_WORK:-}" ]; then
     rm -rf "$work"
   else
@@ -41,15 +33,8 @@ if [ "${CIRCLOG_TEST_INSIDE:-}" != 1 ]; then
 fi
 
 work=$CIRCLOG_WORK
-mkdir -p "$work/modules" "$work/fifo" "$work/home"
-cp -a "$system_modules/." "$work/modules/"
-cp "$module" "$work/modules/circlog.so"
-mount --bind "$work/modules" "$system_modules"
-rt_uid=$(id -u nobody)
-chown "$rt_uid" "$work/fifo"
-ip link set lo up 2>/dev/null || true
-
-export RTAPI_UID=$rt_uid RTAPI_FIFO_PATH=$work/fifo/.rtapi_fifo HOME=$work/home
+mkdir -p "$work/home"
+export HOME=$work/home
 export CIRCLOG_RECORDER=$recorder CIRCLOG_TESTS=$here TEST_DIR=$test_dir
 export PYTHONDONTWRITEBYTECODE=1
 cd "$work"

@@ -3,10 +3,8 @@
 set -euo pipefail
 source "$CIRCLOG_TESTS/lib.sh"
 hal_start "$TEST_DIR/test.hal"
-"$CIRCLOG_RECORDER" -o trace.csv --columns x_cmd,y_cmd,x,y --describe "x=table X (grid encoder)" \
-  --program "$TEST_DIR/program.ngc" --until-idle 1.0 2>recorder.err &
-recorder=$!
-wait_for_value circlog.0.reading TRUE
+start_recorder -o trace.csv --columns x_cmd,y_cmd,x,y --describe "x=table X (grid encoder)" \
+  --program "$TEST_DIR/program.ngc" --until-idle 1.0
 halcmd sets segment 1
 halcmd sets enable 1   # run 1, segment 1
 sleep 0.4
@@ -17,9 +15,8 @@ sleep 0.4
 halcmd sets segment 2  # run 3: segment changes while enabled
 sleep 0.4
 halcmd sets enable 0
-rc=0
-wait "$recorder" || rc=$?
-echo "recorder exit: $rc"
+wait_recorder
+echo "recorder exit: $recorder_rc"
 hal_stop
 cat recorder.err >&2
 check runs trace.csv

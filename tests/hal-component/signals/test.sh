@@ -4,15 +4,12 @@ set -euo pipefail
 source "$CIRCLOG_TESTS/lib.sh"
 hal_start "$TEST_DIR/test.hal"
 
-"$CIRCLOG_RECORDER" -o trace.csv --until-idle 0.3 2>recorder.err &
-recorder=$!
-wait_for_value circlog.0.reading TRUE
+start_recorder -o trace.csv --until-idle 0.3
 halcmd sets enable 1
 sleep 5
 halcmd sets enable 0
-rc=0
-wait "$recorder" || rc=$?
-echo "recorder exit: $rc"
+wait_recorder
+echo "recorder exit: $recorder_rc"
 dump_sampler >sampler.txt
 echo "pins: overruns=$(halcmd getp circlog.0.overruns) reading=$(halcmd getp circlog.0.reading)"
 hal_stop
