@@ -12,19 +12,23 @@ fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 # A man page's text with groff's escaped hyphens made plain.
 plain() { sed -e 's/\\-/-/g' -e 's/\\f[BIRP]//g' "$1"; }
 
-# Long options of a --help text (boost::program_options layout: "  --name arg  text").
-options_of() { sed -n 's/^  \(-[a-z] \[ \)\{0,1\}--\([a-z][a-z0-9-]*\).*/\2/p'; }
+# Options of a --help text (boost::program_options layout: "  --name arg  text" or
+# "  -o [ --name ] arg  text"), one "name short" line each (short may be empty).
+options_of() { sed -n 's/^  \(-\([a-z]\) \[ \)\{0,1\}--\([a-z][a-z0-9-]*\).*/\3 \2/p'; }
 
-# check_options WHAT HELP_TEXT MAN_PAGE DOC...: every option in the man page and in one of the docs.
+# check_options WHAT HELP_TEXT MAN_PAGE DOC...: each option is in the man page by its long
+# name, and in one of the markdown docs by its long name or its short one.
 check_options() {
-  local what=$1 help=$2 page=$3 opt n=0
+  local what=$1 help=$2 page=$3 opt short n=0
   shift 3
-  for opt in $(options_of <<<"$help"); do
+  while read -r opt short; do
     n=$((n + 1))
     plain "$src/docs/man/$page" | grep -qe "--$opt\b" || fail "$what: --$opt is not in docs/man/$page"
-    case $opt in help | version | trace | points) continue ;; esac  # positional or generic
-    cat "$@" | grep -qe "--$opt\b" || fail "$what: --$opt is not in ${*#$src/}"
-  done
+    case $opt in help | version | trace | points | input) continue ;; esac  # positional or generic
+    local pattern="--$opt\b"
+    [ -z "$short" ] || pattern="$pattern|(^|[ \`])-$short\b"
+    cat "$@" | grep -qEe "$pattern" || fail "$what: --$opt is not in ${*#$src/}"
+  done < <(options_of <<<"$help")
   [ $n -gt 2 ] || fail "$what: --help lists no options"
   echo "ok: $what: $n options in docs/man/$page and the docs"
 }
