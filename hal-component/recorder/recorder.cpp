@@ -282,7 +282,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
     meta.set("program", options_.program);
     for (auto& [key, value] : read_program_header(options_.program)) {
       const bool given = std::any_of(options_.conditions.begin(), options_.conditions.end(),
-                                     [&key](const auto& c) { return c.first == key; });
+                                     [&k = key](const auto& c) { return c.first == k; });
       if (given) continue;  // the command line states it
       if (kReservedKeys.count(key) || key.rfind("channel.", 0) == 0) {
         std::fprintf(log_, "circlog-record: %s: header key '%s' is the recorder's own; skipped\n",
