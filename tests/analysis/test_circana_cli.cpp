@@ -126,7 +126,8 @@ TEST_F(CircanaCli, BadOptions) {
   expect_error("analyze " + t + " --centre 1", 2,
                "--centre: expected 2 comma-separated numbers, got '1'");
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
-  expect_error("frobnicate", 2, "unknown command 'frobnicate': expected analyze, fit or import-polar");
+  expect_error("frobnicate", 2,
+               "unknown command 'frobnicate': expected analyze, fit or import-polar");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
