@@ -487,9 +487,9 @@ std::string one_line(std::string_view s) {
 
 TraceWriter::TraceWriter(std::string path, const TraceMetadata& header,
                          std::vector<TraceColumn> columns)
-    : path_(std::move(path)), part_path_(path_ + ".part"), columns_(std::move(columns)) {
-  file_ = std::fopen(part_path_.c_str(), "wb");
-  if (!file_) throw IoError(part_path_, std::string("cannot create: ") + std::strerror(errno));
+    : path_(std::move(path)),
+      out_(std::make_unique<AtomicOutput>(path_)),
+      columns_(std::move(columns)) {
   binary_ = path_.size() > 4 && path_.compare(path_.size() - 4, 4, ".ctb") == 0;
   std::string text;
   auto out = std::back_inserter(text);
@@ -507,10 +507,7 @@ TraceWriter::TraceWriter(std::string path, const TraceMetadata& header,
   buffer_ += text;
 }
 
-TraceWriter::~TraceWriter() {
-  if (file_) std::fclose(file_);
-  if (!committed_) std::remove(part_path_.c_str());
-}
+TraceWriter::~TraceWriter() = default;
 
 void TraceWriter::write_row(const double* values) {
   if (binary_) {
@@ -522,8 +519,12 @@ void TraceWriter::write_row(const double* values) {
   auto out = std::back_inserter(buffer_);
   for (std::size_t i = 0; i < columns_.size(); ++i) {
     if (i) buffer_ += ',';
-    if (columns_[i].kind == ColumnKind::integer) {
+    // An integer column holding something no integer can say (a glitch on a HAL pin) is
+    // written as it is rather than as a made-up integer.
+    if (columns_[i].kind == ColumnKind::integer && std::abs(values[i]) < 0x1p53) {
       fmt::format_to(out, "{}", static_cast<long long>(std::llround(values[i])));
+    } else if (columns_[i].kind == ColumnKind::integer) {
+      fmt::format_to(out, "{}", values[i]);
     } else {
       fmt::format_to(out, "{:.{}f}", values[i], columns_[i].decimals);
     }
@@ -539,9 +540,7 @@ void TraceWriter::add_trailer(std::string key, std::string value) {
 
 void TraceWriter::flush_buffer() {
   if (buffer_.empty()) return;
-  if (std::fwrite(buffer_.data(), 1, buffer_.size(), file_) != buffer_.size()) {
-    throw IoError(part_path_, std::string("write failed: ") + std::strerror(errno));
-  }
+  out_->write(buffer_);
   buffer_.clear();
 }
 
@@ -558,15 +557,7 @@ void TraceWriter::commit() {
     buffer_.append(kBinaryEnd, sizeof kBinaryEnd);
   }
   flush_buffer();
-  if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0) {
-    throw IoError(part_path_, std::string("flush failed: ") + std::strerror(errno));
-  }
-  std::fclose(file_);
-  file_ = nullptr;
-  if (std::rename(part_path_.c_str(), path_.c_str()) != 0) {
-    throw IoError(path_, std::string("cannot rename into place: ") + std::strerror(errno));
-  }
-  fsync_parent_directory(path_);
+  out_->commit();
   committed_ = true;
 }
 

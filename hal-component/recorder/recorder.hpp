@@ -54,7 +54,7 @@ struct Summary {
   std::string stop_reason;
 };
 
-// Claims the ring, writes options.output (via "<output>.part", renamed when complete) and
+// Claims the ring, writes options.output (an unnamed temporary that appears there when complete) and
 // returns what happened. Lost records are reported on `log` and in the trailer metadata;
 // the caller decides the exit code. Throws HalError when the ring cannot be used (no
 // servo thread, another reader), IoError for the file.

@@ -5,11 +5,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
+
+#include "circtest/core/atomic_file.hpp"
 
 namespace circtest {
 
@@ -66,9 +69,10 @@ struct TraceColumn {
   int decimals = 6;  // for real columns: 6 decimals of mm is 1 nm
 };
 
-// Streams a trace to "<path>.part" and renames it to <path> on commit(), after fsync, so a
-// reader never sees a half-written trace. Destroying an uncommitted writer removes the
-// partial file. A path ending in ".ctb" gets the binary form (float64 rows), else text.
+// Streams a trace to an unnamed temporary (core/atomic_file) that appears at <path> on
+// commit(), after fsync, so a reader never sees a half-written trace and a killed recorder
+// leaves nothing behind. <path> follows the output-path rules of atomic_file.hpp. A path ending in
+// ".ctb" gets the binary form (float64 rows), else text.
 class TraceWriter {
  public:
   TraceWriter(std::string path, const TraceMetadata& header, std::vector<TraceColumn> columns);
@@ -87,11 +91,10 @@ class TraceWriter {
  private:
   void flush_buffer();
   std::string path_;
-  std::string part_path_;
+  std::unique_ptr<AtomicOutput> out_;  // nothing at path_ until commit()
   std::vector<TraceColumn> columns_;
   TraceMetadata trailer_;
   std::string buffer_;
-  std::FILE* file_ = nullptr;
   std::size_t rows_ = 0;
   bool committed_ = false;
   bool binary_ = false;
