@@ -16,6 +16,7 @@
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/machine_limits.hpp"
 #include "circtest/gcode/option_values.hpp"
+#include "circtest/gcode/plausible_ranges.hpp"
 #include "circtest/gcode/test_program.hpp"
 
 namespace po = boost::program_options;
@@ -201,6 +202,7 @@ int run(int argc, char** argv) {
   if (vm.count("offset")) {
     const auto o = parse_option_numbers("offset", text("offset"), 3);
     for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
+    for (double v : offset) check_plausible(plausible::offset, v);
     spec.work_offset_mm = offset;
   }
   validate(spec);

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "circtest/core/error.hpp"
+#include "circtest/gcode/plausible_ranges.hpp"
 
 namespace circtest {
 
@@ -26,16 +27,26 @@ double annex_c_feed(double test_diameter, double reference_diameter, double refe
 
 AnnexCNote annex_c_note(double test_diameter, double reference_diameter, double reference_feed,
                         LengthUnit units) {
+  const double mm = units == LengthUnit::inch ? kMmPerInch : 1.0;
   AnnexCNote note;
   note.test_diameter = test_diameter;
   note.reference_diameter = reference_diameter;
   note.reference_feed = reference_feed;
   note.scaled_feed_exact = annex_c_feed(test_diameter, reference_diameter, reference_feed);
+  check_plausible(plausible::reference_diameter, reference_diameter * mm);
+  check_plausible(plausible::reference_feed, reference_feed * mm);
   // The standard's own example rounds 559.02 mm/min to 559; inch feeds are small numbers
   // where a whole unit would be a coarse step.
   const double step = units == LengthUnit::mm ? 1.0 : 0.1;
   note.scaled_feed = std::round(note.scaled_feed_exact / step) * step;
   if (note.scaled_feed <= 0.0) note.scaled_feed = step;
+  if (!(note.scaled_feed * mm <= plausible::feed.max)) {
+    throw UsageError(
+        fmt::format("--ref-f: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is above "
+                    "the plausible {} mm/min",
+                    reference_feed, test_diameter, reference_diameter, note.scaled_feed_exact,
+                    units == LengthUnit::inch ? "in" : "mm", plausible::feed.max));
+  }
   return note;
 }
 

@@ -8,6 +8,7 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/version.hpp"
+#include "circtest/gcode/plausible_ranges.hpp"
 
 namespace circtest {
 
@@ -80,6 +81,7 @@ class ProgramWriter {
   }
 
   std::string number(double value) const {
+    check_word(value);
     std::string s = fmt::format("{:.{}f}", round_units(value), decimals_);
     while (!s.empty() && s.back() == '0') s.pop_back();
     if (!s.empty() && s.back() == '.') s.pop_back();
@@ -88,6 +90,7 @@ class ProgramWriter {
   }
 
   std::string feed(double feed_mm_per_min) const {
+    check_word(feed_mm_per_min * scale_);
     // Feeds keep one decimal: enough for inch/min, and mm/min feeds are whole numbers.
     std::string s = fmt::format("{:.1f}", feed_mm_per_min * scale_);
     if (s.ends_with(".0")) s.resize(s.size() - 2);
@@ -155,6 +158,14 @@ class ProgramWriter {
   std::string take() { return std::move(text_); }
 
  private:
+  // validate() keeps every input in its plausible range, so any word is far inside this;
+  // a value beyond it would be a bug, not a user's number.
+  static void check_word(double value) {
+    if (!(std::abs(value) < 1e7)) {
+      throw Error(ExitCode::internal, fmt::format("refusing to write a G-code word of {}", value));
+    }
+  }
+
   double round_units(double v) const {
     const double f = std::pow(10.0, decimals_);
     return std::round(v * f) / f;
@@ -377,6 +388,7 @@ void validate(const CircleTestSpec& spec) {
   if (spec.date.find_first_of("()\n") != std::string::npos) {
     throw UsageError("the date cannot go into a G-code comment");
   }
+  check_plausible(spec);
 }
 
 std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec) {

@@ -1,6 +1,7 @@
 // circana as a user runs it: exit codes, one-line errors naming file and line, nothing on
 // stdout on error, and the JSON document.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -118,6 +119,24 @@ TEST_F(CircanaCli, ShortArcIsRefusedWithItsLines) {
       r.err.find("sweeps 60.0 deg: expected an arc of at least 90 deg (ISO 230-4 clause 3.1)"),
       std::string::npos)
       << r.err;
+}
+
+TEST_F(CircanaCli, SvgPathThatIsNotARegularFileIsRefusedAndKept) {
+  const std::string trace = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
+  const std::string fifo = (dir_ / "plot.svg").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  expect_error("analyze " + trace + " --svg " + fifo, 3,
+               fifo + ": is a FIFO, not a regular file; refusing to replace it");
+  EXPECT_TRUE(fs::is_fifo(fifo));
+  expect_error("analyze " + trace + " --svg /dev/full", 3,
+               "/dev/full: is a character device, not a regular file; refusing to replace it");
+  EXPECT_TRUE(fs::is_character_file("/dev/full"));
+  expect_error("analyze " + trace + " --svg " + dir_.string(), 3,
+               dir_.string() + ": is a directory, not a regular file; refusing to replace it");
+  fs::create_symlink("/dev/null", dir_ / "null.svg");
+  const Result r = run("analyze " + trace + " --svg " + (dir_ / "null.svg").string());
+  EXPECT_EQ(r.code, 3) << r.err;
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
 }
 
 TEST_F(CircanaCli, BadOptions) {

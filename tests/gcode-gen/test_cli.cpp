@@ -2,6 +2,9 @@
 // nothing on stdout; --ini refuses a test beyond the machine, naming the limit.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -149,6 +152,60 @@ std::vector<BadCase> usage_cases() {
        {"--d", "200", "--f", "1000", "--feed-in", "1"},
        2,
        "--feed-in is only used with --instrument ballbar"},
+      // Numbers no program word can carry (issue 12): each refused naming its option,
+      // instead of writing Xinf, X-nan, a 309-digit feed or arcs of radius 0.
+      {"huge_diameter",
+       {"--d", "1e308", "--f", "300"},
+       2,
+       "--d/--r: circle diameter of 1e+308 mm is outside the plausible range 1..10000 mm"},
+      {"huge_diameter_in_inch",
+       {"--d", "1e307", "--f", "30", "--inch"},
+       2,
+       "--d/--r: circle diameter of inf in is outside the plausible range 0.03937..393.7 in"},
+      {"huge_centre_in_inch",
+       {"--d", "6", "--f", "30", "--inch", "--centre", "0,0,-5e3"},
+       2,
+       "--centre: position of -5000 in is outside the plausible range -3937..3937 in"},
+      {"tiny_diameter",
+       {"--d", "1e-300", "--f", "300"},
+       2,
+       "--d/--r: circle diameter of 1e-300 mm is outside the plausible range 1..10000 mm"},
+      {"huge_start",
+       {"--d", "150", "--f", "300", "--start", "1e308"},
+       2,
+       "--start: start angle of 1e+308 deg is outside the plausible range -360..360 deg"},
+      {"huge_centre",
+       {"--d", "150", "--f", "300", "--centre", "1e308,0,0"},
+       2,
+       "--centre: position of 1e+308 mm is outside the plausible range -100000..100000 mm"},
+      {"huge_safe_z",
+       {"--d", "150", "--f", "300", "--safe-z", "1e308"},
+       2,
+       "--safe-z: clearance position of 1e+308 mm is outside the plausible range"},
+      {"huge_feed",
+       {"--d", "150", "--f", "1e308"},
+       2,
+       "--f/--feeds: feed of 1e+308 mm/min is outside the plausible range 1..100000 mm/min"},
+      {"huge_feed_in_sweep",
+       {"--d", "150", "--feeds", "300,1e6"},
+       2,
+       "--f/--feeds: feed of 1000000 mm/min is outside the plausible range"},
+      {"inch_feed_written_as_f0",
+       {"--d", "6", "--f", "0.04", "--inch"},
+       2,
+       "--f/--feeds: a feed of 0.04 in/min would be written as F0"},
+      {"huge_offset",
+       {"--d", "150", "--f", "300", "--ini", "/nonexistent.ini", "--offset", "0,-1e308,0"},
+       2,
+       "--offset: work offset of -1e+308 mm is outside the plausible range"},
+      {"tiny_reference_diameter",
+       {"--d", "150", "--ref-d", "1e-300", "--ref-f", "100"},
+       2,
+       "--ref-d: Annex C reference diameter of 1e-300 mm is outside the plausible range"},
+      {"annex_c_feed_too_high",
+       {"--d", "10000", "--ref-d", "1", "--ref-f", "100000"},
+       2,
+       "--ref-f: the Annex C feed 100000 * sqrt[10000/1] = 10000000 mm/min is above"},
   };
 }
 
@@ -401,6 +458,26 @@ TEST(gcode_Cli, OutputFileIsWrittenAndStdoutStaysEmpty) {
 TEST(gcode_Cli, UnwritableOutputIsAnIoError) {
   expect_refused(run_circgen({"--d", "150", "--f", "300", "-o", "/nonexistent-dir/t.ngc"}), 3,
                  "/nonexistent-dir/t.ngc");
+}
+
+TEST(gcode_Cli, OutputThatIsNotARegularFileIsRefusedAndKept) {
+  ScratchDir dir;
+  const std::string fifo = dir.file("fifo.ngc");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  expect_refused(run_circgen({"--d", "150", "--f", "300", "-o", fifo}), 3,
+                 fifo + ": is a FIFO, not a regular file; refusing to replace it");
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  expect_refused(run_circgen({"--d", "150", "--f", "300", "-o", dir.path()}), 3,
+                 dir.path() + ": is a directory, not a regular file");
+  expect_refused(run_circgen({"--d", "150", "--f", "300", "-o", "/dev/full"}), 3,
+                 "/dev/full: is a character device, not a regular file");
+  EXPECT_TRUE(std::filesystem::is_character_file("/dev/full"));
+  // A symbolic link to a program: the program is replaced, the link stays.
+  spit(dir.file("real.ngc"), "old\n");
+  std::filesystem::create_symlink("real.ngc", dir.file("link.ngc"));
+  ASSERT_EQ(run_circgen({"--d", "150", "--f", "300", "-o", dir.file("link.ngc")}).exit_code, 0);
+  EXPECT_TRUE(std::filesystem::is_symlink(dir.file("link.ngc")));
+  EXPECT_EQ(slurp(dir.file("real.ngc")), run_circgen({"--d", "150", "--f", "300"}).out);
 }
 
 TEST(gcode_Cli, HelpAndVersionGoToStdout) {

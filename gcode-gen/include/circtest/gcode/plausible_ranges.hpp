@@ -1,0 +1,48 @@
+#pragma once
+// The plausible ranges of circgen's numbers, in one table: every number written to a program
+// comes from these, so bounding them keeps every word finite and short enough for the
+// interpreter. docs/circgen.md ("Plausible ranges") lists the same table.
+#include <cstddef>
+#include <string_view>
+
+namespace circtest {
+
+struct PlausibleRange {
+  std::string_view option;  // as the user gave it, e.g. "--d/--r"
+  std::string_view what;    // e.g. "circle diameter"
+  double min;
+  double max;
+  std::string_view unit;  // the unit of min and max (lengths in mm, feeds in mm/min)
+};
+
+namespace plausible {
+// Lengths in mm and feeds in mm/min whatever the program units (inch options are converted
+// first). 100 m is beyond any machine table; a 1 mm circle is the smallest a ballbar or a
+// grid encoder measures; 100 m/min is beyond any machine's feed.
+inline constexpr PlausibleRange diameter{"--d/--r", "circle diameter", 1.0, 10'000.0, "mm"};
+inline constexpr PlausibleRange feed{"--f/--feeds", "feed", 1.0, 100'000.0, "mm/min"};
+inline constexpr PlausibleRange reference_diameter{"--ref-d", "Annex C reference diameter", 1.0,
+                                                   10'000.0, "mm"};
+inline constexpr PlausibleRange reference_feed{"--ref-f", "Annex C reference feed", 1.0, 100'000.0,
+                                               "mm/min"};
+inline constexpr PlausibleRange position{"--centre", "position", -100'000.0, 100'000.0, "mm"};
+inline constexpr PlausibleRange safe{"--safe-z", "clearance position", -100'000.0, 100'000.0, "mm"};
+inline constexpr PlausibleRange offset{"--offset", "work offset", -100'000.0, 100'000.0, "mm"};
+inline constexpr PlausibleRange start{"--start", "start angle", -360.0, 360.0, "deg"};
+inline constexpr PlausibleRange arc{"--arc", "measured arc", 90.0, 360.0, "deg"};
+inline constexpr PlausibleRange lead{"--lead", "lead arc", 0.0, 180.0, "deg"};  // > 0
+inline constexpr PlausibleRange dwell{"--dwell", "dwell", 0.0, 2.0, "s"};
+// One run per direction per feed: a sweep is a handful of feeds, not a data file.
+inline constexpr std::size_t kMaxFeeds = 100;
+}  // namespace plausible
+
+// Throws UsageError "OPTION: WHAT of VALUE UNIT is outside the plausible range MIN..MAX UNIT"
+// unless min <= value <= max (a NaN or an infinity is never inside).
+void check_plausible(const PlausibleRange& range, double value);
+
+struct CircleTestSpec;
+// Every number of the spec against the table (validate() calls it), and every feed against
+// what its word can say: one decimal in the program's units, so never F0.
+void check_plausible(const CircleTestSpec& spec);
+
+}  // namespace circtest

@@ -1,0 +1,59 @@
+#include "circtest/gcode/plausible_ranges.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <string>
+
+#include "circtest/core/error.hpp"
+#include "circtest/gcode/test_program.hpp"
+
+namespace circtest {
+
+void check_plausible(const PlausibleRange& range, double value) {
+  if (std::isfinite(value) && value >= range.min && value <= range.max) return;
+  throw UsageError(
+      fmt::format("{}: {} of {} {} is outside the plausible range {}..{} {} (docs/circgen.md)",
+                  range.option, range.what, value, range.unit, range.min, range.max, range.unit));
+}
+
+namespace {
+// Lengths and feeds in the units the user gave them in (the table is in mm).
+void check_in_units(const PlausibleRange& range, double value_mm, LengthUnit units) {
+  if (units == LengthUnit::mm || std::isnan(value_mm) ||
+      (value_mm >= range.min && value_mm <= range.max)) {
+    return check_plausible(range, value_mm);
+  }
+  const std::string unit = range.unit == "mm" ? "in" : "in/min";
+  throw UsageError(fmt::format(
+      "{}: {} of {:.6g} {} is outside the plausible range {:.4g}..{:.4g} {} (docs/circgen.md)",
+      range.option, range.what, value_mm / kMmPerInch, unit, range.min / kMmPerInch,
+      range.max / kMmPerInch, unit));
+}
+}  // namespace
+
+void check_plausible(const CircleTestSpec& spec) {
+  const LengthUnit u = spec.units;
+  check_in_units(plausible::diameter, 2.0 * spec.radius_mm, u);
+  if (spec.feeds_mm_per_min.size() > plausible::kMaxFeeds) {
+    throw UsageError(fmt::format("--feeds: {} feeds, at most {} (one run pair each)",
+                                 spec.feeds_mm_per_min.size(), plausible::kMaxFeeds));
+  }
+  const bool inch = spec.units == LengthUnit::inch;
+  for (double f : spec.feeds_mm_per_min) {
+    check_in_units(plausible::feed, f, u);
+    if (inch && std::round(f / kMmPerInch * 10.0) < 1.0) {
+      throw UsageError(fmt::format(
+          "--f/--feeds: a feed of {} in/min would be written as F0 (one decimal); at least 0.05",
+          f / kMmPerInch));
+    }
+  }
+  for (double c : spec.centre_mm) check_in_units(plausible::position, c, u);
+  if (spec.safe_mm) check_in_units(plausible::safe, *spec.safe_mm, u);
+  check_plausible(plausible::start, spec.start_deg);
+  check_plausible(plausible::arc, spec.arc_deg);
+  check_plausible(plausible::lead, spec.lead_deg);
+  check_plausible(plausible::dwell, spec.dwell_s);
+}
+
+}  // namespace circtest
