@@ -48,7 +48,13 @@ void check_plausible(const CircleTestSpec& spec) {
           f / kMmPerInch));
     }
   }
+  if (spec.approach_feed_mm_per_min) {
+    check_in_units(plausible::approach_feed, *spec.approach_feed_mm_per_min, u);
+  }
   for (double c : spec.centre_mm) check_in_units(plausible::position, c, u);
+  if (spec.work_offset_mm) {
+    for (double c : *spec.work_offset_mm) check_in_units(plausible::offset, c, u);
+  }
   if (spec.safe_mm) check_in_units(plausible::safe, *spec.safe_mm, u);
   check_plausible(plausible::start, spec.start_deg);
   check_plausible(plausible::arc, spec.arc_deg);

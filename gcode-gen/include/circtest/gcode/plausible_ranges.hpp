@@ -21,6 +21,8 @@ namespace plausible {
 // grid encoder measures; 100 m/min is beyond any machine's feed.
 inline constexpr PlausibleRange diameter{"--d/--r", "circle diameter", 1.0, 10'000.0, "mm"};
 inline constexpr PlausibleRange feed{"--f/--feeds", "feed", 1.0, 100'000.0, "mm/min"};
+inline constexpr PlausibleRange approach_feed{"--approach-feed", "approach feed", 1.0, 100'000.0,
+                                              "mm/min"};
 inline constexpr PlausibleRange reference_diameter{"--ref-d", "Annex C reference diameter", 1.0,
                                                    10'000.0, "mm"};
 inline constexpr PlausibleRange reference_feed{"--ref-f", "Annex C reference feed", 1.0, 100'000.0,
