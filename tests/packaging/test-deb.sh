@@ -1,7 +1,8 @@
 #!/bin/bash
 # The .deb installed into a fresh root: builds the package with CPack, installs it with
-# `dpkg -i` into an overlay of the running system (private mount, PID and IPC namespaces; the
-# writes land in a scratch folder and vanish with the test, the real system is not touched),
+# `dpkg -i` into an overlay of the running system (in the private namespaces of
+# scripts/hal-sandbox; the writes land in a scratch folder and vanish with the test, the real
+# system is not touched),
 # then checks there that the files are where LinuxCNC and man look, that halrun loads circlog
 # from /usr/lib/linuxcnc/modules, that `man circana` and `man 9 circlog` render, that the
 # programs run, and that dpkg --verify finds the installed files unchanged.
@@ -22,7 +23,7 @@ if [ "${CIRCTEST_DEB_INSIDE:-}" != 1 ]; then
   deb=$(ls "$work"/pkg/circtest_"$version"_*.deb)
   echo "built $(basename "$deb") ($(stat -c %s "$deb") bytes)"
   rc=0
-  CIRCTEST_DEB_INSIDE=1 unshare --mount --pid --ipc --fork --mount-proc --propagation private \
+  CIRCTEST_DEB_INSIDE=1 "$(dirname "$0")/../../scripts/hal-sandbox" --work "$work" -- \
     "$0" "$work" "$deb" "$version" || rc=$?
   exit $rc
 fi
