@@ -54,10 +54,10 @@ struct Summary {
   std::string stop_reason;
 };
 
-// Claims the ring, writes options.output (an unnamed temporary that appears there when complete) and
-// returns what happened. Lost records are reported on `log` and in the trailer metadata;
-// the caller decides the exit code. Throws HalError when the ring cannot be used (no
-// servo thread, another reader), IoError for the file.
+// Claims the ring, writes options.output (an unnamed temporary that appears there when complete)
+// and returns what happened. Lost records are reported on `log` and in the trailer metadata; the
+// caller decides the exit code. Throws HalError when the ring cannot be used (no servo thread,
+// another reader), IoError for the file.
 Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
                std::FILE* log);
 
