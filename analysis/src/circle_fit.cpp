@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "circle_fit_detail.hpp"
 #include "circtest/core/error.hpp"
@@ -116,17 +117,13 @@ Circle fit_lsc_algebraic(std::span<const double> a, std::span<const double> b) {
   return fit_detail::kasa_about(a.data(), b.data(), a.size(), m);
 }
 
-Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
-  fit_detail::check_points(a, b, "fit_lsc");
-  const std::size_t n = a.size();
-  const double* pa = a.data();
-  const double* pb = b.data();
-  const Vec2 m = fit_detail::mean_point(pa, pb, n);
-  const Circle start = fit_detail::kasa_about(pa, pb, n, m);
+namespace {
 
-  // Levenberg-Marquardt in coordinates relative to the mean. Each pass evaluates the cost,
-  // J^T J and J^T e at the trial parameters; a trial that does not lower the cost is rejected
-  // and retried with a larger damping, reusing the stored normal equations.
+// Levenberg-Marquardt for the geometric circle, in coordinates relative to `m`, from `start`.
+// Each pass evaluates the cost, J^T J and J^T e at the trial parameters; a trial that does not
+// lower the cost is rejected and retried with a larger damping, reusing the stored normal
+// equations.
+Circle lsc_refine(const double* pa, const double* pb, std::size_t n, Vec2 m, Circle start) {
   struct Eval {
     double jtj[6];  // xx, xy, xr, yy, yr, rr
     double jte[3];
@@ -203,7 +200,9 @@ Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
       cx = ncx, cy = ncy, r = nr;
       cur = trial;
       lambda = std::max(lambda * 0.1, 1e-12);
-      if (step <= 1e-15 * scale) break;
+      // Near the optimum the next step is far smaller than this one; a step of 1e-12 of the
+      // radius is below 1e-9 mm for any radius a machine tool draws.
+      if (step <= 1e-12 * scale) break;
     } else {
       // A rejected step this small means the cost is flat to rounding: converged.
       if (step <= 1e-13 * scale) break;
@@ -212,6 +211,41 @@ Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
     }
   }
   return {m.x + cx, m.y + cy, r};
+}
+
+// Above this many points the fit starts from the converged fit of an evenly strided subset,
+// as the minimum-zone fit does: the full passes then only polish a start already within the
+// noise, so a 1e6-point fit takes about 3 passes instead of 7.
+constexpr std::size_t kSubsampleAbove = std::size_t{1} << 16;
+constexpr std::size_t kSubsamplePoints = std::size_t{1} << 14;
+
+}  // namespace
+
+Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_lsc");
+  const std::size_t n = a.size();
+  const double* pa = a.data();
+  const double* pb = b.data();
+  const Vec2 m = fit_detail::mean_point(pa, pb, n);
+  if (n <= kSubsampleAbove) {
+    return lsc_refine(pa, pb, n, m, fit_detail::kasa_about(pa, pb, n, m));
+  }
+  const std::size_t stride = n / kSubsamplePoints;
+  std::vector<double> sa, sb;
+  sa.reserve(n / stride + 1);
+  sb.reserve(n / stride + 1);
+  for (std::size_t i = 0; i < n; i += stride) {
+    sa.push_back(pa[i]);
+    sb.push_back(pb[i]);
+  }
+  Circle rough;
+  try {
+    rough = lsc_refine(sa.data(), sb.data(), sa.size(), m,
+                       fit_detail::kasa_about(sa.data(), sb.data(), sa.size(), m));
+  } catch (const DataError&) {
+    rough = fit_detail::kasa_about(pa, pb, n, m);  // a degenerate subset: start from all points
+  }
+  return lsc_refine(pa, pb, n, m, rough);
 }
 
 }  // namespace circtest

@@ -26,6 +26,10 @@ std::vector<std::string> analysis_columns(const std::string& a, const std::strin
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   TraceReadOptions ro;
   ro.keep = analysis_columns(request.options.column_a, request.options.column_b);
+  // Columns asked for by name must exist; the reader's message lists every column found.
+  for (const std::string* c : {&request.options.column_a, &request.options.column_b}) {
+    if (!c->empty()) ro.required.push_back(*c);
+  }
   const Trace read = read_trace(request.trace_path, ro);
   EvaluationOptions options = request.options;
   // A ball bar's trace: positions from the bar's length along the commanded angle.
@@ -48,6 +52,10 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace& trace = radial ? radial->trace : read;
   Evaluation ev = evaluate(trace, options);
   if (radial) ev.notes.insert(ev.notes.begin(), radial->note);
+  if (!read.column("t")) {
+    ev.notes.push_back(
+        "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
+  }
   const std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
   if (!request.svg_path.empty())
     write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));

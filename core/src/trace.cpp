@@ -1,21 +1,31 @@
 #include "circtest/core/trace.hpp"
 
+#include <fast_float/fast_float.h>
 #include <fcntl.h>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
-#include <fmt/format.h>
-#include <sys/stat.h>
 #include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <iterator>
 #include <string>
+#include <system_error>
+#include <thread>
+#include <unordered_set>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
 #include "circtest/core/numbers.hpp"
+#include "input_lines.hpp"
 
 namespace circtest {
 
@@ -90,23 +100,84 @@ const std::vector<double>* Trace::column(std::string_view name) const {
 
 namespace {
 
+constexpr char kBom[] = "\xEF\xBB\xBF";
+
+// Large column buffers are asked for huge pages and populated in one call: a 1e6-row trace
+// otherwise takes tens of thousands of page faults, which on a virtual machine cost more than
+// parsing its numbers. Both are hints; an older kernel ignores them.
+void advise_huge_pages(const void* data, std::size_t bytes) {
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  if (bytes < 2 * kHuge) return;
+  const auto a = reinterpret_cast<std::uintptr_t>(data);
+  std::uintptr_t lo = (a + kHuge - 1) & ~(kHuge - 1);
+  std::uintptr_t hi = (a + bytes) & ~(kHuge - 1);
+  if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+#ifdef MADV_POPULATE_WRITE
+  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
+  lo = (a + page - 1) & ~(page - 1);
+  hi = (a + bytes) & ~(page - 1);
+  if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_POPULATE_WRITE);
+#endif
+}
+
+template <class T>
+void reserve_huge(std::vector<T>& v, std::size_t n) {
+  v.reserve(n);
+  advise_huge_pages(v.data(), v.capacity() * sizeof(T));
+}
+
+bool blank(char c) {
+  return c == ' ' || c == '\t';
+}
+
 class TraceParser {
  public:
   TraceParser(std::string source, const TraceReadOptions& options) : options_(options) {
     trace_.source = std::move(source);
   }
 
+  // A parser for a later stretch of the rows: the same header, no rows, line numbers counted
+  // from the stretch's start (append() shifts them).
+  TraceParser fork() const {
+    TraceParser p(trace_.source, options_);
+    p.trace_.columns = trace_.columns;
+    p.trace_.values.assign(trace_.values.size(), {});
+    p.trace_.header_line = trace_.header_line;
+    p.have_header_ = have_header_;
+    p.field_count_ = field_count_;
+    p.target_ = target_;
+    p.header_names_ = header_names_;
+    p.time_column_ = time_column_;
+    p.time_field_ = time_field_;
+    p.row_values_.assign(field_count_, 0.0);
+    p.first_line_ = false;
+    return p;
+  }
+
   void reserve_rows(std::size_t n) {
     reserve_hint_ = n;
     if (!have_header_) return;
-    for (auto& v : trace_.values) v.reserve(n);
-    trace_.line_of_row.reserve(n);
+    for (auto& v : trace_.values) reserve_huge(v, n);
+    reserve_huge(trace_.line_of_row, n);
   }
   std::size_t lines() const { return line_no_; }
 
   void line(std::string_view text) {
     ++line_no_;
+    if (text.size() > kMaxInputLineBytes) fail(detail::line_too_long_message());
+    if (first_line_) {
+      first_line_ = false;
+      if (text.substr(0, 3) == kBom) text.remove_prefix(3);  // a BOM some editors write
+    }
     if (!text.empty() && text.back() == '\r') text.remove_suffix(1);
+    if (have_header_ && !metadata_only_) {
+      // Rows are most lines: test for them before trimming.
+      const char c0 = text.empty() ? '\0' : text.front();
+      if (c0 != '#' && c0 != ' ' && c0 != '\t' && c0 != '\0') {
+        row(text);
+        return;
+      }
+    }
     const std::string_view t = trim(text);
     if (t.empty()) return;
     if (t.front() == '#') {
@@ -117,7 +188,50 @@ class TraceParser {
       header(text);
       return;
     }
+    if (metadata_only_) {
+      throw ParseError(trace_.source, 0,
+                       fmt::format("{}, line {}: expected only '# key: value' lines after the "
+                                   "header row, got '{}'",
+                                   metadata_only_, line_no_, shorten(t)));
+    }
     row(text);
+  }
+
+  // Binary header and trailer text hold metadata and the header row, never rows.
+  void metadata_only(const char* where) {
+    metadata_only_ = where;
+    line_no_ = 0;  // each text counts its own lines
+  }
+
+  // Appends the rows and metadata of the next stretch, parsed by a fork(). False when time
+  // goes backwards across the seam (the caller re-reads to report it where it happens).
+  bool append(TraceParser&& next) {
+    const std::size_t offset = line_no_;
+    if (time_column_ >= 0 && next.rows() > 0 && rows() > 0) {
+      const auto& t = trace_.values[static_cast<std::size_t>(time_column_)];
+      if (next.trace_.values[static_cast<std::size_t>(time_column_)].front() < t.back()) {
+        return false;
+      }
+    }
+    for (std::size_t c = 0; c < trace_.values.size(); ++c) {
+      auto& dst = trace_.values[c];
+      const auto& src = next.trace_.values[c];
+      dst.insert(dst.end(), src.begin(), src.end());
+    }
+    auto& lines = trace_.line_of_row;
+    const std::size_t at = lines.size();
+    lines.insert(lines.end(), next.trace_.line_of_row.begin(), next.trace_.line_of_row.end());
+    for (std::size_t i = at; i < lines.size(); ++i) {
+      lines[i] += static_cast<std::uint32_t>(offset);
+    }
+    const auto& entries = next.trace_.metadata.entries();
+    for (std::size_t i = 0; i < entries.size(); ++i) {
+      trace_.metadata.set(entries[i].first, entries[i].second);
+      trace_.metadata.set_line(trace_.metadata.entries().size() - 1,
+                               next.trace_.metadata.line_at(i) + offset);
+    }
+    line_no_ += next.line_no_;
+    return true;
   }
 
   Trace finish() {
@@ -128,6 +242,8 @@ class TraceParser {
     }
     return std::move(trace_);
   }
+
+  std::size_t rows() const { return trace_.line_of_row.size(); }
 
  private:
   [[noreturn]] void fail(const std::string& message) const {
@@ -151,7 +267,7 @@ class TraceParser {
     const std::size_t n = text.size();
     while (true) {
       std::string field;
-      while (i < n && (text[i] == ' ' || text[i] == '\t')) ++i;
+      while (i < n && blank(text[i])) ++i;
       if (i < n && text[i] == '"') {
         ++i;
         bool closed = false;
@@ -171,7 +287,7 @@ class TraceParser {
         if (!closed)
           fail(fmt::format("field {}: unterminated quoted field: expected a closing '\"'",
                            out.size() + 1));
-        while (i < n && (text[i] == ' ' || text[i] == '\t')) ++i;
+        while (i < n && blank(text[i])) ++i;
         if (i < n && text[i] != ',') {
           fail(fmt::format("field {}: expected ',' after a closing quote, got '{}'", out.size() + 1,
                            text[i]));
@@ -197,39 +313,84 @@ class TraceParser {
     split_quoted(text, names);
     const std::size_t n = names.size();
     target_.assign(n, -1);
+    // Linear in the number of names: a header of 200,000 names is read in milliseconds.
+    std::unordered_set<std::string_view> seen;
+    seen.reserve(n);
+    std::unordered_set<std::string_view> keep(options_.keep.begin(), options_.keep.end());
     for (std::size_t i = 0; i < n; ++i) {
       if (names[i].empty()) fail(fmt::format("header: column {} has no name", i + 1));
-      for (std::size_t j = 0; j < i; ++j) {
-        if (names[j] == names[i]) fail(fmt::format("header: duplicate column '{}'", names[i]));
+      if (!seen.insert(names[i]).second) {
+        fail(fmt::format("header: duplicate column '{}'", names[i]));
       }
-      bool keep = options_.keep.empty() || std::find(options_.keep.begin(), options_.keep.end(),
-                                                     names[i]) != options_.keep.end();
-      if (keep) {
+      if (options_.keep.empty() || keep.count(names[i])) {
         target_[i] = static_cast<int>(trace_.columns.size());
         trace_.columns.push_back(names[i]);
       }
     }
     for (const std::string& req : options_.required) {
-      if (std::find(names.begin(), names.end(), req) == names.end()) {
-        std::string have;
-        for (const auto& nm : names) have += (have.empty() ? "" : ",") + nm;
-        fail(fmt::format("missing column '{}': expected it in the header (found: {})", req, have));
+      if (!seen.count(req)) {
+        fail(fmt::format("missing column '{}': expected it in the header (found: {})", req,
+                         fmt::join(names, ",")));
       }
     }
     field_count_ = n;
     header_names_ = std::move(names);
     trace_.values.assign(trace_.columns.size(), {});
-    if (reserve_hint_ > 0) {
-      for (auto& v : trace_.values) v.reserve(reserve_hint_);
-      trace_.line_of_row.reserve(reserve_hint_);
-    }
     trace_.header_line = line_no_;
-    const int ti = trace_.column_index("t");
-    time_column_ = options_.check_time_monotonic ? ti : -1;
     have_header_ = true;
+    if (reserve_hint_ > 0) reserve_rows(reserve_hint_);
+    time_column_ = options_.check_time_monotonic ? trace_.column_index("t") : -1;
+    time_field_ = -1;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (time_column_ >= 0 && target_[i] == time_column_) time_field_ = static_cast<int>(i);
+    }
+    row_values_.assign(n, 0.0);
   }
 
+  // The common row: unquoted finite numbers. Any doubt (a quote, a field that is not a plain
+  // number, a wrong count, time going back) goes to row_checked(), which parses the line again
+  // field by field and reports the first problem exactly as it always has.
   void row(std::string_view text) {
+    const char* p = text.data();
+    const char* const end = p + text.size();
+    if (std::memchr(p, '"', text.size()) != nullptr) return row_checked(text);
+    const std::size_t last = field_count_ - 1;
+    for (std::size_t f = 0; f <= last; ++f) {
+      if (target_[f] < 0) {
+        const char* comma = static_cast<const char*>(std::memchr(p, ',', end - p));
+        if ((comma == nullptr) != (f == last)) return row_checked(text);
+        p = comma ? comma + 1 : end;
+        continue;
+      }
+      while (p < end && blank(*p)) ++p;
+      if (p < end && *p == '+') ++p;
+      double v = 0.0;
+      const auto r = fast_float::from_chars(p, end, v);
+      if (r.ec != std::errc() || !std::isfinite(v)) return row_checked(text);
+      p = r.ptr;
+      while (p < end && (blank(*p) || *p == '\r')) ++p;
+      if (f < last) {
+        if (p == end || *p != ',') return row_checked(text);
+        ++p;
+      } else if (p != end) {
+        return row_checked(text);
+      }
+      row_values_[f] = v;
+    }
+    if (time_field_ >= 0) {
+      const auto& t = trace_.values[static_cast<std::size_t>(time_column_)];
+      if (!t.empty() && row_values_[static_cast<std::size_t>(time_field_)] < t.back()) {
+        return row_checked(text);
+      }
+    }
+    for (std::size_t f = 0; f <= last; ++f) {
+      if (target_[f] >= 0)
+        trace_.values[static_cast<std::size_t>(target_[f])].push_back(row_values_[f]);
+    }
+    trace_.line_of_row.push_back(static_cast<std::uint32_t>(line_no_));
+  }
+
+  void row_checked(std::string_view text) {
     const char* p = text.data();
     const char* end = p + text.size();
     std::size_t field = 0;
@@ -290,9 +451,9 @@ class TraceParser {
   }
 
  public:
-  // Binary rows (docs/trace-format.md): record numbers stand in for line numbers.
+  // Binary rows (docs/trace-format.md), checked value by value: record numbers stand in for
+  // line numbers. The reference for what read_binary_rows() accepts.
   void binary_rows(const double* values, std::size_t rows, std::size_t first_record) {
-    if (!have_header_) fail("no header row: expected a line of column names");
     binary_ = true;
     for (std::size_t r = 0; r < rows; ++r) {
       record_ = first_record + r;
@@ -303,8 +464,12 @@ class TraceParser {
       trace_.line_of_row.push_back(static_cast<std::uint32_t>(record_));
     }
   }
+  Trace& trace() { return trace_; }
+  const std::vector<int>& targets() const { return target_; }
+  int time_column() const { return time_column_; }
   std::size_t field_count() const { return field_count_; }
   bool has_header() const { return have_header_; }
+  void end_binary_rows() { binary_ = false; }
 
  private:
   std::string record_prefix() const {
@@ -314,12 +479,16 @@ class TraceParser {
   const TraceReadOptions& options_;
   Trace trace_;
   std::size_t line_no_ = 0;
+  bool first_line_ = true;
   bool have_header_ = false;
+  const char* metadata_only_ = nullptr;
   std::size_t field_count_ = 0;
   std::vector<int> target_;
   std::vector<std::string> header_names_;
   std::vector<std::string> scratch_;
+  std::vector<double> row_values_;
   int time_column_ = -1;
+  int time_field_ = -1;
   std::size_t reserve_hint_ = 0;
   bool binary_ = false;
   std::size_t record_ = 0;
@@ -332,14 +501,129 @@ constexpr std::size_t kFooterBytes = 8 + 4 + 4;  // rows (u64), trailer bytes (u
 static_assert(std::endian::native == std::endian::little,
               "the binary trace is little-endian; add byte swapping for this host");
 
-void feed_text(TraceParser& parser, std::string_view text) {
+// Feeds the lines of `text` to the parser. With `mapped`, the text is a private read-only
+// file mapping whose pages are given back as they are consumed, so that reading a large file
+// does not hold it all in memory next to the parsed columns.
+void feed_text(TraceParser& parser, std::string_view text, bool mapped = false) {
+  constexpr std::size_t kRelease = std::size_t{8} << 20;
+  const char* data = text.data();
+  const std::size_t n = text.size();
   std::size_t pos = 0;
-  while (pos < text.size()) {
+  std::size_t released = 0;
+  std::size_t populated = 0;
+  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
+  while (pos < n) {
+#ifdef MADV_POPULATE_READ
+    if (mapped && pos >= populated) {
+      // The next window mapped in one call rather than a fault per page.
+      const std::size_t stop = std::min(n, pos + kRelease);
+      const auto lo = reinterpret_cast<std::uintptr_t>(data + pos) & ~(page - 1);
+      const auto hi = reinterpret_cast<std::uintptr_t>(data + stop) & ~(page - 1);
+      if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_POPULATE_READ);
+      populated = stop;
+    }
+#endif
+    const void* nl = std::memchr(data + pos, '\n', n - pos);
+    const std::size_t stop = nl ? static_cast<std::size_t>(static_cast<const char*>(nl) - data) : n;
+    parser.line(std::string_view(data + pos, stop - pos));
+    pos = stop + 1;
+    if (mapped && pos - released >= kRelease) {
+      const auto lo = (reinterpret_cast<std::uintptr_t>(data + released) + page - 1) & ~(page - 1);
+      const auto hi = reinterpret_cast<std::uintptr_t>(data + pos) & ~(page - 1);
+      if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_DONTNEED);
+      released = pos;
+    }
+  }
+}
+
+std::size_t estimate_rows(std::string_view data) {
+  const std::string_view sample = data.substr(0, std::size_t{1} << 16);
+  const auto lines = static_cast<std::size_t>(std::count(sample.begin(), sample.end(), '\n'));
+  if (lines == 0 || sample.empty()) return 0;
+  const double per_line = static_cast<double>(sample.size()) / static_cast<double>(lines);
+  return static_cast<std::size_t>(static_cast<double>(data.size()) / per_line * 1.02) + 16;
+}
+
+unsigned worker_count(const TraceReadOptions& options, std::size_t bytes) {
+  if (bytes < options.parallel_min_bytes) return 1;
+  if (options.threads) return std::clamp(options.threads, 1u, 64u);
+  // One per idle core: on a machine already busy, threads only fight over the cores (measured:
+  // twice the CPU time for no gain at a load of 4 per core).
+  const unsigned cores = std::clamp(std::thread::hardware_concurrency(), 1u, 64u);
+  double load = 0.0;
+  if (::getloadavg(&load, 1) != 1) return cores;
+  const double idle = static_cast<double>(cores) - load + 1.0;  // this process counts itself
+  return static_cast<unsigned>(std::clamp(idle, 1.0, static_cast<double>(cores)));
+}
+
+// Text after the metadata and header, in stretches parsed side by side when the file is
+// large. Any error sends the whole text back through one parser, so the message and line are
+// the ones a sequential read gives (the first problem in file order).
+Trace parse_text(std::string_view text, const std::string& source, const TraceReadOptions& options,
+                 bool mapped) {
+  auto sequential = [&] {
+    TraceParser p(source, options);
+    p.reserve_rows(estimate_rows(text));
+    feed_text(p, text, mapped);
+    return p.finish();
+  };
+  TraceParser parser(source, options);
+  std::size_t pos = 0;
+  while (pos < text.size() && !parser.has_header()) {
     const auto nl = text.find('\n', pos);
     const std::size_t stop = nl == std::string_view::npos ? text.size() : nl;
     parser.line(text.substr(pos, stop - pos));
     pos = stop + 1;
   }
+  const std::string_view rows = pos < text.size() ? text.substr(pos) : std::string_view();
+  const std::size_t estimate = estimate_rows(rows);
+  const unsigned workers = worker_count(options, rows.size());
+  if (workers < 2 || !parser.has_header()) {
+    parser.reserve_rows(estimate);
+    feed_text(parser, rows, mapped);
+    return parser.finish();
+  }
+  // Stretches end just after a newline, so each starts at the beginning of a line.
+  std::vector<std::size_t> bounds{0};
+  for (unsigned k = 1; k < workers; ++k) {
+    const std::size_t at = rows.size() / workers * k;
+    const auto nl = rows.find('\n', std::max(at, bounds.back()));
+    if (nl == std::string_view::npos || nl + 1 >= rows.size()) break;
+    if (nl + 1 > bounds.back()) bounds.push_back(nl + 1);
+  }
+  bounds.push_back(rows.size());
+  const std::size_t parts = bounds.size() - 1;
+  std::vector<TraceParser> rest;
+  rest.reserve(parts - 1);
+  for (std::size_t k = 1; k < parts; ++k) rest.push_back(parser.fork());
+  std::vector<std::exception_ptr> errors(parts);
+  auto work = [&](std::size_t k) {
+    try {
+      TraceParser& p = k == 0 ? parser : rest[k - 1];
+      const std::string_view part = rows.substr(bounds[k], bounds[k + 1] - bounds[k]);
+      // The first stretch keeps its rows and the others are appended to it: room for all.
+      p.reserve_rows(k == 0 ? estimate : estimate_rows(part));
+      feed_text(p, part, mapped);
+    } catch (...) {
+      errors[k] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> threads;
+  try {
+    for (std::size_t k = 1; k < parts; ++k) threads.emplace_back(work, k);
+  } catch (const std::system_error&) {
+    for (auto& t : threads) t.join();
+    return sequential();  // no threads to be had: read it alone
+  }
+  work(0);
+  for (auto& t : threads) t.join();
+  for (const auto& e : errors) {
+    if (e) return sequential();
+  }
+  for (auto& p : rest) {
+    if (!parser.append(std::move(p))) return sequential();
+  }
+  return parser.finish();
 }
 
 std::size_t read_exact(int fd, void* dst, std::size_t n, std::uint64_t offset,
@@ -358,10 +642,101 @@ std::size_t read_exact(int fd, void* dst, std::size_t n, std::uint64_t offset,
   return got;
 }
 
+// The rows of a binary trace straight into the columns, in stretches side by side. False if
+// a value is not finite or time goes back; nothing is reported here (see binary_rows()).
+bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::size_t rows,
+                      const TraceReadOptions& options, const std::string& path) {
+  Trace& trace = parser.trace();
+  const std::size_t width = parser.field_count();
+  const auto& targets = parser.targets();
+  const unsigned workers = static_cast<unsigned>(std::min<std::size_t>(
+      worker_count(options, rows * width * 8), std::max<std::size_t>(rows, 1)));
+  // Columns sized side by side too: the first touch of fresh memory is most of the cost.
+  auto for_each_worker = [&](auto&& fn) {
+    std::vector<std::exception_ptr> errors(workers);
+    std::vector<std::thread> threads;
+    auto run = [&](unsigned w) {
+      try {
+        fn(w);
+      } catch (...) {
+        errors[w] = std::current_exception();
+      }
+    };
+    try {
+      for (unsigned w = 1; w < workers; ++w) threads.emplace_back(run, w);
+    } catch (const std::system_error&) {
+      for (unsigned w = static_cast<unsigned>(threads.size()) + 1; w < workers; ++w) run(w);
+    }
+    run(0);
+    for (auto& t : threads) t.join();
+    for (const auto& e : errors) {
+      if (e) std::rethrow_exception(e);
+    }
+  };
+  const std::size_t columns = trace.values.size();
+  for_each_worker([&](unsigned w) {
+    for (std::size_t c = w; c <= columns; c += workers) {
+      if (c == columns) {
+        reserve_huge(trace.line_of_row, rows);
+        trace.line_of_row.resize(rows);
+      } else {
+        reserve_huge(trace.values[c], rows);
+        trace.values[c].resize(rows);
+      }
+    }
+  });
+  std::vector<char> ok(workers, 1);
+  const int time_column = parser.time_column();
+  for_each_worker([&](unsigned w) {
+    const std::size_t r0 = rows / workers * w;
+    const std::size_t r1 = w + 1 == workers ? rows : rows / workers * (w + 1);
+    constexpr std::size_t kBlockRows = 16384;
+    std::vector<double> block(kBlockRows * width);
+    bool good = true;
+    for (std::size_t r = r0; r < r1 && good; r += kBlockRows) {
+      const std::size_t n = std::min(kBlockRows, r1 - r);
+      if (read_exact(fd, block.data(), n * width * 8, rows_at + r * width * 8, path) !=
+          n * width * 8) {
+        throw IoError(path, "binary trace shrank while being read");
+      }
+      for (std::size_t f = 0; f < width; ++f) {
+        if (targets[f] < 0) continue;
+        double* dst = trace.values[static_cast<std::size_t>(targets[f])].data() + r;
+        const double* src = block.data() + f;
+        bool finite = true;
+        for (std::size_t i = 0; i < n; ++i) {
+          const double v = src[i * width];
+          finite &= std::isfinite(v);
+          dst[i] = v;
+        }
+        good = good && finite;
+      }
+      std::uint32_t* lines = trace.line_of_row.data() + r;
+      for (std::size_t i = 0; i < n; ++i) lines[i] = static_cast<std::uint32_t>(r + i + 1);
+    }
+    if (good && time_column >= 0) {
+      const double* t = trace.values[static_cast<std::size_t>(time_column)].data();
+      for (std::size_t i = r0 + 1; i < r1; ++i) good = good && !(t[i] < t[i - 1]);
+    }
+    ok[w] = good;
+  });
+  if (!std::all_of(ok.begin(), ok.end(), [](char g) { return g != 0; })) return false;
+  if (time_column >= 0) {  // the seams between the stretches
+    const double* t = trace.values[static_cast<std::size_t>(time_column)].data();
+    for (unsigned w = 1; w < workers; ++w) {
+      const std::size_t r0 = rows / workers * w;
+      if (r0 > 0 && r0 < rows && t[r0] < t[r0 - 1]) return false;
+    }
+  }
+  return true;
+}
+
 // Layout: magic, u32 header bytes, header text (metadata lines and the header row), rows of
 // float64, trailer text, footer (u64 rows, u32 trailer bytes, "CTBE").
-Trace read_binary_trace(int fd, std::uint64_t size, const std::string& path,
-                        const TraceReadOptions& options) {
+Trace read_binary_trace(const InputFile& in, const TraceReadOptions& options) {
+  const std::string& path = in.path();
+  const int fd = in.fd();
+  const std::uint64_t size = in.size();
   auto truncated = [&](const char* what) {
     return ParseError(path, 0, fmt::format("binary trace truncated: {}", what));
   };
@@ -378,70 +753,73 @@ Trace read_binary_trace(int fd, std::uint64_t size, const std::string& path,
   std::memcpy(&rows, footer, 8);
   std::memcpy(&trailer_bytes, footer + 8, 4);
   const std::uint64_t header_at = sizeof kBinaryMagic + 4;
+  // u32 lengths and a small frame: no overflow in 64 bits.
   if (header_at + header_bytes + trailer_bytes + kFooterBytes > size) {
     throw truncated("header and trailer longer than the file");
   }
   TraceParser parser(path, options);
+  parser.metadata_only("binary trace header text");
   std::string text(header_bytes, '\0');
   read_exact(fd, text.data(), header_bytes, header_at, path);
   feed_text(parser, text);
   if (!parser.has_header()) throw ParseError(path, 0, "binary trace without a header row");
-  const std::size_t width = parser.field_count() * sizeof(double);
+  const std::uint64_t width = parser.field_count() * sizeof(double);
   const std::uint64_t rows_at = header_at + header_bytes;
-  if (rows_at + rows * width + trailer_bytes + kFooterBytes != size) {
+  // The room for rows is known; the row count is checked against it by division, so a
+  // footer claiming 2^59 + 1 rows cannot wrap the product into a plausible size.
+  const std::uint64_t room = size - rows_at - trailer_bytes - kFooterBytes;
+  if (rows > room / width || rows * width != room) {
     throw ParseError(path, 0,
                      fmt::format("binary trace: {} rows of {} columns do not fill the file", rows,
                                  parser.field_count()));
   }
-  parser.reserve_rows(static_cast<std::size_t>(rows));
-  constexpr std::size_t kBlockRows = 32768;
-  std::vector<double> block(kBlockRows * parser.field_count());
-  for (std::uint64_t r = 0; r < rows; r += kBlockRows) {
-    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(kBlockRows, rows - r));
-    read_exact(fd, block.data(), n * width, rows_at + r * width, path);
-    parser.binary_rows(block.data(), n, static_cast<std::size_t>(r) + 1);
+  const auto n = static_cast<std::size_t>(rows);
+  if (!read_binary_rows(parser, fd, rows_at, n, options, path)) {
+    // Something to report: again, value by value, to name the first bad record.
+    TraceParser checked(path, options);
+    feed_text(checked, text);
+    constexpr std::size_t kBlockRows = 32768;
+    std::vector<double> block(kBlockRows * parser.field_count());
+    for (std::size_t r = 0; r < n; r += kBlockRows) {
+      const std::size_t m = std::min(kBlockRows, n - r);
+      read_exact(fd, block.data(), m * width, rows_at + r * width, path);
+      checked.binary_rows(block.data(), m, r + 1);
+    }
+    throw Error(ExitCode::internal, path + ": binary rows refused in bulk but not one by one");
   }
   std::string trailer(trailer_bytes, '\0');
   read_exact(fd, trailer.data(), trailer_bytes, rows_at + rows * width, path);
+  parser.metadata_only("binary trace trailer text");
   feed_text(parser, trailer);
   return parser.finish();
 }
 
-}  // namespace
-
-Trace parse_trace(std::string_view text, const std::string& source,
-                  const TraceReadOptions& options) {
-  TraceParser parser(source, options);
-  feed_text(parser, text);
-  return parser.finish();
+// A regular text file is mapped and parsed in place; the mapping goes when the parse ends.
+Trace read_mapped_text(const InputFile& in, const TraceReadOptions& options) {
+  const std::size_t size = static_cast<std::size_t>(in.size());
+  void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, in.fd(), 0);
+  if (map == MAP_FAILED)
+    throw IoError(in.path(), std::string("cannot map: ") + std::strerror(errno));
+  struct Unmap {
+    void* p;
+    std::size_t n;
+    ~Unmap() { ::munmap(p, n); }
+  } unmap{map, size};
+  ::madvise(map, size, MADV_SEQUENTIAL);
+  return parse_text(std::string_view(static_cast<const char*>(map), size), in.path(), options,
+                    true);
 }
 
-Trace read_trace(const std::string& path, const TraceReadOptions& options) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw IoError(path, std::string("cannot open: ") + std::strerror(errno));
-  struct FdCloser {
-    int fd;
-    ~FdCloser() { ::close(fd); }
-  } closer{fd};
-  struct stat st {};
-  if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) throw IoError(path, "is a directory");
-  char magic[sizeof kBinaryMagic] = {};
-  if (st.st_size >= static_cast<off_t>(sizeof magic) &&
-      read_exact(fd, magic, sizeof magic, 0, path) == sizeof magic &&
-      std::memcmp(magic, kBinaryMagic, sizeof magic) == 0) {
-    return read_binary_trace(fd, static_cast<std::uint64_t>(st.st_size), path, options);
-  }
-
+// A pipe is read in blocks; a line longer than the cap is refused before it fills memory.
+Trace read_stream_text(const InputFile& in, const TraceReadOptions& options) {
+  const std::string& path = in.path();
   TraceParser parser(path, options);
-  // Streamed in blocks so that memory stays at the parsed columns, not the file size.
-  constexpr std::size_t kBlock = 4u << 20;
-  std::string buf;
-  buf.resize(kBlock);
+  constexpr std::size_t kBlock = 4u << 20;  // more than a line may hold
+  static_assert(kBlock > kMaxInputLineBytes + 1);
+  std::string buf(kBlock, '\0');
   std::size_t have = 0;
-  bool hinted = false;
   while (true) {
-    if (have == buf.size()) buf.resize(buf.size() * 2);  // a line longer than a block
-    const ssize_t n = ::read(fd, buf.data() + have, buf.size() - have);
+    const ssize_t n = ::read(in.fd(), buf.data() + have, buf.size() - have);
     if (n < 0) {
       if (errno == EINTR) continue;
       throw IoError(path, std::string("read failed: ") + std::strerror(errno));
@@ -453,25 +831,41 @@ Trace read_trace(const std::string& path, const TraceReadOptions& options) {
     while (pos < have) {
       const void* nl = std::memchr(data + pos, '\n', have - pos);
       if (!nl) break;
-      const std::size_t stop = static_cast<const char*>(nl) - data;
+      const std::size_t stop = static_cast<std::size_t>(static_cast<const char*>(nl) - data);
       parser.line(std::string_view(data + pos, stop - pos));
       pos = stop + 1;
-    }
-    if (!hinted && pos > 0 && st.st_size > 0 && parser.lines() > 0) {
-      // Reserve the columns once from the first block's bytes per line: no regrowth copies.
-      hinted = true;
-      const double per_line = static_cast<double>(pos) / static_cast<double>(parser.lines());
-      parser.reserve_rows(
-          static_cast<std::size_t>(static_cast<double>(st.st_size) / per_line * 1.02) + 16);
     }
     if (eof) {
       if (pos < have) parser.line(std::string_view(data + pos, have - pos));
       break;
     }
+    if (have - pos > kMaxInputLineBytes) {
+      throw ParseError(path, parser.lines() + 1, detail::line_too_long_message());
+    }
     std::memmove(buf.data(), data + pos, have - pos);
     have -= pos;
   }
   return parser.finish();
+}
+
+}  // namespace
+
+Trace parse_trace(std::string_view text, const std::string& source,
+                  const TraceReadOptions& options) {
+  return parse_text(text, source, options, false);
+}
+
+Trace read_trace(const std::string& path, const TraceReadOptions& options) {
+  const InputFile in(path);
+  if (!in.regular()) return read_stream_text(in, options);
+  char magic[sizeof kBinaryMagic] = {};
+  if (in.size() >= sizeof magic &&
+      read_exact(in.fd(), magic, sizeof magic, 0, path) == sizeof magic &&
+      std::memcmp(magic, kBinaryMagic, sizeof magic) == 0) {
+    return read_binary_trace(in, options);
+  }
+  if (in.size() == 0) return parse_text({}, path, options, false);
+  return read_mapped_text(in, options);
 }
 
 // ---------------------------------------------------------------- writer

@@ -284,3 +284,46 @@ TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
   expect_error("analyze " + trace + " --scale-um-per-div 0", 2,
                "--scale-um-per-div: expected a positive number");
 }
+
+TEST_F(CircanaCli, HostileInputs) {
+  expect_error("analyze /dev/zero", 3,
+               "/dev/zero: is a character device: expected a regular file or a pipe");
+  expect_error("analyze " + dir_.string(), 3,
+               dir_.string() + ": is a directory: expected a regular file or a pipe");
+  const std::string longline = write("long.csv", "t,x,y\n" + std::string(2 << 20, '1') + "\n");
+  expect_error(
+      "analyze " + longline, 4,
+      longline + ":2: line longer than 1048576 bytes (1 MiB): expected one record per line");
+  // An unknown --columns name: the message lists every column of the file, kept or not.
+  const std::string t = write("t.csv", "t,x,y,x_cmd,y_cmd,x_fb,y_fb,temp\n0,1,2,1,2,1,2,20\n");
+  expect_error("analyze " + t + " --columns x_enc,y_fb", 4,
+               t + ":1: missing column 'x_enc': expected it in the header (found: "
+                   "t,x,y,x_cmd,y_cmd,x_fb,y_fb,temp)");
+}
+
+TEST_F(CircanaCli, TraceWithoutTimeIsEvaluatedWithANote) {
+  const std::string full = (dir_ / "full.csv").string(), xy = (dir_ / "xy.csv").string();
+  ASSERT_EQ(
+      std::system((std::string(SIMTRACE_PATH) + " -o " + full + " --backlash-x 0.02 --period 0.002")
+                      .c_str()),
+      0);
+  // The same trace with its first column (t) dropped.
+  ASSERT_EQ(std::system(("awk -F, -v OFS=, '/^#/ {print; next} {$1 = \"\"; sub(/^,/, \"\"); "
+                         "print}' " +
+                         full + " > " + xy)
+                            .c_str()),
+            0);
+  ASSERT_EQ(slurp(xy).find("\nt,"), std::string::npos);
+  const Result with_t = run("analyze " + full + " --json");
+  const Result without_t = run("analyze " + xy + " --json");
+  ASSERT_EQ(without_t.code, 0) << without_t.err;
+  const auto a = nlohmann::json::parse(with_t.out), b = nlohmann::json::parse(without_t.out);
+  EXPECT_DOUBLE_EQ(a["H"].get<double>(), b["H"].get<double>());
+  bool noted = false;
+  for (const auto& n : b["notes"]) {
+    noted = noted || n.get<std::string>().rfind("no 't' column", 0) == 0;
+  }
+  EXPECT_TRUE(noted) << b["notes"];
+  EXPECT_FALSE(b["runs"][0].contains("feed_mm_per_min") &&
+               !b["runs"][0]["feed_mm_per_min"].is_null());
+}

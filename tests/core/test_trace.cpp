@@ -1,13 +1,20 @@
+#include <fcntl.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
 #include "circtest/core/trace.hpp"
 
 using namespace circtest;
@@ -294,5 +301,294 @@ TEST(BinaryTrace, BadValuesNameTheirRecord) {
                   ": record 3: time goes backwards: t = 0.001 after t = 0.002; expected "
                   "non-decreasing time");
   }
+  std::filesystem::remove_all(dir);
+}
+
+// ---------------------------------------------------------------- parallel reading
+
+namespace {
+
+TraceReadOptions threads(unsigned n) {
+  TraceReadOptions o;
+  o.threads = n;
+  o.parallel_min_bytes = 0;  // split even a small text
+  return o;
+}
+
+// Rows with everything the reader meets: comments and blank lines between rows, CRLF,
+// quoted and '+' numbers, blanks around fields, a column that is not kept.
+std::string mixed_trace(std::size_t rows) {
+  std::string s = "# plane: XY\nt,x,y,note\n";
+  for (std::size_t i = 0; i < rows; ++i) {
+    const double t = static_cast<double>(i) * 1e-3;
+    if (i % 97 == 5) s += "# event_" + std::to_string(i) + ": seen\n";
+    if (i % 89 == 7) s += "\n";
+    if (i % 13 == 3) {
+      s += fmt::format("{:.6f}, \"{:.6f}\" ,+{:.6f},\"7\"\r\n", t, std::cos(t), std::sin(t));
+    } else {
+      s += fmt::format("{:.6f},{:.6f},{:.6f},{}\n", t, std::cos(t), std::sin(t), i % 5);
+    }
+  }
+  s += "# rows: " + std::to_string(rows);  // no final newline
+  return s;
+}
+
+std::string error_of(const std::string& text, const TraceReadOptions& o) {
+  try {
+    parse_trace(text, "in.csv", o);
+  } catch (const Error& e) {
+    return fmt::format("{} {}", static_cast<int>(e.code()), e.what());
+  }
+  return "no error";
+}
+
+}  // namespace
+
+TEST(TraceParallel, StretchesGiveTheSameTraceAsOneThread) {
+  const std::string text = mixed_trace(5000);
+  TraceReadOptions keep = threads(1);
+  keep.keep = {"t", "x", "y"};
+  const Trace one = parse_trace(text, "in.csv", keep);
+  for (unsigned n : {2u, 3u, 7u}) {
+    TraceReadOptions o = threads(n);
+    o.keep = keep.keep;
+    const Trace many = parse_trace(text, "in.csv", o);
+    ASSERT_EQ(many.rows(), 5000u);
+    EXPECT_EQ(many.values, one.values) << n;
+    EXPECT_EQ(many.line_of_row, one.line_of_row) << n;
+    ASSERT_EQ(many.metadata.entries(), one.metadata.entries()) << n;
+    for (std::size_t i = 0; i < one.metadata.entries().size(); ++i) {
+      EXPECT_EQ(many.metadata.line_at(i), one.metadata.line_at(i));
+    }
+  }
+  // Independent truth for the line numbers: the row after the header is line 3.
+  EXPECT_EQ(one.line_of_row[0], 3u);
+  EXPECT_EQ(*one.metadata.find("rows"), "5000");
+}
+
+TEST(TraceParallel, TheFirstErrorInFileOrderWinsWithItsLine) {
+  const std::string good = mixed_trace(3000);
+  std::vector<std::string> bad;
+  // Breaks placed near the start, the middle and the end, alone and together.
+  auto replace_line = [&](std::string s, std::size_t line, const std::string& with) {
+    std::size_t pos = 0;
+    for (std::size_t l = 1; l < line; ++l) pos = s.find('\n', pos) + 1;
+    const std::size_t end = s.find('\n', pos);
+    return s.replace(pos, end - pos, with);
+  };
+  bad.push_back(replace_line(good, 2500, "2.5,1,abc,0"));
+  bad.push_back(replace_line(replace_line(good, 2500, "2.5,1,abc,0"), 1700, "0.1,1,1,0"));
+  bad.push_back(replace_line(good, 1500, "1,2"));
+  bad.push_back(replace_line(good, 40, "0.0001,nan,1,0"));
+  bad.push_back(replace_line(good, 3000, std::string(kMaxInputLineBytes + 1, '1')));
+  for (std::size_t line = 1400; line < 1800; line += 37) {
+    bad.push_back(replace_line(good, line, "0,0,0,0"));  // time back, also at a seam
+  }
+  for (const auto& text : bad) {
+    const std::string expected = error_of(text, threads(1));
+    ASSERT_NE(expected, "no error");
+    for (unsigned n : {2u, 3u, 5u}) EXPECT_EQ(error_of(text, threads(n)), expected) << n;
+  }
+  EXPECT_EQ(error_of(bad[1], threads(1)),
+            "5 in.csv:1700: time goes backwards: t = 0.1 after t = 1.659; expected "
+            "non-decreasing time");
+}
+
+// ---------------------------------------------------------------- hostile input (issue 12)
+
+TEST(TraceReaderErrors, LineLongerThanTheCap) {
+  std::string text = "t,x\n0,1\n" + std::string(kMaxInputLineBytes + 1, '5') + "\n";
+  EXPECT_EQ(message_of(text),
+            "in.csv:3: line longer than 1048576 bytes (1 MiB): expected one record per line");
+  // Exactly at the cap is a line like any other (here a malformed row).
+  text = "t,x\n0,1\n" + std::string(kMaxInputLineBytes, '5') + "\n";
+  EXPECT_EQ(code_of(text), ExitCode::parse);
+  EXPECT_EQ(message_of(text).find("line longer"), std::string::npos);
+}
+
+TEST(TraceReader, ByteOrderMarkBeforeMetadataOrHeaderIsSkipped) {
+  Trace t = parse_trace("\xEF\xBB\xBF# plane: YZ\nt,x\n0,1\n", "in.csv");
+  EXPECT_EQ(*t.metadata.find("plane"), "YZ");
+  EXPECT_EQ(t.header_line, 2u);
+  t = parse_trace("\xEF\xBB\xBFt,x\n0,1\n", "in.csv");
+  EXPECT_EQ(t.columns, (std::vector<std::string>{"t", "x"}));
+  // Only at the start of the file: elsewhere it is not a number.
+  const std::string bom = "\xEF\xBB\xBF";
+  EXPECT_EQ(message_of("t,x\n" + bom + "0,1\n"),
+            "in.csv:2: column 't': expected a number, got '" + bom + "0'");
+}
+
+TEST(TraceReader, HeaderCheckIsLinearIn200000Names) {
+  // Short base-36 names keep the header under the line cap. A quadratic check would take
+  // minutes here (2e10 comparisons) and hit the test timeout.
+  std::string header, row;
+  auto name = [](std::size_t i) {
+    std::string s;
+    do {
+      s += "0123456789abcdefghijklmnopqrstuvwxyz"[i % 36];
+      i /= 36;
+    } while (i);
+    return s;
+  };
+  const std::size_t n = 200000;
+  for (std::size_t i = 0; i < n; ++i) {
+    header += (i ? "," : "") + name(i);
+    row += i ? ",1" : "1";
+  }
+  ASSERT_LT(header.size(), kMaxInputLineBytes);
+  TraceReadOptions o;
+  o.keep = {name(n - 1)};
+  const Trace t = parse_trace(header + "\n" + row + "\n", "in.csv", o);
+  EXPECT_EQ(t.rows(), 1u);
+  EXPECT_EQ(message_of(header + "," + name(123456) + "\n"),
+            "in.csv:1: header: duplicate column '" + name(123456) + "'");
+}
+
+TEST(TraceFile, DevicesAndDirectoriesAreRefusedBeforeReading) {
+  try {
+    read_trace("/dev/zero");
+    FAIL() << "read /dev/zero";
+  } catch (const IoError& e) {
+    EXPECT_STREQ(e.what(), "/dev/zero: is a character device: expected a regular file or a pipe");
+  }
+  const auto dir = temp_dir();
+  try {
+    read_trace(dir.string());
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              dir.string() + ": is a directory: expected a regular file or a pipe");
+  }
+  EXPECT_THROW(read_input_text(dir.string()), IoError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(TraceFile, PipesAreReadAndTheirLinesCapped) {
+  const auto dir = temp_dir();
+  const std::string fifo = (dir / "trace.fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::signal(SIGPIPE, SIG_IGN);  // the writer of the endless line sees EPIPE instead
+  auto feed = [&](std::string text) {
+    return std::thread([fifo, text] {
+      const int fd = ::open(fifo.c_str(), O_WRONLY);
+      std::size_t done = 0;
+      while (fd >= 0 && done < text.size()) {
+        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        if (n <= 0) break;
+        done += static_cast<std::size_t>(n);
+      }
+      if (fd >= 0) ::close(fd);
+    });
+  };
+  std::thread w = feed("# plane: XY\nt,x\n0,1\n0.5,2\n");
+  const Trace t = read_trace(fifo);
+  w.join();
+  EXPECT_EQ(t.rows(), 2u);
+  EXPECT_EQ(t.line_of_row[1], 4u);
+  // An endless line (what /dev/zero through a pipe would be): refused at the cap, while only
+  // a few MiB have been read.
+  w = feed("t,x\n0,1\n" + std::string(3 * kMaxInputLineBytes, '0'));
+  try {
+    read_trace(fifo);
+    FAIL();
+  } catch (const ParseError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              fifo + ":3: line longer than 1048576 bytes (1 MiB): expected one record per line");
+  }
+  w.join();  // the writer ends with EPIPE once the reader has gone
+  std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+// A binary trace assembled by hand (docs/trace-format.md), to say what no writer would.
+std::string ctb(const std::string& header, const std::vector<double>& values, std::uint64_t rows,
+                const std::string& trailer) {
+  std::string s = "CTRACEB1";
+  const auto h = static_cast<std::uint32_t>(header.size());
+  s.append(reinterpret_cast<const char*>(&h), 4);
+  s += header;
+  s.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
+  s += trailer;
+  const auto tb = static_cast<std::uint32_t>(trailer.size());
+  s.append(reinterpret_cast<const char*>(&rows), 8);
+  s.append(reinterpret_cast<const char*>(&tb), 4);
+  s += "CTBE";
+  return s;
+}
+
+std::string read_error(const std::filesystem::path& dir, const std::string& bytes) {
+  const std::string path = (dir / "x.ctb").string();
+  { std::ofstream(path, std::ios::binary) << bytes; }
+  try {
+    read_trace(path);
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    return what.substr(what.find(": ") + 2);  // without the path
+  }
+  return "no error";
+}
+
+}  // namespace
+
+TEST(BinaryTrace, RowCountIsCheckedWithoutOverflow) {
+  const auto dir = temp_dir();
+  // 2 columns of 8 bytes: (2^59 + 1) * 16 wraps to 16, the bytes of exactly one row.
+  const std::uint64_t rows = (std::uint64_t{1} << 59) + 1;
+  EXPECT_EQ(read_error(dir, ctb("t,x\n", {0.0, 1.0}, rows, "")),
+            "binary trace: 576460752303423489 rows of 2 columns do not fill the file");
+  EXPECT_EQ(read_error(dir, ctb("t,x\n", {0.0, 1.0}, ~std::uint64_t{0}, "")),
+            "binary trace: 18446744073709551615 rows of 2 columns do not fill the file");
+  EXPECT_EQ(read_error(dir, ctb("t,x\n", {0.0, 1.0}, 1, "")), "no error");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(BinaryTrace, HeaderAndTrailerTextHoldNoRows) {
+  const auto dir = temp_dir();
+  EXPECT_EQ(read_error(dir, ctb("# a: b\nt,x\n5,6\n", {0.0, 1.0}, 1, "")),
+            "binary trace header text, line 3: expected only '# key: value' lines after the "
+            "header row, got '5,6'");
+  EXPECT_EQ(read_error(dir, ctb("t,x\n", {0.0, 1.0}, 1, "# rows: 1\n7,8\n")),
+            "binary trace trailer text, line 2: expected only '# key: value' lines after the "
+            "header row, got '7,8'");
+  EXPECT_EQ(read_error(dir, ctb("\xEF\xBB\xBF# a: b\nt,x\n", {0.0, 1.0}, 1, "# rows: 1\n\n")),
+            "no error");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(BinaryTrace, BulkAndRecordByRecordReadsAgree) {
+  // Stretches on several threads must report the same first bad record as one thread.
+  const auto dir = temp_dir();
+  std::vector<std::pair<double, double>> rows;
+  for (int i = 0; i < 50000; ++i) rows.emplace_back(i * 1e-3, 1.0);
+  rows[30000].second = INFINITY;
+  rows[41000].first = 0.0;  // later: time back
+  const std::string path = write_binary(dir, rows);
+  for (unsigned n : {1u, 2u, 3u}) {
+    TraceReadOptions o = threads(n);
+    try {
+      read_trace(path, o);
+      FAIL();
+    } catch (const ParseError& e) {
+      EXPECT_EQ(std::string(e.what()),
+                path + ": record 30001: column 'x': expected a finite number, got 'inf'");
+    }
+  }
+  rows[30000].second = 1.0;
+  const std::string p2 = write_binary(dir, rows);
+  for (unsigned n : {1u, 2u, 3u}) {
+    try {
+      read_trace(p2, threads(n));
+      FAIL();
+    } catch (const DataError& e) {
+      EXPECT_EQ(std::string(e.what()), p2 + ": record 41001: time goes backwards: t = 0 after t = "
+                                            "40.999; expected non-decreasing time");
+    }
+  }
+  rows[41000].first = 41.0;
+  const Trace t = read_trace(write_binary(dir, rows), threads(3));
+  ASSERT_EQ(t.rows(), 50000u);
+  EXPECT_EQ((*t.column("t"))[49999], 49999 * 1e-3);
+  EXPECT_EQ(t.line_of_row[49999], 50000u);
   std::filesystem::remove_all(dir);
 }

@@ -25,7 +25,8 @@ class TraceMetadata {
   // The value as a number; nullopt if absent. Throws ParseError (naming `source` and the
   // metadata line) if present but not a finite number.
   std::optional<double> number(std::string_view key, const std::string& source = {}) const;
-  std::size_t line_of(std::string_view key) const;  // 0 if unknown
+  std::size_t line_of(std::string_view key) const;                        // 0 if unknown
+  std::size_t line_at(std::size_t index) const { return lines_[index]; }  // of entries()[index]
   const std::vector<std::pair<std::string, std::string>>& entries() const { return entries_; }
   void set_line(std::size_t index, std::size_t line);
 
@@ -53,9 +54,14 @@ struct TraceReadOptions {
   std::vector<std::string> required;  // columns that must exist (else ParseError at the header)
   // When the trace has a `t` column: reject time going backwards (DataError at that row).
   bool check_time_monotonic = true;
+  // A text trace of at least this many bytes is parsed in stretches on `threads` threads
+  // (0: one per core); results and errors are the same as with one thread.
+  unsigned threads = 0;
+  std::size_t parallel_min_bytes = std::size_t{4} << 20;
 };
 
-// Reads a text trace (or a binary one, see docs/trace-format.md; detected by its magic).
+// Reads a text trace (or a binary one, see docs/trace-format.md; detected by its magic) from
+// a regular file or a pipe ("-" is standard input; see InputFile for what is refused).
 // Throws IoError, ParseError or DataError with the file and line.
 Trace read_trace(const std::string& path, const TraceReadOptions& options = {});
 Trace parse_trace(std::string_view text, const std::string& source,

@@ -1,0 +1,98 @@
+#include "circtest/core/input_file.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "circtest/core/error.hpp"
+#include "input_lines.hpp"
+
+namespace circtest {
+
+namespace {
+
+const char* kind_of(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+bool same_file(const struct stat& a, const struct stat& b) {
+  return a.st_dev == b.st_dev && a.st_ino == b.st_ino && a.st_rdev == b.st_rdev;
+}
+
+}  // namespace
+
+InputFile::InputFile(const std::string& path) : path_(path) {
+  if (path == "-") {
+    fd_ = STDIN_FILENO;
+  } else {
+    // A FIFO is opened blocking, waiting for its writer as any reader of a pipe does;
+    // anything else with O_NONBLOCK, so that opening a device that is refused below does not
+    // wait (a serial line waits for carrier); the flag is cleared again below.
+    struct stat pre {};
+    const bool fifo = ::stat(path.c_str(), &pre) == 0 && S_ISFIFO(pre.st_mode);
+    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | (fifo ? 0 : O_NONBLOCK));
+    if (fd_ < 0) throw IoError(path, std::string("cannot open: ") + std::strerror(errno));
+    owned_ = true;
+  }
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0) {
+    const int err = errno;
+    if (owned_) ::close(fd_);
+    throw IoError(path, std::string("cannot stat: ") + std::strerror(err));
+  }
+  bool ok = S_ISREG(st.st_mode) || S_ISFIFO(st.st_mode);
+  if (!ok && path == "-") ok = true;  // whatever the shell connected
+  if (!ok && S_ISCHR(st.st_mode)) {
+    struct stat in {};
+    ok = ::fstat(STDIN_FILENO, &in) == 0 && same_file(st, in);  // /dev/stdin on a terminal
+  }
+  if (!ok) {
+    if (owned_) ::close(fd_);
+    throw IoError(path,
+                  std::string("is ") + kind_of(st.st_mode) + ": expected a regular file or a pipe");
+  }
+  if (owned_) {
+    const int flags = ::fcntl(fd_, F_GETFL);
+    if (flags >= 0) ::fcntl(fd_, F_SETFL, flags & ~O_NONBLOCK);
+  }
+  regular_ = S_ISREG(st.st_mode);
+  size_ = regular_ ? static_cast<std::uint64_t>(st.st_size) : 0;
+}
+
+InputFile::~InputFile() {
+  if (owned_) ::close(fd_);
+}
+
+std::string read_input_text(const std::string& path, std::size_t max_bytes) {
+  InputFile in(path);
+  if (in.regular() && in.size() > max_bytes) {
+    throw IoError(path, "larger than " + std::to_string(max_bytes) + " bytes");
+  }
+  std::string text;
+  char block[1 << 16];
+  LineLengthGuard guard(path);
+  while (true) {
+    const ssize_t n = ::read(in.fd(), block, sizeof block);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw IoError(path, std::string("read failed: ") + std::strerror(errno));
+    }
+    if (n == 0) break;
+    guard.feed(std::string_view(block, static_cast<std::size_t>(n)));
+    if (text.size() + static_cast<std::size_t>(n) > max_bytes) {
+      throw IoError(path, "larger than " + std::to_string(max_bytes) + " bytes");
+    }
+    text.append(block, static_cast<std::size_t>(n));
+  }
+  return text;
+}
+
+}  // namespace circtest
