@@ -1,41 +1,54 @@
 #!/usr/bin/env bash
-# Times `circana analyze --json` on a 1e6-sample CCW+CW trace against merely parsing every
-# number of the same file with std::from_chars, and measures circana's peak memory.
-# usage: bench/analyze-cli.sh [BUILD_DIR]      (Release build; needs /usr/bin/time)
+# Times `circana analyze --json` on a 1e6-sample CCW+CW trace, text and binary, against the
+# floors measured in the same rounds by bench/parse_baseline (parsing every number with
+# std::from_chars; reading the .ctb's bytes), prints the ratios and circana's peak memory.
+# Rounds interleave circana and the floors, so a busy machine slows both alike; the best
+# round of each counts.
+# usage: bench/analyze-cli.sh [BUILD_DIR] [ROUNDS]   (Release build; needs /usr/bin/time)
 set -euo pipefail
 build=${1:-build}
+rounds=${2:-7}
 work=${TMPDIR:-/tmp}/circtest-bench
 mkdir -p "$work"
-trace=$work/trace-1e6.csv
-if [ ! -f "$trace" ]; then
-  # D150 F1000, 2 x (360 + 2 x 30 deg lead) and dwells: a period of 66.4 us gives ~1e6 rows.
-  "$build/tests/support/circtest-simtrace" -o "$trace" --backlash-x 0.02 --squareness 100e-6 \
-    --kv-x 30 --kv-y 33 --noise 0.0002 --period 0.0000664
-fi
-rows=$(($(grep -vc '^#' "$trace") - 1))
-size=$(du -m "$trace" | cut -f1)
-echo "trace: $trace, $rows rows, $size MB"
-"$build/bench/parse_baseline" "$trace" 5
-# Best of 5 wall times of circana on a file, then one run under /usr/bin/time for peak RSS.
-time_circana() {
-  local file=$1 label=$2 best=999 s e
-  for i in 1 2 3 4 5; do
-    s=$(date +%s.%N)
-    "$build/analysis/circana" analyze "$file" --json >/dev/null
-    e=$(date +%s.%N)
-    best=$(awk -v s="$s" -v e="$e" -v b="$best" 'BEGIN { t = e - s; print (t < b ? t : b) }')
-  done
-  printf 'circana analyze --json%s: best of 5: %.3f s\n' "$label" "$best"
-  /usr/bin/time -f "circana analyze --json$label: peak RSS %M KiB, %e s" \
-    "$build/analysis/circana" analyze "$file" --json >/dev/null
-}
-time_circana "$trace" ""
+sim=(--backlash-x 0.02 --squareness 100e-6 --kv-x 30 --kv-y 33 --noise 0.0002 --period 0.0000664)
+# D150 F1000, 2 x (360 + 2 x 30 deg lead) and dwells: a period of 66.4 us gives ~1e6 rows.
+[ -f "$work/trace-1e6.csv" ] || "$build/tests/support/circtest-simtrace" -o "$work/trace-1e6.csv" "${sim[@]}"
+[ -f "$work/trace-1e6.ctb" ] || "$build/tests/support/circtest-simtrace" -o "$work/trace-1e6.ctb" "${sim[@]}"
 
-# The same trace in the binary form (docs/trace-format.md).
-binary=$work/trace-1e6.ctb
-if [ ! -f "$binary" ]; then
-  "$build/tests/support/circtest-simtrace" -o "$binary" --backlash-x 0.02 --squareness 100e-6 \
-    --kv-x 30 --kv-y 33 --noise 0.0002 --period 0.0000664
-fi
-echo "binary: $binary, $(du -m "$binary" | cut -f1) MB"
-time_circana "$binary" " (binary)"
+now() { date +%s.%N; }
+min() { awk -v a="$1" -v b="$2" 'BEGIN { print (a < b ? a : b) }'; }
+
+# bench FILE MODE: best circana wall time and best floor/reader times over the rounds.
+bench() {
+  local file=$1 mode=$2 best=999 cpu=999 floor=999 floorc=999 reader=999 reader1=999 readerc=999
+  local line t
+  for _ in $(seq "$rounds"); do
+    t=$( { /usr/bin/time -f '%e %U %S' "$build/analysis/circana" analyze "$file" --json >/dev/null; } 2>&1 | tail -1)
+    best=$(min "$best" "$(cut -d' ' -f1 <<<"$t")")
+    cpu=$(min "$cpu" "$(awk '{ print $2 + $3 }' <<<"$t")")
+    line=$("$build/bench/parse_baseline" "$file" 1 "$mode" | grep '^floor_wall_s=')
+    floor=$(min "$floor" "$(sed 's/.*floor_wall_s=\([0-9.]*\).*/\1/' <<<"$line")")
+    reader=$(min "$reader" "$(sed 's/.*reader_wall_s=\([0-9.]*\).*/\1/' <<<"$line")")
+    reader1=$(min "$reader1" "$(sed 's/.*reader1_wall_s=\([0-9.]*\).*/\1/' <<<"$line")")
+    floorc=$(min "$floorc" "$(sed 's/.*floor_cpu_s=\([0-9.]*\).*/\1/' <<<"$line")")
+    readerc=$(min "$readerc" "$(sed 's/.*reader1_cpu_s=\([0-9.]*\).*/\1/' <<<"$line")")
+  done
+  local rss
+  rss=$( { /usr/bin/time -f '%M' "$build/analysis/circana" analyze "$file" --json >/dev/null; } 2>&1 | tail -1)
+  local rows
+  rows=$("$build/bench/parse_baseline" "$file" 1 "$mode" | sed -n 's/^read_trace, 1 thread.*(\([0-9]*\) rows).*/\1/p')
+  printf '%s: %s rows, %s MB\n' "$file" "$rows" "$(du -m "$file" | cut -f1)"
+  awk -v c="$best" -v f="$floor" -v r="$reader" -v r1="$reader1" -v m="$mode" -v rss="$rss" \
+      -v n="$rows" -v cc="$cpu" -v fc="$floorc" -v rc="$readerc" 'BEGIN {
+    fl = (m == "binary") ? "reading its bytes" : "from_chars of every number";
+    printf "  floor (%s):            %.3f s\n", fl, f
+    printf "  read_trace (all cores / 1 thread): %.3f / %.3f s = %.2fx / %.2fx the floor\n", r, r1, r / f, r1 / f
+    printf "  circana analyze --json:                %.3f s = %.2fx the floor\n", c, c / f
+    printf "  CPU time (user+sys): floor %.3f s, read_trace 1 thread %.3f s = %.2fx, circana %.2f s = %.2fx\n", fc, rc, rc / fc, cc, cc / fc
+    printf "  circana peak RSS: %d MiB, %.0f MiB per 1e6 rows\n", rss / 1024, rss / 1024 / n * 1e6
+  }'
+}
+
+echo "machine: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), best of $rounds rounds"
+bench "$work/trace-1e6.csv" csv
+bench "$work/trace-1e6.ctb" binary

@@ -148,7 +148,10 @@ int main(int argc, char** argv) {
     std::printf("%-36s best of %d: %.3f s wall, %.3f s CPU (%zu %s)\n", v.name, rounds, v.wall,
                 v.cpu, v.count, &v == &variants[0] ? (binary ? "bytes" : "numbers") : "rows");
   }
-  std::printf("floor_wall_s=%.4f reader_wall_s=%.4f reader1_wall_s=%.4f (checksum %g)\n",
-              variants[0].wall, variants[1].wall, variants[2].wall, checksum);
+  std::printf(
+      "floor_wall_s=%.4f reader_wall_s=%.4f reader1_wall_s=%.4f floor_cpu_s=%.4f "
+      "reader1_cpu_s=%.4f (checksum %g)\n",
+      variants[0].wall, variants[1].wall, variants[2].wall, variants[0].cpu, variants[2].cpu,
+      checksum);
   return 0;
 }
