@@ -89,7 +89,7 @@ TEST(ReportConditions, EveryClause6ItemIsPrintedAndUnknownOnesSaySo) {
   EXPECT_EQ(count(text, "  Instrument:"), 1u);
 
   const auto j = to_json(ev);
-  EXPECT_EQ(j["channels"], nlohmann::json::array({"x", "y"}));
+  EXPECT_EQ(j["channels"], nlohmann::ordered_json::array({"x", "y"}));
   EXPECT_EQ(j["conditions"]["instrument"], "ballbar QC20");
   EXPECT_EQ(j["conditions"]["machine"], "VMC-3");
 }
@@ -101,7 +101,7 @@ TEST(ReportConditions, TheChannelsEvaluatedAreNamedInEveryOutput) {
   o.column_b = "y_cmd";
   const Evaluation ev = evaluate(trace, o);
   EXPECT_NE(text_report(ev).find("Channels evaluated:         x_cmd, y_cmd\n"), std::string::npos);
-  EXPECT_EQ(to_json(ev)["channels"], nlohmann::json::array({"x_cmd", "y_cmd"}));
+  EXPECT_EQ(to_json(ev)["channels"], nlohmann::ordered_json::array({"x_cmd", "y_cmd"}));
   EXPECT_NE(svg_plot(ev, trace).find("channels evaluated x_cmd, y_cmd"), std::string::npos);
 }
 
