@@ -12,6 +12,7 @@
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
+#include "circtest/core/version.hpp"
 
 using namespace circtest;
 
@@ -30,6 +31,10 @@ void save(const IniDocument& doc) {
 int run(int argc, char** argv) {
   if (argc >= 2 && (std::string_view(argv[1]) == "--help" || std::string_view(argv[1]) == "-h")) {
     std::cout << kUsage;
+    return 0;
+  }
+  if (argc >= 2 && std::string_view(argv[1]) == "--version") {
+    std::cout << version_line("circtest-ini") << '\n';
     return 0;
   }
   if (argc < 5) throw UsageError(std::string("expected a command and its arguments\n") + kUsage);
