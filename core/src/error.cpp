@@ -24,6 +24,8 @@ const char* exit_code_name(ExitCode code) noexcept {
       return "hal";
     case ExitCode::data_loss:
       return "data-loss";
+    case ExitCode::stale:
+      return "stale";
   }
   return "unknown";
 }

@@ -12,6 +12,7 @@
 
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/sha256.hpp"
 #include "circtest/core/trace.hpp"
 #include "circtest/core/version.hpp"
 
@@ -22,13 +23,24 @@ namespace po = boost::program_options;
 namespace {
 
 // Keys the recorder writes itself; a program header may not override them.
-const std::set<std::string, std::less<>> kReservedKeys = {
-    "sample_period_s", "start_time", "start_period",
-    "channels",        "module",     "module.channels",
-    "module.depth",    "overruns",   "gaps",
-    "lost_samples",    "rows",       "runs",
-    "end_period",      "program",    "ring_high_water",
-    "recorder",        "stop_reason"};
+const std::set<std::string, std::less<>> kReservedKeys = {"sample_period_s",
+                                                          "start_time",
+                                                          "start_period",
+                                                          "ini_sha256",
+                                                          "channels",
+                                                          "module",
+                                                          "module.channels",
+                                                          "module.depth",
+                                                          "overruns",
+                                                          "gaps",
+                                                          "lost_samples",
+                                                          "rows",
+                                                          "runs",
+                                                          "end_period",
+                                                          "program",
+                                                          "ring_high_water",
+                                                          "recorder",
+                                                          "stop_reason"};
 
 const std::set<std::string, std::less<>> kFixedColumns = {"t", "period", "marker", "segment"};
 
@@ -91,6 +103,9 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
       "until-idle", po::value(&idle)->value_name("S"),
       "stop once a run was recorded and enable has then stayed false for S seconds (the "
       "program has finished)")(
+      "ini", po::value(&o.ini)->value_name("FILE.ini"),
+      "the machine's LinuxCNC INI: its path and SHA-256 go into the metadata (ini, ini_sha256), "
+      "so circcomp can tell whether a correction was measured on the configuration it edits")(
       "program", po::value(&o.program)->value_name("FILE.ngc"),
       "copy the (key: value) header comments of this G-code program into the metadata")(
       "decimals", po::value(&o.decimals)->value_name("N"),
@@ -278,6 +293,10 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
   for (const auto& [name, text] : options_.descriptions) meta.set("channel." + name, text);
   meta.set("module.channels", std::to_string(ring_.channels()));
   meta.set("module.depth", std::to_string(ring_.depth()));
+  if (!options_.ini.empty()) {
+    meta.set("ini", options_.ini);
+    meta.set("ini_sha256", sha256_of_file(options_.ini));
+  }
   if (!options_.program.empty()) {
     meta.set("program", options_.program);
     for (auto& [key, value] : read_program_header(options_.program)) {

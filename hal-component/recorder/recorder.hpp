@@ -20,6 +20,7 @@ struct Options {
   std::optional<double> duration_s;
   std::optional<double> idle_s;  // --until-idle
   std::string program;           // G-code file whose (key: value) header is copied
+  std::string ini;               // the machine's INI: its path and SHA-256 go into the metadata
   // --machine, --operator, ...: metadata key and value; they win over the program header.
   std::vector<std::pair<std::string, std::string>> conditions;
   int decimals = 6;

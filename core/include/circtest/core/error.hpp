@@ -17,6 +17,7 @@ enum class ExitCode : int {
   limit = 6,      // a request violates a machine limit (soft limits, velocity, acceleration)
   hal = 7,        // HAL/LinuxCNC not available or the component is not loaded
   data_loss = 8,  // the recorder lost samples (overruns or gaps); the file is still complete
+  stale = 10,     // circcomp apply: the INI changed since the measurement
 };
 
 // Short stable name of an exit code, for messages and documentation.
@@ -76,6 +77,11 @@ class DataError : public InputError {
 class LimitError : public Error {
  public:
   explicit LimitError(const std::string& message) : Error(ExitCode::limit, message) {}
+};
+
+class StaleError : public Error {
+ public:
+  explicit StaleError(const std::string& message) : Error(ExitCode::stale, message) {}
 };
 
 class HalError : public Error {

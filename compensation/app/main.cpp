@@ -1,0 +1,114 @@
+// circcomp: writes a circtest diagnosis back into a LinuxCNC configuration. Only option
+// parsing lives here; the work is circtest::compensation.
+#include <boost/program_options.hpp>
+#include <iostream>
+#include <sstream>
+#include <string>
+
+#include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/compensation/plan.hpp"
+#include "circtest/core/cli.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
+
+namespace po = boost::program_options;
+using namespace circtest;
+using namespace circtest::compensation;
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
+    "backlash,scale,squareness,cyclic]\n"
+    "                       [--gain F] [--force]\n"
+    "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
+    "       circcomp revert --ini MACHINE.ini\n";
+
+void print_summary(const Plan& plan, std::ostream& out) {
+  for (const auto& c : plan.changes) out << "# change: " << c << "\n";
+  for (const auto& n : plan.notes) out << "# note: " << n << "\n";
+  for (const auto& a : plan.advice) out << "# advice: " << a << "\n";
+}
+
+int run(int argc, char** argv) {
+  if (argc < 2) throw UsageError(std::string("expected plan, apply or revert\n") + kUsage);
+  const std::string command = argv[1];
+  if (command == "--help" || command == "-h") {
+    std::cout << kUsage;
+    return 0;
+  }
+  if (command != "plan" && command != "apply" && command != "revert") {
+    throw UsageError("unknown command '" + command + "' (expected plan, apply or revert)");
+  }
+  std::string ini, diagnosis, only, gain_text = "1";
+  bool force = false;
+  po::options_description opts;
+  opts.add_options()("ini", po::value(&ini))("diagnosis", po::value(&diagnosis))(
+      "only", po::value(&only))("gain", po::value(&gain_text))("force", po::bool_switch(&force))(
+      "help,h", "");
+  po::positional_options_description pos;
+  pos.add("diagnosis", 1);
+  po::variables_map vm;
+  try {
+    po::store(po::command_line_parser(argc - 1, argv + 1).options(opts).positional(pos).run(), vm);
+    po::notify(vm);
+  } catch (const po::error& e) {
+    throw UsageError(e.what());
+  }
+  if (vm.count("help")) {
+    std::cout << kUsage;
+    return 0;
+  }
+  if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
+  if (command == "revert") {
+    if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
+    std::cout << (revert(ini)
+                      ? "circcomp: reverted " + ini + " to the state before the last apply\n"
+                      : "circcomp: nothing to revert for " + ini + "\n");
+    return 0;
+  }
+  if (diagnosis.empty()) throw UsageError("expected DIAGNOSIS.json (circana diagnose --json)");
+  PlanOptions options;
+  options.force = force;
+  options.gain = parse_option_number("--gain", gain_text);
+  if (!only.empty()) {
+    options.only.clear();
+    std::istringstream in(only);
+    for (std::string w; std::getline(in, w, ',');) {
+      if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic") {
+        throw UsageError("--only: expected backlash, scale, squareness or cyclic, got '" + w + "'");
+      }
+      options.only.insert(w);
+    }
+  }
+  const DiagnosisInput d = read_diagnosis(diagnosis);
+  if (command == "apply") require_fresh(ini, d, force);
+  const Plan plan = make_plan(ini, d, options);
+  if (command == "plan") {
+    std::cout << unified_diff(plan);
+    print_summary(plan, std::cout);
+    if (!plan.provenance_checked) {
+      std::cout << "# note: the diagnosis's ini_sha256 does not match " << ini
+                << " now: apply will refuse (exit 10) without --force\n";
+    }
+    return 0;
+  }
+  if (plan.files.empty()) {
+    print_summary(plan, std::cout);
+    std::cout << "circcomp: nothing to change in " << ini << "\n";
+    return 0;
+  }
+  apply_plan(plan);
+  print_summary(plan, std::cout);
+  for (const auto& f : plan.files) {
+    std::cout << "circcomp: " << (f.existed ? "changed " : "created ") << f.path << "\n";
+  }
+  std::cout << "circcomp: originals kept; undo with: circcomp revert --ini " << ini << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return run_cli("circcomp", [&] { return run(argc, argv); });
+}

@@ -1,0 +1,43 @@
+#pragma once
+// The part of a `circtest.diagnosis/1` document (circana diagnose --json) that compensation
+// reads. Keys are the plane's axis letters; a null is a value the diagnosis could not fit.
+#include <array>
+#include <optional>
+#include <string>
+
+namespace circtest::compensation {
+
+struct Measured {
+  std::optional<double> value;
+  std::optional<double> standard_error;
+};
+
+struct Cyclic {
+  double amplitude_mm = 0.0;
+  double pitch_mm = 0.0;
+  double phase_rad = 0.0;  // error = amplitude * sin(2 pi position / pitch + phase)
+  std::optional<double> amplitude_se_mm;
+};
+
+struct DiagnosisInput {
+  std::string source;  // the JSON file, for messages
+  std::string plane;   // "XY", "YZ", "ZX"
+  std::array<char, 2> axes{'X', 'Y'};
+  std::array<Measured, 2> backlash_mm;        // play: positive = lost motion
+  std::array<Measured, 2> reversal_spike_mm;  // friction transient, never compensated as play
+  std::array<std::optional<double>, 2> reversal_spike_ms;
+  std::array<Measured, 2> scale_ppm;  // actual = (1 + s) * commanded
+  Measured scale_mismatch_ppm;
+  Measured squareness_urad;    // a_actual = a + alpha * b
+  Measured servo_mismatch_ms;  // lag of the first axis minus lag of the second
+  std::optional<double> kv_per_s;
+  std::array<std::optional<Cyclic>, 2> cyclic;
+  std::optional<std::string> ini_sha256;
+};
+
+// Throws IoError, ParseError (not JSON, not schema circtest.diagnosis/1, a key of the wrong
+// type: file and key named).
+DiagnosisInput read_diagnosis(const std::string& path);
+DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source);
+
+}  // namespace circtest::compensation

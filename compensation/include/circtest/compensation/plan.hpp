@@ -1,0 +1,54 @@
+#pragma once
+// circcomp: a diagnosis written back into a LinuxCNC 2.9 configuration as incremental
+// corrections (new = current + gain * measured residual), planned as whole-file contents,
+// applied atomically with the originals kept, reverted byte-identical.
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "circtest/compensation/diagnosis_input.hpp"
+
+namespace circtest::compensation {
+
+struct PlanOptions {
+  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic"};
+  double gain = 1.0;   // share of the measured residual to apply, (0, 1]
+  bool force = false;  // apply implausible or uncertain corrections, or to a changed INI
+};
+
+struct FileChange {
+  std::string path;
+  bool existed = false;
+  std::string before;  // empty when !existed
+  std::string after;
+};
+
+struct Plan {
+  std::string ini_path;
+  std::vector<FileChange> files;     // only files whose content changes
+  std::vector<std::string> changes;  // one line per correction, for the summary
+  std::vector<std::string> advice;   // what circcomp cannot write (servo gains, friction)
+  std::vector<std::string> notes;    // what was skipped and why
+  bool provenance_checked = false;   // the diagnosis's ini_sha256 matched the INI
+};
+
+// Reads the INI (with its #INCLUDEd files and COMP_FILEs) and builds the plan. Throws
+// DataError (exit 5) for an implausible or uncertain correction without options.force, or a
+// kinematics whose axes cannot be mapped to joints; StaleError (exit 10) when the INI is not
+// the one measured (checked by apply, not by plan: see require_fresh).
+Plan make_plan(const std::string& ini_path, const DiagnosisInput& diagnosis,
+               const PlanOptions& options);
+// Throws StaleError unless the diagnosis's ini_sha256 is the INI's SHA-256 now (or force).
+void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force);
+
+// "--- a/FILE\n+++ b/FILE\n@@ ..." for every file of the plan (new files against /dev/null).
+std::string unified_diff(const Plan& plan);
+
+// Writes the originals and a manifest into <ini dir>/.circcomp/, then every file atomically.
+void apply_plan(const Plan& plan);
+// Restores the state before the last apply byte-identical (created files removed). Returns
+// false when there is nothing to revert (a second revert is a no-op).
+bool revert(const std::string& ini_path);
+
+}  // namespace circtest::compensation

@@ -1,0 +1,595 @@
+#include "circtest/compensation/plan.hpp"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numbers>
+#include <sstream>
+
+#include "circtest/compensation/comp_table.hpp"
+#include "circtest/core/atomic_file.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/ini.hpp"
+#include "circtest/core/numbers.hpp"
+#include "circtest/core/sha256.hpp"
+
+namespace circtest::compensation {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Plausibility bounds (issue 10): beyond these a correction is more likely a mistake.
+constexpr double kMaxBacklashMm = 0.2;
+constexpr double kMaxScalePpm = 1000.0;
+constexpr double kMaxSquarenessUrad = 1000.0;
+constexpr double kMaxCyclicMm = 0.05;
+// Below these there is nothing worth writing.
+constexpr double kMinBacklashMm = 1e-4;
+constexpr double kMinScalePpm = 0.5;
+constexpr double kMinCyclicMm = 1e-4;
+
+std::string number_text(double v) {
+  std::string s = fmt::format("{:.7f}", v);
+  while (s.size() > 1 && s.back() == '0') s.pop_back();
+  if (s.back() == '.') s += '0';
+  if (s == "-0.0") s = "0.0";
+  return s;
+}
+
+std::string upper(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Machine (joint) units per mm, as LinuxCNC 2.9 reads [TRAJ] LINEAR_UNITS.
+double units_per_mm(const IniDocument& ini) {
+  const auto entry = ini.find("TRAJ", "LINEAR_UNITS");
+  if (!entry || entry->value.empty()) return 1.0;
+  if (const auto v = parse_finite(entry->value); v && *v > 0) return *v;
+  const std::string u = upper(entry->value);
+  if (u == "MM" || u == "METRIC") return 1.0;
+  if (u == "IN" || u == "INCH" || u == "IMPERIAL") return 1.0 / 25.4;
+  throw ParseError(entry->file, entry->line,
+                   "[TRAJ] LINEAR_UNITS: unknown unit '" + entry->value + "'");
+}
+
+// The joints that move axis LETTER, from the kinematics (trivkins and circtest_kins: the
+// coordinates= letters in joint order, a letter twice for a gantry).
+std::vector<int> joints_of(const IniDocument& ini, char letter) {
+  const auto kins = ini.find("KINS", "KINEMATICS");
+  if (!kins || kins->value.empty()) {
+    throw DataError(ini.path(), 0, "no [KINS] KINEMATICS: cannot map axes to joints");
+  }
+  std::istringstream words(kins->value);
+  std::string module;
+  words >> module;
+  if (module != "trivkins" && module != "circtest_kins") {
+    throw DataError(kins->file, kins->line,
+                    fmt::format("KINEMATICS = {}: circcomp maps axes to joints only for "
+                                "trivkins (and circtest_kins); compensate this machine by hand",
+                                kins->value));
+  }
+  std::string coordinates = "XYZABCUVW";  // trivkins' default: joint i is axis i
+  for (std::string w; words >> w;) {
+    if (w.rfind("coordinates=", 0) == 0) coordinates = upper(w.substr(12));
+  }
+  std::vector<int> joints;
+  for (std::size_t i = 0; i < coordinates.size(); ++i) {
+    if (coordinates[i] == letter) joints.push_back(static_cast<int>(i));
+  }
+  if (joints.empty()) {
+    throw DataError(kins->file, kins->line,
+                    fmt::format("the kinematics has no joint for axis {}", letter));
+  }
+  return joints;
+}
+
+struct Correction {
+  std::optional<double> backlash_mm;
+  std::optional<double> scale_ppm;
+  std::optional<Cyclic> cyclic;
+};
+
+// Checks one measured value; returns it when it is to be applied.
+std::optional<double> accepted(const Measured& m, const std::string& what, double min_abs,
+                               double max_abs, const char* unit, bool force,
+                               std::vector<std::string>& notes) {
+  if (!m.value) {
+    notes.push_back(what + ": not in the diagnosis (null), not changed");
+    return std::nullopt;
+  }
+  const double v = *m.value;
+  if (std::fabs(v) < min_abs) {
+    notes.push_back(fmt::format("{}: {} {} is below {} {}, nothing to correct", what,
+                                number_text(v), unit, number_text(min_abs), unit));
+    return std::nullopt;
+  }
+  if (!force && std::fabs(v) > max_abs) {
+    throw DataError("", 0,
+                    fmt::format("{} = {} {} is implausible (more than {} {}); check the "
+                                "measurement, or --force",
+                                what, number_text(v), unit, number_text(max_abs), unit));
+  }
+  if (!force && m.standard_error && *m.standard_error > std::fabs(v)) {
+    throw DataError("", 0,
+                    fmt::format("{} = {} {} has a standard error of {} {}, larger than the "
+                                "value: measure again, or --force",
+                                what, number_text(v), unit, number_text(*m.standard_error), unit));
+  }
+  return v;
+}
+
+// The INI's folder, "" for the current one (so paths in messages stay as the user wrote them).
+std::string ini_dir(const std::string& ini_path) {
+  return fs::path(ini_path).parent_path().string();
+}
+
+std::string slurp_if(const std::string& path, bool& existed) {
+  std::error_code ec;
+  existed = fs::exists(path, ec);
+  return existed ? read_file(path) : std::string();
+}
+
+}  // namespace
+
+void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force) {
+  if (force) return;
+  if (!diagnosis.ini_sha256) {
+    throw StaleError(fmt::format(
+        "{}: has no ini_sha256, so nothing shows it measured {} as it is now; record with "
+        "circtest-run or circlog-record --ini, or --force",
+        diagnosis.source, ini_path));
+  }
+  const std::string now = sha256_hex(read_file(ini_path));
+  if (*diagnosis.ini_sha256 != now) {
+    throw StaleError(fmt::format(
+        "{} changed since the measurement of {} (SHA-256 {} then, {} now): a correction "
+        "applied twice doubles; measure again, or --force",
+        ini_path, diagnosis.source, diagnosis.ini_sha256->substr(0, 12), now.substr(0, 12)));
+  }
+}
+
+Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanOptions& o) {
+  if (!(o.gain > 0.0 && o.gain <= 1.0)) throw UsageError("--gain: expected 0 < F <= 1");
+  Plan plan;
+  plan.ini_path = ini_path;
+  IniDocument ini = IniDocument::load(ini_path);
+  for (const auto& w : ini.warnings()) plan.notes.push_back(w);
+  const double upm = units_per_mm(ini);
+  const std::string dir = ini_dir(ini_path);
+  plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == sha256_hex(read_file(ini_path));
+
+  auto wants = [&o](const char* what) { return o.only.count(what) > 0; };
+  std::vector<std::string> comp_files_out;  // new or changed tables: path -> content
+  std::map<std::string, std::pair<bool, std::string>> tables;  // path -> (existed, after)
+
+  for (int k = 0; k < 2; ++k) {
+    const char letter = d.axes[k];
+    Correction c;
+    try {
+      if (wants("backlash")) {
+        c.backlash_mm = accepted(d.backlash_mm[k], fmt::format("{} backlash", letter),
+                                 kMinBacklashMm, kMaxBacklashMm, "mm", o.force, plan.notes);
+      }
+      if (wants("scale")) {
+        if (!d.scale_ppm[k].value && d.scale_mismatch_ppm.value) {
+          plan.notes.push_back(fmt::format(
+              "{} scale: only the mismatch of the plane's axes is known (relative channels); "
+              "no absolute scale to write",
+              letter));
+        } else {
+          c.scale_ppm = accepted(d.scale_ppm[k], fmt::format("{} scale", letter), kMinScalePpm,
+                                 kMaxScalePpm, "ppm", o.force, plan.notes);
+        }
+      }
+      if (wants("cyclic") && d.cyclic[k]) {
+        const Cyclic& cy = *d.cyclic[k];
+        if (accepted({cy.amplitude_mm, cy.amplitude_se_mm}, fmt::format("{} cyclic", letter),
+                     kMinCyclicMm, kMaxCyclicMm, "mm", o.force, plan.notes)) {
+          c.cyclic = cy;
+        }
+      }
+    } catch (const DataError& e) {
+      throw DataError(d.source, 0, e.detail());
+    }
+    if (!c.backlash_mm && !c.scale_ppm && !c.cyclic) continue;
+
+    for (const int j : joints_of(ini, letter)) {
+      const std::string section = fmt::format("JOINT_{}", j);
+      if (!ini.has_section(section)) {
+        throw DataError(ini_path, 0, fmt::format("no [{}] section for axis {}", section, letter));
+      }
+      auto limit = [&](const char* key) {
+        const auto e = ini.find(section, key);
+        const auto v = e ? parse_finite(e->value) : std::nullopt;
+        if (!v) {
+          throw DataError(
+              ini_path, 0,
+              fmt::format("[{}] {} is needed to lay out a compensation table", section, key));
+        }
+        return *v;
+      };
+      std::optional<Cyclic> cyclic = c.cyclic;
+      std::size_t cyclic_points = 0;
+      if (cyclic) {
+        // At least 16 points a pitch over the whole travel, within LinuxCNC's 256.
+        const double span = limit("MAX_LIMIT") - limit("MIN_LIMIT");
+        cyclic_points =
+            static_cast<std::size_t>(std::ceil(span / (cyclic->pitch_mm * upm / 16.0))) + 1;
+        if (cyclic_points > kMaxCompEntries) {
+          plan.notes.push_back(fmt::format(
+              "{} cyclic: a {} mm pitch over [{}] MIN_LIMIT..MAX_LIMIT needs {} points, more "
+              "than LinuxCNC's 256: not written",
+              letter, number_text(cyclic->pitch_mm), section, cyclic_points));
+          cyclic.reset();
+        }
+      }
+      const auto comp_file = ini.get(section, "COMP_FILE");
+      const bool needs_table = comp_file || c.scale_ppm || cyclic;
+      if (!needs_table && !c.backlash_mm) continue;
+      const double backlash_now = [&] {
+        const auto e = ini.find(section, "BACKLASH");
+        if (!e || e->value.empty()) return 0.0;
+        const auto v = parse_finite(e->value);
+        if (!v) throw ParseError(e->file, e->line, "[" + section + "] BACKLASH: not a number");
+        return *v;
+      }();
+      if (!needs_table) {
+        const double add = o.gain * *c.backlash_mm * upm;
+        double next = backlash_now + add;
+        if (next < 0) {
+          plan.notes.push_back(fmt::format(
+              "[{}] BACKLASH {} + {} is negative: set to 0 (the machine is over-compensated)",
+              section, number_text(backlash_now), number_text(add)));
+          next = 0;
+        }
+        ini.set(section, "BACKLASH", number_text(next));
+        plan.changes.push_back(fmt::format("[{}] BACKLASH {} -> {} (axis {} backlash {:+.4f} mm)",
+                                           section, number_text(backlash_now), number_text(next),
+                                           letter, *c.backlash_mm));
+        continue;
+      }
+
+      // A table: the existing one, or a new one over MIN_LIMIT..MAX_LIMIT with BACKLASH in it.
+      CompTable table;
+      std::string table_path;
+      bool existed = false;
+      const double lo = limit("MIN_LIMIT"), hi = limit("MAX_LIMIT");
+      if (!(hi > lo))
+        throw DataError(ini_path, 0, fmt::format("[{}] MAX_LIMIT <= MIN_LIMIT", section));
+      if (comp_file) {
+        table_path =
+            fs::path(*comp_file).is_absolute() ? *comp_file : (fs::path(dir) / *comp_file).string();
+        const auto type_text = ini.get(section, "COMP_FILE_TYPE").value_or("0");
+        const auto type = parse_finite(type_text);
+        if (!type || (*type != 0 && *type != 1)) {
+          throw DataError(
+              ini_path, 0,
+              fmt::format("[{}] COMP_FILE_TYPE = {} (expected 0 or 1)", section, type_text));
+        }
+        const auto it = tables.find(table_path);
+        const std::string text =
+            it != tables.end() ? it->second.second : slurp_if(table_path, existed);
+        if (it != tables.end()) existed = it->second.first;
+        if (!existed && it == tables.end()) {
+          throw DataError(ini_path, 0,
+                          fmt::format("[{}] COMP_FILE {}: no such file", section, *comp_file));
+        }
+        table = parse_comp_table(text, static_cast<int>(*type), table_path);
+        if (backlash_now != 0.0) {
+          plan.notes.push_back(fmt::format(
+              "[{}] BACKLASH = {} has no effect: LinuxCNC ignores it when a COMP_FILE is set",
+              section, number_text(backlash_now)));
+        }
+      } else {
+        const std::string name = fmt::format("circtest-joint{}.comp", j);
+        table_path = (fs::path(dir) / name).string();
+        table.type = 1;
+        table.entries = {{lo, backlash_now / 2, -backlash_now / 2},
+                         {hi, backlash_now / 2, -backlash_now / 2}};
+        slurp_if(table_path, existed);
+        if (existed) {
+          throw DataError(
+              table_path, 0,
+              fmt::format("exists but [{}] has no COMP_FILE: move it away first", section));
+        }
+        ini.set(section, "COMP_FILE", name);
+        ini.set(section, "COMP_FILE_TYPE", "1");
+        ini.set(section, "BACKLASH", "0");
+        ini.comment_before(section, "BACKLASH",
+                           fmt::format("circcomp: backlash ({}) is in {}; LinuxCNC ignores "
+                                       "BACKLASH when a COMP_FILE is set",
+                                       number_text(backlash_now), name));
+        plan.changes.push_back(
+            fmt::format("[{}] COMP_FILE {} created (type 1, BACKLASH {} moved into it)", section,
+                        name, number_text(backlash_now)));
+      }
+
+      // The nominal points: the table's own, the travel's ends (a scale trim grows along the
+      // whole travel), and for a cyclic term at least 16 points a pitch.
+      std::vector<double> nominal;
+      for (const auto& e : table.entries) nominal.push_back(e.nominal);
+      if (c.scale_ppm || cyclic) {
+        nominal.push_back(lo);
+        nominal.push_back(hi);
+      }
+      if (cyclic) {
+        const std::size_t n = cyclic_points;
+        for (std::size_t i = 0; i < n; ++i) {
+          nominal.push_back(
+              std::min(hi, lo + static_cast<double>(i) * (hi - lo) / static_cast<double>(n - 1)));
+        }
+      }
+      std::sort(nominal.begin(), nominal.end());
+      nominal.erase(std::unique(nominal.begin(), nominal.end(),
+                                [](double a, double b) { return std::fabs(a - b) < 1e-9; }),
+                    nominal.end());
+      if (nominal.size() > kMaxCompEntries) {
+        throw DataError(
+            table_path, 0,
+            fmt::format("the merged table would have {} entries, more than 256", nominal.size()));
+      }
+      CompTable next;
+      next.type = table.type;
+      for (const double x : nominal) {
+        CompEntry e = table.at(x);
+        double common = 0.0;
+        if (c.scale_ppm) common -= o.gain * *c.scale_ppm * 1e-6 * x;
+        if (cyclic) {
+          common -=
+              o.gain * cyclic->amplitude_mm * upm *
+              std::sin(2 * std::numbers::pi * x / (cyclic->pitch_mm * upm) + cyclic->phase_rad);
+        }
+        e.forward_trim += common;
+        e.reverse_trim += common;
+        if (c.backlash_mm) {
+          e.forward_trim += o.gain * *c.backlash_mm * upm / 2;
+          e.reverse_trim -= o.gain * *c.backlash_mm * upm / 2;
+        }
+        next.entries.push_back(e);
+      }
+      tables[table_path] = {existed, render_comp_table(next)};
+      std::string what;
+      if (c.backlash_mm) what += fmt::format(" backlash {:+.4f} mm", o.gain * *c.backlash_mm);
+      if (c.scale_ppm) what += fmt::format(" scale {:+.2f} ppm", -o.gain * *c.scale_ppm);
+      if (cyclic)
+        what += fmt::format(" cyclic {:.4f} mm / {} mm", cyclic->amplitude_mm,
+                            number_text(cyclic->pitch_mm));
+      plan.changes.push_back(fmt::format("[{}] {} ({} entries, type {}):{}", section,
+                                         fs::path(table_path).filename().string(),
+                                         next.entries.size(), next.type, what));
+    }
+  }
+
+  // Squareness: LinuxCNC 2.9 has no skew compensation in trivkins.
+  if (wants("squareness") && d.squareness_urad.value &&
+      std::fabs(*d.squareness_urad.value) >= 1.0) {
+    plan.advice.push_back(fmt::format(
+        "{}/{} squareness {:+.1f} urad: not written (LinuxCNC 2.9's trivkins has no skew term; "
+        "the angle between +{} and +{} is 90 deg {} {:.1f} urad): correct the machine's "
+        "geometry, or a skew kinematics",
+        d.axes[0], d.axes[1], *d.squareness_urad.value, d.axes[0], d.axes[1],
+        *d.squareness_urad.value >= 0 ? "-" : "+", std::fabs(*d.squareness_urad.value)));
+  }
+  // Advice: what a configuration file cannot fix.
+  if (d.servo_mismatch_ms.value && std::fabs(*d.servo_mismatch_ms.value) >= 0.05) {
+    const double m = *d.servo_mismatch_ms.value;
+    const char slow = m > 0 ? d.axes[0] : d.axes[1];
+    const char fast = m > 0 ? d.axes[1] : d.axes[0];
+    std::string joints;
+    for (int j : joints_of(ini, slow)) joints += fmt::format(" [JOINT_{}]", j);
+    std::string how = "until their lag times 1/Kv agree";
+    if (d.kv_per_s && *d.kv_per_s > 0) {
+      const double kv = *d.kv_per_s;
+      const double lag_slow = 1.0 / kv + std::fabs(m) * 1e-3 / 2;
+      const double lag_fast = 1.0 / kv - std::fabs(m) * 1e-3 / 2;
+      how = fmt::format("(about Kv {:.1f} 1/s now against {:.1f} 1/s: raise it by {:.1f} %)",
+                        1.0 / lag_slow, 1.0 / lag_fast, (lag_slow / lag_fast - 1.0) * 100.0);
+    }
+    plan.advice.push_back(fmt::format(
+        "servo mismatch: {} lags {} by {:.2f} ms: raise the position-loop gain (P, Kv) of{} "
+        "{} or lower {}'s; no INI value of circcomp's changes that",
+        slow, fast, std::fabs(m), joints, how, fast));
+  }
+  for (int k = 0; k < 2; ++k) {
+    const auto& s = d.reversal_spike_mm[k];
+    if (s.value && std::fabs(*s.value) >= 1e-3) {
+      plan.advice.push_back(fmt::format(
+          "{} reversal spikes of {:.1f} um{}: friction (stick-slip at the reversal), not play; "
+          "compensating them as backlash makes parts worse: check gibs and lubrication, or "
+          "add friction feed-forward",
+          d.axes[k], *s.value * 1e3,
+          d.reversal_spike_ms[k] ? fmt::format(" decaying in {:.0f} ms", *d.reversal_spike_ms[k])
+                                 : ""));
+    }
+  }
+
+  for (std::size_t i = 0; i < ini.file_count(); ++i) {
+    if (!ini.file_modified(i)) continue;
+    FileChange f;
+    f.path = ini.file_path(i);
+    f.before = slurp_if(f.path, f.existed);
+    f.after = ini.render_file(i);
+    if (f.before != f.after) plan.files.push_back(std::move(f));
+  }
+  for (const auto& [path, t] : tables) {
+    FileChange f;
+    f.path = path;
+    f.before = slurp_if(path, f.existed);
+    f.after = t.second;
+    if (f.before != f.after) plan.files.push_back(std::move(f));
+  }
+  (void)comp_files_out;
+  return plan;
+}
+
+// ---- unified diff (LCS over lines; configuration files are small) ----
+
+namespace {
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> out;
+  std::size_t b = 0;
+  while (b < text.size()) {
+    std::size_t e = text.find('\n', b);
+    e = e == std::string::npos ? text.size() : e + 1;
+    out.push_back(text.substr(b, e - b));
+    b = e;
+  }
+  return out;
+}
+
+std::string file_diff(const FileChange& f) {
+  const auto a = lines_of(f.before), b = lines_of(f.after);
+  const std::size_t n = a.size(), m = b.size();
+  std::vector<std::vector<unsigned>> lcs(n + 1, std::vector<unsigned>(m + 1, 0));
+  for (std::size_t i = n; i-- > 0;) {
+    for (std::size_t j = m; j-- > 0;) {
+      lcs[i][j] = a[i] == b[j] ? lcs[i + 1][j + 1] + 1 : std::max(lcs[i + 1][j], lcs[i][j + 1]);
+    }
+  }
+  struct Op {
+    char kind;
+    std::size_t ai, bi;
+  };
+  std::vector<Op> ops;
+  std::size_t i = 0, j = 0;
+  while (i < n || j < m) {
+    if (i < n && j < m && a[i] == b[j])
+      ops.push_back({' ', i++, j++});
+    else if (j < m && (i == n || lcs[i][j + 1] >= lcs[i + 1][j]))
+      ops.push_back({'+', i, j++});
+    else
+      ops.push_back({'-', i++, j});
+  }
+  auto show = [](std::string line) {
+    if (line.empty() || line.back() != '\n') return line + "\n\\ No newline at end of file\n";
+    return line;
+  };
+  std::string out =
+      fmt::format("--- {}\n+++ {}\n", f.existed ? "a/" + f.path : "/dev/null", "b/" + f.path);
+  constexpr std::size_t kContext = 3;
+  std::size_t k = 0;
+  while (k < ops.size()) {
+    if (ops[k].kind == ' ') {
+      ++k;
+      continue;
+    }
+    std::size_t start = k >= kContext ? k - kContext : 0;
+    while (start < k && ops[start].kind != ' ') ++start;
+    std::size_t end = k;
+    std::size_t same = 0;
+    while (end < ops.size() && same <= 2 * kContext) {
+      same = ops[end].kind == ' ' ? same + 1 : 0;
+      ++end;
+    }
+    end = std::min(ops.size(), end - (same > kContext ? same - kContext : 0));
+    std::size_t a_count = 0, b_count = 0;
+    for (std::size_t q = start; q < end; ++q) {
+      a_count += ops[q].kind != '+';
+      b_count += ops[q].kind != '-';
+    }
+    const std::size_t a_start = ops[start].ai + (a_count ? 1 : 0);
+    const std::size_t b_start = ops[start].bi + (b_count ? 1 : 0);
+    out += fmt::format("@@ -{},{} +{},{} @@\n", a_start, a_count, b_start, b_count);
+    for (std::size_t q = start; q < end; ++q) {
+      const Op& op = ops[q];
+      out += op.kind;
+      out += show(op.kind == '+' ? b[op.bi] : a[op.ai]);
+    }
+    k = end;
+  }
+  return out;
+}
+
+fs::path state_dir(const std::string& ini_path) {
+  const std::string dir = ini_dir(ini_path);
+  return fs::path(dir.empty() ? "." : dir) / ".circcomp";
+}
+
+}  // namespace
+
+std::string unified_diff(const Plan& plan) {
+  std::string out;
+  for (const FileChange& f : plan.files) out += file_diff(f);
+  return out;
+}
+
+// The manifest says, per file, whether it existed and where its original is kept; it is
+// written after the originals and before any file changes, so a crash at any step leaves
+// either nothing changed or a manifest that revert can undo.
+void apply_plan(const Plan& plan) {
+  const fs::path state = state_dir(plan.ini_path);
+  std::error_code ec;
+  fs::create_directories(state, ec);
+  if (ec) throw IoError(state.string(), "cannot create: " + ec.message());
+  std::string manifest = "circcomp-manifest 1\n";
+  for (std::size_t i = 0; i < plan.files.size(); ++i) {
+    const FileChange& f = plan.files[i];
+    const std::string abs = fs::absolute(f.path).string();
+    if (f.existed) {
+      const std::string backup = fmt::format("{}.orig", i);
+      write_file_atomic((state / backup).string(), f.before);
+      manifest += fmt::format("existed\t{}\t{}\n", backup, abs);
+    } else {
+      manifest += fmt::format("created\t-\t{}\n", abs);
+    }
+  }
+  write_file_atomic((state / "manifest").string(), manifest);
+  for (const FileChange& f : plan.files) write_file_atomic(f.path, f.after);
+}
+
+bool revert(const std::string& ini_path) {
+  const fs::path state = state_dir(ini_path);
+  const fs::path manifest_path = state / "manifest";
+  std::error_code ec;
+  if (!fs::exists(manifest_path, ec)) return false;
+  std::istringstream in(read_file(manifest_path.string()));
+  std::string line;
+  std::getline(in, line);
+  if (line != "circcomp-manifest 1") {
+    throw ParseError(manifest_path.string(), 1, "not a circcomp manifest");
+  }
+  std::size_t line_no = 1;
+  std::vector<std::pair<std::string, std::string>> steps;  // (backup or "", path)
+  while (std::getline(in, line)) {
+    ++line_no;
+    const auto t1 = line.find('\t'), t2 = line.find('\t', t1 + 1);
+    if (t1 == std::string::npos || t2 == std::string::npos) {
+      throw ParseError(manifest_path.string(), line_no, "expected KIND<TAB>BACKUP<TAB>PATH");
+    }
+    const std::string kind = line.substr(0, t1);
+    if (kind != "existed" && kind != "created") {
+      throw ParseError(manifest_path.string(), line_no, "unknown kind '" + kind + "'");
+    }
+    steps.push_back(
+        {kind == "existed" ? line.substr(t1 + 1, t2 - t1 - 1) : "", line.substr(t2 + 1)});
+  }
+  for (const auto& [backup, path] : steps) {
+    if (backup.empty()) {
+      fs::remove(path, ec);
+      if (ec) throw IoError(path, "cannot remove: " + ec.message());
+    } else {
+      const std::string original = read_file((state / backup).string());
+      bool exists = false;
+      if (slurp_if(path, exists) != original || !exists) write_file_atomic(path, original);
+    }
+  }
+  fsync_parent_directory(ini_path);
+  // The manifest goes last: a crash before this point reverts again to the same state.
+  fs::remove(manifest_path, ec);
+  for (const auto& [backup, path] : steps) {
+    if (!backup.empty()) fs::remove(state / backup, ec);
+  }
+  fs::remove(state, ec);
+  return true;
+}
+
+}  // namespace circtest::compensation

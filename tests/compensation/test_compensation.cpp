@@ -1,0 +1,353 @@
+// circcomp on fixture configurations: incremental corrections against hand-computed values,
+// LinuxCNC's table rules, provenance, bounds, apply/revert byte-identical, and the CLI's codes.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <string>
+
+#include "circtest/compensation/comp_table.hpp"
+#include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/compensation/plan.hpp"
+#include "circtest/core/atomic_file.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/ini.hpp"
+#include "circtest/core/sha256.hpp"
+
+namespace fs = std::filesystem;
+using namespace circtest;
+using namespace circtest::compensation;
+
+namespace {
+
+struct Scratch {
+  fs::path dir;
+  Scratch() {
+    dir = fs::temp_directory_path() /
+          ("circcomp-" + std::to_string(::getpid()) + "-" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  ~Scratch() { fs::remove_all(dir); }
+  std::string write(const std::string& name, const std::string& text) const {
+    const fs::path p = dir / name;
+    std::ofstream(p, std::ios::binary) << text;
+    return p.string();
+  }
+  std::string read(const std::string& name) const { return read_file((dir / name).string()); }
+};
+
+std::string joint(int n, const std::string& extra = "") {
+  return "[JOINT_" + std::to_string(n) + "]\nTYPE = LINEAR\nMIN_LIMIT = -300\nMAX_LIMIT = 300\n" +
+         extra + "\n";
+}
+
+std::string machine(const std::string& kins = "trivkins coordinates=XYZ",
+                    const std::string& j0 = "BACKLASH = 0.008\n") {
+  return "# fixture mill\n[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = " +
+         kins + "\nJOINTS = 3\n\n" + joint(0, j0) + joint(1) + joint(2);
+}
+
+// A diagnosis with X backlash B (se 1e-5), Y zero, nothing else.
+DiagnosisInput diag(double backlash_x, const std::string& ini_path = "") {
+  DiagnosisInput d;
+  d.source = "d.json";
+  d.plane = "XY";
+  d.axes = {'X', 'Y'};
+  d.backlash_mm[0] = {backlash_x, 1e-5};
+  d.backlash_mm[1] = {0.0, 1e-5};
+  if (!ini_path.empty()) d.ini_sha256 = sha256_hex(read_file(ini_path));
+  return d;
+}
+
+PlanOptions only(const std::string& what) {
+  PlanOptions o;
+  o.only = {what};
+  return o;
+}
+
+int run(const std::string& args, std::string* err = nullptr) {
+  const std::string cmd = std::string(CIRCCOMP_PATH) + " " + args +
+                          " >/dev/null 2>/tmp/circcomp-err-" + std::to_string(::getpid());
+  const int rc = std::system(cmd.c_str());
+  if (err) *err = read_file("/tmp/circcomp-err-" + std::to_string(::getpid()));
+  return WEXITSTATUS(rc);
+}
+
+}  // namespace
+
+TEST(Compensation, BacklashIsIncremental) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", machine());
+  for (const auto& [measured, expected] :
+       std::vector<std::pair<double, std::string>>{{0.002, "0.01"}, {-0.002, "0.006"}}) {
+    const Plan plan = make_plan(ini, diag(measured), only("backlash"));
+    ASSERT_EQ(plan.files.size(), 1u);
+    const IniDocument after = IniDocument::parse(plan.files[0].after);
+    EXPECT_EQ(after.get("JOINT_0", "BACKLASH"), expected);
+    EXPECT_EQ(after.get("JOINT_1", "BACKLASH"), std::nullopt);  // Y: nothing to correct
+    // Only that line differs.
+    std::string before = plan.files[0].before;
+    before.replace(before.find("BACKLASH = 0.008"), 16, "BACKLASH = " + expected);
+    EXPECT_EQ(plan.files[0].after, before);
+  }
+  // A gain applies a share: 0.008 + 0.5 * 0.002.
+  PlanOptions half = only("backlash");
+  half.gain = 0.5;
+  EXPECT_EQ(IniDocument::parse(make_plan(ini, diag(0.002), half).files[0].after)
+                .get("JOINT_0", "BACKLASH"),
+            "0.009");
+}
+
+TEST(Compensation, ApplyRevertIdempotence) {
+  Scratch s;
+  const std::string text = machine();
+  const std::string ini = s.write("m.ini", text);
+  const DiagnosisInput d = diag(0.002, ini);
+  require_fresh(ini, d, false);
+  apply_plan(make_plan(ini, d, only("backlash")));
+  EXPECT_EQ(IniDocument::load(ini).get("JOINT_0", "BACKLASH"), "0.01");
+  // The same diagnosis again: the INI is not the one measured any more.
+  EXPECT_THROW(require_fresh(ini, d, false), StaleError);
+  EXPECT_TRUE(revert(ini));
+  EXPECT_EQ(read_file(ini), text);
+  EXPECT_FALSE(fs::exists(s.dir / ".circcomp"));
+  EXPECT_FALSE(revert(ini));  // a second revert is a no-op
+  EXPECT_EQ(read_file(ini), text);
+}
+
+TEST(Compensation, ScaleCreatesATableWithBacklashMovedIntoIt) {
+  Scratch s;
+  const std::string text = machine();
+  const std::string ini = s.write("m.ini", text);
+  DiagnosisInput d = diag(0.002, ini);
+  d.scale_ppm[0] = {20.0, 0.5};
+  d.scale_ppm[1] = {0.0, 0.5};
+  apply_plan(make_plan(ini, d, PlanOptions{}));
+  const IniDocument doc = IniDocument::load(ini);
+  EXPECT_EQ(doc.get("JOINT_0", "COMP_FILE"), "circtest-joint0.comp");
+  EXPECT_EQ(doc.get("JOINT_0", "COMP_FILE_TYPE"), "1");
+  EXPECT_EQ(doc.get("JOINT_0", "BACKLASH"), "0");
+  EXPECT_NE(doc.render().find("# circcomp: backlash (0.008) is in circtest-joint0.comp"),
+            std::string::npos);
+  const CompTable t = parse_comp_table(s.read("circtest-joint0.comp"), 1, "t");
+  ASSERT_EQ(t.entries.size(), 2u);
+  // Truth: the machine moves the table to (1 + s) * motor, the motor gets x + trim; moving up
+  // the old and the new play (0.008 + 0.002) are taken up by half of it each way.
+  for (double x : {-300.0, -12.5, 0.0, 175.0, 300.0}) {
+    const CompEntry e = t.at(x);
+    EXPECT_NEAR((1 + 20e-6) * (x + e.forward_trim - 0.005), x, 1e-6) << x;
+    EXPECT_NEAR((1 + 20e-6) * (x + e.reverse_trim + 0.005), x, 1e-6) << x;
+  }
+  EXPECT_TRUE(revert(ini));
+  EXPECT_EQ(read_file(ini), text);
+  EXPECT_FALSE(fs::exists(s.dir / "circtest-joint0.comp"));
+}
+
+TEST(Compensation, ExistingTablesType0And1AreMergedInTheirType) {
+  for (int type : {0, 1}) {
+    Scratch s;
+    // Nominal 0, 100, 200; type 0 gives actual positions, type 1 trims.
+    const std::string table = type == 0 ? "0 0.001 -0.001\n100 99.999 100.002\n200 200 200\n"
+                                        : "0 -0.001 0.001\n100 0.001 -0.002\n200 0 0\n";
+    s.write("x.comp", table);
+    const std::string ini = s.write(
+        "m.ini", machine("trivkins", "BACKLASH = 0.5\nCOMP_FILE = x.comp\nCOMP_FILE_TYPE = " +
+                                         std::to_string(type) + "\n"));
+    const Plan plan = make_plan(ini, diag(0.004), only("backlash"));
+    ASSERT_EQ(plan.files.size(), 1u) << "the INI stays as it is";
+    EXPECT_EQ(fs::path(plan.files[0].path).filename(), "x.comp");
+    const CompTable before = parse_comp_table(table, type, "x");
+    const CompTable after = parse_comp_table(plan.files[0].after, type, "x");
+    ASSERT_EQ(after.entries.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) {
+      EXPECT_NEAR(after.entries[i].forward_trim, before.entries[i].forward_trim + 0.002, 1e-9);
+      EXPECT_NEAR(after.entries[i].reverse_trim, before.entries[i].reverse_trim - 0.002, 1e-9);
+    }
+    // BACKLASH is ignored by LinuxCNC with a table: left alone, and said so.
+    bool said = false;
+    for (const auto& n : plan.notes)
+      said = said || n.find("BACKLASH = 0.5 has no effect") != std::string::npos;
+    EXPECT_TRUE(said);
+  }
+}
+
+TEST(Compensation, TableRulesOfLinuxcnc) {
+  EXPECT_THROW(parse_comp_table("# a comment\n0 0 0\n", 1, "c"), ParseError);
+  EXPECT_THROW(parse_comp_table("0 0 0\n0 0 0\n", 1, "c"), ParseError);
+  EXPECT_THROW(parse_comp_table("0 0 0\n\n1 0 0\n", 1, "c"), ParseError);
+  std::string big;
+  for (int i = 0; i < 257; ++i) big += std::to_string(i) + " 0 0\n";
+  try {
+    parse_comp_table(big, 1, "c");
+    FAIL();
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.line(), 257u);
+  }
+  EXPECT_EQ(parse_comp_table("0 0 0\n1 0.5 -0.5\n\n", 1, "c").at(0.5).forward_trim, 0.25);
+  // A comment on top disables the table in LinuxCNC: circcomp refuses to merge into it.
+  Scratch s;
+  s.write("x.comp", "# measured 2024\n0 0 0\n");
+  const std::string ini =
+      s.write("m.ini", machine("trivkins", "COMP_FILE = x.comp\nCOMP_FILE_TYPE = 1\n"));
+  try {
+    make_plan(ini, diag(0.004), only("backlash"));
+    FAIL();
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("ignores all of it"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Compensation, GantryCorrectsBothJoints) {
+  Scratch s;
+  std::string text = machine("trivkins coordinates=XYYZ", "") + joint(3);
+  text.replace(text.find("JOINTS = 3"), 10, "JOINTS = 4");
+  const std::string ini = s.write("m.ini", text);
+  DiagnosisInput d = diag(0.0);
+  d.backlash_mm[1] = {0.003, 1e-5};
+  const IniDocument after = IniDocument::parse(make_plan(ini, d, only("backlash")).files[0].after);
+  EXPECT_EQ(after.get("JOINT_1", "BACKLASH"), "0.003");
+  EXPECT_EQ(after.get("JOINT_2", "BACKLASH"), "0.003");
+  EXPECT_EQ(after.get("JOINT_0", "BACKLASH"), std::nullopt);
+  EXPECT_EQ(after.get("JOINT_3", "BACKLASH"), std::nullopt);
+}
+
+TEST(Compensation, IncludedJointsChangeInTheirFile) {
+  Scratch s;
+  const std::string inc = joint(0, "BACKLASH = 0.008\n");
+  s.write("joints.inc", inc);
+  std::string text = machine();
+  text.replace(text.find("[JOINT_0]"), joint(0, "BACKLASH = 0.008\n").size(),
+               "#INCLUDE joints.inc\n");
+  const std::string ini = s.write("m.ini", text);
+  const DiagnosisInput d = diag(0.002, ini);
+  const Plan plan = make_plan(ini, d, only("backlash"));
+  ASSERT_EQ(plan.files.size(), 1u);
+  EXPECT_EQ(fs::path(plan.files[0].path).filename(), "joints.inc");
+  apply_plan(plan);
+  EXPECT_EQ(read_file(ini), text);
+  EXPECT_NE(s.read("joints.inc").find("BACKLASH = 0.01\n"), std::string::npos);
+  EXPECT_TRUE(revert(ini));
+  EXPECT_EQ(s.read("joints.inc"), inc);
+}
+
+TEST(Compensation, CrlfStaysCrlf) {
+  Scratch s;
+  std::string text = machine("trivkins", "");
+  std::string crlf;
+  for (char c : text) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
+  const std::string ini = s.write("m.ini", crlf);
+  DiagnosisInput d = diag(0.002);
+  d.scale_ppm[0] = {10.0, 0.5};
+  const Plan plan = make_plan(ini, d, PlanOptions{});
+  int inis = 0;
+  for (const auto& f : plan.files) {
+    if (!f.path.ends_with("m.ini")) continue;
+    ++inis;
+    EXPECT_NE(f.after.find("COMP_FILE = circtest-joint0.comp\r\n"), std::string::npos);
+    for (std::size_t i = 0; i < f.after.size(); ++i) {
+      if (f.after[i] == '\n') ASSERT_EQ(f.after[i - 1], '\r') << "bare LF at " << i;
+    }
+  }
+  EXPECT_EQ(inis, 1);
+}
+
+TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
+  Scratch s;
+  DiagnosisInput d = diag(0.0);
+  d.cyclic[0] = Cyclic{0.002, 5.0, 0.3, 1e-4};
+  // 600 mm of travel at 5/16 mm spacing is 1921 points: not written, said why.
+  const std::string wide = s.write("w.ini", machine("trivkins", ""));
+  const Plan refused = make_plan(wide, d, only("cyclic"));
+  EXPECT_TRUE(refused.files.empty());
+  bool said = false;
+  for (const auto& n : refused.notes)
+    said = said || n.find("more than LinuxCNC's 256") != std::string::npos;
+  EXPECT_TRUE(said);
+  // 50 mm of travel fits; the table cancels the error to the interpolation error.
+  std::string narrow = machine("trivkins", "");
+  narrow.replace(narrow.find("MIN_LIMIT = -300"), 16, "MIN_LIMIT = 0");
+  narrow.replace(narrow.find("MAX_LIMIT = 300"), 15, "MAX_LIMIT = 50");
+  const std::string ini = s.write("n.ini", narrow);
+  const Plan plan = make_plan(ini, d, only("cyclic"));
+  const FileChange* table = nullptr;
+  for (const auto& f : plan.files)
+    if (f.path.ends_with(".comp")) table = &f;
+  ASSERT_TRUE(table);
+  const CompTable t = parse_comp_table(table->after, 1, "t");
+  double worst = 0;
+  for (double x = 0; x <= 50; x += 0.01) {
+    const double motor = x + t.at(x).forward_trim;
+    const double actual = motor + 0.002 * std::sin(2 * std::numbers::pi * motor / 5.0 + 0.3);
+    worst = std::max(worst, std::fabs(actual - x));
+  }
+  EXPECT_LT(worst, 0.002 * 0.03);  // under 3 % of the amplitude left
+}
+
+TEST(Compensation, Refusals) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", machine());
+  auto expect_data = [&](const DiagnosisInput& d, const std::string& words,
+                         const PlanOptions& o = {}) {
+    try {
+      make_plan(ini, d, o);
+      FAIL() << "no error for " << words;
+    } catch (const DataError& e) {
+      EXPECT_EQ(e.code(), ExitCode::data);
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+  };
+  expect_data(diag(0.3), "X backlash = 0.3 mm is implausible");
+  DiagnosisInput uncertain = diag(0.002);
+  uncertain.backlash_mm[0].standard_error = 0.003;
+  expect_data(uncertain, "has a standard error of 0.003 mm, larger than the value");
+  DiagnosisInput skewed = diag(0.0);
+  skewed.scale_ppm[0] = {1500.0, 1.0};
+  expect_data(skewed, "X scale = 1500.0 ppm is implausible");
+  PlanOptions force;
+  force.force = true;
+  EXPECT_NO_THROW(make_plan(ini, diag(0.3), force));
+  const std::string five = s.write("5.ini", machine("5axiskins"));
+  try {
+    make_plan(five, diag(0.002), PlanOptions{});
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "KINEMATICS = 5axiskins: circcomp maps axes to joints only for trivkins"),
+              std::string::npos);
+  }
+  DiagnosisInput no_hash = diag(0.002);
+  EXPECT_THROW(require_fresh(ini, no_hash, false), StaleError);
+  EXPECT_NO_THROW(require_fresh(ini, no_hash, true));
+}
+
+TEST(Compensation, CliExitCodes) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", machine());
+  const std::string json = R"({"schema": "circtest.diagnosis/1", "units": "mm", "plane": "XY",
+    "axes": ["X", "Y"], "backlash_mm": {"X": 0.002, "Y": 0.0},
+    "standard_error": {"backlash_mm": {"X": 1e-5, "Y": 1e-5}}, "ini_sha256": ")" +
+                           sha256_hex(read_file(ini)) + "\"}";
+  const std::string diagnosis = s.write("d.json", json);
+  const std::string base = "--ini " + ini + " " + diagnosis;
+  std::string err;
+  EXPECT_EQ(run("plan " + base), 0);
+  EXPECT_EQ(read_file(ini), machine());  // plan writes nothing
+  EXPECT_EQ(run("plan " + base + " --only play", &err), 2);
+  EXPECT_NE(err.find("--only"), std::string::npos) << err;
+  EXPECT_EQ(run("apply " + base), 0);
+  EXPECT_EQ(run("apply " + base, &err), 10);
+  EXPECT_NE(err.find("changed since the measurement"), std::string::npos) << err;
+  EXPECT_EQ(run("revert --ini " + ini), 0);
+  EXPECT_EQ(read_file(ini), machine());
+  EXPECT_EQ(run("plan --ini " + ini + " " + s.write("bad.json", "{\"schema\": \"other\"}"), &err),
+            4);
+  EXPECT_NE(err.find("circtest.diagnosis/1"), std::string::npos) << err;
+  EXPECT_EQ(run("plan --ini " + (s.dir / "none.ini").string() + " " + diagnosis), 3);
+}
