@@ -10,6 +10,7 @@
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/version.hpp"
 
 namespace po = boost::program_options;
 using namespace circtest;
@@ -35,6 +36,10 @@ int run(int argc, char** argv) {
   const std::string command = argv[1];
   if (command == "--help" || command == "-h") {
     std::cout << kUsage;
+    return 0;
+  }
+  if (command == "--version") {
+    std::cout << version_line("circcomp") << "\n";
     return 0;
   }
   if (command != "plan" && command != "apply" && command != "revert") {
