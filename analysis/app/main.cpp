@@ -1,6 +1,9 @@
 // circana: ISO 230-4 evaluation of circular-test traces. Parses options, calls the library.
 #include <boost/program_options.hpp>
+#include <cctype>
+#include <functional>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,6 +28,7 @@ const char* kUsage =
     "                     [--svg PLOT.svg] [--scale-um-per-div UM] [--radial]\n"
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
+    "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
     "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n";
 
@@ -85,8 +89,14 @@ std::vector<std::pair<std::string, std::string>> condition_values(const po::vari
   return out;
 }
 
-int analyze(const std::vector<std::string>& args) {
-  po::options_description desc("analyze");
+// The options analyze and diagnose share; `extra` adds a command's own.
+struct Parsed {
+  po::variables_map vm;
+  AnalyzeRequest request;
+};
+Parsed analyze_options(const std::vector<std::string>& args, const char* command,
+                       const std::function<void(po::options_description&)>& extra) {
+  po::options_description desc(command);
   desc.add_options()("trace", po::value<std::string>()->required(), "trace file")(
       "radius", po::value<std::string>(), "nominal radius, mm")("centre", po::value<std::string>(),
                                                                 "nominal (set-up) centre A,B, mm")(
@@ -100,16 +110,19 @@ int analyze(const std::vector<std::string>& args) {
       "scale-um-per-div", po::value<std::string>(), "fixed plot scale, um per division")(
       "radial", "evaluate the length channel r (ball bar) even if the trace has x,y");
   add_condition_options(desc);
+  extra(desc);
   po::positional_options_description pos;
   pos.add("trace", 1);
-  const auto vm = parse(desc, pos, args);
+  Parsed parsed;
+  parsed.vm = parse(desc, pos, args);
+  const auto& vm = parsed.vm;
 
   // A numeric option's value, when given.
   auto number = [&vm](const char* name) -> std::optional<double> {
     if (!vm.count(name)) return std::nullopt;
     return parse_option_number(std::string("--") + name, vm[name].as<std::string>());
   };
-  AnalyzeRequest req;
+  AnalyzeRequest& req = parsed.request;
   req.trace_path = vm["trace"].as<std::string>();
   req.json = vm.count("json") > 0;
   req.radial = vm.count("radial") > 0;
@@ -160,7 +173,47 @@ int analyze(const std::vector<std::string>& args) {
   }
   if (auto a = number("alpha-machine")) o.temperatures.machine_expansion_per_K = *a;
   if (auto a = number("alpha-instrument")) o.temperatures.instrument_expansion_per_K = *a;
-  return run_analyze(req, std::cout);
+  return parsed;
+}
+
+int analyze(const std::vector<std::string>& args) {
+  return run_analyze(analyze_options(args, "analyze", [](po::options_description&) {}).request,
+                     std::cout);
+}
+
+// --pitch X=5,Y=5: cyclic-error pitch per axis, mm.
+std::map<char, double> pitch_list(const std::string& text) {
+  std::map<char, double> out;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', pos), text.size());
+    const std::string item = text.substr(pos, comma - pos);
+    const auto eq = item.find('=');
+    const char axis =
+        eq == 1 ? static_cast<char>(std::tolower(static_cast<unsigned char>(item[0]))) : '\0';
+    if (axis != 'x' && axis != 'y' && axis != 'z') {
+      throw UsageError("--pitch: expected AXIS=MM items like X=5,Y=5, got '" + item + "'");
+    }
+    const double v = parse_option_number("--pitch", item.substr(2));
+    if (!(v > 0)) throw UsageError("--pitch: expected a positive pitch, got '" + item + "'");
+    out[axis] = v;
+    pos = comma + 1;
+  }
+  return out;
+}
+
+int diagnose(const std::vector<std::string>& args) {
+  const Parsed p = analyze_options(args, "diagnose", [](po::options_description& d) {
+    d.add_options()("pitch", po::value<std::string>(), "cyclic-error pitch per axis, X=5,Y=5");
+  });
+  if (!p.request.svg_path.empty()) throw UsageError("--svg: only for circana analyze");
+  DiagnoseRequest req;
+  req.trace_path = p.request.trace_path;
+  req.json = p.request.json;
+  req.radial = p.request.radial;
+  req.options.evaluation = p.request.options;
+  if (p.vm.count("pitch")) req.options.pitch_mm = pitch_list(p.vm["pitch"].as<std::string>());
+  return run_diagnose(req, std::cout);
 }
 
 int fit(const std::vector<std::string>& args) {
@@ -205,7 +258,8 @@ int main(int argc, char** argv) {
   return run_cli("circana", [&]() -> int {
     if (argc < 2)
       throw UsageError(
-          "missing command: expected analyze, fit or import-polar (see circana --help)");
+          "missing command: expected analyze, diagnose, fit or import-polar (see circana "
+          "--help)");
     const std::string command = argv[1];
     const std::vector<std::string> args(argv + 2, argv + argc);
     if (command == "--help" || command == "-h" || command == "help") {
@@ -218,11 +272,13 @@ int main(int argc, char** argv) {
     }
     try {
       if (command == "analyze") return analyze(args);
+      if (command == "diagnose") return diagnose(args);
       if (command == "fit") return fit(args);
       if (command == "import-polar") return import_polar(args);
     } catch (const InfoShown&) {
       return 0;
     }
-    throw UsageError("unknown command '" + command + "': expected analyze, fit or import-polar");
+    throw UsageError("unknown command '" + command +
+                     "': expected analyze, diagnose, fit or import-polar");
   });
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <optional>
 
+#include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/report.hpp"
@@ -56,10 +57,50 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
     ev.notes.push_back(
         "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
   }
-  const std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
+  std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
+  if (!request.json) {
+    // The diagnosis is a summary here; a trace it cannot handle still gets its H, G and F.
+    try {
+      text += short_text_report(diagnose(trace, ev));
+    } catch (const Error& e) {
+      text += std::string("\nDiagnosis: not available (") + e.what() + ")\n";
+    }
+  }
   if (!request.svg_path.empty())
     write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));
   out << text;
+  out.flush();
+  return 0;
+}
+
+int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
+  TraceReadOptions ro;
+  ro.keep =
+      analysis_columns(request.options.evaluation.column_a, request.options.evaluation.column_b);
+  const Trace read = read_trace(request.trace_path, ro);
+  DiagnosisOptions options = request.options;
+  EvaluationOptions& eo = options.evaluation;
+  // A ball bar's trace, as for analyze: it measures no absolute length along an axis.
+  std::optional<RadialPositions> radial;
+  if (request.radial ||
+      (eo.column_a.empty() && is_radial_trace(read, trace_plane(read, eo.plane)))) {
+    RadialOptions ro_radial;
+    ro_radial.plane = eo.plane;
+    ro_radial.centre_a_mm = eo.centre_a_mm;
+    ro_radial.centre_b_mm = eo.centre_b_mm;
+    ro_radial.radius_mm = eo.nominal_radius_mm;
+    radial = radial_positions(read, ro_radial);
+    eo.column_a = radial->column_a;
+    eo.column_b = radial->column_b;
+    if (!eo.centre_a_mm) {
+      eo.centre_a_mm = radial->centre_a_mm;
+      eo.centre_b_mm = radial->centre_b_mm;
+    }
+    options.absolute_channels = false;
+  }
+  Diagnosis d = diagnose(radial ? radial->trace : read, options);
+  if (radial) d.notes.insert(d.notes.begin(), radial->note);
+  out << (request.json ? to_json(d).dump(2) + "\n" : text_report(d));
   out.flush();
   return 0;
 }

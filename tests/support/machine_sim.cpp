@@ -1,7 +1,9 @@
 #include "machine_sim.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -12,7 +14,10 @@ namespace {
 
 struct AxisState {
   double motor = 0.0;
-  double table = 0.0;  // screw side, after the backlash play
+  double table = 0.0;       // screw side, after the backlash play
+  double direction = 0.0;   // sign of the motor's last motion
+  double spike = 0.0;       // friction error not yet removed by the servo
+  double motor_prev = 0.0;  // motor position one period before `before`
   bool initialised = false;
 };
 
@@ -29,7 +34,6 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
   const AxisModel* models[3] = {&machine.x, &machine.y, &machine.z};
   const double T = program.period_s;
   const double R = program.radius_mm;
-  const double omega = program.feed_mm_per_min / 60.0 / R;  // rad/s
   const double deg = std::numbers::pi / 180.0;
 
   Trace trace;
@@ -38,7 +42,12 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
   trace.metadata.set("radius_mm", fmt::format("{}", R));
   trace.metadata.set("centre_mm", fmt::format("{},{},{}", program.centre_mm[0],
                                               program.centre_mm[1], program.centre_mm[2]));
-  trace.metadata.set("feed_mm_per_min", fmt::format("{}", program.feed_mm_per_min));
+  if (program.run_feeds_mm_per_min.empty()) {
+    trace.metadata.set("feed_mm_per_min", fmt::format("{}", program.feed_mm_per_min));
+  } else {
+    trace.metadata.set("feeds_mm_per_min",
+                       fmt::format("{}", fmt::join(program.run_feeds_mm_per_min, ",")));
+  }
   trace.metadata.set("sample_period_s", fmt::format("{}", T));
   trace.columns = {"t", "x", "y", "z", "x_cmd", "y_cmd", "z_cmd", "marker", "segment"};
   if (program.radial) trace.columns.push_back("r");
@@ -60,17 +69,37 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
       if (!s.initialised) {
         s.motor = cmd[i];
         s.table = cmd[i];
+        s.motor_prev = cmd[i];
         s.initialised = true;
       }
+      const double before = s.motor;
       if (m.kv_per_s > 0.0) {
         s.motor += (1.0 - std::exp(-m.kv_per_s * T)) * (cmd[i] - s.motor);
       } else {
         s.motor = cmd[i];
       }
+      if (m.spike_mm != 0.0 && m.spike_ms > 0.0) {
+        s.spike *= std::exp(-T / (m.spike_ms * 1e-3));
+        const double v = s.motor - before;
+        if (std::abs(v) > 1e-12) {
+          const double dir = v > 0 ? 1.0 : -1.0;
+          if (s.direction != 0.0 && dir != s.direction) {
+            // The reversal instant within the last two periods: the vertex of the parabola
+            // through the last three motor positions (s = 0 at `before`).
+            const double b1 = 0.5 * (s.motor - s.motor_prev);
+            const double a2 = 0.5 * (s.motor_prev - 2.0 * before + s.motor);
+            const double vertex = a2 != 0.0 ? std::clamp(-b1 / (2.0 * a2), -1.0, 1.0) : 0.0;
+            const double elapsed = (1.0 - vertex) * T;
+            s.spike += -m.spike_mm * dir * std::exp(-elapsed / (m.spike_ms * 1e-3));
+          }
+          s.direction = dir;
+        }
+      }
       const double half = 0.5 * m.backlash_mm;
       if (s.motor - s.table > half) s.table = s.motor - half;
       if (s.motor - s.table < -half) s.table = s.motor + half;
-      double p = s.table * (1.0 + m.scale);
+      s.motor_prev = before;
+      double p = (s.table + s.spike) * (1.0 + m.scale);
       if (m.cyclic_pitch_mm > 0.0) {
         p += m.cyclic_amplitude_mm *
              std::sin(2.0 * std::numbers::pi * s.table / m.cyclic_pitch_mm + m.cyclic_phase_rad);
@@ -121,7 +150,12 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
   const double arc = program.arc_deg * deg;
   int segment = 0;
   double angle = start;
-  for (Direction dir : program.runs) {
+  for (std::size_t run = 0; run < program.runs.size(); ++run) {
+    const Direction dir = program.runs[run];
+    const double feed = run < program.run_feeds_mm_per_min.size()
+                            ? program.run_feeds_mm_per_min[run]
+                            : program.feed_mm_per_min;
+    const double omega = feed / 60.0 / R;  // rad/s
     const double sign = dir == Direction::CCW ? 1.0 : -1.0;
     // Each run starts at the measured arc's start, reached by its lead-in on the circle.
     const double run_start = dir == Direction::CCW ? start : start + arc;

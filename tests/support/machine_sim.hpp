@@ -1,6 +1,7 @@
 #pragma once
 // A machine simulator for tests: the commanded circle of an ISO 230-4 program through a
-// per-axis model (first-order position loop, backlash play, scale, cyclic error) and the
+// per-axis model (first-order position loop, backlash play, reversal spike, scale, cyclic
+// error) and the
 // squareness of the first plane axis to the second, sampled every period like circlog.
 // Its injected errors are the independent truth the analysis is checked against.
 #include <cstdint>
@@ -19,6 +20,12 @@ struct AxisModel {
   double cyclic_amplitude_mm = 0.0;  // waviness tied to axis position
   double cyclic_pitch_mm = 0.0;
   double cyclic_phase_rad = 0.0;
+  // Reversal spike: Coulomb friction reverses with the motor's direction; a stiff servo first
+  // takes the new friction force as a position error (the table stays behind by spike_mm in
+  // the old direction), then its integral action removes it with the time constant spike_ms.
+  // table += -spike_mm * sign(v_new) * exp(-(t - t_reversal) / spike_ms), superposed.
+  double spike_mm = 0.0;
+  double spike_ms = 0.0;
 };
 
 struct MachineModel {
@@ -34,6 +41,8 @@ struct CircleProgram {
   double radius_mm = 75.0;
   double centre_mm[3] = {0.0, 0.0, 0.0};  // x, y, z
   double feed_mm_per_min = 1000.0;
+  // Feed of each run (same length as `runs`), for feed sweeps; empty: feed_mm_per_min.
+  std::vector<double> run_feeds_mm_per_min;
   std::vector<Direction> runs = {Direction::CCW, Direction::CW};
   double arc_deg = 360.0;
   double start_deg = 0.0;

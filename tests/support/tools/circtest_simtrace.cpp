@@ -27,8 +27,13 @@ int main(int argc, char** argv) {
         "backlash-x", po::value(&m.x.backlash_mm), "mm")(
         "backlash-y", po::value(&m.y.backlash_mm), "mm")("scale-x", po::value(&m.x.scale), "")(
         "scale-y", po::value(&m.y.scale), "")("squareness", po::value(&m.squareness_rad), "rad")(
-        "noise", po::value(&m.noise_mm), "mm")("seed", po::value(&m.seed), "")(
-        "radial", "add a ball bar's length column r")(
+        "spike-x", po::value(&m.x.spike_mm), "mm")("spike-ms-x", po::value(&m.x.spike_ms), "ms")(
+        "spike-y", po::value(&m.y.spike_mm), "mm")("spike-ms-y", po::value(&m.y.spike_ms), "ms")(
+        "cyclic-x", po::value(&m.x.cyclic_amplitude_mm), "mm")(
+        "pitch-x", po::value(&m.x.cyclic_pitch_mm), "mm")(
+        "cyclic-y", po::value(&m.y.cyclic_amplitude_mm), "mm")(
+        "pitch-y", po::value(&m.y.cyclic_pitch_mm), "mm")("noise", po::value(&m.noise_mm), "mm")(
+        "seed", po::value(&m.seed), "")("radial", "add a ball bar's length column r")(
         "bar-length", po::value<double>(), "with --radial: r is the change from this length, mm");
     po::variables_map vm;
     try {

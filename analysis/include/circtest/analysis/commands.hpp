@@ -3,6 +3,7 @@
 #include <ostream>
 #include <string>
 
+#include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/plot.hpp"
 
@@ -21,6 +22,15 @@ struct AnalyzeRequest {
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code.
 int run_analyze(const AnalyzeRequest& request, std::ostream& out);
+
+struct DiagnoseRequest {
+  std::string trace_path;
+  DiagnosisOptions options;
+  bool json = false;
+  bool radial = false;  // a ball bar's trace (found by itself when it has the r column)
+};
+// Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write.
+int run_diagnose(const DiagnoseRequest& request, std::ostream& out);
 
 struct FitRequest {
   std::string points_path;

@@ -1,0 +1,1240 @@
+// The diagnosis fit: docs/diagnosis.md states the model and its signs.
+#include "circtest/analysis/diagnosis.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <cstdlib>
+#include <numbers>
+#include <numeric>
+
+#include "circtest/core/error.hpp"
+
+namespace circtest {
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+enum class Kind {
+  centre_a,
+  centre_b,
+  radius,  // per feed group
+  scale_mismatch,
+  squareness,
+  servo,
+  backlash_a,
+  backlash_b,
+  spike_a,
+  spike_b,
+  cyclic_a_sin,
+  cyclic_a_cos,
+  cyclic_b_sin,
+  cyclic_b_cos,
+  // Derivatives of the spike terms with respect to their decay, for its standard error only.
+  spike_tau_a,
+  spike_tau_b,
+};
+
+struct Column {
+  Kind kind;
+  int group = 0;  // feed group of a radius column
+};
+
+struct RunInfo {
+  std::size_t begin = 0, end = 0;  // into the sample arrays
+  double dir = 1.0;                // +1 CCW, -1 CW
+  double speed_mm_s = 0.0;         // 0 when unknown
+  // About a sample period in angle: samples this close to a reversal are left out of the fit
+  // and the residual's G, since the reversal instant is known only to a sample.
+  double eps_rad = 0.0;
+  int group = 0;
+};
+
+// All measured samples of all runs, in run order.
+struct Samples {
+  std::vector<double> c, s;          // cos, sin of the measured angle about the nominal centre
+  std::vector<double> dr;            // radius minus nominal radius
+  std::vector<double> pos_a, pos_b;  // measured axis positions
+  std::vector<double> u;             // the measured angle unwrapped along the run, rad
+  std::vector<std::uint32_t> run;
+  std::vector<RunInfo> runs;
+  double radius = 0.0;
+  struct Cache {
+    bool valid = false;
+    double servo_mismatch_s = 0.0;
+    std::vector<double> since_a, since_b;   // angle travelled since the last reversal, rad
+    std::vector<std::int8_t> dir_a, dir_b;  // axis direction after it
+  };
+  mutable Cache cache;
+  std::size_t size() const { return dr.size(); }
+};
+
+// The nonlinear parts, held fixed while the linear parameters are fitted.
+struct State {
+  double backlash_a = 0.0, backlash_b = 0.0;  // current play estimate for the transition shape
+  double tau_a = 0.0, tau_b = 0.0;            // spike decay, s
+  double pitch_a = 0.0, pitch_b = 0.0;        // cyclic pitch, mm
+  // Lag of A minus lag of B: the motor of A reverses at theta = k pi + dir w dtau as the
+  // instrument sees it (its angle follows the other axis there), B at pi/2 + k pi - dir w dtau.
+  double servo_mismatch_s = 0.0;
+  double spike_h_a = 0.0, spike_h_b = 0.0;  // heights, for the decay derivatives
+};
+
+double sgn(double v) {
+  return v > 0 ? 1.0 : (v < 0 ? -1.0 : 0.0);
+}
+
+double shift(const Samples& S, const State& st, std::size_t i, bool a) {
+  const RunInfo& r = S.runs[S.run[i]];
+  return (a ? 1.0 : -1.0) * r.dir * r.speed_mm_s / S.radius * st.servo_mismatch_s;
+}
+// Angle travelled since the last reversal at `rev` + k pi.
+double since(const RunInfo& r, double u, double rev) {
+  const double t = (u - rev) / kPi;
+  return r.dir > 0 ? (t - std::floor(t)) * kPi : (std::ceil(t) - t) * kPi;
+}
+// The reversal bookkeeping depends on the state only through the lag mismatch: cached.
+void refresh(const Samples& S, const State& st) {
+  auto& C = S.cache;
+  if (C.valid && C.servo_mismatch_s == st.servo_mismatch_s) return;
+  const std::size_t n = S.size();
+  C.since_a.resize(n);
+  C.since_b.resize(n);
+  C.dir_a.resize(n);
+  C.dir_b.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const RunInfo& r = S.runs[S.run[i]];
+    const double sa = shift(S, st, i, true), sb = shift(S, st, i, false);
+    C.since_a[i] = since(r, S.u[i], sa);
+    C.since_b[i] = since(r, S.u[i], kPi / 2 + sb);
+    // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos.
+    C.dir_a[i] = static_cast<std::int8_t>(-r.dir * sgn(std::sin(S.u[i] - sa)));
+    C.dir_b[i] = static_cast<std::int8_t>(r.dir * sgn(std::cos(S.u[i] - sb)));
+  }
+  C.servo_mismatch_s = st.servo_mismatch_s;
+  C.valid = true;
+}
+double since_a(const Samples& S, const State&, std::size_t i) {
+  return S.cache.since_a[i];
+}
+double since_b(const Samples& S, const State&, std::size_t i) {
+  return S.cache.since_b[i];
+}
+double dir_a(const Samples& S, const State&, std::size_t i) {
+  return S.cache.dir_a[i];
+}
+double dir_b(const Samples& S, const State&, std::size_t i) {
+  return S.cache.dir_b[i];
+}
+bool at_reversal(const Samples& S, const State& st, std::size_t i) {
+  const double eps = S.runs[S.run[i]].eps_rad;
+  return eps > 0 && (since_a(S, st, i) < eps || since_b(S, st, i) < eps);
+}
+
+// Backlash of one axis: the table keeps its place after a reversal until the motor has
+// travelled the play b, then lags by b/2 against the motion. Returns the derivative of the
+// axis deviation with respect to b at `b` and the part not proportional to b (so that
+// deviation = b * derivative + offset at the current b).
+std::pair<double, double> backlash_terms(double new_dir, double travelled_mm, double b) {
+  const double old_dir = -new_dir;
+  if (b > 0.0 && travelled_mm < b) return {-old_dir / 2.0, old_dir * travelled_mm};
+  return {old_dir / 2.0, 0.0};
+}
+
+double travelled(const Samples& S, double since) {
+  return S.radius * (1.0 - std::cos(since));
+}
+
+double value(const Samples& S, const State& st, const Column& col, std::size_t i) {
+  const double c = S.c[i], s = S.s[i];
+  const RunInfo& r = S.runs[S.run[i]];
+  const double R = S.radius;
+  switch (col.kind) {
+    case Kind::centre_a:
+      return c;
+    case Kind::centre_b:
+      return s;
+    case Kind::radius:
+      return r.group == col.group ? 1.0 : 0.0;
+    case Kind::scale_mismatch:
+      return 0.5 * R * (c * c - s * s);
+    case Kind::squareness:
+      return R * s * c;
+    case Kind::servo:
+      return r.dir * r.speed_mm_s * s * c;
+    case Kind::backlash_a:
+      return backlash_terms(dir_a(S, st, i), travelled(S, since_a(S, st, i)), st.backlash_a).first *
+             c;
+    case Kind::backlash_b:
+      return backlash_terms(dir_b(S, st, i), travelled(S, since_b(S, st, i)), st.backlash_b).first *
+             s;
+    case Kind::spike_a:
+      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
+      return -dir_a(S, st, i) * std::exp(-since_a(S, st, i) * R / r.speed_mm_s / st.tau_a) * c;
+    case Kind::spike_b:
+      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
+      return -dir_b(S, st, i) * std::exp(-since_b(S, st, i) * R / r.speed_mm_s / st.tau_b) * s;
+    case Kind::spike_tau_a: {
+      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
+      const double dt = since_a(S, st, i) * R / r.speed_mm_s;
+      return st.spike_h_a * -dir_a(S, st, i) * std::exp(-dt / st.tau_a) * dt /
+             (st.tau_a * st.tau_a) * c;
+    }
+    case Kind::spike_tau_b: {
+      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
+      const double dt = since_b(S, st, i) * R / r.speed_mm_s;
+      return st.spike_h_b * -dir_b(S, st, i) * std::exp(-dt / st.tau_b) * dt /
+             (st.tau_b * st.tau_b) * s;
+    }
+    case Kind::cyclic_a_sin:
+      return std::sin(2 * kPi * S.pos_a[i] / st.pitch_a) * c;
+    case Kind::cyclic_a_cos:
+      return std::cos(2 * kPi * S.pos_a[i] / st.pitch_a) * c;
+    case Kind::cyclic_b_sin:
+      return std::sin(2 * kPi * S.pos_b[i] / st.pitch_b) * s;
+    case Kind::cyclic_b_cos:
+      return std::cos(2 * kPi * S.pos_b[i] / st.pitch_b) * s;
+  }
+  return 0.0;
+}
+
+// The part of the model that is not linear in the parameters (backlash transitions).
+double offset(const Samples& S, const State& st, const std::vector<Column>& cols, std::size_t i) {
+  double o = 0.0;
+  if (st.servo_mismatch_s != 0.0) {
+    // Second order of unequal lags (phase difference d = w dtau) at the measured angle:
+    // dr = -R d^2 (5/16 + 3/16 cos 4theta); the constant part stays in the radius change.
+    const RunInfo& r = S.runs[S.run[i]];
+    const double d = r.speed_mm_s / S.radius * st.servo_mismatch_s;
+    const double c2 = S.c[i] * S.c[i] - S.s[i] * S.s[i], s2 = 2.0 * S.c[i] * S.s[i];
+    o += -S.radius * d * d * (3.0 / 16.0) * (c2 * c2 - s2 * s2);
+  }
+  for (const Column& col : cols) {
+    if (col.kind == Kind::backlash_a && st.backlash_a > 0) {
+      o += backlash_terms(dir_a(S, st, i), travelled(S, since_a(S, st, i)), st.backlash_a).second *
+           S.c[i];
+    } else if (col.kind == Kind::backlash_b && st.backlash_b > 0) {
+      o += backlash_terms(dir_b(S, st, i), travelled(S, since_b(S, st, i)), st.backlash_b).second *
+           S.s[i];
+    }
+  }
+  return o;
+}
+
+struct Normal {
+  Eigen::MatrixXd M;  // J^T J
+  Eigen::VectorXd v;  // J^T y
+  double yy = 0.0;
+  std::size_t n = 0;
+};
+
+Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& cols,
+                  std::size_t stride) {
+  refresh(S, st);
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  Normal N;
+  N.M = Eigen::MatrixXd::Zero(p, p);
+  N.v = Eigen::VectorXd::Zero(p);
+  Eigen::VectorXd row(p);
+  for (std::size_t i = 0; i < S.size(); i += stride) {
+    if (at_reversal(S, st, i)) continue;
+    for (Eigen::Index j = 0; j < p; ++j)
+      row[j] = value(S, st, cols[static_cast<std::size_t>(j)], i);
+    const double y = S.dr[i] - offset(S, st, cols, i);
+    N.M.selfadjointView<Eigen::Upper>().rankUpdate(row);
+    N.v += y * row;
+    N.yy += y * y;
+    ++N.n;
+  }
+  N.M = N.M.selfadjointView<Eigen::Upper>();
+  return N;
+}
+
+struct Solution {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd inv;  // (J^T J)^-1
+  double rss = 0.0;
+  double sigma2 = 0.0;
+};
+
+Solution solve(const Normal& N) {
+  Solution sol;
+  const auto p = N.M.rows();
+  // Scale to unit diagonal for a well-posed inverse.
+  Eigen::VectorXd d = N.M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd C = d.asDiagonal() * N.M * d.asDiagonal();
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(C);
+  const Eigen::MatrixXd Cinv = ldlt.solve(Eigen::MatrixXd::Identity(p, p));
+  sol.inv = d.asDiagonal() * Cinv * d.asDiagonal();
+  sol.x = sol.inv * N.v;
+  sol.rss = std::max(0.0, N.yy - 2.0 * sol.x.dot(N.v) + sol.x.dot(N.M * sol.x));
+  const double dof = static_cast<double>(N.n) - static_cast<double>(p);
+  sol.sigma2 = dof > 0 ? sol.rss / dof : 0.0;
+  return sol;
+}
+
+// 1 - R^2 of column j regressed on the columns in `set` (all normalised to unit diagonal).
+double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set, Eigen::Index j) {
+  if (set.empty()) return 1.0;
+  const auto k = static_cast<Eigen::Index>(set.size());
+  Eigen::MatrixXd A(k, k);
+  Eigen::VectorXd b(k);
+  for (Eigen::Index u = 0; u < k; ++u) {
+    b[u] = C(set[static_cast<std::size_t>(u)], j);
+    for (Eigen::Index w = 0; w < k; ++w)
+      A(u, w) = C(set[static_cast<std::size_t>(u)], set[static_cast<std::size_t>(w)]);
+  }
+  const Eigen::VectorXd x = A.ldlt().solve(b);
+  return C(j, j) - b.dot(x);
+}
+
+std::string kind_name(Kind k, const std::array<char, 2>& axes) {
+  const std::string A(1, axes[0]), B(1, axes[1]);
+  switch (k) {
+    case Kind::centre_a:
+      return "centre offset " + A;
+    case Kind::centre_b:
+      return "centre offset " + B;
+    case Kind::radius:
+      return "radius change";
+    case Kind::scale_mismatch:
+      return "scale mismatch";
+    case Kind::squareness:
+      return "squareness";
+    case Kind::servo:
+      return "servo mismatch";
+    case Kind::backlash_a:
+      return "backlash " + A;
+    case Kind::backlash_b:
+      return "backlash " + B;
+    case Kind::spike_a:
+      return "reversal spike " + A;
+    case Kind::spike_b:
+      return "reversal spike " + B;
+    case Kind::cyclic_a_sin:
+    case Kind::cyclic_a_cos:
+      return "cyclic " + A;
+    case Kind::cyclic_b_sin:
+    case Kind::cyclic_b_cos:
+      return "cyclic " + B;
+    case Kind::spike_tau_a:
+    case Kind::spike_tau_b:
+      return "spike decay";
+  }
+  return "?";
+}
+
+std::optional<std::size_t> find(const std::vector<Column>& cols, Kind k, int group = 0) {
+  for (std::size_t j = 0; j < cols.size(); ++j) {
+    if (cols[j].kind == k && (k != Kind::radius || cols[j].group == group)) return j;
+  }
+  return std::nullopt;
+}
+
+// The base fit's design rows and residual on a subsample, for profiling added columns.
+struct Profile {
+  std::vector<std::size_t> index;  // sample indices
+  Eigen::MatrixXd J;               // rows of the base columns
+  Eigen::VectorXd e;               // base residual
+  Eigen::MatrixXd inv;             // (J^T J)^-1 of the base fit (full-data scaling)
+  double rss = 0.0;
+};
+
+Profile make_profile(const Samples& S, const State& st, const std::vector<Column>& cols,
+                     const Solution& base, std::size_t stride) {
+  refresh(S, st);
+  Profile P;
+  for (std::size_t i = 0; i < S.size(); i += stride) {
+    if (!at_reversal(S, st, i)) P.index.push_back(i);
+  }
+  const auto n = static_cast<Eigen::Index>(P.index.size());
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  P.J.resize(n, p);
+  P.e.resize(n);
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const std::size_t i = P.index[static_cast<std::size_t>(r)];
+    for (Eigen::Index j = 0; j < p; ++j)
+      P.J(r, j) = value(S, st, cols[static_cast<std::size_t>(j)], i);
+    P.e[r] = S.dr[i] - offset(S, st, cols, i) - P.J.row(r).dot(base.x);
+  }
+  // (J^T J)^-1 of this subsample, so that the profile is consistent within itself.
+  const Eigen::MatrixXd M = P.J.transpose() * P.J;
+  Eigen::VectorXd d = M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd C = d.asDiagonal() * M * d.asDiagonal();
+  P.inv = d.asDiagonal() * C.ldlt().solve(Eigen::MatrixXd::Identity(p, p)) * d.asDiagonal();
+  // The base residual re-projected on this subsample.
+  const Eigen::VectorXd x = P.inv * (P.J.transpose() * P.e);
+  P.e -= P.J * x;
+  P.rss = P.e.squaredNorm();
+  return P;
+}
+
+// Residual sum of squares when the columns `extra` join the base fit:
+// RSS_base - g^T H^-1 g with g = S^T e0 and H = S^T S - S^T J (J^T J)^-1 J^T S.
+double profile_rss(const Samples& S, const State& st, const Profile& P,
+                   const std::vector<Column>& extra) {
+  const auto p = P.J.cols();
+  const auto q = static_cast<Eigen::Index>(extra.size());
+  Eigen::MatrixXd SS = Eigen::MatrixXd::Zero(q, q);
+  Eigen::MatrixXd SJ = Eigen::MatrixXd::Zero(q, p);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(q);
+  Eigen::VectorXd srow(q);
+  for (Eigen::Index r = 0; r < P.J.rows(); ++r) {
+    const std::size_t i = P.index[static_cast<std::size_t>(r)];
+    bool any = false;
+    for (Eigen::Index j = 0; j < q; ++j) {
+      srow[j] = value(S, st, extra[static_cast<std::size_t>(j)], i);
+      any = any || srow[j] != 0.0;
+    }
+    if (!any) continue;
+    SS.noalias() += srow * srow.transpose();
+    SJ.noalias() += srow * P.J.row(r);
+    g += P.e[r] * srow;
+  }
+  const Eigen::MatrixXd H = SS - SJ * P.inv * SJ.transpose();
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
+  if (ldlt.info() != Eigen::Success || H.diagonal().minCoeff() <= 0) return P.rss;
+  return P.rss - g.dot(ldlt.solve(g));
+}
+
+// Golden-section search of f on [lo, hi] (log-spaced argument handled by the caller).
+template <class F>
+double golden(F f, double lo, double hi, int iterations) {
+  const double r = (std::sqrt(5.0) - 1.0) / 2.0;
+  double a = lo, b = hi;
+  double x1 = b - r * (b - a), x2 = a + r * (b - a);
+  double f1 = f(x1), f2 = f(x2);
+  for (int k = 0; k < iterations; ++k) {
+    if (f1 < f2) {
+      b = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = b - r * (b - a);
+      f1 = f(x1);
+    } else {
+      a = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = a + r * (b - a);
+      f2 = f(x2);
+    }
+  }
+  return f1 < f2 ? x1 : x2;
+}
+
+struct Peak {
+  double pitch_mm = 0.0;
+  double ratio = 0.0;  // peak power / median power
+};
+
+// Periodogram of the residual projected on one axis, over that axis's position: the residual
+// is first reduced to a least-squares axis deviation per position bin.
+std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vector<double>& proj,
+                                const std::vector<double>& resid, double radius, double min_pitch) {
+  const auto [mn, mx] = std::minmax_element(pos.begin(), pos.end());
+  const double span = *mx - *mn;
+  if (!(span > 0)) return std::nullopt;
+  const double width = min_pitch / 8.0;
+  const auto nbins = static_cast<std::size_t>(std::ceil(span / width)) + 1;
+  std::vector<double> sw(nbins, 0.0), swy(nbins, 0.0);
+  for (std::size_t i = 0; i < pos.size(); ++i) {
+    const auto b = static_cast<std::size_t>((pos[i] - *mn) / width);
+    sw[b] += proj[i] * proj[i];
+    swy[b] += proj[i] * resid[i];
+  }
+  std::vector<double> x, y, w;
+  for (std::size_t b = 0; b < nbins; ++b) {
+    if (sw[b] <= 0) continue;
+    x.push_back(*mn + (static_cast<double>(b) + 0.5) * width);
+    y.push_back(swy[b] / sw[b]);
+    w.push_back(sw[b]);
+  }
+  if (x.size() < 16) return std::nullopt;
+  // Remove the weighted mean so the zero frequency does not leak.
+  const double wsum = std::accumulate(w.begin(), w.end(), 0.0);
+  double ym = 0.0;
+  for (std::size_t k = 0; k < y.size(); ++k) ym += w[k] * y[k];
+  ym /= wsum;
+  const double fmin = 4.0 / radius;  // pitches up to R/4: longer waves are shape, not pitch
+  const double fmax = 1.0 / min_pitch;
+  const double df = 1.0 / (4.0 * span);
+  if (fmax <= fmin) return std::nullopt;
+  std::vector<double> freq, power;
+  for (double f = fmin; f <= fmax; f += df) {
+    std::complex<double> acc = 0.0;
+    const std::complex<double> step = std::polar(1.0, -2 * kPi * f * width);
+    (void)step;
+    for (std::size_t k = 0; k < x.size(); ++k) {
+      const double ph = -2 * kPi * f * x[k];
+      acc += w[k] * (y[k] - ym) * std::complex<double>(std::cos(ph), std::sin(ph));
+    }
+    freq.push_back(f);
+    power.push_back(std::norm(acc));
+  }
+  if (power.size() < 8) return std::nullopt;
+  std::vector<double> sorted = power;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  const auto it = std::max_element(power.begin(), power.end());
+  const auto k = static_cast<std::size_t>(it - power.begin());
+  double f = freq[k];
+  if (k > 0 && k + 1 < power.size()) {
+    const double a = power[k - 1], b = power[k], c = power[k + 1];
+    const double den = a - 2 * b + c;
+    if (den < 0) f += 0.5 * (a - c) / den * df;
+  }
+  Peak peak;
+  peak.pitch_mm = 1.0 / f;
+  peak.ratio = median > 0 ? *it / median : std::numeric_limits<double>::infinity();
+  return peak;
+}
+
+const std::vector<double>* cmd_column(const Trace& trace, char axis) {
+  return trace.column(fmt::format("{}_cmd", axis));
+}
+
+}  // namespace
+
+Diagnosis diagnose(const Trace& trace, const DiagnosisOptions& options) {
+  const Evaluation ev = evaluate(trace, options.evaluation);
+  return diagnose(trace, ev, options);
+}
+
+Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOptions& options) {
+  Diagnosis D;
+  D.source = ev.source;
+  D.plane = ev.plane;
+  const PlaneAxes pa = plane_axes(ev.plane);
+  const char la = pa.first, lb = pa.second;
+  D.axes = {static_cast<char>(la - 'a' + 'A'), static_cast<char>(lb - 'a' + 'A')};
+  const std::string A(1, D.axes[0]), B(1, D.axes[1]);
+  if (const std::string* h = trace.metadata.find("ini_sha256")) D.ini_sha256 = *h;
+  D.absolute_channels = options.absolute_channels;
+  if (const std::string* ins = trace.metadata.find("instrument")) {
+    std::string low = *ins;
+    std::transform(low.begin(), low.end(), low.begin(),
+                   [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+    if (low.find("ballbar") != std::string::npos || low.find("radial") != std::string::npos) {
+      D.absolute_channels = false;
+    }
+  }
+  if (ev.runs.empty()) throw DataError(trace.source, 0, "no run to diagnose");
+
+  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
+  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  // The linearisation point: the nominal circle, else the least-squares circle of all runs.
+  double ca = 0, cb = 0, R = 0;
+  {
+    std::vector<double> xa, xb;
+    for (const auto& r : ev.runs) {
+      xa.insert(xa.end(), col_a.begin() + static_cast<std::ptrdiff_t>(r.run.begin),
+                col_a.begin() + static_cast<std::ptrdiff_t>(r.run.end));
+      xb.insert(xb.end(), col_b.begin() + static_cast<std::ptrdiff_t>(r.run.begin),
+                col_b.begin() + static_cast<std::ptrdiff_t>(r.run.end));
+    }
+    const Circle all = fit_lsc(xa, xb);
+    ca = ev.centre_a_mm.value_or(all.centre_a_mm);
+    cb = ev.centre_b_mm.value_or(all.centre_b_mm);
+    R = ev.nominal_radius_mm.value_or(all.radius_mm);
+    if (!ev.nominal_radius_mm) {
+      D.notes.push_back(
+          "no nominal radius: deviations are taken from the least-squares radius, so the "
+          "radius change and absolute scale are not available");
+    }
+  }
+  D.radius_mm = R;
+
+  // Feed groups: runs within 2 % of each other's feed share a radius parameter.
+  std::optional<double> meta_feed = trace.metadata.number("feed_mm_per_min", trace.source);
+  std::vector<double> group_feed;
+  Samples S;
+  S.radius = R;
+  State st;
+  bool speed_known = true;
+  bool have_ccw = false, have_cw = false;
+  bool reversal_a = false, reversal_b = false;
+  double min_sweep = 360.0;
+  for (std::size_t k = 0; k < ev.runs.size(); ++k) {
+    const RunResult& rr = ev.runs[k];
+    RunInfo info;
+    info.dir = rr.run.direction == Direction::CCW ? 1.0 : -1.0;
+    (info.dir > 0 ? have_ccw : have_cw) = true;
+    min_sweep = std::min(min_sweep, rr.run.sweep_deg);
+    const std::optional<double> feed = rr.feed_mm_per_min ? rr.feed_mm_per_min : meta_feed;
+    if (feed && *feed > 0) {
+      info.speed_mm_s = *feed / 60.0;
+      std::size_t g = 0;
+      while (g < group_feed.size() && std::abs(group_feed[g] - *feed) > 0.02 * *feed) ++g;
+      if (g == group_feed.size()) group_feed.push_back(*feed);
+      info.group = static_cast<int>(g);
+    } else {
+      speed_known = false;
+      if (group_feed.empty()) group_feed.push_back(0.0);
+      info.group = 0;
+    }
+    info.begin = S.size();
+    double prev = 0, unwrap = 0;
+    double lo = 0, hi = 0;
+    for (std::size_t i = rr.run.begin; i < rr.run.end; ++i) {
+      const double da = col_a[i] - ca, db = col_b[i] - cb;
+      const double r = std::hypot(da, db);
+      double ang = std::atan2(db, da);
+      if (i > rr.run.begin) {
+        double step = ang + unwrap - prev;
+        while (step > kPi) {
+          unwrap -= 2 * kPi;
+          step -= 2 * kPi;
+        }
+        while (step < -kPi) {
+          unwrap += 2 * kPi;
+          step += 2 * kPi;
+        }
+      }
+      const double u = ang + unwrap;
+      prev = u;
+      if (i == rr.run.begin) lo = hi = u;
+      lo = std::min(lo, u);
+      hi = std::max(hi, u);
+      S.c.push_back(da / r);
+      S.s.push_back(db / r);
+      S.dr.push_back(r - R);
+      S.pos_a.push_back(col_a[i]);
+      S.pos_b.push_back(col_b[i]);
+      S.run.push_back(static_cast<std::uint32_t>(k));
+      S.u.push_back(u);
+    }
+    info.end = S.size();
+    // An axis reverses inside the run when the arc crosses its reversal angle (with a margin
+    // so the step itself is inside the data).
+    const double margin = 2.0 * kPi / 180.0;
+    auto crosses = [&](double shift) {
+      return std::floor((hi - margin - shift) / kPi) >= std::ceil((lo + margin - shift) / kPi);
+    };
+    reversal_a = reversal_a || crosses(0.0);
+    reversal_b = reversal_b || crosses(kPi / 2);
+    // One sample period in angle (the time column's mean step).
+    if (const std::vector<double>* t = trace.column("t");
+        t && rr.run.size() > 1 && info.speed_mm_s > 0) {
+      const double dt =
+          ((*t)[rr.run.end - 1] - (*t)[rr.run.begin]) / static_cast<double>(rr.run.size() - 1);
+      info.eps_rad = 1.5 * dt * info.speed_mm_s / R;
+    }
+    S.runs.push_back(info);
+  }
+  D.runs = ev.runs.size();
+  D.samples = S.size();
+  D.feeds_mm_per_min = group_feed;
+  if (!speed_known) {
+    D.feeds_mm_per_min.clear();
+    D.notes.push_back(
+        "feed unknown (no time column or feed_mm_per_min metadata): servo mismatch and "
+        "reversal spikes not fitted");
+  }
+  if (!have_ccw || !have_cw) {
+    D.notes.push_back(fmt::format(
+        "one direction only ({}): backlash and servo mismatch cannot be told apart from "
+        "geometry by the direction change; a CCW and a CW run are needed for H-related terms",
+        have_ccw ? "CCW" : "CW"));
+  }
+  if (min_sweep < 359.0) {
+    D.notes.push_back(fmt::format(
+        "partial arc ({:.0f} deg): only the terms the arc separates are fitted", min_sweep));
+  }
+
+  // Candidate columns in order of priority: a later one that the earlier ones already explain
+  // is not identifiable and is left out.
+  std::vector<Column> cand;
+  cand.push_back({Kind::centre_a});
+  cand.push_back({Kind::centre_b});
+  for (std::size_t g = 0; g < group_feed.size(); ++g)
+    cand.push_back({Kind::radius, static_cast<int>(g)});
+  cand.push_back({Kind::scale_mismatch});
+  cand.push_back({Kind::squareness});
+  if (speed_known) cand.push_back({Kind::servo});
+  // Without a reversal the play still shifts the runs of the two directions apart: it is
+  // fitted (so it does not bias the rest) but not reported as backlash.
+  cand.push_back({Kind::backlash_a});
+  if (!reversal_a) {
+    D.notes.push_back(fmt::format(
+        "no reversal of {} inside the measured arcs: {} backlash and reversal spike not "
+        "reported",
+        A, A));
+  }
+  // Without a reversal the play still shifts the runs of the two directions apart: it is
+  // fitted (so it does not bias the rest) but not reported as backlash.
+  cand.push_back({Kind::backlash_b});
+  if (!reversal_b) {
+    D.notes.push_back(fmt::format(
+        "no reversal of {} inside the measured arcs: {} backlash and reversal spike not "
+        "reported",
+        B, B));
+  }
+
+  const std::size_t stride =
+      std::max<std::size_t>(1, (S.size() + options.max_fit_samples - 1) / options.max_fit_samples);
+  const double vif_floor = 1.0 / options.max_variance_inflation;
+
+  // Identifiability: forward selection on the normalised normal matrix.
+  auto select = [&](const std::vector<Column>& in, std::vector<Column>& out,
+                    std::vector<std::pair<Column, double>>& rejected) {
+    const Normal N = accumulate(S, st, in, stride);
+    Eigen::VectorXd d = N.M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+    const Eigen::MatrixXd C = d.asDiagonal() * N.M * d.asDiagonal();
+    std::vector<Eigen::Index> kept;
+    for (std::size_t j = 0; j < in.size(); ++j) {
+      const auto ji = static_cast<Eigen::Index>(j);
+      const double u = N.M(ji, ji) > 0 ? unexplained(C, kept, ji) : 0.0;
+      if (u >= vif_floor) {
+        kept.push_back(ji);
+        out.push_back(in[j]);
+      } else {
+        rejected.emplace_back(in[j], u);
+      }
+    }
+  };
+  std::vector<Column> cols;
+  std::vector<std::pair<Column, double>> rejected;
+  select(cand, cols, rejected);
+
+  bool squareness_servo_confounded = false;
+  for (const auto& [col, u] : rejected) {
+    const std::string name = kind_name(col.kind, D.axes);
+    if (col.kind == Kind::servo && find(cols, Kind::squareness)) {
+      squareness_servo_confounded = true;
+      D.notes.push_back(
+          "squareness and servo mismatch both make a sin 2theta term here (one direction at one "
+          "feed): neither is reported; both directions or two feeds separate them");
+    } else if ((col.kind == Kind::backlash_a && !reversal_a) ||
+               (col.kind == Kind::backlash_b && !reversal_b)) {
+      // Already said: no reversal.
+    } else if (col.kind == Kind::radius) {
+      D.notes.push_back(fmt::format("radius change at {:.0f} mm/min not identifiable",
+                                    group_feed[static_cast<std::size_t>(col.group)]));
+    } else {
+      D.notes.push_back(fmt::format(
+          "{} not identifiable from this trace: its term is {:.2f} % explained by the terms "
+          "fitted before it (arc too short or a missing direction)",
+          name, 100.0 * (1.0 - u)));
+    }
+  }
+
+  // Backlash transitions: a few Gauss-Newton steps on the play.
+  Solution sol;
+  auto fit = [&]() {
+    for (int it = 0; it < 4; ++it) {
+      sol = solve(accumulate(S, st, cols, stride));
+      bool changed = false;
+      if (auto j = find(cols, Kind::backlash_a)) {
+        const double b = sol.x[static_cast<Eigen::Index>(*j)];
+        changed = changed || std::abs(b - st.backlash_a) > 1e-4 * std::abs(b) + 1e-9;
+        st.backlash_a = b;
+      }
+      if (auto j = find(cols, Kind::backlash_b)) {
+        const double b = sol.x[static_cast<Eigen::Index>(*j)];
+        changed = changed || std::abs(b - st.backlash_b) > 1e-4 * std::abs(b) + 1e-9;
+        st.backlash_b = b;
+      }
+      if (auto j = find(cols, Kind::servo)) {
+        const double m = sol.x[static_cast<Eigen::Index>(*j)];
+        changed = changed || std::abs(m - st.servo_mismatch_s) > 1e-4 * std::abs(m) + 1e-9;
+        st.servo_mismatch_s = m;
+      }
+      if (!changed) break;
+    }
+  };
+  fit();
+
+  // Cyclic errors: a given pitch, else a periodogram of the residual over axis position.
+  {
+    const std::size_t cstride = std::max<std::size_t>(1, (S.size() + 199999) / 200000);
+    for (int ax = 0; ax < 2; ++ax) {
+      const char letter = ax == 0 ? la : lb;
+      std::optional<CyclicEstimate> found;
+      double pitch = 0.0;
+      auto it = options.pitch_mm.find(letter);
+      CyclicEstimate ce;
+      if (it != options.pitch_mm.end()) {
+        pitch = it->second;
+        ce.pitch_source = "option";
+      } else {
+        std::vector<double> pos, proj, res;
+        refresh(S, st);
+        for (std::size_t i = 0; i < S.size(); i += cstride) {
+          double e = S.dr[i] - offset(S, st, cols, i);
+          for (std::size_t j = 0; j < cols.size(); ++j)
+            e -= value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+          pos.push_back(ax == 0 ? S.pos_a[i] : S.pos_b[i]);
+          proj.push_back(ax == 0 ? S.c[i] : S.s[i]);
+          res.push_back(e);
+        }
+        const auto peak = periodogram(pos, proj, res, R, std::max(0.5, R / 400.0));
+        if (peak && peak->ratio >= options.cyclic_detection_factor) {
+          pitch = peak->pitch_mm;
+          ce.pitch_source = "periodogram";
+          ce.peak_to_median_power = peak->ratio;
+        } else if (peak) {
+          ce.peak_to_median_power = peak->ratio;
+        }
+      }
+      if (pitch <= 0) continue;
+      const Kind ks = ax == 0 ? Kind::cyclic_a_sin : Kind::cyclic_b_sin;
+      const Kind kc = ax == 0 ? Kind::cyclic_a_cos : Kind::cyclic_b_cos;
+      double& st_pitch = ax == 0 ? st.pitch_a : st.pitch_b;
+      if (ce.pitch_source == "periodogram") {
+        // Refine the pitch on the profile residual.
+        const double f0 = 1.0 / pitch;
+        double span = 0.0;
+        {
+          const auto& pv = ax == 0 ? S.pos_a : S.pos_b;
+          const auto [mn, mx] = std::minmax_element(pv.begin(), pv.end());
+          span = *mx - *mn;
+        }
+        const double df = 1.0 / (4.0 * span);
+        const Profile prof = make_profile(S, st, cols, sol, cstride);
+        auto rss_at = [&](double f) {
+          State s2 = st;
+          (ax == 0 ? s2.pitch_a : s2.pitch_b) = 1.0 / f;
+          return profile_rss(S, s2, prof, {{ks}, {kc}});
+        };
+        pitch = 1.0 / golden(rss_at, f0 - df, f0 + df, 16);
+      }
+      st_pitch = pitch;
+      cols.push_back({ks});
+      cols.push_back({kc});
+      fit();
+      const auto js = static_cast<Eigen::Index>(*find(cols, ks));
+      const auto jc = static_cast<Eigen::Index>(*find(cols, kc));
+      const double a = sol.x[js], b = sol.x[jc];
+      ce.pitch_mm = pitch;
+      ce.amplitude_mm = std::hypot(a, b);
+      ce.phase_rad = std::atan2(b, a);
+      // Amplitude standard error: the larger of the two components' (a conservative bound).
+      ce.amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+      if (ce.pitch_source == "periodogram" && (ce.amplitude_mm < options.min_cyclic_amplitude_mm ||
+                                               ce.amplitude_mm < 5.0 * ce.amplitude_se_mm)) {
+        // A peak of a residual that is itself negligible: not a cyclic error.
+        cols.resize(cols.size() - 2);
+        st_pitch = 0.0;
+        fit();
+        continue;
+      }
+      found = ce;
+      D.cyclic[static_cast<std::size_t>(ax)] = found;
+    }
+  }
+
+  // Reversal spikes: the decay is profiled over a log grid, then refined.
+  auto search_spikes = [&]() {
+    if (!speed_known || !(reversal_a || reversal_b)) return;
+    for (Kind k : {Kind::spike_a, Kind::spike_b}) {
+      if (auto j = find(cols, k)) cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*j));
+    }
+    st.tau_a = st.tau_b = 0.0;
+    fit();
+    const std::size_t sstride = std::max<std::size_t>(1, (S.size() + 59999) / 60000);
+    const double tau_lo = 0.5e-3, tau_hi = 1.0;
+    std::array<bool, 2> on = {reversal_a && find(cols, Kind::backlash_a).has_value(),
+                              reversal_b && find(cols, Kind::backlash_b).has_value()};
+    State trial = st;
+    trial.tau_a = trial.tau_b = 0.0;
+    const Profile prof = make_profile(S, st, cols, sol, sstride);
+    for (int round = 0; round < 2; ++round) {
+      for (int ax = 0; ax < 2; ++ax) {
+        if (!on[static_cast<std::size_t>(ax)]) continue;
+        std::vector<Column> extra;
+        if (on[0]) extra.push_back({Kind::spike_a});
+        if (on[1]) extra.push_back({Kind::spike_b});
+        auto rss_at = [&](double log_tau) {
+          State s2 = trial;
+          (ax == 0 ? s2.tau_a : s2.tau_b) = std::exp(log_tau);
+          // The other axis's spike: its current decay, or out of the fit while still unknown.
+          std::vector<Column> ex;
+          for (const Column& c : extra) {
+            const bool mine = (c.kind == Kind::spike_a) == (ax == 0);
+            if (mine || (c.kind == Kind::spike_a ? s2.tau_a : s2.tau_b) > 0) ex.push_back(c);
+          }
+          return profile_rss(S, s2, prof, ex);
+        };
+        const int n = 28;
+        const double l0 = std::log(tau_lo), l1 = std::log(tau_hi);
+        double best = std::numeric_limits<double>::infinity();
+        int kbest = 0;
+        for (int k = 0; k <= n; ++k) {
+          const double r = rss_at(l0 + (l1 - l0) * k / n);
+          if (r < best) {
+            best = r;
+            kbest = k;
+          }
+        }
+        const double step = (l1 - l0) / n;
+        const double lt = golden(rss_at, l0 + (l1 - l0) * kbest / n - step,
+                                 l0 + (l1 - l0) * kbest / n + step, 14);
+        (ax == 0 ? trial.tau_a : trial.tau_b) = std::exp(lt);
+      }
+    }
+    st.tau_a = trial.tau_a;
+    st.tau_b = trial.tau_b;
+    std::vector<Column> with = cols;
+    if (on[0]) with.push_back({Kind::spike_a});
+    if (on[1]) with.push_back({Kind::spike_b});
+    std::swap(cols, with);
+    fit();
+    // Keep a spike only when it stands out; else it is noise fitted by the free decay.
+    std::vector<Kind> drop;
+    for (Kind k : {Kind::spike_a, Kind::spike_b}) {
+      const auto j = find(cols, k);
+      if (!j) continue;
+      const auto ji = static_cast<Eigen::Index>(*j);
+      const double h = sol.x[ji];
+      const double se = std::sqrt(std::max(0.0, sol.sigma2 * sol.inv(ji, ji)));
+      const bool at_edge = (k == Kind::spike_a ? st.tau_a : st.tau_b) > 0.9 * tau_hi;
+      if (!(std::abs(h) > options.spike_detection_t * se) || at_edge || h < options.min_spike_mm) {
+        drop.push_back(k);
+      }
+    }
+    for (Kind k : drop) {
+      cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, k)));
+      (k == Kind::spike_a ? st.tau_a : st.tau_b) = 0.0;
+    }
+    const bool dropped = !drop.empty();
+    if (dropped) fit();
+  };
+  search_spikes();
+
+  // With the spikes in the model, a pitch found by the periodogram is refined once more, and
+  // the spikes are searched again with that pitch.
+  bool refined = false;
+  for (int ax = 0; ax < 2; ++ax) {
+    auto& cy = D.cyclic[static_cast<std::size_t>(ax)];
+    if (!cy || cy->pitch_source != "periodogram") continue;
+    const Kind ks = ax == 0 ? Kind::cyclic_a_sin : Kind::cyclic_b_sin;
+    const Kind kc = ax == 0 ? Kind::cyclic_a_cos : Kind::cyclic_b_cos;
+    cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, ks)));
+    cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, kc)));
+    fit();
+    const auto& pv = ax == 0 ? S.pos_a : S.pos_b;
+    const auto [mn, mx] = std::minmax_element(pv.begin(), pv.end());
+    const double df = 1.0 / (16.0 * (*mx - *mn));
+    const std::size_t cstride = std::max<std::size_t>(1, (S.size() + 199999) / 200000);
+    const Profile prof = make_profile(S, st, cols, sol, cstride);
+    auto rss_at = [&](double f) {
+      State s2 = st;
+      (ax == 0 ? s2.pitch_a : s2.pitch_b) = 1.0 / f;
+      return profile_rss(S, s2, prof, {{ks}, {kc}});
+    };
+    const double pitch = 1.0 / golden(rss_at, 1.0 / cy->pitch_mm - df, 1.0 / cy->pitch_mm + df, 14);
+    (ax == 0 ? st.pitch_a : st.pitch_b) = pitch;
+    cols.push_back({ks});
+    cols.push_back({kc});
+    fit();
+    const auto js = static_cast<Eigen::Index>(*find(cols, ks));
+    const auto jc = static_cast<Eigen::Index>(*find(cols, kc));
+    cy->pitch_mm = pitch;
+    cy->amplitude_mm = std::hypot(sol.x[js], sol.x[jc]);
+    cy->phase_rad = std::atan2(sol.x[jc], sol.x[js]);
+    cy->amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+    refined = true;
+  }
+  if (refined) search_spikes();
+
+  // Parameters and standard errors.
+  auto est = [&](Kind k, double scale, int group = 0) -> Estimate {
+    Estimate e;
+    if (auto j = find(cols, k, group)) {
+      const auto ji = static_cast<Eigen::Index>(*j);
+      e.value = sol.x[ji] * scale;
+      e.standard_error = std::sqrt(std::max(0.0, sol.sigma2 * sol.inv(ji, ji))) * std::abs(scale);
+    }
+    return e;
+  };
+  for (int ax = 0; ax < 2; ++ax) {
+    auto& cy = D.cyclic[static_cast<std::size_t>(ax)];
+    if (!cy) continue;
+    const auto js =
+        static_cast<Eigen::Index>(*find(cols, ax == 0 ? Kind::cyclic_a_sin : Kind::cyclic_b_sin));
+    const auto jc =
+        static_cast<Eigen::Index>(*find(cols, ax == 0 ? Kind::cyclic_a_cos : Kind::cyclic_b_cos));
+    cy->amplitude_mm = std::hypot(sol.x[js], sol.x[jc]);
+    cy->phase_rad = std::atan2(sol.x[jc], sol.x[js]);
+    cy->amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+  }
+  D.centre_offset_mm = {est(Kind::centre_a, 1.0), est(Kind::centre_b, 1.0)};
+  D.backlash_mm = {est(Kind::backlash_a, 1.0), est(Kind::backlash_b, 1.0)};
+  for (int ax = 0; ax < 2; ++ax) {
+    auto& b = D.backlash_mm[static_cast<std::size_t>(ax)];
+    if ((ax == 0 ? reversal_a : reversal_b) || !b.value) continue;
+    D.notes.push_back(fmt::format(
+        "{} does not reverse: the runs of the two directions are {:.2f} um apart along {} (lost "
+        "motion or drift; not reported as backlash)",
+        ax == 0 ? A : B, *b.value * 1e3, ax == 0 ? A : B));
+    b = {};
+  }
+  D.spike_mm = {est(Kind::spike_a, 1.0), est(Kind::spike_b, 1.0)};
+  for (int ax = 0; ax < 2; ++ax) {
+    const auto axs = static_cast<std::size_t>(ax);
+    const bool reversal = ax == 0 ? reversal_a : reversal_b;
+    const double tau = ax == 0 ? st.tau_a : st.tau_b;
+    if (D.spike_mm[axs].value) {
+      D.spike_ms[axs].value = tau * 1e3;
+      // Standard error of the decay: the Jacobian with its derivative column added.
+      State s2 = st;
+      s2.spike_h_a = D.spike_mm[0].value.value_or(0.0);
+      s2.spike_h_b = D.spike_mm[1].value.value_or(0.0);
+      std::vector<Column> aug = cols;
+      aug.push_back({ax == 0 ? Kind::spike_tau_a : Kind::spike_tau_b});
+      const Normal N = accumulate(S, s2, aug, stride);
+      const auto last = static_cast<Eigen::Index>(aug.size() - 1);
+      const Solution a = solve(N);
+      D.spike_ms[axs].standard_error =
+          std::sqrt(std::max(0.0, sol.sigma2 * a.inv(last, last))) * 1e3;
+    } else if (reversal && speed_known &&
+               find(cols, ax == 0 ? Kind::backlash_a : Kind::backlash_b)) {
+      // No spike that stands out of the noise: height zero, decay undefined.
+      D.spike_mm[axs].value = 0.0;
+    }
+  }
+  D.scale_mismatch_ppm = est(Kind::scale_mismatch, 1e6);
+  if (!squareness_servo_confounded) {
+    D.squareness_urad = est(Kind::squareness, 1e6);
+    D.servo_mismatch_ms = est(Kind::servo, 1e3);
+  }
+  for (std::size_t g = 0; g < group_feed.size(); ++g) {
+    FeedRadius fr;
+    fr.feed_mm_per_min = group_feed[g];
+    fr.dr_mm = est(Kind::radius, 1.0, static_cast<int>(g));
+    D.radius_change.push_back(fr);
+  }
+  if (!ev.nominal_radius_mm) {
+    for (auto& fr : D.radius_change) fr.dr_mm = {};
+  }
+
+  // The mean following lag from the commanded columns (same servo period as the instrument).
+  const std::vector<double>* cmd_a = cmd_column(trace, la);
+  const std::vector<double>* cmd_b = cmd_column(trace, lb);
+  std::optional<double> lag_s;
+  double period = 0.0;
+  if (cmd_a && cmd_b && speed_known) {
+    const double oa = D.centre_offset_mm[0].value.value_or(0.0);
+    const double ob = D.centre_offset_mm[1].value.value_or(0.0);
+    const double alpha = D.squareness_urad.value.value_or(0.0) * 1e-6;
+    const double ds = D.scale_mismatch_ppm.value.value_or(0.0) * 1e-6;
+    const double ba = D.backlash_mm[0].value.value_or(0.0);
+    const double bb = D.backlash_mm[1].value.value_or(0.0);
+    const double dtau = D.servo_mismatch_ms.value.value_or(0.0) * 1e-3;
+    double num = 0.0, den = 0.0;
+    for (std::size_t k = 0; k < ev.runs.size(); ++k) {
+      const RunResult& rr = ev.runs[k];
+      const RunInfo& info = S.runs[k];
+      double tsum = 0.0, gsum = 0.0;
+      for (std::size_t i = rr.run.begin; i < rr.run.end; ++i) {
+        const double ma = col_a[i] - ca - oa, mb = col_b[i] - cb - ob;
+        const double qa = (*cmd_a)[i] - ca, qb = (*cmd_b)[i] - cb;
+        const double dth = std::atan2(qa * mb - qb * ma, qa * ma + qb * mb);
+        tsum += info.dir * dth * R;
+        const double r = std::hypot(ma, mb);
+        const double c = ma / r, s = mb / r;
+        // Tangential deviations the fitted geometric terms make (docs/diagnosis.md).
+        gsum += -info.dir * alpha * R * s * s - info.dir * R * ds * s * c - 0.5 * ba * std::abs(s) -
+                0.5 * bb * std::abs(c) - info.speed_mm_s * 0.5 * dtau * (s * s - c * c);
+      }
+      const auto n = static_cast<double>(rr.run.size());
+      // T = -v lag + g  =>  lag = (g - T) / v
+      num += (gsum - tsum) / info.speed_mm_s;
+      den += n;
+    }
+    // The commanded value is sampled in the same period as the position it leads to: the
+    // continuous loop's lag is half a sample longer than the delay seen between samples.
+    if (const std::vector<double>* t = trace.column("t")) {
+      const Run& r0 = ev.runs.front().run;
+      if (r0.size() > 1)
+        period = ((*t)[r0.end - 1] - (*t)[r0.begin]) / static_cast<double>(r0.size() - 1);
+    }
+    if (den > 0) {
+      lag_s = num / den + period / 2.0;
+      D.lag_ms.value = *lag_s * 1e3;
+    }
+  }
+  // Unequal loops also scale the two axes' amplitudes differently (a cos 2theta term that
+  // looks like a scale mismatch): -(v^2 / 2R)(tauA^2 - tauB^2)/2 = -(R/2) w^2 lag dtau.
+  if (lag_s && D.servo_mismatch_ms.value && D.scale_mismatch_ppm.value) {
+    double w2 = 0.0;
+    for (std::size_t i = 0; i < S.size(); ++i) {
+      const double w = S.runs[S.run[i]].speed_mm_s / R;
+      w2 += w * w;
+    }
+    w2 /= static_cast<double>(S.size());
+    *D.scale_mismatch_ppm.value += w2 * *lag_s * *D.servo_mismatch_ms.value * 1e-3 * 1e6;
+  } else if (D.servo_mismatch_ms.value && D.scale_mismatch_ppm.value) {
+    D.notes.push_back(
+        "no commanded columns: the scale mismatch includes the cos 2theta part of the servo "
+        "mismatch (w^2 lag dtau)");
+  }
+
+  // Absolute scale and Kv from the radius change: it is R (sA + sB) / 2 - v^2 lag^2 / (2 R).
+  const std::optional<double> ds = D.scale_mismatch_ppm.value;
+  std::optional<double> mean_scale, mean_scale_se;
+  std::size_t nfeeds = 0;
+  for (const auto& fr : D.radius_change) nfeeds += fr.dr_mm.value ? 1 : 0;
+  if (ev.nominal_radius_mm && nfeeds >= 2) {
+    // Weighted line dr = c0 + k v^2.
+    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (const auto& fr : D.radius_change) {
+      if (!fr.dr_mm.value) continue;
+      const double v = fr.feed_mm_per_min / 60.0;
+      const double se = std::max(fr.dr_mm.standard_error.value_or(1e-6), 1e-9);
+      const double w = 1.0 / (se * se);
+      const double x = v * v, y = *fr.dr_mm.value;
+      sw += w;
+      sx += w * x;
+      sy += w * y;
+      sxx += w * x * x;
+      sxy += w * x * y;
+    }
+    const double det = sw * sxx - sx * sx;
+    if (det > 0) {
+      const double k = (sw * sxy - sx * sy) / det;
+      const double c0 = (sxx * sy - sx * sxy) / det;
+      const double se_k = std::sqrt(sw / det), se_c0 = std::sqrt(sxx / det);
+      mean_scale = c0 / R;
+      mean_scale_se = se_c0 / R;
+      if (k < 0 && -k > 2 * se_k) {
+        const double kv = std::sqrt(-1.0 / (2.0 * R * k));
+        D.kv_per_s.value = kv;
+        D.kv_per_s.standard_error = kv * 0.5 * se_k / std::abs(k);
+        D.kv_source = "feeds";
+      } else {
+        D.notes.push_back(
+            "the radius does not shrink measurably with feed: no position-loop gain derived");
+      }
+    }
+  } else if (ev.nominal_radius_mm && nfeeds == 1 && lag_s) {
+    const auto& fr = *std::find_if(D.radius_change.begin(), D.radius_change.end(),
+                                   [](const FeedRadius& f) { return f.dr_mm.value.has_value(); });
+    const double v = fr.feed_mm_per_min / 60.0;
+    const double dtau = D.servo_mismatch_ms.value.value_or(0.0) * 1e-3;
+    const double loss = -v * v * (*lag_s * *lag_s + dtau * dtau / 4.0) / (2.0 * R);
+    mean_scale = (*fr.dr_mm.value - loss) / R;
+    mean_scale_se = fr.dr_mm.standard_error.value_or(0.0) / R;
+    if (*lag_s > 2.0 * period) {
+      D.kv_per_s.value = 1.0 / *lag_s;
+      D.kv_source = "lag";
+    }
+    D.notes.push_back(fmt::format(
+        "one feed: the servo radius loss ({:.2f} um) is taken from the following lag against "
+        "the commanded columns ({:.3f} ms); the rest of the radius change is scale",
+        loss * 1e3, *lag_s * 1e3));
+  } else if (ev.nominal_radius_mm) {
+    D.notes.push_back(
+        "one feed and no commanded columns: the radius change mixes the mean scale of the "
+        "axes and the servo radius loss; absolute scale not reported (run two feeds)");
+  }
+  if (!D.absolute_channels) {
+    mean_scale.reset();
+    D.notes.push_back("instrument is not absolute (ballbar): only the scale mismatch is reported");
+  }
+  if (mean_scale && ds) {
+    const double se_ds = D.scale_mismatch_ppm.standard_error.value_or(0.0);
+    const double m = *mean_scale * 1e6, mse = mean_scale_se.value_or(0.0) * 1e6;
+    D.scale_ppm[0].value = m + *ds / 2;
+    D.scale_ppm[1].value = m - *ds / 2;
+    D.scale_ppm[0].standard_error = D.scale_ppm[1].standard_error = std::hypot(mse, se_ds / 2);
+  }
+
+  // Residual over every sample, and the model's terms for the contributions.
+  refresh(S, st);
+  std::vector<double> model(S.size(), 0.0), resid(S.size(), 0.0);
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    double full = offset(S, st, cols, i);
+    double shape = full;  // without centring and radius
+    for (std::size_t j = 0; j < cols.size(); ++j) {
+      const double t = value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+      full += t;
+      if (cols[j].kind != Kind::centre_a && cols[j].kind != Kind::centre_b &&
+          cols[j].kind != Kind::radius) {
+        shape += t;
+      }
+    }
+    model[i] = shape;
+    resid[i] = S.dr[i] - full;
+  }
+  if (const char* dump = std::getenv("CIRCTEST_DIAG_DUMP")) {
+    std::FILE* f = std::fopen(dump, "w");
+    for (std::size_t i = 0; i < S.size(); ++i)
+      std::fprintf(f, "%u,%.6f,%.6f,%.6f,%.6f,%.6f\n", S.run[i], std::atan2(S.s[i], S.c[i]),
+                   S.dr[i] * 1e3, resid[i] * 1e3, since_a(S, st, i), since_b(S, st, i));
+    std::fclose(f);
+  }
+  double ss = 0.0;
+  for (double e : resid) ss += e * e;
+  D.residual_rms_mm = std::sqrt(ss / static_cast<double>(S.size()));
+  std::size_t g_run = 0, imax = 0, imin = 0;
+  for (std::size_t k = 0; k < S.runs.size(); ++k) {
+    const RunInfo& r = S.runs[k];
+    double rmn = std::numeric_limits<double>::infinity(), rmx = -rmn;
+    for (std::size_t i = r.begin; i < r.end; ++i) {
+      if (at_reversal(S, st, i)) continue;
+      rmn = std::min(rmn, resid[i]);
+      rmx = std::max(rmx, resid[i]);
+    }
+    if (rmx >= rmn) D.residual_g_mm = std::max(D.residual_g_mm, rmx - rmn);
+    const auto [mmn, mmx] =
+        std::minmax_element(model.begin() + static_cast<std::ptrdiff_t>(r.begin),
+                            model.begin() + static_cast<std::ptrdiff_t>(r.end));
+    if (*mmx - *mmn >= D.model_g_mm) {
+      D.model_g_mm = *mmx - *mmn;
+      g_run = k;
+      imax = static_cast<std::size_t>(mmx - model.begin());
+      imin = static_cast<std::size_t>(mmn - model.begin());
+    }
+  }
+  (void)g_run;
+  // Contributions: each source's term alone (its G over the runs) and its part of the
+  // modelled G at the model's extreme points (these parts add up to the modelled G).
+  std::vector<std::string> sources;
+  for (const Column& c : cols) {
+    if (c.kind == Kind::centre_a || c.kind == Kind::centre_b || c.kind == Kind::radius) continue;
+    const std::string name = kind_name(c.kind, D.axes);
+    if (std::find(sources.begin(), sources.end(), name) == sources.end()) sources.push_back(name);
+  }
+  for (const std::string& name : sources) {
+    std::vector<std::size_t> mine;
+    for (std::size_t j = 0; j < cols.size(); ++j) {
+      if (kind_name(cols[j].kind, D.axes) == name) mine.push_back(j);
+    }
+    auto term = [&](std::size_t i) {
+      double t = 0.0;
+      for (std::size_t j : mine) {
+        t += value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+        if (cols[j].kind == Kind::backlash_a || cols[j].kind == Kind::backlash_b) {
+          t += offset(S, st, {cols[j]}, i);
+        }
+      }
+      return t;
+    };
+    Contribution con;
+    con.source = name;
+    for (const RunInfo& r : S.runs) {
+      double mn = std::numeric_limits<double>::infinity(), mx = -mn;
+      for (std::size_t i = r.begin; i < r.end; ++i) {
+        const double t = term(i);
+        mn = std::min(mn, t);
+        mx = std::max(mx, t);
+      }
+      con.g_mm = std::max(con.g_mm, mx - mn);
+    }
+    con.share_mm = term(imax) - term(imin);
+    con.percent = D.model_g_mm > 0 ? 100.0 * con.share_mm / D.model_g_mm : 0.0;
+    D.contributions.push_back(con);
+  }
+  std::stable_sort(D.contributions.begin(), D.contributions.end(),
+                   [](const Contribution& a, const Contribution& b) { return a.g_mm > b.g_mm; });
+  return D;
+}
+
+}  // namespace circtest

@@ -1,0 +1,220 @@
+// The diagnosis as JSON (schema circtest.diagnosis/1, read by the compensation part) and text.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <iterator>
+
+#include "circtest/analysis/diagnosis.hpp"
+
+namespace circtest {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+json opt(const std::optional<double>& v) {
+  return v ? json(*v) : json(nullptr);
+}
+
+json per_axis(const Diagnosis& d, const std::array<Estimate, 2>& e, bool se = false) {
+  json j = json::object();
+  for (std::size_t k = 0; k < 2; ++k) {
+    j[std::string(1, d.axes[k])] = opt(se ? e[k].standard_error : e[k].value);
+  }
+  return j;
+}
+
+std::string um(double mm) {
+  return fmt::format("{:.2f} um", mm * 1e3);
+}
+
+std::string pm_um(const Estimate& e) {
+  if (!e.value) return "not available";
+  return fmt::format("{:+.2f} um (+- {:.2f})", *e.value * 1e3, e.standard_error.value_or(0) * 1e3);
+}
+
+}  // namespace
+
+json to_json(const Diagnosis& d) {
+  json j;
+  j["units"] = "mm";
+  j["schema"] = "circtest.diagnosis/1";
+  j["plane"] = std::string(plane_name(d.plane));
+  j["axes"] = {std::string(1, d.axes[0]), std::string(1, d.axes[1])};
+  j["feeds_mm_per_min"] = d.feeds_mm_per_min;
+  j["backlash_mm"] = per_axis(d, d.backlash_mm);
+  j["reversal_spike_mm"] = per_axis(d, d.spike_mm);
+  j["reversal_spike_ms"] = per_axis(d, d.spike_ms);
+  j["scale_ppm"] = per_axis(d, d.scale_ppm);
+  j["scale_mismatch_ppm"] = opt(d.scale_mismatch_ppm.value);
+  j["squareness_urad"] = opt(d.squareness_urad.value);
+  j["servo_mismatch_ms"] = opt(d.servo_mismatch_ms.value);
+  json rc = json::array();
+  for (const auto& fr : d.radius_change) {
+    rc.push_back({{"feed_mm_per_min", fr.feed_mm_per_min}, {"dr", opt(fr.dr_mm.value)}});
+  }
+  j["radius_change_mm"] = rc;
+  j["kv_per_s"] = opt(d.kv_per_s.value);
+  json cyc = json::object();
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& c = d.cyclic[k];
+    cyc[std::string(1, d.axes[k])] =
+        c ? json{{"amplitude_mm", c->amplitude_mm},
+                 {"pitch_mm", c->pitch_mm},
+                 {"phase_rad", c->phase_rad},
+                 {"pitch_source", c->pitch_source},
+                 {"peak_to_median_power", opt(c->peak_to_median_power)}}
+          : json(nullptr);
+  }
+  j["cyclic"] = cyc;
+  j["centre_offset_mm"] = {opt(d.centre_offset_mm[0].value), opt(d.centre_offset_mm[1].value)};
+  json con = json::array();
+  for (const auto& c : d.contributions) {
+    con.push_back(
+        {{"source", c.source}, {"G_mm", c.g_mm}, {"percent", c.percent}, {"share_mm", c.share_mm}});
+  }
+  j["contributions"] = con;
+  j["model_G_mm"] = d.model_g_mm;
+  j["residual"] = {{"rms_mm", d.residual_rms_mm}, {"G_mm", d.residual_g_mm}};
+  json se;
+  se["backlash_mm"] = per_axis(d, d.backlash_mm, true);
+  se["reversal_spike_mm"] = per_axis(d, d.spike_mm, true);
+  se["reversal_spike_ms"] = per_axis(d, d.spike_ms, true);
+  se["scale_ppm"] = per_axis(d, d.scale_ppm, true);
+  se["scale_mismatch_ppm"] = opt(d.scale_mismatch_ppm.standard_error);
+  se["squareness_urad"] = opt(d.squareness_urad.standard_error);
+  se["servo_mismatch_ms"] = opt(d.servo_mismatch_ms.standard_error);
+  json rcs = json::array();
+  for (const auto& fr : d.radius_change) {
+    rcs.push_back({{"feed_mm_per_min", fr.feed_mm_per_min}, {"dr", opt(fr.dr_mm.standard_error)}});
+  }
+  se["radius_change_mm"] = rcs;
+  se["kv_per_s"] = opt(d.kv_per_s.standard_error);
+  json cse = json::object();
+  for (std::size_t k = 0; k < 2; ++k) {
+    cse[std::string(1, d.axes[k])] =
+        d.cyclic[k] ? json{{"amplitude_mm", d.cyclic[k]->amplitude_se_mm}} : json(nullptr);
+  }
+  se["cyclic"] = cse;
+  se["centre_offset_mm"] = {opt(d.centre_offset_mm[0].standard_error),
+                            opt(d.centre_offset_mm[1].standard_error)};
+  j["standard_error"] = se;
+  j["kv_source"] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
+  j["lag_ms"] = opt(d.lag_ms.value);
+  j["nominal_radius_mm"] = d.radius_mm;
+  j["absolute_channels"] = d.absolute_channels;
+  j["runs"] = d.runs;
+  j["samples"] = d.samples;
+  j["ini_sha256"] = d.ini_sha256 ? json(*d.ini_sha256) : json(nullptr);
+  j["source"] = d.source;
+  j["notes"] = d.notes;
+  return j;
+}
+
+std::string text_report(const Diagnosis& d) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  const std::string A(1, d.axes[0]), B(1, d.axes[1]);
+  fmt::format_to(out, "Diagnosis of {}: plane {}, {} runs, {} samples, radius {:.3f} mm", d.source,
+                 plane_name(d.plane), d.runs, d.samples, d.radius_mm);
+  if (!d.feeds_mm_per_min.empty()) {
+    s += ", feeds";
+    for (double f : d.feeds_mm_per_min) fmt::format_to(out, " {:.0f}", f);
+    s += " mm/min";
+  }
+  s += "\n(model and signs: docs/diagnosis.md; +- one standard error)\n\n";
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::string X(1, d.axes[k]);
+    const Estimate& b = d.backlash_mm[k];
+    if (b.value) {
+      fmt::format_to(out, "  {} backlash {:.1f} um (+- {:.2f}){}\n", X, *b.value * 1e3,
+                     b.standard_error.value_or(0) * 1e3,
+                     *b.value < -std::max(1e-4, 2 * b.standard_error.value_or(0))
+                         ? ": negative, over-compensated"
+                         : (*b.value > 1e-4 ? " of lost motion" : ""));
+    } else {
+      fmt::format_to(out, "  {} backlash: not available\n", X);
+    }
+    const Estimate& h = d.spike_mm[k];
+    if (h.value && d.spike_ms[k].value) {
+      fmt::format_to(
+          out, "  {} reversal spike {:.1f} um (+- {:.2f}), decaying in {:.1f} ms (+- {:.1f})\n", X,
+          *h.value * 1e3, h.standard_error.value_or(0) * 1e3, *d.spike_ms[k].value,
+          d.spike_ms[k].standard_error.value_or(0));
+    } else if (h.value) {
+      fmt::format_to(out, "  {} reversal spike: none stands out of the noise\n", X);
+    }
+  }
+  if (d.squareness_urad.value) {
+    const double a = *d.squareness_urad.value;
+    fmt::format_to(out,
+                   "  squareness {:+.1f} urad (+- {:.2f}): the angle between +{} and +{} is 90 deg "
+                   "{} {:.1f} urad ({:.5f} deg)\n",
+                   a, d.squareness_urad.standard_error.value_or(0), A, B, a >= 0 ? "-" : "+",
+                   std::abs(a), 90.0 - a * 1e-6 * 180.0 / M_PI);
+  } else {
+    s += "  squareness: not available\n";
+  }
+  if (d.scale_mismatch_ppm.value) {
+    fmt::format_to(out, "  scale mismatch s_{} - s_{} = {:+.1f} ppm (+- {:.2f})\n", A, B,
+                   *d.scale_mismatch_ppm.value, d.scale_mismatch_ppm.standard_error.value_or(0));
+  }
+  for (std::size_t k = 0; k < 2; ++k) {
+    if (d.scale_ppm[k].value) {
+      fmt::format_to(out, "  {} scale {:+.1f} ppm (+- {:.2f})\n", std::string(1, d.axes[k]),
+                     *d.scale_ppm[k].value, d.scale_ppm[k].standard_error.value_or(0));
+    }
+  }
+  if (d.servo_mismatch_ms.value) {
+    const double m = *d.servo_mismatch_ms.value;
+    fmt::format_to(out, "  servo mismatch: {} lags {} by {:.3f} ms (+- {:.3f})\n", m >= 0 ? A : B,
+                   m >= 0 ? B : A, std::abs(m), d.servo_mismatch_ms.standard_error.value_or(0));
+  } else {
+    s += "  servo mismatch: not available\n";
+  }
+  for (const auto& fr : d.radius_change) {
+    fmt::format_to(out, "  radius change at {:.0f} mm/min: {}\n", fr.feed_mm_per_min,
+                   pm_um(fr.dr_mm));
+  }
+  if (d.lag_ms.value) fmt::format_to(out, "  mean following lag {:.3f} ms\n", *d.lag_ms.value);
+  if (d.kv_per_s.value) {
+    fmt::format_to(out, "  position-loop gain Kv {:.1f} 1/s (from the {})\n", *d.kv_per_s.value,
+                   d.kv_source == "feeds" ? "radius change over the feeds" : "following lag");
+  }
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& c = d.cyclic[k];
+    if (c) {
+      fmt::format_to(out, "  {} cyclic error {:.2f} um (+- {:.2f}) at pitch {:.3f} mm ({})",
+                     std::string(1, d.axes[k]), c->amplitude_mm * 1e3, c->amplitude_se_mm * 1e3,
+                     c->pitch_mm, c->pitch_source);
+      if (c->peak_to_median_power) {
+        fmt::format_to(out, ", periodogram peak {:.0f}x the median", *c->peak_to_median_power);
+      }
+      s += '\n';
+    }
+  }
+  fmt::format_to(out, "  set-up centre offset {}, {}\n", pm_um(d.centre_offset_mm[0]),
+                 pm_um(d.centre_offset_mm[1]));
+  fmt::format_to(out, "\nContributions to the modelled G of {} (ranked)\n", um(d.model_g_mm));
+  for (const auto& c : d.contributions) {
+    fmt::format_to(out, "  {:<18} G {:>9}  {:5.1f} %\n", c.source, um(c.g_mm), c.percent);
+  }
+  fmt::format_to(out, "Residual (measured - model): RMS {}, G {}\n", um(d.residual_rms_mm),
+                 um(d.residual_g_mm));
+  for (const auto& n : d.notes) fmt::format_to(out, "Note: {}\n", n);
+  return s;
+}
+
+std::string short_text_report(const Diagnosis& d) {
+  std::string s = "\nDiagnosis (circana diagnose for details)\n";
+  auto out = std::back_inserter(s);
+  std::size_t shown = 0;
+  for (const auto& c : d.contributions) {
+    if (shown++ == 4) break;
+    fmt::format_to(out, "  {:<18} G {:>9}  {:5.1f} %\n", c.source, um(c.g_mm), c.percent);
+  }
+  fmt::format_to(out, "  residual RMS {}, G {}\n", um(d.residual_rms_mm), um(d.residual_g_mm));
+  return s;
+}
+
+}  // namespace circtest
