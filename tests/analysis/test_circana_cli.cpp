@@ -146,7 +146,7 @@ TEST_F(CircanaCli, BadOptions) {
                "--centre: expected 2 comma-separated numbers, got '1'");
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
   expect_error("frobnicate", 2,
-               "unknown command 'frobnicate': expected analyze, fit or import-polar");
+               "unknown command 'frobnicate': expected analyze, diagnose, fit or import-polar");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
@@ -172,6 +172,36 @@ TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
     EXPECT_EQ(run["centre"].size(), 2u);
     EXPECT_NEAR(run["arc_deg"].get<double>(), 360.0, 0.5);
   }
+}
+
+// circana diagnose: the JSON contract of docs/diagnosis.md, the text's sign words, --pitch.
+TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
+  const std::string trace = (dir_ / "diag.csv").string();
+  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
+                         " --d 100 --f 2000 --squareness 100e-6 --backlash-x 0.01 --kv-x 30"
+                         " --kv-y 33 --cyclic-y 0.002 --pitch-y 5")
+                            .c_str()),
+            0);
+  const Result r = run("diagnose " + trace + " --json --pitch Y=5");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["schema"], "circtest.diagnosis/1");
+  EXPECT_NEAR(j["backlash_mm"]["X"].get<double>(), 0.010, 0.0005);
+  EXPECT_NEAR(j["squareness_urad"].get<double>(), 100.0, 5.0);
+  EXPECT_NEAR(j["servo_mismatch_ms"].get<double>(), (1.0 / 30 - 1.0 / 33) * 1e3, 0.05);
+  EXPECT_NEAR(j["cyclic"]["Y"]["amplitude_mm"].get<double>(), 0.002, 0.0001);
+  EXPECT_EQ(j["cyclic"]["Y"]["pitch_source"], "option");
+  const Result text = run("diagnose " + trace);
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("X lags Y by 3.0"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("X backlash 10.0 um"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("is 90 deg - 100."), std::string::npos) << text.out;
+  const Result analyze = run("analyze " + trace);
+  EXPECT_NE(analyze.out.find("Diagnosis"), std::string::npos);
+  expect_error("diagnose " + trace + " --pitch X5", 2,
+               "--pitch: expected AXIS=MM items like X=5,Y=5, got 'X5'");
+  expect_error("diagnose " + trace + " --pitch X=-1", 2,
+               "--pitch: expected a positive pitch, got 'X=-1'");
 }
 
 TEST_F(CircanaCli, RadialTraceGivesTheResultsOfItsXyForm) {
