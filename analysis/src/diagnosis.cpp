@@ -1211,8 +1211,14 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       double t = 0.0;
       for (std::size_t j : mine) {
         t += value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
-        if (cols[j].kind == Kind::backlash_a || cols[j].kind == Kind::backlash_b) {
-          t += offset(S, st, {cols[j]}, i);
+        if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
+          t += backlash_terms(dir_a(S, st, i), travelled(S, since_a(S, st, i)), st.backlash_a)
+                   .second *
+               S.c[i];
+        } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
+          t += backlash_terms(dir_b(S, st, i), travelled(S, since_b(S, st, i)), st.backlash_b)
+                   .second *
+               S.s[i];
         }
       }
       return t;
