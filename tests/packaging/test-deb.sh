@@ -39,7 +39,7 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 in_root() { chroot "$root" env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root LANG=C.UTF-8 "$@"; }
 
 # Fresh as far as circtest goes: no earlier install may answer for the package.
-for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record \
+for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record /usr/bin/circcomp \
   /usr/lib/linuxcnc/modules/circlog.so /usr/share/man/man1/circana.1 \
   /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9; do
   rm -f "$root$f"
@@ -53,12 +53,13 @@ in_root dpkg --verify circtest || fail "dpkg --verify: installed files differ fr
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record \
   /usr/lib/linuxcnc/modules/circlog.so /usr/share/man/man1/circgen.1 \
   /usr/share/man/man1/circana.1 /usr/share/man/man1/circlog-record.1 \
-  /usr/share/man/man9/circlog.9 /usr/share/bash-completion/completions/circana; do
+  /usr/share/man/man9/circlog.9 /usr/share/bash-completion/completions/circana \
+  /usr/bin/circcomp /usr/share/man/man1/circcomp.1; do
   in_root dpkg -S "$f" | grep -q '^circtest: ' || fail "$f is not installed by the package"
 done
 echo "ok: dpkg -i; files in /usr/bin, /usr/lib/linuxcnc/modules, /usr/share/man, bash-completion"
 
-for p in circgen circana circlog-record; do
+for p in circgen circana circlog-record circcomp; do
   [ "$(in_root "$p" --version)" = "$p $version" ] || fail "$p --version"
 done
 in_root circgen --d 150 --f 1000 --safe-z 5 -o /tmp/test.ngc || fail "circgen"

@@ -1,11 +1,11 @@
 #!/bin/bash
 # Every circtest command answers --help (exit 0, usage on stdout, nothing on stderr) and
 # --version ("<program> <version>", the version CMake's project() declares).
-#   check-cli-info.sh VERSION CIRCGEN CIRCANA CIRCLOG_RECORD CIRCTEST_RUN CIRCTEST_INI
+#   check-cli-info.sh VERSION CIRCGEN CIRCANA CIRCLOG_RECORD CIRCTEST_RUN CIRCTEST_INI [CIRCCOMP]
 # circana's commands are taken from its own usage text, so a new one is checked too.
 set -uo pipefail
 version=$1
-declare -A exe=([circgen]=$2 [circana]=$3 [circlog-record]=$4 [circtest-run]=$5 [circtest-ini]=$6)
+declare -A exe=([circgen]=$2 [circana]=$3 [circlog-record]=$4 [circtest-run]=$5 [circtest-ini]=$6 [circcomp]=${7:-})
 failures=0
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -35,6 +35,7 @@ check circgen
 check circlog-record
 check circtest-run
 check circtest-ini
+[ -z "${exe[circcomp]}" ] || check circcomp
 check circana
 commands=$("${exe[circana]}" --help | sed -n 's/^.*circana \([a-z][a-z-]*\).*/\1/p' | sort -u)
 [ -n "$commands" ] || fail "circana --help names no command"

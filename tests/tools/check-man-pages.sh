@@ -3,9 +3,9 @@
 # option a program's --help lists is in its man page and in its markdown doc, every pin the
 # circlog HAL adapter creates is in circlog(9) and docs/circlog.md, and each page renders
 # without a groff warning.
-#   check-man-pages.sh SOURCE_DIR CIRCGEN CIRCANA CIRCLOG_RECORD
+#   check-man-pages.sh SOURCE_DIR CIRCGEN CIRCANA CIRCLOG_RECORD CIRCCOMP
 set -u  # no pipefail: grep -q may close a pipe early
-src=$1 circgen=$2 circana=$3 recorder=$4
+src=$1 circgen=$2 circana=$3 recorder=$4 circcomp=$5
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
@@ -39,6 +39,16 @@ commands=$("$circana" --help | sed -n 's/^.*circana \([a-z][a-z-]*\).*/\1/p' | s
 for c in $commands; do
   check_options "circana $c" "$("$circana" "$c" --help)" circana.1 "$src/README.md" "$src"/docs/*.md
 done
+
+# circcomp's --help is a usage text: every --option in it.
+n=0
+for opt in $("$circcomp" --help | grep -o -- '--[a-z][a-z-]*' | sort -u) --version; do
+  n=$((n + 1))
+  plain "$src/docs/man/circcomp.1" | grep -qe "$opt\b" || fail "circcomp: $opt is not in docs/man/circcomp.1"
+  [ "$opt" = --version ] || grep -qe "$opt\b" "$src/docs/compensation.md" ||
+    fail "circcomp: $opt is not in docs/compensation.md"
+done
+echo "ok: circcomp: $n options in docs/man/circcomp.1 and docs/compensation.md"
 
 pins=$(grep -o '"circlog\.0\.[a-z-]*' "$src/hal-component/src/circlog_hal.cpp" | tr -d '"' | sort -u)
 [ -n "$pins" ] || fail "no pin names found in hal-component/src/circlog_hal.cpp"
