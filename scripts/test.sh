@@ -8,3 +8,8 @@ scripts/setup.sh
 BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
 scripts/lint.sh "$BUILD_DIR"
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(nproc)" "$@"
+# The full run (CI) also runs the unit tests once under ASan/UBSan and each fuzz harness for
+# 30 s, in a second build dir (scripts/sanitize.sh). CIRCTEST_SANITIZE_PASS=0 skips it.
+if [ $# -eq 0 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ]; then
+  scripts/sanitize.sh
+fi
