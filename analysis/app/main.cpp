@@ -58,6 +58,16 @@ po::variables_map parse(const po::options_description& desc,
   try {
     po::store(po::command_line_parser(args).options(desc).positional(pos).run(), vm);
     po::notify(vm);
+  } catch (const po::required_option& e) {
+    // A missing positional argument is not an option the user could have given as --name.
+    const std::string name = e.get_option_name();
+    for (unsigned i = 0; i < pos.max_total_count() && i < 8; ++i) {
+      const std::string& positional = pos.name_for_position(i);
+      if (name == "--" + positional) {
+        throw UsageError("missing the " + positional + " argument: expected a file name");
+      }
+    }
+    throw UsageError(e.what());
   } catch (const po::error& e) {
     throw UsageError(e.what());
   }

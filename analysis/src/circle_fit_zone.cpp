@@ -219,16 +219,58 @@ bool exchange(const Candidates& cd, Vec2 c0, ZoneSolve& out) {
   return false;
 }
 
+// Zone about c over the candidates: widest and narrowest radius and where they are.
+ZoneSolve zone_about(const Candidates& cd, Vec2 c) {
+  ZoneSolve z;
+  z.c = c;
+  z.r_in = INFINITY;
+  std::size_t io = 0, ii = 0;
+  for (std::size_t k = 0; k < cd.size(); ++k) {
+    const double d = std::hypot(cd.x[k] - c.x, cd.y[k] - c.y);
+    if (d > z.r_out) z.r_out = d, io = k;
+    if (d < z.r_in) z.r_in = d, ii = k;
+  }
+  z.ref = {io, ii, io, ii};
+  return z;
+}
+
+// The fallback when the exchange cannot keep an alternating reference (a gross outlier
+// makes the optimum degenerate: one far point against a flat valley of centres). A compass
+// search on the zone width itself: it only ever accepts a narrower zone and halves its step
+// otherwise, so it ends in a bounded number of passes. Its answer goes through the same
+// certificate as the exchange's (fit_mzc); an uncertified one is reported as such.
+ZoneSolve compass_search(const Candidates& cd, Vec2 c0) {
+  ZoneSolve best = zone_about(cd, c0);
+  const double scale = best.r_out + std::hypot(c0.x, c0.y);
+  double step = std::max(best.r_out - best.r_in, 1e-9 * scale);
+  const double floor = 1e-15 * scale;
+  static constexpr double kDiag = 0.70710678118654752;
+  static constexpr Vec2 kDirs[8] = {{1, 0},           {0, 1},         {-1, 0},
+                                    {0, -1},          {kDiag, kDiag}, {-kDiag, kDiag},
+                                    {-kDiag, -kDiag}, {kDiag, -kDiag}};
+  for (int iter = 0; iter < 4000 && step > floor; ++iter) {
+    bool moved = false;
+    for (const Vec2& d : kDirs) {
+      const ZoneSolve z = zone_about(cd, {best.c.x + step * d.x, best.c.y + step * d.y});
+      if (z.r_out - z.r_in < best.r_out - best.r_in) best = z, moved = true;
+    }
+    if (!moved) step *= 0.5;
+  }
+  return best;
+}
+
 // Exact MZC of the candidates, starting about c0; retries from the latest centre with a new
-// start reference if the exchange loses its alternation.
+// start reference if the exchange loses its alternation, then from the compass search's
+// centre, and keeps whichever zone is narrower.
 ZoneSolve solve_candidates(const Candidates& cd, Vec2 c0) {
   ZoneSolve s;
   for (int attempt = 0; attempt < 4; ++attempt) {
     if (exchange(cd, c0, s)) return s;
     c0 = s.c;
   }
-  throw Error(ExitCode::internal, "fit_mzc: the exchange algorithm did not converge on " +
-                                      std::to_string(cd.size()) + " candidate points");
+  const ZoneSolve fallback = compass_search(cd, c0);
+  if (exchange(cd, fallback.c, s) && s.r_out - s.r_in <= fallback.r_out - fallback.r_in) return s;
+  return fallback;
 }
 
 struct LevelResult {
@@ -315,7 +357,8 @@ LevelResult solve_level(const double* a, const double* b, std::size_t n) {
   std::vector<std::size_t> keep;  // candidates accumulate over passes, so no exchange repeats
   Candidates cd;
   double buf[fit_detail::kBlock];
-  for (int pass = 0; pass < 64; ++pass) {
+  constexpr int kMaxPasses = 64;
+  for (int pass = 0; pass < kMaxPasses; ++pass) {
     const double cx = res.c.x, cy = res.c.y;
     const double tol = kSolveTol * res.r_out + resolution(cx, cy);
     const double band_hi = std::max(0.0, res.r_out - margin);
@@ -351,7 +394,9 @@ LevelResult solve_level(const double* a, const double* b, std::size_t n) {
     }
     const double hi_v = (res.r_out + tol) * (res.r_out + tol);
     const double lo_v = std::max(0.0, res.r_in - tol) * std::max(0.0, res.r_in - tol);
-    if (hi2 <= hi_v && lo2 >= lo_v) {
+    // The last pass keeps the zone it measured about its centre: a valid zone of every point
+    // that the certificate then judges, rather than no answer at all.
+    if ((hi2 <= hi_v && lo2 >= lo_v) || pass + 1 == kMaxPasses) {
       res.shift = std::hypot(res.c.x - start.x, res.c.y - start.y);
       res.hi2 = hi2;
       res.lo2 = lo2;
@@ -369,7 +414,128 @@ LevelResult solve_level(const double* a, const double* b, std::size_t n) {
     for (int j = 0; j < 4; ++j) res.ref[j] = cd.idx[s.ref[j]];
     margin = std::min(4.0 * std::hypot(s.c.x, s.c.y), cap) + kSolveTol * res.r_out;
   }
-  throw Error(ExitCode::internal, "fit_mzc: candidate passes did not converge");
+  return res;  // not reached: the last pass returns
+}
+
+// First-order optimality at c for any active sets: the outward unit vectors of the points on
+// the outer circle and those of the points on the inner circle share a point of their convex
+// hulls. By Caratheodory in the plane some 1+1, 1+2, 2+1, 2+2, 1+3 or 3+1 of them then do.
+// Used when the 4-point reference of the exchange does not certify (degenerate optima, the
+// compass fallback); fills the contacts and multipliers when it holds.
+bool general_certificate(const double* pa, const double* pb, std::size_t n, Vec2 c, double r_out,
+                         double r_in, double tol, MinimumZone& z) {
+  constexpr std::size_t kCap = 12;
+  constexpr double kEps = 1e-9;
+  std::vector<std::pair<double, std::size_t>> outer, inner;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = std::hypot(pa[i] - c.x, pb[i] - c.y);
+    if (d >= r_out - tol) outer.emplace_back(r_out - d, i);
+    if (d <= r_in + tol) inner.emplace_back(d - r_in, i);
+  }
+  for (auto* v : {&outer, &inner}) {
+    std::sort(v->begin(), v->end());
+    if (v->size() > kCap) v->resize(kCap);
+  }
+  auto unit = [&](std::size_t i) {
+    const double d = std::hypot(pa[i] - c.x, pb[i] - c.y);
+    return d > 0.0 ? Vec2{(pa[i] - c.x) / d, (pb[i] - c.y) / d} : Vec2{0.0, 0.0};
+  };
+  std::vector<Vec2> uo, ui;
+  for (const auto& o : outer) uo.push_back(unit(o.second));
+  for (const auto& o : inner) ui.push_back(unit(o.second));
+  auto accept = [&](std::vector<std::size_t> os, std::vector<double> ow,
+                    std::vector<std::size_t> is, std::vector<double> iw) {
+    z.outer_contacts.clear();
+    z.inner_contacts.clear();
+    z.multipliers.clear();
+    for (std::size_t k : os) z.outer_contacts.push_back(outer[k].second);
+    for (std::size_t k : is) z.inner_contacts.push_back(inner[k].second);
+    for (double w : ow) z.multipliers.push_back(0.5 * w);
+    for (double w : iw) z.multipliers.push_back(0.5 * w);
+    return true;
+  };
+  // p on segment ab within kEps: the parameter t of the nearest point.
+  auto on_segment = [](Vec2 p, Vec2 a, Vec2 b, double& t) {
+    const Vec2 e{b.x - a.x, b.y - a.y};
+    const double l2 = e.x * e.x + e.y * e.y;
+    t = l2 > 0.0 ? std::clamp(((p.x - a.x) * e.x + (p.y - a.y) * e.y) / l2, 0.0, 1.0) : 0.0;
+    return std::hypot(a.x + t * e.x - p.x, a.y + t * e.y - p.y) <= kEps;
+  };
+  // p in triangle abc: barycentric weights.
+  auto in_triangle = [](Vec2 p, Vec2 a, Vec2 b, Vec2 q, double w[3]) {
+    const double det = (b.y - q.y) * (a.x - q.x) + (q.x - b.x) * (a.y - q.y);
+    if (std::abs(det) < 1e-14) return false;
+    w[0] = ((b.y - q.y) * (p.x - q.x) + (q.x - b.x) * (p.y - q.y)) / det;
+    w[1] = ((q.y - a.y) * (p.x - q.x) + (a.x - q.x) * (p.y - q.y)) / det;
+    w[2] = 1.0 - w[0] - w[1];
+    return w[0] >= -kEps && w[1] >= -kEps && w[2] >= -kEps;
+  };
+  const std::size_t no = uo.size(), ni = ui.size();
+  for (std::size_t a = 0; a < no; ++a) {
+    for (std::size_t b = 0; b < ni; ++b) {
+      if (std::hypot(uo[a].x - ui[b].x, uo[a].y - ui[b].y) <= kEps) {
+        return accept({a}, {1.0}, {b}, {1.0});
+      }
+    }
+  }
+  double t = 0.0;
+  for (std::size_t a = 0; a < no; ++a) {
+    for (std::size_t b = 0; b < ni; ++b) {
+      for (std::size_t b2 = b + 1; b2 < ni; ++b2) {
+        if (on_segment(uo[a], ui[b], ui[b2], t)) return accept({a}, {1.0}, {b, b2}, {1 - t, t});
+      }
+    }
+  }
+  for (std::size_t b = 0; b < ni; ++b) {
+    for (std::size_t a = 0; a < no; ++a) {
+      for (std::size_t a2 = a + 1; a2 < no; ++a2) {
+        if (on_segment(ui[b], uo[a], uo[a2], t)) return accept({a, a2}, {1 - t, t}, {b}, {1.0});
+      }
+    }
+  }
+  for (std::size_t a = 0; a < no; ++a) {
+    for (std::size_t a2 = a + 1; a2 < no; ++a2) {
+      for (std::size_t b = 0; b < ni; ++b) {
+        for (std::size_t b2 = b + 1; b2 < ni; ++b2) {
+          const Vec2 e{uo[a2].x - uo[a].x, uo[a2].y - uo[a].y};
+          const Vec2 f{ui[b2].x - ui[b].x, ui[b2].y - ui[b].y};
+          const Vec2 g{ui[b].x - uo[a].x, ui[b].y - uo[a].y};
+          const double det = -e.x * f.y + e.y * f.x;
+          if (det == 0.0) continue;
+          const double s = (-g.x * f.y + g.y * f.x) / det;
+          const double u = (e.x * g.y - e.y * g.x) / det;
+          if (s >= -kEps && s <= 1 + kEps && u >= -kEps && u <= 1 + kEps) {
+            const double sc = std::clamp(s, 0.0, 1.0), uc = std::clamp(u, 0.0, 1.0);
+            return accept({a, a2}, {1 - sc, sc}, {b, b2}, {1 - uc, uc});
+          }
+        }
+      }
+    }
+  }
+  double w[3];
+  for (std::size_t a = 0; a < no; ++a) {
+    for (std::size_t b = 0; b < ni; ++b) {
+      for (std::size_t b2 = b + 1; b2 < ni; ++b2) {
+        for (std::size_t b3 = b2 + 1; b3 < ni; ++b3) {
+          if (in_triangle(uo[a], ui[b], ui[b2], ui[b3], w)) {
+            return accept({a}, {1.0}, {b, b2, b3}, {w[0], w[1], w[2]});
+          }
+        }
+      }
+    }
+  }
+  for (std::size_t b = 0; b < ni; ++b) {
+    for (std::size_t a = 0; a < no; ++a) {
+      for (std::size_t a2 = a + 1; a2 < no; ++a2) {
+        for (std::size_t a3 = a2 + 1; a3 < no; ++a3) {
+          if (in_triangle(ui[b], uo[a], uo[a2], uo[a3], w)) {
+            return accept({a, a2, a3}, {w[0], w[1], w[2]}, {b}, {1.0});
+          }
+        }
+      }
+    }
+  }
+  return false;
 }
 
 }  // namespace
@@ -440,6 +606,10 @@ MinimumZone fit_mzc(std::span<const double> a, std::span<const double> b) {
                        std::abs(dist(i1) - z.inner_radius_mm) <= tol &&
                        std::abs(dist(i2) - z.inner_radius_mm) <= tol;
   z.certified = on_zone && (crossing || z.zone_width_mm <= tol);
+  if (!z.certified) {
+    z.certified =
+        general_certificate(pa, pb, n, lr.c, z.outer_radius_mm, z.inner_radius_mm, tol, z);
+  }
   return z;
 }
 

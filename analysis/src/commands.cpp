@@ -9,6 +9,7 @@
 #include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/report.hpp"
+#include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 
@@ -57,6 +58,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
     ev.notes.push_back(
         "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
   }
+  require_finite_results(ev);
   std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
   if (!request.json) {
     // The diagnosis is a summary here; a trace it cannot handle still gets its H, G and F.
@@ -132,7 +134,8 @@ int run_import_polar(const ImportPolarRequest& request, std::ostream& out) {
       parse_polar_text(read_file(request.input_path), request.input_path);
   const Trace trace = polar_to_trace(points, request.plane, request.radius_mm, request.input_path);
   write_trace(request.output_path, trace);
-  const auto runs = trace.values[4].empty() ? 0 : static_cast<int>(trace.values[4].back());
+  // polar_to_trace numbers the runs 1, 2, ... itself, so the last id is a small whole number.
+  const auto runs = trace.values[4].empty() ? 0.0 : trace.values[4].back();
   out << fmt::format("{}: {} points, {} run(s) -> {}\n", request.input_path, points.size(), runs,
                      request.output_path);
   out.flush();

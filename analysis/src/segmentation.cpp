@@ -224,7 +224,17 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     throw DataError(trace.source, n == 0 ? trace.header_line : line(n - 1),
                     fmt::format("too few points: {} rows, expected at least 3 per run", n));
   }
-  auto seg_id = [&](std::size_t row) -> long { return segment ? std::lround((*segment)[row]) : 0; };
+  // A run id is a whole number an int holds (circgen writes 1, 2, ...); anything else (a
+  // glitch of 1e300, 2^63) is refused at its line instead of becoming an arbitrary integer.
+  auto seg_id = [&](std::size_t row) -> long {
+    if (!segment) return 0;
+    const double v = (*segment)[row];
+    if (!(std::abs(v) <= 2147483647.0)) {
+      throw DataError(trace.source, line(row),
+                      fmt::format("segment: expected a run id 0..2147483647, got {}", v));
+    }
+    return std::lround(v);
+  };
 
   std::vector<Span> spans;
   if (marker) {

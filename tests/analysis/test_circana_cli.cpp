@@ -7,9 +7,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace fs = std::filesystem;
 
@@ -139,12 +141,84 @@ TEST_F(CircanaCli, SvgPathThatIsNotARegularFileIsRefusedAndKept) {
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
 }
 
+// Issue 12: a glitched example trace, row by row. `edit` gets the fields of data row `row`.
+std::string edited_example(const fs::path& dir, const std::string& name, std::size_t row,
+                           const std::function<void(std::vector<std::string>&)>& edit,
+                           const std::string& extra_metadata = "") {
+  std::ifstream in(std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv");
+  std::ostringstream out;
+  out << extra_metadata;
+  std::string line;
+  std::size_t data = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    if (line.starts_with("#") || !header) {
+      header = header || !line.starts_with("#");
+      const std::string key = line.substr(0, line.find(':') + 1);
+      if (line.starts_with("#") && extra_metadata.find(key) != std::string::npos) continue;
+      out << line << '\n';
+      continue;
+    }
+    if (++data == row) {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+      edit(f);
+      line.clear();
+      for (std::size_t i = 0; i < f.size(); ++i) line += (i ? "," : "") + f[i];
+    }
+    out << line << '\n';
+  }
+  const fs::path p = dir / name;
+  std::ofstream(p) << out.str();
+  return p.string();
+}
+
+TEST_F(CircanaCli, OneOutlierRowStillGivesAnAnswer) {
+  // y = 0 in one row of run 1 (columns t,x,y,...): the MZC fit must end with a zone that
+  // holds it (about 175 mm wide, its distance from the centre less the radius).
+  const std::string t =
+      edited_example(dir_, "outlier.csv", 3000, [](std::vector<std::string>& f) { f[2] = "0"; });
+  const Result r = run("analyze " + t + " --json");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j["runs"][0]["G"].get<double>(), 150.0);
+}
+
+TEST_F(CircanaCli, SegmentIdsNoIntegerHoldsAreRefusedAtTheirLine) {
+  for (const char* v : {"1e300", "9223372036854775808", "-3e9"}) {
+    const std::string t =
+        edited_example(dir_, "seg.csv", 3000, [&](std::vector<std::string>& f) { f[8] = v; });
+    const Result r = run("analyze " + t);
+    EXPECT_EQ(r.code, 5) << v << r.err;
+    EXPECT_NE(r.err.find(t + ":3006: segment: expected a run id 0..2147483647, got"),
+              std::string::npos)
+        << r.err;
+  }
+}
+
+TEST_F(CircanaCli, NonFiniteResultsAreRefusedNotPrinted) {
+  const auto none = [](std::vector<std::string>&) {};
+  for (const std::string meta :
+       {"# radius_mm: 1e308\n", "# temperature_machine_C: 1e308\n",
+        "# expansion_instrument_per_K: 1e308\n# temperature_instrument_C: 25\n"}) {
+    // Replaces the example's own line of that key.
+    const std::string t = edited_example(dir_, "meta.csv", 0, none, meta);
+    const Result r = run("analyze " + t);
+    EXPECT_EQ(r.code, 5) << meta << r.out << r.err;
+    EXPECT_EQ(r.out, "");
+    EXPECT_NE(r.err.find("is not a usable number"), std::string::npos) << r.err;
+  }
+}
+
 TEST_F(CircanaCli, BadOptions) {
   const std::string t = write("t.csv", "t,x,y\n0,1,2\n");
   expect_error("analyze " + t + " --radius abc", 2, "--radius: expected a number, got 'abc'");
   expect_error("analyze " + t + " --centre 1", 2,
                "--centre: expected 2 comma-separated numbers, got '1'");
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
+  expect_error("analyze", 2, "missing the trace argument: expected a file name");
+  expect_error("fit --json", 2, "missing the points argument: expected a file name");
   expect_error("frobnicate", 2,
                "unknown command 'frobnicate': expected analyze, diagnose, fit or import-polar");
 }

@@ -487,3 +487,38 @@ TEST(circle_fit_MccMic, BoundedByTheMinimumZoneCircles) {
 
 }  // namespace
 }  // namespace circtest
+
+namespace circtest {
+namespace {
+
+// A D150 run about (250, 250) with a 2-lobe and a 3-lobe form error (5 um each) and one
+// glitched sample: y recorded as 0 (issue 12: "did not converge on 462 candidate points").
+// The zone must contain the outlier, so with centre c the width is at least
+// |p - c| - min_i |q_i - c| >= (D - |c - c0|) - (75 + 0.01 - |c - c0|) = D - 75.01, and at
+// c0 it is at most D - 74.99: the answer is D - 75 within the form error.
+TEST(circle_fit_Mzc, OneGrossOutlierStillGivesTheZoneThatHoldsIt) {
+  for (std::size_t n : {std::size_t{462}, std::size_t{7068}}) {
+    for (std::size_t at : {std::size_t{5}, n / 3, n - 1}) {
+      std::vector<double> a(n), b(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const double t = 2.0 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(n);
+        const double r = 75.0 + 0.005 * std::cos(2 * t) + 0.005 * std::sin(3 * t + 0.3);
+        a[i] = 250.0 + r * std::cos(t);
+        b[i] = 250.0 + r * std::sin(t);
+      }
+      b[at] = 0.0;
+      const double d = std::hypot(a[at] - 250.0, b[at] - 250.0);
+      MinimumZone z;
+      ASSERT_NO_THROW(z = fit_mzc(a, b)) << n << " " << at;
+      EXPECT_NEAR(z.zone_width_mm, d - 75.0, 0.0101) << n << " " << at;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double di = std::hypot(a[i] - z.centre_a_mm, b[i] - z.centre_b_mm);
+        ASSERT_LE(di, z.outer_radius_mm * (1 + 1e-12));
+        ASSERT_GE(di, z.inner_radius_mm * (1 - 1e-12));
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace circtest
