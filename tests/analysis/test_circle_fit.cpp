@@ -493,9 +493,11 @@ namespace {
 
 // A D150 run about (250, 250) with a 2-lobe and a 3-lobe form error (5 um each) and one
 // glitched sample: y recorded as 0 (issue 12: "did not converge on 462 candidate points").
-// The zone must contain the outlier, so with centre c the width is at least
-// |p - c| - min_i |q_i - c| >= (D - |c - c0|) - (75 + 0.01 - |c - c0|) = D - 75.01, and at
-// c0 it is at most D - 74.99: the answer is D - 75 within the form error.
+// With the outlier p at distance D > 225 from c0 a centre inside the circle needs a width of
+// at least D - 75 - 0.01 > 150; a centre outside it, at distance s from c0, at least
+// (s + 75) - (s - 75) - 0.02 = 150 - 0.02, and that is reached on the line from c0 towards p
+// where |p - c| = s + 75 (both far sides on the outer circle): 150 - 0.02..150, less a
+// little where 462 samples miss the nearest point of that line.
 TEST(circle_fit_Mzc, OneGrossOutlierStillGivesTheZoneThatHoldsIt) {
   for (std::size_t n : {std::size_t{462}, std::size_t{7068}}) {
     for (std::size_t at : {std::size_t{5}, n / 3, n - 1}) {
@@ -510,7 +512,8 @@ TEST(circle_fit_Mzc, OneGrossOutlierStillGivesTheZoneThatHoldsIt) {
       const double d = std::hypot(a[at] - 250.0, b[at] - 250.0);
       MinimumZone z;
       ASSERT_NO_THROW(z = fit_mzc(a, b)) << n << " " << at;
-      EXPECT_NEAR(z.zone_width_mm, d - 75.0, 0.0101) << n << " " << at;
+      ASSERT_GT(d, 225.0);
+      EXPECT_NEAR(z.zone_width_mm, 149.99, 0.03) << n << " " << at;  // sampling: 462 points
       for (std::size_t i = 0; i < n; ++i) {
         const double di = std::hypot(a[i] - z.centre_a_mm, b[i] - z.centre_b_mm);
         ASSERT_LE(di, z.outer_radius_mm * (1 + 1e-12));
