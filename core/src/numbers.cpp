@@ -3,10 +3,12 @@
 #include <fast_float/fast_float.h>
 #include <fmt/format.h>
 
+#include <charconv>
 #include <cmath>
 #include <string>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
 
 namespace circtest {
 
@@ -60,6 +62,17 @@ std::vector<double> parse_option_list(std::string_view option, std::string_view 
         fmt::format("{}: expected {} comma-separated numbers, got '{}'", option, count, text));
   }
   return out;
+}
+
+int parse_option_index(std::string_view option, std::string_view text) {
+  const std::string_view value = trim(text);
+  int index = 0;
+  const char* last = value.data() + value.size();
+  const auto result = std::from_chars(value.data(), last, index);
+  if (value.empty() || result.ec != std::errc{} || result.ptr != last || index < 0) {
+    throw UsageError(fmt::format("{}: expected a non-negative integer, got '{}'", option, text));
+  }
+  return index;
 }
 
 }  // namespace circtest

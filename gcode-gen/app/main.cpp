@@ -13,9 +13,9 @@
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/machine_limits.hpp"
-#include "circtest/gcode/option_values.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
 #include "circtest/gcode/test_program.hpp"
 
@@ -104,7 +104,9 @@ int run(int argc, char** argv) {
     return 0;
   }
   auto text = [&vm](const char* name) { return vm[name].as<std::string>(); };
-  auto number = [&](const char* name) { return parse_option_number(name, text(name)); };
+  auto number = [&](const char* name) {
+    return parse_option_number(std::string("--") + name, text(name));
+  };
 
   CircleTestSpec spec;
   spec.units = vm.count("inch") ? LengthUnit::inch : LengthUnit::mm;
@@ -125,7 +127,7 @@ int run(int argc, char** argv) {
   if (feed_sources > 1) throw UsageError("give one of --f, --feeds or --ref-d/--ref-f");
   std::vector<double> feeds;
   if (vm.count("f")) feeds.push_back(number("f"));
-  if (vm.count("feeds")) feeds = parse_option_numbers("feeds", text("feeds"));
+  if (vm.count("feeds")) feeds = parse_option_list("--feeds", text("feeds"));
   if (vm.count("ref-d") || vm.count("ref-f")) {
     if (!vm.count("ref-d") || !vm.count("ref-f")) {
       throw UsageError("Annex C needs both --ref-d D2 and --ref-f V2");
@@ -155,7 +157,7 @@ int run(int argc, char** argv) {
   if (vm.count("centre") && vm.count("center")) throw UsageError("give --centre only once");
   const char* centre_name = vm.count("center") ? "center" : "centre";
   if (vm.count(centre_name)) {
-    const auto c = parse_option_numbers(centre_name, text(centre_name), 3);
+    const auto c = parse_option_list(std::string("--") + centre_name, text(centre_name), 3);
     for (int i = 0; i < 3; ++i) spec.centre_mm[i] = c[i] * mm;
   }
   if (vm.count("safe-z")) spec.safe_mm = number("safe-z") * mm;
@@ -189,18 +191,18 @@ int run(int argc, char** argv) {
     spec.feed_in_mm = number("feed-in") * mm;
   }
   spec.dwell_s = number("dwell");
-  spec.marker_output = parse_option_index("marker", text("marker"));
-  spec.segment_output = parse_option_index("segment-out", text("segment-out"));
+  spec.marker_output = parse_option_index("--marker", text("marker"));
+  spec.segment_output = parse_option_index("--segment-out", text("segment-out"));
   if (vm.count("work-offset")) {
     std::string code = text("work-offset");
     for (char& c : code) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     spec.work_offset_code = code;
   }
-  if (vm.count("tool")) spec.tool_length_offset = parse_option_index("tool", text("tool"));
+  if (vm.count("tool")) spec.tool_length_offset = parse_option_index("--tool", text("tool"));
   spec.date = header_date();
   std::array<double, 3> offset{0.0, 0.0, 0.0};
   if (vm.count("offset")) {
-    const auto o = parse_option_numbers("offset", text("offset"), 3);
+    const auto o = parse_option_list("--offset", text("offset"), 3);
     for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
     for (double v : offset) check_plausible(plausible::offset, v);
     spec.work_offset_mm = offset;

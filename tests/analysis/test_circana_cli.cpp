@@ -2,9 +2,7 @@
 // stdout on error, and the JSON document.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -13,60 +11,60 @@
 #include <string>
 #include <vector>
 
+#include "circtest/core/strings.hpp"
+#include "reference.hpp"
+#include "scratch.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code = -1;
-  std::string out, err;
-};
+using circtest::testing::CommandResult;
+using circtest::testing::run_command;
+
+// The words of a command line (the tests' paths have no blanks).
+std::vector<std::string> words(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
 
 class CircanaCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           (std::string("circana-cli-") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
   std::string write(const std::string& name, const std::string& text) {
     const fs::path p = dir_ / name;
-    std::ofstream(p) << text;
+    circtest::testing::spit(p, text);
     return p.string();
   }
 
-  static std::string slurp(const fs::path& p) {
-    std::ifstream in(p);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
+  CommandResult run(const std::string& args) { return run(words(args)); }
+  CommandResult run(const std::vector<std::string>& args) {
+    std::vector<std::string> argv{CIRCANA_PATH};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run_command(argv);
   }
 
-  Result run(const std::string& args) {
-    const fs::path out = dir_ / "stdout", err = dir_ / "stderr";
-    const std::string cmd =
-        std::string(CIRCANA_PATH) + " " + args + " >" + out.string() + " 2>" + err.string();
-    const int status = std::system(cmd.c_str());
-    Result r;
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+  static int simtrace(const std::string& args) {
+    std::vector<std::string> argv{SIMTRACE_PATH};
+    for (auto& w : words(args)) argv.push_back(std::move(w));
+    return run_command(argv).exit_code;
   }
 
   // A bad input: the given exit code, exactly one line on stderr, nothing on stdout.
   void expect_error(const std::string& args, int code, const std::string& message) {
-    const Result r = run(args);
-    EXPECT_EQ(r.code, code) << args << "\n" << r.err;
-    EXPECT_EQ(r.out, "") << args;
-    EXPECT_EQ(r.err, "circana: error: " + message + "\n") << args;
+    expect_error(words(args), code, message);
+  }
+  void expect_error(const std::vector<std::string>& args, int code, const std::string& message) {
+    const CommandResult r = run(args);
+    const std::string shown = circtest::join(args, " ");
+    EXPECT_EQ(r.exit_code, code) << shown << "\n" << r.err;
+    EXPECT_EQ(r.out, "") << shown;
+    EXPECT_EQ(r.err, "circana: error: " + message + "\n") << shown;
   }
 
-  fs::path dir_;
+  circtest::testing::ScratchDir scratch_{"circana-cli"};
+  fs::path dir_ = scratch_.dir();
 };
 
 }  // namespace
@@ -104,17 +102,17 @@ TEST_F(CircanaCli, BadTraces) {
                quote + ":2: field 2: unterminated quoted field: expected a closing '\"'");
 
   const std::string missing = (dir_ / "missing.csv").string();
-  const Result r = run("analyze " + missing);
-  EXPECT_EQ(r.code, 3);
+  const CommandResult r = run("analyze " + missing);
+  EXPECT_EQ(r.exit_code, 3);
   EXPECT_EQ(r.out, "");
   EXPECT_EQ(r.err, "circana: error: " + missing + ": cannot open: No such file or directory\n");
 }
 
 TEST_F(CircanaCli, ShortArcIsRefusedWithItsLines) {
   const std::string trace = (dir_ / "arc60.csv").string();
-  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace + " --arc 60").c_str()), 0);
-  const Result r = run("analyze " + trace);
-  EXPECT_EQ(r.code, 5);
+  ASSERT_EQ(simtrace("-o " + trace + " --arc 60"), 0);
+  const CommandResult r = run("analyze " + trace);
+  EXPECT_EQ(r.exit_code, 5);
   EXPECT_EQ(r.out, "");
   EXPECT_NE(r.err.find(trace + ":"), std::string::npos) << r.err;
   EXPECT_NE(
@@ -136,8 +134,8 @@ TEST_F(CircanaCli, SvgPathThatIsNotARegularFileIsRefusedAndKept) {
   expect_error("analyze " + trace + " --svg " + dir_.string(), 3,
                dir_.string() + ": is a directory, not a regular file; refusing to replace it");
   fs::create_symlink("/dev/null", dir_ / "null.svg");
-  const Result r = run("analyze " + trace + " --svg " + (dir_ / "null.svg").string());
-  EXPECT_EQ(r.code, 3) << r.err;
+  const CommandResult r = run("analyze " + trace + " --svg " + (dir_ / "null.svg").string());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
 }
 
@@ -236,12 +234,9 @@ TEST_F(CircanaCli, BadOptions) {
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
   const std::string trace = (dir_ / "sq.csv").string();
-  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
-                         " --squareness 100e-6 --backlash-x 0.02 --period 0.002")
-                            .c_str()),
-            0);
-  const Result r = run("analyze " + trace + " --json");
-  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(simtrace("-o " + trace + " --squareness 100e-6 --backlash-x 0.02 --period 0.002"), 0);
+  const CommandResult r = run("analyze " + trace + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["units"], "mm");
   ASSERT_EQ(j["runs"].size(), 2u);
@@ -291,14 +286,13 @@ TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
 
 TEST_F(CircanaCli, RadialTraceGivesTheResultsOfItsXyForm) {
   const std::string trace = (dir_ / "bar.csv").string();
-  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
-                         " --squareness 50e-6 --backlash-x 0.01 --radial --bar-length 75")
-                            .c_str()),
-            0);
-  const Result xy = run("analyze " + trace + " --json");
-  const Result bar = run("analyze " + trace + " --json --radial");
-  ASSERT_EQ(xy.code, 0) << xy.err;
-  ASSERT_EQ(bar.code, 0) << bar.err;
+  ASSERT_EQ(
+      simtrace("-o " + trace + " --squareness 50e-6 --backlash-x 0.01 --radial --bar-length 75"),
+      0);
+  const CommandResult xy = run("analyze " + trace + " --json");
+  const CommandResult bar = run("analyze " + trace + " --json --radial");
+  ASSERT_EQ(xy.exit_code, 0) << xy.err;
+  ASSERT_EQ(bar.exit_code, 0) << bar.err;
   const auto jx = nlohmann::json::parse(xy.out);
   const auto jb = nlohmann::json::parse(bar.out);
   EXPECT_NEAR(jb["H"].get<double>(), jx["H"].get<double>(), 1e-4);
@@ -318,11 +312,11 @@ TEST_F(CircanaCli, ImportPolarWritesARadialTrace) {
   for (int i = 0; i <= 360; ++i) text += std::to_string(i) + "," + (i == 90 ? "4.5" : "0.5") + "\n";
   const std::string in = write("export.txt", text);
   const std::string out = (dir_ / "imported.csv").string();
-  const Result r = run("import-polar " + in + " --radius 50 -o " + out);
-  ASSERT_EQ(r.code, 0) << r.err;
+  const CommandResult r = run("import-polar " + in + " --radius 50 -o " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("361 points, 1 run(s)"), std::string::npos) << r.out;
-  const Result a = run("analyze " + out + " --json --f-centre nominal --centre 0,0");
-  ASSERT_EQ(a.code, 0) << a.err;
+  const CommandResult a = run("analyze " + out + " --json --f-centre nominal --centre 0,0");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
   const auto j = nlohmann::json::parse(a.out);
   ASSERT_EQ(j["runs"].size(), 1u);
   EXPECT_NEAR(j["runs"][0]["F_max"].get<double>(), 0.0045, 1e-6);
@@ -336,9 +330,10 @@ TEST_F(CircanaCli, ImportPolarWritesARadialTrace) {
 }
 
 TEST_F(CircanaCli, FitOfTheCertifiedCaseC09) {
-  const std::string c09 = std::string(CIRCTEST_REFERENCE_DIR) + "/tracim-circle-2d/C09.csv";
-  const Result r = run("fit " + c09 + " --json");
-  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string c09 = circtest::testing::reference_path("tracim-circle-2d/C09.csv");
+  CIRCTEST_SKIP_WITHOUT_REFERENCE(c09);
+  const CommandResult r = run("fit " + c09 + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_NEAR(j["mzc"]["zone_width"].get<double>(), 0.05, 1e-9);
   EXPECT_NEAR(j["mzc"]["centre"][0].get<double>(), 400.0, 1e-6);
@@ -354,8 +349,8 @@ TEST_F(CircanaCli, FitOfAHalfArcHasNoInscribedCircleButTheOtherFits) {
             std::to_string(-5.0 + 20.0 * std::sin(t)) + "\n";
   }
   const std::string arc = write("arc.csv", text);
-  const Result r = run("fit " + arc + " --json");
-  ASSERT_EQ(r.code, 0) << r.err;
+  const CommandResult r = run("fit " + arc + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_TRUE(j["mic"].is_null());
   EXPECT_NEAR(j["mzc"]["radius"].get<double>(), 20.0, 1e-5);
@@ -365,14 +360,19 @@ TEST_F(CircanaCli, FitOfAHalfArcHasNoInscribedCircleButTheOtherFits) {
 // The clause 4.4 / 6 conditions as options: into the report, the JSON and the plot.
 TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
   const std::string trace = (dir_ / "c.csv").string();
-  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace + " --period 0.004").c_str()),
-            0);
-  const std::string opts =
-      " --machine 'VMC 3' --serial SN-1 --instrument 'grid encoder' --operator 'A. Sato'"
-      " --location 'hall 2' --t-machine 21 --t-instrument 20.5 --notes 'after crash'";
-  Result r =
-      run("analyze " + trace + opts + " --columns x_cmd,y_cmd --svg " + (dir_ / "p.svg").string());
-  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(simtrace("-o " + trace + " --period 0.004"), 0);
+  const std::vector<std::string> opts = {
+      "--machine",      "VMC 3",   "--serial",   "SN-1",       "--instrument", "grid encoder",
+      "--operator",     "A. Sato", "--location", "hall 2",     "--t-machine",  "21",
+      "--t-instrument", "20.5",    "--notes",    "after crash"};
+  auto with = [&](std::vector<std::string> head, const std::vector<std::string>& tail) {
+    head.insert(head.end(), opts.begin(), opts.end());
+    head.insert(head.end(), tail.begin(), tail.end());
+    return head;
+  };
+  CommandResult r = run(
+      with({"analyze", trace}, {"--columns", "x_cmd,y_cmd", "--svg", (dir_ / "p.svg").string()}));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const char* line :
        {"  Machine:                    VMC 3\n", "  Machine serial:             SN-1\n",
         "  Instrument:                 grid encoder\n", "  Operator:                   A. Sato\n",
@@ -382,9 +382,10 @@ TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
         "  Channels evaluated:         x_cmd, y_cmd\n"}) {
     EXPECT_NE(r.out.find(line), std::string::npos) << line << r.out;
   }
-  EXPECT_NE(slurp(dir_ / "p.svg").find("channels evaluated x_cmd, y_cmd"), std::string::npos);
-  r = run("analyze " + trace + opts + " --json");
-  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(circtest::testing::slurp(dir_ / "p.svg").find("channels evaluated x_cmd, y_cmd"),
+            std::string::npos);
+  r = run(with({"analyze", trace}, {"--json"}));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["conditions"]["machine"], "VMC 3");
   EXPECT_EQ(j["conditions"]["machine_serial"], "SN-1");
@@ -394,8 +395,7 @@ TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
 
   expect_error("analyze " + trace + " --t-machine warm", 2,
                "--t-machine: expected a number, got 'warm'");
-  expect_error("analyze " + trace + " --machine ' '", 2,
-               "--machine: expected a value, got nothing");
+  expect_error({"analyze", trace, "--machine", " "}, 2, "--machine: expected a value, got nothing");
   expect_error("analyze " + trace + " --scale-um-per-div 0", 2,
                "--scale-um-per-div: expected a positive number");
 }
@@ -418,20 +418,20 @@ TEST_F(CircanaCli, HostileInputs) {
 
 TEST_F(CircanaCli, TraceWithoutTimeIsEvaluatedWithANote) {
   const std::string full = (dir_ / "full.csv").string(), xy = (dir_ / "xy.csv").string();
-  ASSERT_EQ(
-      std::system((std::string(SIMTRACE_PATH) + " -o " + full + " --backlash-x 0.02 --period 0.002")
-                      .c_str()),
-      0);
+  ASSERT_EQ(simtrace("-o " + full + " --backlash-x 0.02 --period 0.002"), 0);
   // The same trace with its first column (t) dropped.
-  ASSERT_EQ(std::system(("awk -F, -v OFS=, '/^#/ {print; next} {$1 = \"\"; sub(/^,/, \"\"); "
-                         "print}' " +
-                         full + " > " + xy)
-                            .c_str()),
-            0);
-  ASSERT_EQ(slurp(xy).find("\nt,"), std::string::npos);
-  const Result with_t = run("analyze " + full + " --json");
-  const Result without_t = run("analyze " + xy + " --json");
-  ASSERT_EQ(without_t.code, 0) << without_t.err;
+  {
+    std::istringstream in(circtest::testing::slurp(full));
+    std::string out;
+    for (std::string line; std::getline(in, line);) {
+      out += (line.starts_with("#") ? line : line.substr(line.find(',') + 1)) + "\n";
+    }
+    circtest::testing::spit(xy, out);
+  }
+  ASSERT_EQ(circtest::testing::slurp(xy).find("\nt,"), std::string::npos);
+  const CommandResult with_t = run("analyze " + full + " --json");
+  const CommandResult without_t = run("analyze " + xy + " --json");
+  ASSERT_EQ(without_t.exit_code, 0) << without_t.err;
   const auto a = nlohmann::json::parse(with_t.out), b = nlohmann::json::parse(without_t.out);
   EXPECT_DOUBLE_EQ(a["H"].get<double>(), b["H"].get<double>());
   bool noted = false;

@@ -16,6 +16,7 @@
 
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/core/error.hpp"
+#include "reference.hpp"
 
 namespace circtest {
 namespace {
@@ -31,7 +32,7 @@ struct Points {
   std::size_t size() const { return a.size(); }
 };
 
-const std::string kTracimDir = std::string(CIRCTEST_REFERENCE_DIR) + "/tracim-circle-2d/";
+const std::string kTracimDir = circtest::testing::reference_path("tracim-circle-2d/");
 
 Points read_xy(const std::string& path) {
   std::ifstream in(path);
@@ -154,7 +155,8 @@ void expect_local_minimum(const Points& p, const MinimumZone& z, double step) {
   }
 }
 
-TEST(circle_fit_Tracim, EveryCaseMatchesCertifiedAnswer) {
+TEST(CircleFitTracim, EveryCaseMatchesCertifiedAnswer) {
+  CIRCTEST_SKIP_WITHOUT_REFERENCE(kTracimDir + "answers.csv");
   const auto answers = read_answers();
   ASSERT_EQ(answers.size(), 8u);
   double worst_w = 0, worst_c = 0;
@@ -187,7 +189,7 @@ Points lobed(double cx, double cy, double r, double amp, int lobes, std::size_t 
   return p;
 }
 
-TEST(circle_fit_Lsc, LobedFormFarFromOriginHasTrueCentreAndRadius) {
+TEST(CircleFitLsc, LobedFormFarFromOriginHasTrueCentreAndRadius) {
   // On uniformly spaced angles a 2- or 3-lobe form is orthogonal to the centre and radius
   // terms, so the true circle is the exact LSC, at a deviation of 1e-7 of the radius.
   for (int lobes : {2, 3}) {
@@ -199,7 +201,7 @@ TEST(circle_fit_Lsc, LobedFormFarFromOriginHasTrueCentreAndRadius) {
   }
 }
 
-TEST(circle_fit_Lsc, PartialArcAndNoisyData) {
+TEST(CircleFitLsc, PartialArcAndNoisyData) {
   // Exact circle on a 90 deg arc: LSC is the circle itself.
   const Points arc = lobed(-300.0, 120.0, 75.0, 0.0, 0, 200, 0.3, kPi / 2, false);
   const Circle c = fit_lsc(arc.a, arc.b);
@@ -223,7 +225,7 @@ TEST(circle_fit_Lsc, PartialArcAndNoisyData) {
   EXPECT_NEAR(sy, 0.0, 1e-11);
 }
 
-TEST(circle_fit_Lsc, AlgebraicFitIsExactOnACircle) {
+TEST(CircleFitLsc, AlgebraicFitIsExactOnACircle) {
   const Points p = lobed(1e4, -1e4, 50.0, 0.0, 0, 100);
   const Circle c = fit_lsc_algebraic(p.a, p.b);
   EXPECT_NEAR(c.centre_a_mm, 1e4, 1e-9);
@@ -231,7 +233,7 @@ TEST(circle_fit_Lsc, AlgebraicFitIsExactOnACircle) {
   EXPECT_NEAR(c.radius_mm, 50.0, 1e-9);
 }
 
-TEST(circle_fit_Range, RadialRangeOfALobedForm) {
+TEST(CircleFitRange, RadialRangeOfALobedForm) {
   const Points p = lobed(3.0, 4.0, 10.0, 0.5, 2, 8);
   const RadialRange r = radial_range(p.a, p.b, 3.0, 4.0);
   EXPECT_NEAR(r.min_mm, 9.5, 1e-12);
@@ -239,7 +241,7 @@ TEST(circle_fit_Range, RadialRangeOfALobedForm) {
   EXPECT_NEAR(r.width_mm(), 1.0, 1e-12);
 }
 
-TEST(circle_fit_Mzc, TwoLobeFormHasZoneTwiceTheAmplitude) {
+TEST(CircleFitMzc, TwoLobeFormHasZoneTwiceTheAmplitude) {
   for (auto [cx, cy] : {std::pair{0.0, 0.0}, std::pair{1e4, -1e4}}) {
     const double e = 5e-6;  // 1e-7 of the radius
     const Points p = lobed(cx, cy, 50.0, e, 2, 360);
@@ -252,7 +254,7 @@ TEST(circle_fit_Mzc, TwoLobeFormHasZoneTwiceTheAmplitude) {
   }
 }
 
-TEST(circle_fit_Mzc, PartialArcs) {
+TEST(CircleFitMzc, PartialArcs) {
   // dr = e cos(3 pi s / span) on an arc has alternating extremes at its ends and thirds, so
   // the true circle satisfies the minimum-zone condition with zone 2e.
   for (double span_deg : {90.0, 180.0, 270.0}) {
@@ -293,7 +295,7 @@ Points harmonic_trace(std::size_t n, std::uint64_t seed, double cx = 12.0, doubl
   return p;
 }
 
-TEST(circle_fit_Mzc, HarmonicFormWithNoiseIsCertifiedAndLocallyOptimal) {
+TEST(CircleFitMzc, HarmonicFormWithNoiseIsCertifiedAndLocallyOptimal) {
   for (std::size_t n : {50u, 1000u, 20000u, 300000u}) {
     SCOPED_TRACE(n);
     const Points p = harmonic_trace(n, 11 + n);
@@ -306,7 +308,7 @@ TEST(circle_fit_Mzc, HarmonicFormWithNoiseIsCertifiedAndLocallyOptimal) {
   }
 }
 
-TEST(circle_fit_Mzc, LargeInputMatchesDirectSolveOnScrambledCopy) {
+TEST(CircleFitMzc, LargeInputMatchesDirectSolveOnScrambledCopy) {
   // The recursive path (subsample, candidate passes) must give the same zone as when the
   // data are reordered so that the subsample sees different points.
   const Points p = harmonic_trace(200000, 3, 1e4, -1e4);
@@ -325,7 +327,7 @@ TEST(circle_fit_Mzc, LargeInputMatchesDirectSolveOnScrambledCopy) {
   EXPECT_NEAR(zp.centre_b_mm, zq.centre_b_mm, 1e-8);
 }
 
-TEST(circle_fit_Mzc, DegenerateInputs) {
+TEST(CircleFitMzc, DegenerateInputs) {
   // A perfect circle: zone 0.
   {
     const Points p = lobed(1e4, -1e4, 50.0, 0.0, 0, 5000);
@@ -375,7 +377,7 @@ TEST(circle_fit_Mzc, DegenerateInputs) {
   }
 }
 
-TEST(circle_fit_Errors, TooFewOrCollinearPoints) {
+TEST(CircleFitErrors, TooFewOrCollinearPoints) {
   const std::vector<double> two = {0.0, 1.0};
   EXPECT_THROW(fit_lsc(two, two), DataError);
   EXPECT_THROW(fit_mzc(two, two), DataError);
@@ -404,7 +406,7 @@ Points ellipse(double cx, double cy, double a, double b, std::size_t n) {
   return p;
 }
 
-TEST(circle_fit_MccMic, Ellipse) {
+TEST(CircleFitMccMic, Ellipse) {
   const double a = 50.0, b = 40.0, cx = -1e3, cy = 2e3;
   const std::size_t n = 36000;  // includes the four vertices
   const Points p = ellipse(cx, cy, a, b, n);
@@ -431,7 +433,7 @@ TEST(circle_fit_MccMic, Ellipse) {
   }
 }
 
-TEST(circle_fit_MccMic, RegularPolygon) {
+TEST(CircleFitMccMic, RegularPolygon) {
   for (int k : {3, 4, 5, 7, 12}) {
     SCOPED_TRACE(k);
     const Points p = lobed(7.0, -3.0, 20.0, 0.0, 0, static_cast<std::size_t>(k));
@@ -446,7 +448,7 @@ TEST(circle_fit_MccMic, RegularPolygon) {
   }
 }
 
-TEST(circle_fit_MccMic, RandomPointsInsideAKnownCircle) {
+TEST(CircleFitMccMic, RandomPointsInsideAKnownCircle) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Points p;
@@ -467,7 +469,7 @@ TEST(circle_fit_MccMic, RandomPointsInsideAKnownCircle) {
   EXPECT_EQ(mcc.contacts, (std::vector<std::size_t>{5000, 5001, 5002}));
 }
 
-TEST(circle_fit_MccMic, BoundedByTheMinimumZoneCircles) {
+TEST(CircleFitMccMic, BoundedByTheMinimumZoneCircles) {
   // The MZC outer circle contains every point, so the smallest enclosing circle is no larger;
   // the MZC inner circle is empty, so the largest empty circle is no smaller. Each fit also
   // has its defining property: MCC radius = farthest point, MIC radius = nearest point.

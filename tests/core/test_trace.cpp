@@ -16,6 +16,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/trace.hpp"
+#include "scratch.hpp"
 
 using namespace circtest;
 
@@ -37,15 +38,6 @@ ExitCode code_of(const std::string& text, const TraceReadOptions& o = {}) {
     return e.code();
   }
   return ExitCode::ok;
-}
-
-std::filesystem::path temp_dir() {
-  auto p = std::filesystem::temp_directory_path() /
-           ("circtest-core-" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-            "-" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
-  std::filesystem::remove_all(p);
-  std::filesystem::create_directories(p);
-  return p;
 }
 
 }  // namespace
@@ -156,7 +148,8 @@ TEST(TraceFile, MissingFileIsAnIoError) {
 }
 
 TEST(TraceFile, WriterRoundTripsThroughTheReaderBlockBoundaries) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   const std::string path = (dir / "t.csv").string();
   TraceMetadata md;
   md.set("plane", "XY");
@@ -186,7 +179,8 @@ TEST(TraceFile, WriterRoundTripsThroughTheReaderBlockBoundaries) {
 }
 
 TEST(TraceFile, UncommittedWriterLeavesNothing) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   const std::string path = (dir / "t.csv").string();
   {
     TraceWriter w(path, {}, {{"x"}});
@@ -199,7 +193,8 @@ TEST(TraceFile, UncommittedWriterLeavesNothing) {
 }
 
 TEST(AtomicFile, ReplacesAndKeepsBackup) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   const std::string path = (dir / "machine.ini").string();
   write_file_atomic(path, "old\n");
   write_file_atomic(path, "new\n", {.keep_backup = true});
@@ -236,7 +231,8 @@ std::string write_binary(const std::filesystem::path& dir,
 }  // namespace
 
 TEST(BinaryTrace, RoundTripsBitExactWithMetadataAndTrailer) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   const std::string path = (dir / "t.ctb").string();
   TraceMetadata md;
   md.set("radius_mm", "75");
@@ -268,7 +264,8 @@ TEST(BinaryTrace, RoundTripsBitExactWithMetadataAndTrailer) {
 }
 
 TEST(BinaryTrace, TruncatedFileIsRefused) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   const std::string path = write_binary(dir, {{0.0, 1.0}, {0.001, 2.0}});
   std::filesystem::resize_file(path, std::filesystem::file_size(path) - 5);
   try {
@@ -282,7 +279,8 @@ TEST(BinaryTrace, TruncatedFileIsRefused) {
 }
 
 TEST(BinaryTrace, BadValuesNameTheirRecord) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   std::string path = write_binary(dir, {{0.0, 1.0}, {0.001, std::nan("")}});
   try {
     read_trace(path);

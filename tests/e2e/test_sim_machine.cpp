@@ -10,13 +10,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "scratch.hpp"
+
 namespace fs = std::filesystem;
+using circtest::testing::slurp_if_exists;
 using nlohmann::json;
 
 namespace {
@@ -30,24 +32,16 @@ int run(const std::string& command) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 class SimMachine : public ::testing::Test {
  protected:
   void SetUp() override {
     if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circlog.so")) {
       GTEST_SKIP() << "needs root (private namespaces) or circlog installed";
     }
-    out_ = fs::temp_directory_path() /
-           (std::string("circtest-e2e-") +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(out_);
-    fs::create_directories(out_);
+    scratch_ = std::make_unique<circtest::testing::ScratchDir>(
+        std::string("circtest-e2e-") +
+        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    out_ = scratch_->dir();
     generate("XY");
   }
 
@@ -59,7 +53,7 @@ class SimMachine : public ::testing::Test {
               0);
   }
   void TearDown() override {
-    if (!HasFailure()) fs::remove_all(out_);
+    if (HasFailure() && scratch_) scratch_->keep();
   }
 
   // Runs the program on the simulated mill with these [SIM] values; the rest are zero.
@@ -79,10 +73,10 @@ class SimMachine : public ::testing::Test {
                       " --out " + (out_ / "run").string() + " --timeout 300";
     for (const auto& [k, v] : all) cmd += " --set SIM." + k + "=" + v;
     const int rc = run(cmd + " >" + (out_ / "run.log").string() + " 2>&1");
-    ASSERT_EQ(rc, 0) << slurp(out_ / "run.log") << slurp(out_ / "run" / "linuxcnc.log");
+    ASSERT_EQ(rc, 0) << slurp_if_exists(out_ / "run.log") << slurp_if_exists(out_ / "run" / "linuxcnc.log");
     // circgen's program stops once before any motion (M0 after its messages); the headless
     // driver logs the messages and answers the pause like an operator at cycle start.
-    const std::string log = slurp(out_ / "run" / "linuxcnc.log");
+    const std::string log = slurp_if_exists(out_ / "run" / "linuxcnc.log");
     EXPECT_NE(log.find("message: Check: work offset and tool length"), std::string::npos) << log;
     EXPECT_NE(log.find(fmt_pauses(expected_pauses_)), std::string::npos) << log;
   }
@@ -92,14 +86,15 @@ class SimMachine : public ::testing::Test {
     const int rc =
         run(std::string(CIRCANA_PATH) + " analyze " + (out_ / "run" / "trace.csv").string() +
             " --json " + extra + " >" + js.string() + " 2>" + (out_ / "circana.err").string());
-    EXPECT_EQ(rc, 0) << slurp(out_ / "circana.err");
-    return json::parse(slurp(js));
+    EXPECT_EQ(rc, 0) << slurp_if_exists(out_ / "circana.err");
+    return json::parse(slurp_if_exists(js));
   }
 
   static std::string fmt_pauses(int n) {
     return "program finished after " + std::to_string(n) + " operator pause(s)";
   }
 
+  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
   fs::path out_;
   int expected_pauses_ = 1;  // circgen's start pause; a ballbar adds mount and remove
 };
@@ -139,7 +134,7 @@ TEST_F(SimMachine, BallbarProgramRunsWithItsPauses) {
   generate("XY", "--instrument ballbar --safe-z 20");
   expected_pauses_ = 3;
   run_machine({{"BACKLASH_X", "0.020"}});
-  const std::string log = slurp(out_ / "run" / "linuxcnc.log");
+  const std::string log = slurp_if_exists(out_ / "run" / "linuxcnc.log");
   EXPECT_NE(log.find("message: Mount the ballbar now"), std::string::npos) << log;
   EXPECT_NE(log.find("message: Remove the ballbar now"), std::string::npos) << log;
   const json table = analyse();

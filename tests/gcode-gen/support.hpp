@@ -6,37 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "scratch.hpp"
+
 namespace circtest::testing {
-
-// A private folder under /tmp, removed with its contents on destruction.
-class ScratchDir {
- public:
-  ScratchDir();
-  ~ScratchDir();
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  const std::string& path() const { return path_; }
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
-
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-// Runs argv (no shell) with extra environment entries, capturing stdout and stderr.
-CommandResult run_command(const std::vector<std::string>& argv,
-                          const std::vector<std::string>& env = {});
 
 // circgen with these arguments; SOURCE_DATE_EPOCH fixed so the output is reproducible.
 CommandResult run_circgen(const std::vector<std::string>& args);
-
-std::string slurp(const std::string& path);
-void spit(const std::string& path, const std::string& text);
 
 // One motion of the canonical output, with the synchronized outputs in effect during it.
 struct CanonMotion {

@@ -58,20 +58,20 @@ std::vector<BadCase> usage_cases() {
        {"--d", "150", "--f", "300", "--plane", "XZ"},
        2,
        "--plane: 'XZ' is not XY, YZ or ZX"},
-      {"malformed_diameter", {"--d", "15O", "--f", "300"}, 2, "--d: '15O' is not a number"},
-      {"malformed_feed", {"--d", "150", "--f", "fast"}, 2, "--f: 'fast' is not a number"},
+      {"malformed_diameter", {"--d", "15O", "--f", "300"}, 2, "--d: expected a number, got '15O'"},
+      {"malformed_feed", {"--d", "150", "--f", "fast"}, 2, "--f: expected a number, got 'fast'"},
       {"empty_sweep_entry",
        {"--d", "150", "--feeds", "300,,600"},
        2,
-       "--feeds: '' is not a number"},
+       "--feeds: expected one or more comma-separated numbers, got '300,,600'"},
       {"centre_two_values",
        {"--d", "150", "--f", "300", "--centre", "1,2"},
        2,
-       "--centre: '1,2' needs 3 comma-separated numbers"},
+       "--centre: expected 3 comma-separated numbers, got '1,2'"},
       {"centre_malformed",
        {"--d", "150", "--f", "300", "--centre", "1,y,3"},
        2,
-       "--centre: 'y' is not a number"},
+       "--centre: expected 3 comma-separated numbers, got '1,y,3'"},
       {"lead_overlap_partial",
        {"--d", "150", "--f", "300", "--arc", "270", "--lead", "50"},
        2,
@@ -106,7 +106,7 @@ std::vector<BadCase> usage_cases() {
       {"bad_marker",
        {"--d", "150", "--f", "300", "--marker", "-1"},
        2,
-       "--marker: '-1' is not an output number"},
+       "--marker: expected a non-negative integer, got '-1'"},
       {"marker_out_of_range",
        {"--d", "150", "--f", "300", "--marker", "64"},
        2,
@@ -209,14 +209,14 @@ std::vector<BadCase> usage_cases() {
   };
 }
 
-class gcode_CliBadInput : public ::testing::TestWithParam<BadCase> {};
+class CircgenCliBadInput : public ::testing::TestWithParam<BadCase> {};
 
-TEST_P(gcode_CliBadInput, OneLineErrorExitCodeNothingOnStdout) {
+TEST_P(CircgenCliBadInput, OneLineErrorExitCodeNothingOnStdout) {
   const BadCase& c = GetParam();
   expect_refused(run_circgen(c.args), c.exit_code, c.message);
 }
 
-INSTANTIATE_TEST_SUITE_P(Usage, gcode_CliBadInput, ::testing::ValuesIn(usage_cases()),
+INSTANTIATE_TEST_SUITE_P(Usage, CircgenCliBadInput, ::testing::ValuesIn(usage_cases()),
                          [](const ::testing::TestParamInfo<BadCase>& p) { return p.param.name; });
 
 const char* kMachineIni = R"(# a small mill, mm
@@ -246,7 +246,7 @@ MAX_VELOCITY = 20
 MAX_ACCELERATION = 300
 )";
 
-class gcode_CliIni : public ::testing::Test {
+class CircgenCliIni : public ::testing::Test {
  protected:
   void SetUp() override { spit(ini(), kMachineIni); }
   std::string ini() const { return dir_.file("machine.ini"); }
@@ -258,7 +258,7 @@ class gcode_CliIni : public ::testing::Test {
   ScratchDir dir_;
 };
 
-TEST_F(gcode_CliIni, AcceptsATestWithinTheLimitsAndSaysSoInTheHeader) {
+TEST_F(CircgenCliIni, AcceptsATestWithinTheLimitsAndSaysSoInTheHeader) {
   const CommandResult r = run({"--d", "150", "--f", "300", "--safe-z", "5"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("(circtest: ini: " + ini() + ")"), std::string::npos);
@@ -266,12 +266,12 @@ TEST_F(gcode_CliIni, AcceptsATestWithinTheLimitsAndSaysSoInTheHeader) {
             std::string::npos);
 }
 
-TEST_F(gcode_CliIni, RefusesACircleBeyondMaxLimit) {
+TEST_F(CircgenCliIni, RefusesACircleBeyondMaxLimit) {
   expect_refused(run({"--d", "150", "--f", "300", "--centre", "150,0,0"}), 6,
                  "X = 225 mm in machine coordinates, above [AXIS_X] MAX_LIMIT = 200");
 }
 
-TEST_F(gcode_CliIni, WorkOffsetMovesTheCircleInMachineCoordinates) {
+TEST_F(CircgenCliIni, WorkOffsetMovesTheCircleInMachineCoordinates) {
   expect_refused(run({"--d", "150", "--f", "300", "--offset", "-180,0,0"}), 6,
                  "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
   // Only the arcs count, not the centre: a partial arc on the +X side of a circle centred
@@ -282,19 +282,19 @@ TEST_F(gcode_CliIni, WorkOffsetMovesTheCircleInMachineCoordinates) {
   expect_refused(run({"--d", "150", "--f", "300", "--offset", "-240,0,0"}), 6, "MIN_LIMIT = -200");
 }
 
-TEST_F(gcode_CliIni, RefusesAClearanceAboveTheZLimit) {
+TEST_F(CircgenCliIni, RefusesAClearanceAboveTheZLimit) {
   expect_refused(run({"--d", "150", "--f", "300", "--safe-z", "20"}), 6,
                  "Z = 20 mm in machine coordinates, above [AXIS_Z] MAX_LIMIT = 10");
 }
 
-TEST_F(gcode_CliIni, RefusesAFeedAboveMaxVelocity) {
+TEST_F(CircgenCliIni, RefusesAFeedAboveMaxVelocity) {
   expect_refused(run({"--d", "150", "--f", "2400"}), 6,
                  "feed 2400 mm/min = 40 mm/s exceeds [AXIS_X] MAX_VELOCITY = 30");
   // The fastest feed of a sweep counts.
   expect_refused(run({"--d", "150", "--feeds", "300,1200,2400"}), 6, "MAX_VELOCITY = 30");
 }
 
-TEST_F(gcode_CliIni, RefusesACentripetalAccelerationAboveMaxAcceleration) {
+TEST_F(CircgenCliIni, RefusesACentripetalAccelerationAboveMaxAcceleration) {
   // 1200 mm/min = 20 mm/s on R 0.5 mm: 800 mm/s^2 > 500.
   expect_refused(run({"--d", "1", "--f", "1200", "--lead", "90"}), 6,
                  "centripetal acceleration V^2/R = 800 mm/s^2 at F1200 on R0.5 mm exceeds "
@@ -304,13 +304,13 @@ TEST_F(gcode_CliIni, RefusesACentripetalAccelerationAboveMaxAcceleration) {
                  "that LinuxCNC's planner allows on an arc");
 }
 
-TEST_F(gcode_CliIni, RefusesALeadInTooShortToReachTheFeed) {
+TEST_F(CircgenCliIni, RefusesALeadInTooShortToReachTheFeed) {
   // 25 mm/s with about 496 mm/s^2 tangential needs 0.63 mm; 1 deg on R 10 is 0.17 mm.
   expect_refused(run({"--d", "20", "--f", "1500", "--lead", "1"}), 6, "use --lead 4 or more");
   EXPECT_EQ(run({"--d", "20", "--f", "1500", "--lead", "4"}).exit_code, 0);
 }
 
-TEST_F(gcode_CliIni, ParseErrorsNameFileAndLine) {
+TEST_F(CircgenCliIni, ParseErrorsNameFileAndLine) {
   std::string text = kMachineIni;
   text.replace(text.find("MAX_LIMIT = 10"), 14, "MAX_LIMIT = ten");
   spit(ini(), text);
@@ -324,7 +324,7 @@ TEST_F(gcode_CliIni, ParseErrorsNameFileAndLine) {
 
 // LinuxCNC 2.9 starts these, so circgen reads them: a line without '=' (ignored), a
 // continuation line, LINEAR_UNITS as units per mm, sections from an #INCLUDEd file.
-TEST_F(gcode_CliIni, ReadsWhatLinuxcncReads) {
+TEST_F(CircgenCliIni, ReadsWhatLinuxcncReads) {
   std::string text = kMachineIni;
   text.insert(text.find("[TRAJ]"), "[APPLICATIONS]\nthis is not a key\nAPP = a \\\n   b\n");
   text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = 1.0");
@@ -348,19 +348,19 @@ TEST_F(gcode_CliIni, ReadsWhatLinuxcncReads) {
                  dir_.file("axis_z.inc") + ":3: [AXIS_Z] MAX_LIMIT: 'ten' is not a number");
 }
 
-TEST_F(gcode_CliIni, MissingAxisSectionIsAnError) {
+TEST_F(CircgenCliIni, MissingAxisSectionIsAnError) {
   std::string text = kMachineIni;
   text.resize(text.find("[AXIS_Z]"));
   spit(ini(), text);
   expect_refused(run({"--d", "150", "--f", "300"}), 4, "no [AXIS_Z] section");
 }
 
-TEST_F(gcode_CliIni, MissingFileIsAnIoError) {
+TEST_F(CircgenCliIni, MissingFileIsAnIoError) {
   expect_refused(run_circgen({"--d", "150", "--f", "300", "--ini", dir_.file("nope.ini")}), 3,
                  dir_.file("nope.ini"));
 }
 
-TEST_F(gcode_CliIni, InchMachineLimitsAreConverted) {
+TEST_F(CircgenCliIni, InchMachineLimitsAreConverted) {
   std::string text = kMachineIni;
   text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
   spit(ini(), text);  // limits now 200 inch etc.; 2 inch/s velocity limit is 30 inch/s
@@ -371,14 +371,14 @@ TEST_F(gcode_CliIni, InchMachineLimitsAreConverted) {
                  "X = 5.905511811023622 inch in machine coordinates, above [AXIS_X] MAX_LIMIT = 5");
 }
 
-TEST_F(gcode_CliIni, BallbarFeedInStartCountsForTheSoftLimits) {
+TEST_F(CircgenCliIni, BallbarFeedInStartCountsForTheSoftLimits) {
   // R 199 reaches X 199 on the circle; the feed-in starts 1.5 mm further out, at 200.5.
   EXPECT_EQ(run({"--d", "398", "--f", "300"}).exit_code, 0);
   expect_refused(run({"--d", "398", "--f", "300", "--instrument", "ballbar"}), 6,
                  "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
 }
 
-TEST_F(gcode_CliIni, MarkerAndSegmentOutputsAgainstTheMotionModule) {
+TEST_F(CircgenCliIni, MarkerAndSegmentOutputsAgainstTheMotionModule) {
   std::string text = kMachineIni;
   text += "\n[HAL]\nHALFILE = LIB:basic_sim.tcl\nHALFILE = missing.hal\nHALFILE = machine.hal\n";
   spit(ini(), text);
@@ -398,7 +398,7 @@ TEST_F(gcode_CliIni, MarkerAndSegmentOutputsAgainstTheMotionModule) {
   EXPECT_EQ(unchecked.out.find("motion outputs"), std::string::npos);
 }
 
-TEST(gcode_Cli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
+TEST(CircgenCli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
   const CommandResult r =
       run_circgen({"--d", "150", "--f", "300", "--centre", "10,20,-5", "--offset", "100,-50,-200"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -411,7 +411,7 @@ TEST(gcode_Cli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
             std::string::npos);
 }
 
-TEST(gcode_Cli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
+TEST(CircgenCli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
   // ZX: +Z is 0 deg, the bottom 180 deg. 180 deg from 90 with 10 deg leads covers 80..280.
   const CommandResult below =
       run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180", "--start", "90"});
@@ -446,7 +446,7 @@ TEST(gcode_Cli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
       run_circgen({"--d", "150", "--f", "300", "--arc", "180", "--start", "90"}).err.empty());
 }
 
-TEST(gcode_Cli, OutputFileIsWrittenAndStdoutStaysEmpty) {
+TEST(CircgenCli, OutputFileIsWrittenAndStdoutStaysEmpty) {
   ScratchDir dir;
   const CommandResult r = run_circgen({"--d", "150", "--f", "300", "-o", dir.file("t.ngc")});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -455,12 +455,12 @@ TEST(gcode_Cli, OutputFileIsWrittenAndStdoutStaysEmpty) {
   EXPECT_EQ(file, run_circgen({"--d", "150", "--f", "300"}).out);
 }
 
-TEST(gcode_Cli, UnwritableOutputIsAnIoError) {
+TEST(CircgenCli, UnwritableOutputIsAnIoError) {
   expect_refused(run_circgen({"--d", "150", "--f", "300", "-o", "/nonexistent-dir/t.ngc"}), 3,
                  "/nonexistent-dir/t.ngc");
 }
 
-TEST(gcode_Cli, OutputThatIsNotARegularFileIsRefusedAndKept) {
+TEST(CircgenCli, OutputThatIsNotARegularFileIsRefusedAndKept) {
   ScratchDir dir;
   const std::string fifo = dir.file("fifo.ngc");
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
@@ -480,7 +480,7 @@ TEST(gcode_Cli, OutputThatIsNotARegularFileIsRefusedAndKept) {
   EXPECT_EQ(slurp(dir.file("real.ngc")), run_circgen({"--d", "150", "--f", "300"}).out);
 }
 
-TEST(gcode_Cli, HelpAndVersionGoToStdout) {
+TEST(CircgenCli, HelpAndVersionGoToStdout) {
   const CommandResult help = run_circgen({"--help"});
   EXPECT_EQ(help.exit_code, 0);
   EXPECT_NE(help.out.find("--ref-f"), std::string::npos);

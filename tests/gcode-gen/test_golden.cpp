@@ -16,9 +16,9 @@ struct Golden {
   std::vector<std::string> args;
 };
 
-class gcode_Golden : public ::testing::TestWithParam<Golden> {};
+class CircgenGolden : public ::testing::TestWithParam<Golden> {};
 
-TEST_P(gcode_Golden, ProgramMatchesTheReviewedFile) {
+TEST_P(CircgenGolden, ProgramMatchesTheReviewedFile) {
   const Golden& g = GetParam();
   const CommandResult r = run_circgen(g.args);
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -28,7 +28,7 @@ TEST_P(gcode_Golden, ProgramMatchesTheReviewedFile) {
 }
 
 INSTANTIATE_TEST_SUITE_P(
-    Programs, gcode_Golden,
+    Programs, CircgenGolden,
     ::testing::Values(
         Golden{"default_d150_f300", {"--d", "150", "--f", "300"}},
         Golden{"zx_partial_safe",

@@ -1,4 +1,4 @@
-// circtest::gcode pieces on their own: Annex C, option values, run planning, header keys.
+// circtest::gcode pieces on their own: Annex C, run planning, header keys.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,7 +7,6 @@
 #include "circtest/core/error.hpp"
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/machine_limits.hpp"
-#include "circtest/gcode/option_values.hpp"
 #include "circtest/gcode/test_program.hpp"
 
 namespace circtest {
@@ -19,7 +18,7 @@ std::string header_value(const TestProgram& p, const std::string& key) {
   return "<absent>";
 }
 
-TEST(gcode_AnnexC, StandardExampleGivesF559) {
+TEST(AnnexC, StandardExampleGivesF559) {
   const AnnexCNote note = annex_c_note(125, 100, 500, LengthUnit::mm);
   EXPECT_NEAR(note.scaled_feed_exact, 500 * std::sqrt(1.25), 1e-12);
   EXPECT_DOUBLE_EQ(note.scaled_feed, 559.0);
@@ -29,7 +28,7 @@ TEST(gcode_AnnexC, StandardExampleGivesF559) {
   EXPECT_THROW(annex_c_feed(125, -1, 500), UsageError);
 }
 
-TEST(gcode_AnnexC, HeaderShowsTheComputation) {
+TEST(AnnexC, HeaderShowsTheComputation) {
   CircleTestSpec spec;
   spec.radius_mm = 62.5;
   spec.annex_c = annex_c_note(125, 100, 500, LengthUnit::mm);
@@ -40,19 +39,7 @@ TEST(gcode_AnnexC, HeaderShowsTheComputation) {
   EXPECT_EQ(header_value(p, "feed_mm_per_min"), "559");
 }
 
-TEST(gcode_OptionValues, StrictNumbers) {
-  EXPECT_DOUBLE_EQ(parse_option_number("d", "150"), 150.0);
-  EXPECT_DOUBLE_EQ(parse_option_number("d", "+1.5e2"), 150.0);
-  for (const char* bad : {"", "abc", "150mm", "1,5", "nan", "inf", "0x10"}) {
-    EXPECT_THROW(parse_option_number("d", bad), UsageError) << bad;
-  }
-  EXPECT_EQ(parse_option_numbers("feeds", "100, 200,300").size(), 3u);
-  EXPECT_THROW(parse_option_numbers("centre", "1,2", 3), UsageError);
-  EXPECT_EQ(parse_option_index("marker", "3"), 3);
-  EXPECT_THROW(parse_option_index("marker", "1.5"), UsageError);
-}
-
-TEST(gcode_Plan, SweepGivesOneCcwCwPairPerFeedWithIdsFromOne) {
+TEST(ProgramPlan, SweepGivesOneCcwCwPairPerFeedWithIdsFromOne) {
   CircleTestSpec spec;
   spec.radius_mm = 50;
   spec.feeds_mm_per_min = {100, 1000};
@@ -73,7 +60,7 @@ TEST(gcode_Plan, SweepGivesOneCcwCwPairPerFeedWithIdsFromOne) {
   EXPECT_EQ(header_value(p, "feeds_mm_per_min"), "100,1000");
 }
 
-TEST(gcode_Header, InchProgramStillReportsMillimetres) {
+TEST(ProgramHeader, InchProgramStillReportsMillimetres) {
   CircleTestSpec spec;
   spec.units = LengthUnit::inch;
   spec.radius_mm = 2 * kMmPerInch;
@@ -96,7 +83,7 @@ TEST(gcode_Header, InchProgramStillReportsMillimetres) {
   }
 }
 
-TEST(gcode_MachineLimits, FirstOccurrenceWinsAndUnitsConvert) {
+TEST(MachineLimits, FirstOccurrenceWinsAndUnitsConvert) {
   const MachineLimits m = parse_machine_limits(
       "[TRAJ]\nLINEAR_UNITS = inch\n[AXIS_X]\nMAX_LIMIT = 10\nMAX_LIMIT = 20\n[AXIS_Y]\n", "m.ini");
   EXPECT_DOUBLE_EQ(*m.axes[0].max_limit_mm, 254.0);
@@ -111,7 +98,7 @@ TEST(gcode_MachineLimits, FirstOccurrenceWinsAndUnitsConvert) {
 namespace circtest {
 namespace {
 
-TEST(gcode_MotionOutputs, FindsTheMotionModuleLineWithItsCounts) {
+TEST(MotionOutputs, FindsTheMotionModuleLineWithItsCounts) {
   MachineLimits ini = parse_machine_limits(
       "[EMCMOT]\nEMCMOT = motmod\nSERVO_PERIOD = 1000000\n[CIRCTEST]\nDIO = 8\n[HAL]\n"
       "HALFILE = a.hal\nHALFILE = b.hal\n",
@@ -135,7 +122,7 @@ TEST(gcode_MotionOutputs, FindsTheMotionModuleLineWithItsCounts) {
   }
 }
 
-TEST(gcode_MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
+TEST(MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
   // Without MAX_VELOCITY LinuxCNC gives an axis 1 unit/s: state generous ones.
   std::string ini;
   for (const char* axis : {"X", "Y", "Z"}) {

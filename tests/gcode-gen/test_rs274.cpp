@@ -274,9 +274,9 @@ double angle_diff(double a, double b) {
   return std::min(d, 360.0 - d);
 }
 
-class gcode_Rs274Variant : public ::testing::TestWithParam<Variant> {};
+class Rs274Variant : public ::testing::TestWithParam<Variant> {};
 
-TEST_P(gcode_Rs274Variant, InterpreterAcceptsAndArcsMatchTheTest) {
+TEST_P(Rs274Variant, InterpreterAcceptsAndArcsMatchTheTest) {
   if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
   const Variant& v = GetParam();
   const CommandResult gen = run_circgen(v.args);
@@ -388,7 +388,7 @@ TEST_P(gcode_Rs274Variant, InterpreterAcceptsAndArcsMatchTheTest) {
 // normal axis together, the approach and the radial moves at the approach feed, M50 P0/P1
 // around the measured arcs, G64 back before the end, and for a ballbar the mount pause, the
 // radial feed-in/out of the right length and direction, and the remove pause before any retract.
-TEST_P(gcode_Rs274Variant, SafeProgramStructure) {
+TEST_P(Rs274Variant, SafeProgramStructure) {
   if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
   const Variant& v = GetParam();
   const CommandResult gen = run_circgen(v.args);
@@ -584,11 +584,11 @@ TEST_P(gcode_Rs274Variant, SafeProgramStructure) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Variants, gcode_Rs274Variant, ::testing::ValuesIn(variants()),
+INSTANTIATE_TEST_SUITE_P(Variants, Rs274Variant, ::testing::ValuesIn(variants()),
                          [](const ::testing::TestParamInfo<Variant>& p) { return p.param.name; });
 
 // The acceptance case, spelled out.
-TEST(gcode_Rs274Default, CcwThenCwFullCircleOfRadius75AtF300) {
+TEST(Rs274Default, CcwThenCwFullCircleOfRadius75AtF300) {
   if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
   const CommandResult gen = run_circgen({"--d", "150", "--f", "300"});
   ASSERT_EQ(gen.exit_code, 0);

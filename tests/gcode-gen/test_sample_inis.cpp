@@ -59,7 +59,7 @@ std::string expanded(const fs::path& ini, const fs::path& dir) {
 
 }  // namespace
 
-TEST(gcode_SampleInis, EachIsAcceptedOrRefusedForARealLimit) {
+TEST(SampleInis, EachIsAcceptedOrRefusedForARealLimit) {
   ASSERT_TRUE(fs::is_directory(kSamples));
   std::vector<fs::path> files;
   for (const auto& e : fs::recursive_directory_iterator(kSamples)) {

@@ -18,6 +18,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
 #include "recorder.hpp"
+#include "scratch.hpp"
 
 namespace {
 
@@ -87,19 +88,10 @@ class FakeServo final : public rec::Environment {
   int sleeps_ = 0;
 };
 
-class RecorderTest : public ::testing::Test {
+class Recorder : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("circlog-recorder-test-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-    log_ = std::tmpfile();
-  }
-  void TearDown() override {
-    std::fclose(log_);
-    fs::remove_all(dir_);
-  }
+  void SetUp() override { log_ = std::tmpfile(); }
+  void TearDown() override { std::fclose(log_); }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
   std::string log_text() {
     std::rewind(log_);
@@ -109,7 +101,8 @@ class RecorderTest : public ::testing::Test {
     return s;
   }
 
-  fs::path dir_;
+  circtest::testing::ScratchDir scratch_{"circlog-recorder-test"};
+  fs::path dir_ = scratch_.dir();
   std::FILE* log_ = nullptr;
 };
 
@@ -175,7 +168,7 @@ TEST(CirclogRecordOptions, RefusesBadValues) {
   EXPECT_THROW(parse({"-o", "a", "--bogus"}), circtest::UsageError);
 }
 
-TEST_F(RecorderTest, ProgramHeaderStopsAtTheFirstLineOfCode) {
+TEST_F(Recorder, ProgramHeaderStopsAtTheFirstLineOfCode) {
   std::ofstream(path("p.ngc")) << "%\n(plane: XY)\n( radius_mm : 50 )\n\n(Note: prose)\n"
                                   "(feed_mm_per_min: 1000)\nG21 G17\n(after: ignored)\n%\n";
   const auto h = rec::read_program_header(path("p.ngc"));
@@ -187,7 +180,7 @@ TEST_F(RecorderTest, ProgramHeaderStopsAtTheFirstLineOfCode) {
 }
 
 // circgen marks its header lines with a "circtest:" prefix; the key follows it.
-TEST_F(RecorderTest, ProgramHeaderOfCircgenDropsTheCirctestPrefix) {
+TEST_F(Recorder, ProgramHeaderOfCircgenDropsTheCirctestPrefix) {
   std::ofstream(path("p.ngc")) << "(circtest: generator: circgen 0.1.0)\n(circtest: plane: ZX)\n"
                                   "(circtest: centre_mm: 1,2,3)\n(circtest: prose only)\nG21\n";
   const auto h = rec::read_program_header(path("p.ngc"));
@@ -197,7 +190,7 @@ TEST_F(RecorderTest, ProgramHeaderOfCircgenDropsTheCirctestPrefix) {
   EXPECT_EQ(h[2], (std::pair<std::string, std::string>{"centre_mm", "1,2,3"}));
 }
 
-TEST_F(RecorderTest, RecordsARunAndStopsWhenIdle) {
+TEST_F(Recorder, RecordsARunAndStopsWhenIdle) {
   FakeServo servo(2, 1024);
   servo.enable = [](std::uint64_t p) { return p >= 200 && p < 500; };
   servo.segment = [](std::uint64_t) { return 4.0; };
@@ -241,7 +234,7 @@ TEST_F(RecorderTest, RecordsARunAndStopsWhenIdle) {
   EXPECT_NE(log_text().find("header key 'rows'"), std::string::npos);
 }
 
-TEST_F(RecorderTest, ATinyRingLosesRecordsAndSaysSoEverywhere) {
+TEST_F(Recorder, ATinyRingLosesRecordsAndSaysSoEverywhere) {
   FakeServo servo(1, 4);
   servo.enable = [](std::uint64_t p) { return p >= 100 && p < 400; };
   rec::Options o = options_for(path("t.csv"));
@@ -264,7 +257,7 @@ TEST_F(RecorderTest, ATinyRingLosesRecordsAndSaysSoEverywhere) {
   EXPECT_NE(log_text().find("gap:"), std::string::npos);
 }
 
-TEST_F(RecorderTest, BackToBackRunsAndSegments) {
+TEST_F(Recorder, BackToBackRunsAndSegments) {
   FakeServo servo(1, 4096);
   // Run 1 (segment 1) 100-199, run 2 (segment 1) 250-349, segment 2 from 300 on.
   servo.enable = [](std::uint64_t p) { return (p >= 100 && p < 200) || (p >= 250 && p < 400); };
@@ -282,7 +275,7 @@ TEST_F(RecorderTest, BackToBackRunsAndSegments) {
   EXPECT_EQ(segment[100 + 1 + 50], 2.0);
 }
 
-TEST_F(RecorderTest, StopsAfterTheDurationInServoTime) {
+TEST_F(Recorder, StopsAfterTheDurationInServoTime) {
   FakeServo servo(1, 4096);
   servo.enable = [](std::uint64_t) { return true; };
   rec::Options o = options_for(path("t.csv"));
@@ -294,7 +287,7 @@ TEST_F(RecorderTest, StopsAfterTheDurationInServoTime) {
   EXPECT_EQ(s.lost, 0u);
 }
 
-TEST_F(RecorderTest, StopsOnASignalWithACompleteFile) {
+TEST_F(Recorder, StopsOnASignalWithACompleteFile) {
   FakeServo servo(1, 4096);
   servo.enable = [](std::uint64_t) { return true; };
   servo.stop_after_sleeps = 30;
@@ -324,7 +317,7 @@ class StoppingServo final : public rec::Environment {
   int left_;
 };
 
-TEST_F(RecorderTest, StopsWhenTheServoThreadStops) {
+TEST_F(Recorder, StopsWhenTheServoThreadStops) {
   FakeServo servo(1, 4096);
   servo.enable = [](std::uint64_t) { return true; };
   StoppingServo env(servo, 50);
@@ -334,7 +327,7 @@ TEST_F(RecorderTest, StopsWhenTheServoThreadStops) {
   EXPECT_TRUE(fs::exists(path("t.csv")));
 }
 
-TEST_F(RecorderTest, RefusesAServoThatDoesNotRun) {
+TEST_F(Recorder, RefusesAServoThatDoesNotRun) {
   FakeServo servo(1, 16);
   servo.running = false;
   EXPECT_THROW(rec::record(servo.consumer, 42, options_for(path("t.csv")), servo, log_),
@@ -342,7 +335,7 @@ TEST_F(RecorderTest, RefusesAServoThatDoesNotRun) {
   EXPECT_FALSE(fs::exists(path("t.csv")));
 }
 
-TEST_F(RecorderTest, RefusesASecondReaderButTakesOverFromADeadOne) {
+TEST_F(Recorder, RefusesASecondReaderButTakesOverFromADeadOne) {
   FakeServo servo(1, 16);
   circlog::Consumer other;
   ASSERT_EQ(other.attach(const_cast<circlog::SharedHeader*>(&servo.consumer.header()),
@@ -363,7 +356,7 @@ TEST_F(RecorderTest, RefusesASecondReaderButTakesOverFromADeadOne) {
   EXPECT_NE(log_text().find("took over"), std::string::npos);
 }
 
-TEST_F(RecorderTest, ColumnsMustMatchTheModulesChannels) {
+TEST_F(Recorder, ColumnsMustMatchTheModulesChannels) {
   FakeServo servo(3, 16);
   rec::Options o = options_for(path("t.csv"));
   o.columns = {"x", "y"};

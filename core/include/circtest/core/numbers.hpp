@@ -12,10 +12,15 @@ std::optional<double> parse_number(std::string_view text);
 // The same, refusing nan and inf.
 std::optional<double> parse_finite(std::string_view text);
 
-// For option values: throws UsageError "--name: expected <what>, got '<text>'".
+// Option values for every CLI, one message style: UsageError "<option>: expected <what>,
+// got '<text>'". `option` is the name as the user typed it ("--radius"), or an environment
+// variable's name.
+// A finite number, the whole text.
 double parse_option_number(std::string_view option, std::string_view text);
-// "a,b,c" with exactly `count` numbers (count 0: any number, at least one).
+// "a,b,c" of finite numbers with exactly `count` of them (count 0: any number, at least one).
 std::vector<double> parse_option_list(std::string_view option, std::string_view text,
                                       std::size_t count = 0);
+// A non-negative integer (an output number, an index), the whole text.
+int parse_option_index(std::string_view option, std::string_view text);
 
 }  // namespace circtest
