@@ -144,8 +144,7 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   }
   if (vm.count("centre")) {
     const auto c = parse_option_list("--centre", vm["centre"].as<std::string>(), 2);
-    o.centre_a_mm = c[0];
-    o.centre_b_mm = c[1];
+    o.centre = PlanePoint{c[0], c[1]};
   }
   if (vm.count("plane")) {
     o.plane = parse_plane(vm["plane"].as<std::string>());

@@ -40,16 +40,12 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
       (options.column_a.empty() && is_radial_trace(read, trace_plane(read, options.plane)))) {
     RadialOptions ro_radial;
     ro_radial.plane = options.plane;
-    ro_radial.centre_a_mm = options.centre_a_mm;
-    ro_radial.centre_b_mm = options.centre_b_mm;
+    ro_radial.centre = options.centre;
     ro_radial.radius_mm = options.nominal_radius_mm;
     radial = radial_positions(read, ro_radial);
     options.column_a = radial->column_a;
     options.column_b = radial->column_b;
-    if (!options.centre_a_mm) {
-      options.centre_a_mm = radial->centre_a_mm;
-      options.centre_b_mm = radial->centre_b_mm;
-    }
+    if (!options.centre) options.centre = PlanePoint{radial->centre_a_mm, radial->centre_b_mm};
   }
   const Trace& trace = radial ? radial->trace : read;
   Evaluation ev = evaluate(trace, options);

@@ -22,7 +22,7 @@ std::span<const double> slice(const std::vector<double>& v, const Run& r) {
 }
 
 // "x,y,z" metadata -> the plane's two coordinates.
-std::optional<std::pair<double, double>> metadata_centre(const Trace& trace, Plane plane) {
+std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
   const std::string* v = trace.metadata.find("centre_mm");
   if (!v) return std::nullopt;
   std::vector<double> xyz;
@@ -40,8 +40,8 @@ std::optional<std::pair<double, double>> metadata_centre(const Trace& trace, Pla
         fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *v));
   }
   const PlaneAxes axes = plane_axes(plane);
-  return std::make_pair(xyz[static_cast<std::size_t>(axes.first - 'x')],
-                        xyz[static_cast<std::size_t>(axes.second - 'x')]);
+  return PlanePoint{xyz[static_cast<std::size_t>(axes.first - 'x')],
+                    xyz[static_cast<std::size_t>(axes.second - 'x')]};
 }
 
 struct AngleRadius {
@@ -206,13 +206,11 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
     ev.nominal_radius_mm = *d / 2.0;
     ev.nominal_radius_source = "metadata";
   }
-  if (options.centre_a_mm && options.centre_b_mm) {
-    ev.centre_a_mm = options.centre_a_mm;
-    ev.centre_b_mm = options.centre_b_mm;
+  if (options.centre) {
+    ev.centre = options.centre;
     ev.centre_source = "option";
   } else if (auto c = metadata_centre(trace, ev.plane)) {
-    ev.centre_a_mm = c->first;
-    ev.centre_b_mm = c->second;
+    ev.centre = c;
     ev.centre_source = "metadata";
   }
   if (ev.nominal_radius_mm && *ev.nominal_radius_mm <= 0.0) {
@@ -234,8 +232,7 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
   ev.temperature_factor = ev.temperatures.radius_factor();
 
   SegmentationOptions so;
-  so.centre_a_mm = ev.centre_a_mm;
-  so.centre_b_mm = ev.centre_b_mm;
+  so.centre = ev.centre;
   so.radius_mm = ev.nominal_radius_mm;
   so.min_sweep_deg = options.min_arc_deg;
   const Segmentation seg = segment_trace(trace, cols, so);
@@ -246,7 +243,7 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
       trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).first));
   const std::vector<double>* cmd_b =
       trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).second));
-  if ((!ev.nominal_radius_mm || !ev.centre_a_mm) && cmd_a && cmd_b) {
+  if ((!ev.nominal_radius_mm || !ev.centre) && cmd_a && cmd_b) {
     const Run& r0 = seg.runs.front();
     if (r0.size() >= 3) {
       const Circle c = fit_lsc(slice(*cmd_a, r0), slice(*cmd_b, r0));
@@ -254,9 +251,8 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
         ev.nominal_radius_mm = c.radius_mm;
         ev.nominal_radius_source = "commanded";
       }
-      if (!ev.centre_a_mm) {
-        ev.centre_a_mm = c.centre_a_mm;
-        ev.centre_b_mm = c.centre_b_mm;
+      if (!ev.centre) {
+        ev.centre = PlanePoint{c.centre_a_mm, c.centre_b_mm};
         ev.centre_source = "commanded";
       }
     }
@@ -290,13 +286,13 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
     bool use_lsc = false;
     switch (options.f_centre) {
       case FCentre::automatic:
-        use_lsc = full || !ev.centre_a_mm;
+        use_lsc = full || !ev.centre;
         break;
       case FCentre::lsc:
         use_lsc = true;
         break;
       case FCentre::nominal:
-        if (!ev.centre_a_mm) {
+        if (!ev.centre) {
           throw UsageError(
               "--f-centre nominal needs the set-up centre: give --centre A,B or a centre_mm "
               "metadata line");
@@ -310,12 +306,11 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
           ev.runs.size() + 1, run.sweep_deg));
     }
     rr.f_centre_method = use_lsc ? "lsc" : "nominal";
-    rr.f_centre_a_mm = use_lsc ? rr.lsc.centre_a_mm : *ev.centre_a_mm;
-    rr.f_centre_b_mm = use_lsc ? rr.lsc.centre_b_mm : *ev.centre_b_mm;
+    rr.f_centre = use_lsc ? PlanePoint{rr.lsc.centre_a_mm, rr.lsc.centre_b_mm} : *ev.centre;
     if (ev.nominal_radius_mm) {
       // About the LSC centre the range is the one G_lsc already took.
       const RadialRange rng =
-          use_lsc ? about_lsc : radial_range(a, b, rr.f_centre_a_mm, rr.f_centre_b_mm);
+          use_lsc ? about_lsc : radial_range(a, b, rr.f_centre.a_mm, rr.f_centre.b_mm);
       rr.f_max_mm = rng.max_mm * ev.temperature_factor - *ev.nominal_radius_mm;
       rr.f_min_mm = rng.min_mm * ev.temperature_factor - *ev.nominal_radius_mm;
     }

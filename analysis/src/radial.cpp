@@ -63,9 +63,9 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
   const std::optional<double> bar_length = trace.metadata.number(kBarLengthKey, trace.source);
 
   RadialPositions out;
-  if (options.centre_a_mm && options.centre_b_mm) {
-    out.centre_a_mm = *options.centre_a_mm;
-    out.centre_b_mm = *options.centre_b_mm;
+  if (options.centre) {
+    out.centre_a_mm = options.centre->a_mm;
+    out.centre_b_mm = options.centre->b_mm;
     out.centre_source = "option";
   } else if (const std::string* c = trace.metadata.find("centre_mm")) {
     std::vector<double> xyz;

@@ -16,10 +16,6 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-json opt(const std::optional<double>& v) {
-  return v ? json(*v) : json(nullptr);
-}
-
 // Micrometres for the text report: the unit people read circular-test results in.
 std::string um(double mm) {
   return fmt::format("{:+.1f} um", mm * 1000.0);
@@ -29,78 +25,6 @@ std::string um_abs(double mm) {
 }
 
 }  // namespace
-
-const char* g_method_name(GMethod method) noexcept {
-  return method == GMethod::min_zone ? "min-zone" : "least-squares";
-}
-
-json to_json(const Evaluation& ev) {
-  json j;
-  j["units"] = "mm";
-  j["source"] = ev.source;
-  j["plane"] = std::string(plane_name(ev.plane));
-  j["channels"] = json::array({ev.channel_a, ev.channel_b});
-  j["segmentation"] = segmentation_method_name(ev.segmentation);
-  j["g_method"] = g_method_name(ev.g_method);
-  j["nominal_radius"] = opt(ev.nominal_radius_mm);
-  j["nominal_radius_source"] = ev.nominal_radius_source;
-  j["nominal_centre"] =
-      ev.centre_a_mm ? json::array({*ev.centre_a_mm, *ev.centre_b_mm}) : json(nullptr);
-  j["nominal_centre_source"] = ev.centre_source;
-  j["temperature"] = {{"corrected", ev.temperatures.available()},
-                      {"machine_C", opt(ev.temperatures.machine_C)},
-                      {"instrument_C", opt(ev.temperatures.instrument_C)},
-                      {"machine_expansion_per_K", ev.temperatures.machine_expansion_per_K},
-                      {"instrument_expansion_per_K", ev.temperatures.instrument_expansion_per_K},
-                      {"radius_factor", ev.temperature_factor}};
-  j["H"] = ev.hysteresis.empty() ? json(nullptr) : json(ev.hysteresis.front().h_mm);
-  json pairs = json::array();
-  for (const auto& h : ev.hysteresis) {
-    pairs.push_back({{"runs", {h.run_ccw, h.run_cw}},
-                     {"H", h.h_mm},
-                     {"angle_deg", h.at_angle_deg},
-                     {"overlap_deg", h.overlap_deg},
-                     {"centre", {h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm}}});
-  }
-  j["pairs"] = pairs;
-  json runs = json::array();
-  for (const auto& r : ev.runs) {
-    json contacts_outer = r.mzc.outer_contacts;
-    json contacts_inner = r.mzc.inner_contacts;
-    runs.push_back({
-        {"direction", std::string(direction_name(r.run.direction))},
-        {"label", r.label},
-        {"segment", r.run.segment_id},
-        {"G", r.g_mzc_mm},
-        {"G_lsc", r.g_lsc_mm},
-        {"F_max", opt(r.f_max_mm)},
-        {"F_min", opt(r.f_min_mm)},
-        {"F_centre", r.f_centre_method},
-        {"F_centre_point", {r.f_centre_a_mm, r.f_centre_b_mm}},
-        {"centre", {r.lsc.centre_a_mm, r.lsc.centre_b_mm}},
-        {"radius", r.lsc.radius_mm},
-        {"points", r.run.size()},
-        {"arc_deg", r.run.sweep_deg},
-        {"start_deg", r.run.start_deg},
-        {"lines", {r.first_line, r.last_line}},
-        {"feed_mm_per_min", opt(r.feed_mm_per_min)},
-        {"mzc",
-         {{"centre", {r.mzc.centre_a_mm, r.mzc.centre_b_mm}},
-          {"inner_radius", r.mzc.inner_radius_mm},
-          {"outer_radius", r.mzc.outer_radius_mm},
-          {"zone_width", r.mzc.zone_width_mm},
-          {"certified", r.mzc.certified},
-          {"outer_contacts", contacts_outer},
-          {"inner_contacts", contacts_inner}}},
-    });
-  }
-  j["runs"] = runs;
-  j["notes"] = ev.notes;
-  json conditions = json::object();
-  for (const auto& [k, v] : ev.conditions.entries()) conditions[k] = v;
-  j["conditions"] = conditions;
-  return j;
-}
 
 std::string channels_text(const Evaluation& ev) {
   std::string s = fmt::format("{}, {}", ev.channel_a, ev.channel_b);
@@ -171,9 +95,9 @@ std::string text_report(const Evaluation& ev) {
                              static_cast<char>(std::toupper(axes.second)), plane_name(ev.plane)));
   }
   line("Circle centre (mm)", meta("centre_mm"));
-  if (ev.centre_a_mm) {
-    line("Nominal centre", fmt::format("{:.4f}, {:.4f} mm (from {})", *ev.centre_a_mm,
-                                       *ev.centre_b_mm, ev.centre_source));
+  if (ev.centre) {
+    line("Nominal centre", fmt::format("{:.4f}, {:.4f} mm (from {})", ev.centre->a_mm,
+                                       ev.centre->b_mm, ev.centre_source));
   }
   line("Tool-side offset (mm)", meta("offset_tool_mm"));
   line("Workpiece-side offset (mm)", meta("offset_workpiece_mm"));

@@ -46,8 +46,8 @@ double swept_angle(const double* a, const double* b, std::size_t begin, std::siz
 }
 
 Circle centre_of(const double* a, const double* b, Span s, const SegmentationOptions& o) {
-  if (o.centre_a_mm && o.centre_b_mm) {
-    return {*o.centre_a_mm, *o.centre_b_mm, o.radius_mm.value_or(0.0)};
+  if (o.centre) {
+    return {o.centre->a_mm, o.centre->b_mm, o.radius_mm.value_or(0.0)};
   }
   return fit_lsc_algebraic(std::span<const double>(a + s.begin, s.end - s.begin),
                            std::span<const double>(b + s.begin, s.end - s.begin));
@@ -101,8 +101,8 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
   if (sa.size() < o.min_points) return out;
 
   Circle c;
-  if (o.centre_a_mm && o.centre_b_mm && o.radius_mm) {
-    c = {*o.centre_a_mm, *o.centre_b_mm, *o.radius_mm};
+  if (o.centre && o.radius_mm) {
+    c = {o.centre->a_mm, o.centre->b_mm, *o.radius_mm};
   } else {
     // Refit on the samples near the first estimate: feed-in lines and lead arcs of another
     // radius pull the first algebraic fit away from the test circle.
@@ -198,6 +198,14 @@ const char* segmentation_method_name(SegmentationMethod method) noexcept {
       return "automatic";
   }
   return "automatic";
+}
+
+std::optional<SegmentationMethod> parse_segmentation_method(std::string_view name) {
+  for (auto m :
+       {SegmentationMethod::marker, SegmentationMethod::segment, SegmentationMethod::automatic}) {
+    if (name == segmentation_method_name(m)) return m;
+  }
+  return std::nullopt;
 }
 
 PlaneColumns plane_columns(const Trace& trace, Plane plane, const std::string& a_name,

@@ -30,8 +30,7 @@ struct EvaluationOptions {
   std::string column_a;        // explicit position columns (default: the plane's axis letters)
   std::string column_b;
   std::optional<double> nominal_radius_mm;
-  std::optional<double> centre_a_mm;  // nominal / set-up centre
-  std::optional<double> centre_b_mm;
+  std::optional<PlanePoint> centre;  // nominal / set-up centre
   GMethod g_method = GMethod::min_zone;
   FCentre f_centre = FCentre::automatic;
   Temperatures temperatures;
@@ -54,8 +53,7 @@ struct RunResult {
   std::optional<double> f_max_mm;
   std::optional<double> f_min_mm;
   std::string f_centre_method;  // "lsc" or "nominal"
-  double f_centre_a_mm = 0.0;
-  double f_centre_b_mm = 0.0;
+  PlanePoint f_centre;
   std::optional<double> feed_mm_per_min;  // from the time column, when present
   double g_mm(GMethod m) const { return m == GMethod::min_zone ? g_mzc_mm : g_lsc_mm; }
 };
@@ -80,8 +78,7 @@ struct Evaluation {
   GMethod g_method = GMethod::min_zone;
   std::optional<double> nominal_radius_mm;
   std::string nominal_radius_source;  // "option", "metadata", "commanded", or empty
-  std::optional<double> centre_a_mm;
-  std::optional<double> centre_b_mm;
+  std::optional<PlanePoint> centre;   // nominal / set-up centre
   std::string centre_source;
   Temperatures temperatures;
   double temperature_factor = 1.0;

@@ -17,10 +17,11 @@ inline constexpr std::string_view kRadialColumn = "r";
 inline constexpr std::string_view kBarLengthKey = "bar_length_mm";
 
 struct RadialOptions {
-  std::optional<Plane> plane;         // default: the trace's `plane` metadata, else XY
-  std::optional<double> centre_a_mm;  // the pivot; default: centre_mm metadata, else the
-  std::optional<double> centre_b_mm;  // LSC of the commanded points of the measured arcs
-  std::optional<double> radius_mm;    // nominal radius, for the plausibility check of r
+  std::optional<Plane> plane;  // default: the trace's `plane` metadata, else XY
+  // The pivot; default: centre_mm metadata, else the LSC of the commanded points of the
+  // measured arcs.
+  std::optional<PlanePoint> centre;
+  std::optional<double> radius_mm;  // nominal radius, for the plausibility check of r
 };
 
 // A trace to evaluate from its radial channel: it has `r` but not the plane's own position

@@ -1,16 +1,16 @@
 #pragma once
-// The result model as JSON (shared by the CLI, the report and later the compensation
-// planner) and the clause 6 text report.
+// The clause 6 text report, and the `circana fit` report. The evaluation's JSON is in
+// result_json.hpp.
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/result_json.hpp"
 
 namespace circtest {
 
-nlohmann::ordered_json to_json(const Evaluation& evaluation);
 std::string text_report(const Evaluation& evaluation);
 
 struct FitReport {
@@ -25,8 +25,6 @@ struct FitReport {
 FitReport fit_all(const std::string& source, std::span<const double> a, std::span<const double> b);
 nlohmann::ordered_json to_json(const FitReport& report);
 std::string text_report(const FitReport& report);
-
-const char* g_method_name(GMethod method) noexcept;  // "min-zone", "least-squares"
 
 // "x, y (x: table X, grid encoder; ...)": the channels evaluated, with their descriptions.
 std::string channels_text(const Evaluation& evaluation);

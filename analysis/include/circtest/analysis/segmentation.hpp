@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "circtest/core/plane.hpp"
@@ -35,8 +36,7 @@ struct Run {
 
 struct SegmentationOptions {
   // Centre estimate for the angles (nominal centre); estimated from the data when absent.
-  std::optional<double> centre_a_mm;
-  std::optional<double> centre_b_mm;
+  std::optional<PlanePoint> centre;
   std::optional<double> radius_mm;
   double min_sweep_deg = 90.0;  // shorter runs are refused (DataError naming their lines)
   std::size_t min_points = 8;
@@ -56,5 +56,6 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
                            const SegmentationOptions& options = {});
 
 const char* segmentation_method_name(SegmentationMethod method) noexcept;
+std::optional<SegmentationMethod> parse_segmentation_method(std::string_view name);
 
 }  // namespace circtest

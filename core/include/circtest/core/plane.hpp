@@ -7,6 +7,14 @@
 namespace circtest {
 
 enum class Plane { XY, YZ, ZX };
+
+// A point in the plane under test: its two coordinates in clause 3.7 axis order (XY: x, y;
+// YZ: y, z; ZX: z, x), mm. Centres of circles and set-ups.
+struct PlanePoint {
+  double a_mm = 0.0;
+  double b_mm = 0.0;
+  friend bool operator==(const PlanePoint&, const PlanePoint&) = default;
+};
 enum class Direction { CCW, CW };
 
 // The two axes of a plane in the order of its positive rotation (XY: x then y; YZ: y then z;
