@@ -449,7 +449,8 @@ TEST(TraceFile, DevicesAndDirectoriesAreRefusedBeforeReading) {
   } catch (const IoError& e) {
     EXPECT_STREQ(e.what(), "/dev/zero: is a character device: expected a regular file or a pipe");
   }
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   try {
     read_trace(dir.string());
     FAIL();
@@ -462,7 +463,8 @@ TEST(TraceFile, DevicesAndDirectoriesAreRefusedBeforeReading) {
 }
 
 TEST(TraceFile, PipesAreReadAndTheirLinesCapped) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   const std::string fifo = (dir / "trace.fifo").string();
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   std::signal(SIGPIPE, SIG_IGN);  // the writer of the endless line sees EPIPE instead
@@ -530,7 +532,8 @@ std::string read_error(const std::filesystem::path& dir, const std::string& byte
 }  // namespace
 
 TEST(BinaryTrace, RowCountIsCheckedWithoutOverflow) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   // 2 columns of 8 bytes: (2^59 + 1) * 16 wraps to 16, the bytes of exactly one row.
   const std::uint64_t rows = (std::uint64_t{1} << 59) + 1;
   EXPECT_EQ(read_error(dir, ctb("t,x\n", {0.0, 1.0}, rows, "")),
@@ -542,7 +545,8 @@ TEST(BinaryTrace, RowCountIsCheckedWithoutOverflow) {
 }
 
 TEST(BinaryTrace, HeaderAndTrailerTextHoldNoRows) {
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   EXPECT_EQ(read_error(dir, ctb("# a: b\nt,x\n5,6\n", {0.0, 1.0}, 1, "")),
             "binary trace header text, line 3: expected only '# key: value' lines after the "
             "header row, got '5,6'");
@@ -556,7 +560,8 @@ TEST(BinaryTrace, HeaderAndTrailerTextHoldNoRows) {
 
 TEST(BinaryTrace, BulkAndRecordByRecordReadsAgree) {
   // Stretches on several threads must report the same first bad record as one thread.
-  const auto dir = temp_dir();
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const auto dir = scratch.dir();
   std::vector<std::pair<double, double>> rows;
   for (int i = 0; i < 50000; ++i) rows.emplace_back(i * 1e-3, 1.0);
   rows[30000].second = INFINITY;
