@@ -84,16 +84,12 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
       (eo.column_a.empty() && is_radial_trace(read, trace_plane(read, eo.plane)))) {
     RadialOptions ro_radial;
     ro_radial.plane = eo.plane;
-    ro_radial.centre_a_mm = eo.centre_a_mm;
-    ro_radial.centre_b_mm = eo.centre_b_mm;
+    ro_radial.centre = eo.centre;
     ro_radial.radius_mm = eo.nominal_radius_mm;
     radial = radial_positions(read, ro_radial);
     eo.column_a = radial->column_a;
     eo.column_b = radial->column_b;
-    if (!eo.centre_a_mm) {
-      eo.centre_a_mm = radial->centre_a_mm;
-      eo.centre_b_mm = radial->centre_b_mm;
-    }
+    if (!eo.centre) eo.centre = PlanePoint{radial->centre_a_mm, radial->centre_b_mm};
     options.absolute_channels = false;
   }
   Diagnosis d = diagnose(radial ? radial->trace : read, options);

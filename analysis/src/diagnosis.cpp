@@ -539,8 +539,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
                 col_b.begin() + static_cast<std::ptrdiff_t>(r.run.end));
     }
     const Circle all = fit_lsc(xa, xb);
-    ca = ev.centre_a_mm.value_or(all.centre_a_mm);
-    cb = ev.centre_b_mm.value_or(all.centre_b_mm);
+    ca = ev.centre ? ev.centre->a_mm : all.centre_a_mm;
+    cb = ev.centre ? ev.centre->b_mm : all.centre_b_mm;
     R = ev.nominal_radius_mm.value_or(all.radius_mm);
     if (!ev.nominal_radius_mm) {
       D.notes.push_back(

@@ -257,13 +257,12 @@ TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
 // circana diagnose: the JSON contract of docs/diagnosis.md, the text's sign words, --pitch.
 TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
   const std::string trace = (dir_ / "diag.csv").string();
-  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
-                         " --d 100 --f 2000 --squareness 100e-6 --backlash-x 0.01 --kv-x 30"
-                         " --kv-y 33 --cyclic-y 0.002 --pitch-y 5")
-                            .c_str()),
+  ASSERT_EQ(simtrace("-o " + trace +
+                     " --d 100 --f 2000 --squareness 100e-6 --backlash-x 0.01 --kv-x 30"
+                     " --kv-y 33 --cyclic-y 0.002 --pitch-y 5"),
             0);
-  const Result r = run("diagnose " + trace + " --json --pitch Y=5");
-  ASSERT_EQ(r.code, 0) << r.err;
+  const CommandResult r = run("diagnose " + trace + " --json --pitch Y=5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["schema"], "circtest.diagnosis/1");
   EXPECT_NEAR(j["backlash_mm"]["X"].get<double>(), 0.010, 0.0005);
@@ -271,12 +270,12 @@ TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
   EXPECT_NEAR(j["servo_mismatch_ms"].get<double>(), (1.0 / 30 - 1.0 / 33) * 1e3, 0.05);
   EXPECT_NEAR(j["cyclic"]["Y"]["amplitude_mm"].get<double>(), 0.002, 0.0001);
   EXPECT_EQ(j["cyclic"]["Y"]["pitch_source"], "option");
-  const Result text = run("diagnose " + trace);
-  ASSERT_EQ(text.code, 0) << text.err;
+  const CommandResult text = run("diagnose " + trace);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
   EXPECT_NE(text.out.find("X lags Y by 3.0"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("X backlash 10.0 um"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("is 90 deg - 100."), std::string::npos) << text.out;
-  const Result analyze = run("analyze " + trace);
+  const CommandResult analyze = run("analyze " + trace);
   EXPECT_NE(analyze.out.find("Diagnosis"), std::string::npos);
   expect_error("diagnose " + trace + " --pitch X5", 2,
                "--pitch: expected AXIS=MM items like X=5,Y=5, got 'X5'");
