@@ -177,8 +177,8 @@ TEST_F(CircanaCli, OneOutlierRowStillGivesAnAnswer) {
   // holds it: about the diameter, 150 mm (see circle_fit_Mzc.OneGrossOutlier...).
   const std::string t =
       edited_example(dir_, "outlier.csv", 3000, [](std::vector<std::string>& f) { f[2] = "0"; });
-  const Result r = run("analyze " + t + " --json");
-  ASSERT_EQ(r.code, 0) << r.err;
+  const CommandResult r = run("analyze " + t + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_NEAR(j["runs"][0]["G"].get<double>(), 150.0, 0.1);
 }
@@ -188,8 +188,8 @@ TEST_F(CircanaCli, TheFuzzersMzcNonConvergenceEndsWithAnAnswer) {
   // exchange lost its alternation and circana exited 1 with an internal error.
   const std::string t =
       std::string(CIRCTEST_SOURCE_DIR) + "/tests/fuzz/corpus/fuzz_analyze/mzc-did-not-converge.csv";
-  const Result r = run("analyze " + t + " --json");
-  EXPECT_EQ(r.code, 0) << r.err;
+  const CommandResult r = run("analyze " + t + " --json");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(r.err.find("internal"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("did not converge"), std::string::npos) << r.err;
 }
@@ -198,8 +198,8 @@ TEST_F(CircanaCli, SegmentIdsNoIntegerHoldsAreRefusedAtTheirLine) {
   for (const char* v : {"1e300", "9223372036854775808", "-3e9"}) {
     const std::string t =
         edited_example(dir_, "seg.csv", 3000, [&](std::vector<std::string>& f) { f[8] = v; });
-    const Result r = run("analyze " + t);
-    EXPECT_EQ(r.code, 5) << v << r.err;
+    const CommandResult r = run("analyze " + t);
+    EXPECT_EQ(r.exit_code, 5) << v << r.err;
     EXPECT_NE(r.err.find(t + ":3006: segment: expected a run id 0..2147483647, got"),
               std::string::npos)
         << r.err;
@@ -213,8 +213,8 @@ TEST_F(CircanaCli, NonFiniteResultsAreRefusedNotPrinted) {
         "# expansion_instrument_per_K: 1e308\n# temperature_instrument_C: 25\n"}) {
     // Replaces the example's own line of that key.
     const std::string t = edited_example(dir_, "meta.csv", 0, none, meta);
-    const Result r = run("analyze " + t);
-    EXPECT_EQ(r.code, 5) << meta << r.out << r.err;
+    const CommandResult r = run("analyze " + t);
+    EXPECT_EQ(r.exit_code, 5) << meta << r.out << r.err;
     EXPECT_EQ(r.out, "");
     EXPECT_NE(r.err.find("is not a usable number"), std::string::npos) << r.err;
   }
