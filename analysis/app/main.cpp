@@ -30,7 +30,10 @@ const char* kUsage =
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
     "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
-    "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n";
+    "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n"
+    "       circana store RESULT.json|TRACE [--db URL] [the analyze options]\n"
+    "       circana history --machine NAME [--since DATE] [--json] [--svg TREND.svg]\n"
+    "                       [--limits H=MM,G=MM,F=MM,backlash=MM,squareness=URAD] [--db URL]\n";
 
 // Thrown once `circana COMMAND --help|--version` has printed its text: exit 0, no work.
 struct InfoShown {};
@@ -186,8 +189,47 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
 }
 
 int analyze(const std::vector<std::string>& args) {
-  return run_analyze(analyze_options(args, "analyze", [](po::options_description&) {}).request,
-                     std::cout);
+  Parsed p = analyze_options(args, "analyze", [](po::options_description& d) {
+    d.add_options()("store", "also keep the test in the history")(
+        "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
+  });
+  p.request.store = p.vm.count("store") > 0;
+  if (p.vm.count("db")) {
+    if (!p.request.store) throw UsageError("--db: only with --store");
+    p.request.db_url = p.vm["db"].as<std::string>();
+  }
+  return run_analyze(p.request, std::cout);
+}
+
+int store(const std::vector<std::string>& args) {
+  const Parsed p = analyze_options(args, "store", [](po::options_description& d) {
+    d.add_options()("db", po::value<std::string>(),
+                    "the history: SQLite file or postgresql:// URL");
+  });
+  StoreRequest req;
+  req.path = p.request.trace_path;
+  req.options = p.request.options;
+  req.radial = p.request.radial;
+  if (p.vm.count("db")) req.db_url = p.vm["db"].as<std::string>();
+  return run_store(req, std::cout);
+}
+
+int history(const std::vector<std::string>& args) {
+  po::options_description desc("history");
+  desc.add_options()("machine", po::value<std::string>()->required(), "machine name")(
+      "since", po::value<std::string>(), "only tests at or after this date")(
+      "json", "JSON on stdout")("svg", po::value<std::string>(), "write the trend as SVG")(
+      "limits", po::value<std::string>(), "H=MM,G=MM,...: pass/fail of the latest test")(
+      "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
+  const auto vm = parse(desc, {}, args);
+  HistoryRequest req;
+  req.machine = vm["machine"].as<std::string>();
+  if (vm.count("since")) req.since = vm["since"].as<std::string>();
+  req.json = vm.count("json") > 0;
+  if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
+  if (vm.count("limits")) req.limits = vm["limits"].as<std::string>();
+  if (vm.count("db")) req.db_url = vm["db"].as<std::string>();
+  return run_history(req, std::cout);
 }
 
 // --pitch X=5,Y=5: cyclic-error pitch per axis, mm.
@@ -267,8 +309,8 @@ int main(int argc, char** argv) {
   return run_cli("circana", [&]() -> int {
     if (argc < 2)
       throw UsageError(
-          "missing command: expected analyze, diagnose, fit or import-polar (see circana "
-          "--help)");
+          "missing command: expected analyze, diagnose, fit, import-polar, store or history (see "
+          "circana --help)");
     const std::string command = argv[1];
     const std::vector<std::string> args(argv + 2, argv + argc);
     if (command == "--help" || command == "-h" || command == "help") {
@@ -284,10 +326,12 @@ int main(int argc, char** argv) {
       if (command == "diagnose") return diagnose(args);
       if (command == "fit") return fit(args);
       if (command == "import-polar") return import_polar(args);
+      if (command == "store") return store(args);
+      if (command == "history") return history(args);
     } catch (const InfoShown&) {
       return 0;
     }
     throw UsageError("unknown command '" + command +
-                     "': expected analyze, diagnose, fit or import-polar");
+                     "': expected analyze, diagnose, fit, import-polar, store or history");
   });
 }

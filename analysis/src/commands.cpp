@@ -12,6 +12,11 @@
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/history/history.hpp"
+
+#include <filesystem>
+#include <regex>
+#include <sstream>
 
 namespace circtest {
 
@@ -22,6 +27,27 @@ std::vector<std::string> analysis_columns(const std::string& a, const std::strin
   if (!a.empty()) keep.push_back(a);
   if (!b.empty()) keep.push_back(b);
   return keep;
+}
+
+nlohmann::json plain(const nlohmann::ordered_json& j) {
+  return nlohmann::json::parse(j.dump());
+}
+
+// Stores an evaluation document; returns the line that says so.
+std::string store_result(const nlohmann::json& result, const std::string& trace_path,
+                         const std::string& db_url) {
+  history::TestRecord record = history::record_from_result(result, nullptr);
+  std::error_code ec;
+  if (!trace_path.empty() && std::filesystem::is_regular_file(trace_path, ec)) {
+    record.trace_sha256 = history::sha256_file(trace_path);
+    record.trace_path = std::filesystem::absolute(trace_path, ec).string();
+  }
+  const auto store = history::open_store(db_url);
+  const std::int64_t id = store->add(record);
+  return fmt::format(
+      "Stored as test {} of machine {} (tested at {}) in {}{}\n", id, record.machine,
+      record.tested_at, store->name(),
+      record.trace_sha256.empty() ? "; the trace file was not found, no SHA-256" : "");
 }
 }  // namespace
 
@@ -66,6 +92,10 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   }
   if (!request.svg_path.empty())
     write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));
+  if (request.store) {
+    const std::string stored = store_result(plain(to_json(ev)), request.trace_path, request.db_url);
+    if (!request.json) text += "\n" + stored;
+  }
   out << text;
   out.flush();
   return 0;
@@ -96,6 +126,88 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   if (radial) d.notes.insert(d.notes.begin(), radial->note);
   out << (request.json ? to_json(d).dump(2) + "\n" : text_report(d));
   out.flush();
+  return 0;
+}
+
+int run_store(const StoreRequest& request, std::ostream& out) {
+  const std::string head = read_file(request.path).substr(0, 4096);
+  const auto first = head.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && head[first] == '{') {
+    nlohmann::json result;
+    try {
+      result = nlohmann::json::parse(read_file(request.path));
+    } catch (const nlohmann::json::parse_error& e) {
+      throw ParseError(request.path, 0, std::string("not valid JSON: ") + e.what());
+    }
+    if (!result.is_object()) throw ParseError(request.path, 0, "expected a JSON object");
+    if (result.contains("schema") && result["schema"].is_string() &&
+        result["schema"].get<std::string>().rfind("circtest.diagnosis/", 0) == 0) {
+      throw DataError(request.path, 0,
+                      "a diagnosis document: store the trace or its evaluation "
+                      "(circana analyze --json)");
+    }
+    if (!result.contains("conditions") || !result["conditions"].is_object()) {
+      result["conditions"] = nlohmann::json::object();
+    }
+    for (const auto& [key, value] : request.options.conditions) result["conditions"][key] = value;
+    try {
+      const std::string source = result.contains("source") && result["source"].is_string()
+                                     ? result["source"].get<std::string>()
+                                     : "";
+      out << store_result(result, source, request.db_url);
+    } catch (const nlohmann::json::exception& e) {
+      throw DataError(request.path, 0, std::string("not an evaluation document: ") + e.what());
+    }
+    out.flush();
+    return 0;
+  }
+  // A trace: evaluated and stored as analyze --store does; only the line naming the test out.
+  AnalyzeRequest analyze;
+  analyze.trace_path = request.path;
+  analyze.options = request.options;
+  analyze.radial = request.radial;
+  analyze.store = true;
+  analyze.db_url = request.db_url;
+  std::ostringstream report;
+  run_analyze(analyze, report);
+  const std::string text = report.str();
+  out << text.substr(text.rfind("\nStored as test ") + 1);
+  out.flush();
+  return 0;
+}
+
+int run_history(const HistoryRequest& request, std::ostream& out) {
+  static const std::regex iso(R"(\d{4}-\d{2}-\d{2}(T\d{2}(:\d{2}(:\d{2}(\.\d+)?)?)?Z?)?)");
+  if (!request.since.empty() && !std::regex_match(request.since, iso)) {
+    throw UsageError("--since: expected a date YYYY-MM-DD or YYYY-MM-DDTHH:MM:SS, got '" +
+                     request.since + "'");
+  }
+  const history::Limits limits =
+      request.limits.empty() ? history::Limits{} : history::parse_limits(request.limits);
+  const auto store = history::open_store(request.db_url);
+  const auto machines = store->machines();
+  if (std::find(machines.begin(), machines.end(), request.machine) == machines.end()) {
+    std::string known;
+    for (const auto& m : machines) known += (known.empty() ? "" : ", ") + m;
+    throw Error(ExitCode::data,
+                fmt::format("{}: no tests of machine '{}' (machines in the history: {})",
+                            store->name(), request.machine, known.empty() ? "none" : known));
+  }
+  const auto tests = store->tests(request.machine, request.since);
+  if (tests.empty() && !limits.empty()) {
+    throw Error(ExitCode::data,
+                fmt::format("{}: no tests of machine '{}' since {}: nothing to check",
+                            store->name(), request.machine, request.since));
+  }
+  if (!request.svg_path.empty()) {
+    write_file_atomic(request.svg_path, history::history_svg(request.machine, tests, limits));
+  }
+  out << (request.json ? history::history_json(request.machine, tests, limits).dump(2) + "\n"
+                       : history::history_text(request.machine, tests, limits));
+  out.flush();
+  if (!limits.empty() && !history::breaches(tests.back(), limits).empty()) {
+    return static_cast<int>(ExitCode::tolerance);
+  }
   return 0;
 }
 

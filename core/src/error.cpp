@@ -26,6 +26,10 @@ const char* exit_code_name(ExitCode code) noexcept {
       return "data-loss";
     case ExitCode::stale:
       return "stale";
+    case ExitCode::tolerance:
+      return "tolerance";
+    case ExitCode::database:
+      return "database";
   }
   return "unknown";
 }

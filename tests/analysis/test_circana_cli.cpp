@@ -229,7 +229,8 @@ TEST_F(CircanaCli, BadOptions) {
   expect_error("analyze", 2, "missing the trace argument: expected a file name");
   expect_error("fit --json", 2, "missing the points argument: expected a file name");
   expect_error("frobnicate", 2,
-               "unknown command 'frobnicate': expected analyze, diagnose, fit or import-polar");
+               "unknown command 'frobnicate': expected analyze, diagnose, fit, import-polar, store "
+               "or history");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {

@@ -18,6 +18,8 @@ struct AnalyzeRequest {
   // Evaluate the radial channel `r` even when the plane's position columns exist (a trace
   // without them is evaluated from `r` anyway).
   bool radial = false;
+  bool store = false;  // also keep the test in the history (--store)
+  std::string db_url;  // the history: empty for the default SQLite file
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code.
@@ -31,6 +33,27 @@ struct DiagnoseRequest {
 };
 // Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write.
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out);
+// circana store: an evaluation document (analyze --json) or a trace (evaluated with
+// `options`) into the history. Prints one line naming the stored test.
+struct StoreRequest {
+  std::string path;
+  EvaluationOptions options;  // for a trace; its `conditions` also override a document's
+  bool radial = false;        // as AnalyzeRequest::radial
+  std::string db_url;
+};
+int run_store(const StoreRequest& request, std::ostream& out);
+
+// circana history: the tests of a machine, as a table or JSON, the trend as SVG, and with
+// limits a pass/fail check of the latest test (ExitCode::tolerance when it fails).
+struct HistoryRequest {
+  std::string machine;
+  std::string since;  // ISO 8601 date or date-time prefix; empty: all
+  std::string db_url;
+  bool json = false;
+  std::string svg_path;
+  std::string limits;  // "H=0.015,G=0.020"; empty: no check
+};
+int run_history(const HistoryRequest& request, std::ostream& out);
 
 struct FitRequest {
   std::string points_path;

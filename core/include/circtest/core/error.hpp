@@ -17,7 +17,9 @@ enum class ExitCode : int {
   limit = 6,      // a request violates a machine limit (soft limits, velocity, acceleration)
   hal = 7,        // HAL/LinuxCNC not available or the component is not loaded
   data_loss = 8,  // the recorder lost samples (overruns or gaps); the file is still complete
+  tolerance = 9,  // a checked limit was breached (circana history --limits); not an error
   stale = 10,     // circcomp apply: the INI changed since the measurement
+  database = 11,  // the history database cannot be opened, read or written
 };
 
 // Short stable name of an exit code, for messages and documentation.
@@ -82,6 +84,11 @@ class LimitError : public Error {
 class StaleError : public Error {
  public:
   explicit StaleError(const std::string& message) : Error(ExitCode::stale, message) {}
+};
+
+class DatabaseError : public Error {
+ public:
+  explicit DatabaseError(const std::string& message) : Error(ExitCode::database, message) {}
 };
 
 class HalError : public Error {

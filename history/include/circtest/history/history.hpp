@@ -1,0 +1,103 @@
+#pragma once
+// The history of every machine's circular tests: one schema, kept in an embedded SQLite file
+// (default) or on a shop-wide PostgreSQL server, created and migrated on first use.
+//
+// This part reads the result documents (circtest.evaluation/1, circtest.diagnosis/1), not
+// the analysis types: it has its own dependencies (libsqlite3, libpq, libcrypto) that the
+// analysis library and circgen need not carry, and a stored test stays readable whatever
+// the analysis code becomes.
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace circtest::history {
+
+// One number of a test: H of a pair, G / F_max / F_min of a run.
+struct Measure {
+  std::string kind;       // "H", "G", "F_max", "F_min"
+  std::string label;      // clause 3.7 label, e.g. "XY"
+  std::string direction;  // "CCW", "CW"
+  std::optional<double> feed_mm_per_min;
+  double value_mm = 0.0;
+};
+
+struct TestRecord {
+  std::int64_t id = 0;       // set by the store
+  std::string machine;       // the history is kept per machine
+  std::string tested_at;     // ISO 8601, UTC when known (the trace's start_time or date)
+  std::string stored_at;     // ISO 8601 UTC, set by the store
+  std::string plane;         // "XY", ...
+  std::string channels;      // "x,y"
+  std::string trace_path;    // as given
+  std::string trace_sha256;  // empty when the trace file was not at hand
+  nlohmann::json conditions = nlohmann::json::object();
+  std::vector<Measure> measures;
+  // The trend's numbers: the largest H and G of the test, and from the diagnosis (when one
+  // was stored) the largest backlash of the plane's axes and the squareness.
+  std::optional<double> h_mm;
+  std::optional<double> g_mm;
+  std::optional<double> f_mm;  // the largest |F_max|, |F_min|
+  std::optional<double> backlash_mm;
+  std::optional<double> squareness_urad;
+  nlohmann::json result;               // the evaluation document as stored
+  nlohmann::json diagnosis = nullptr;  // the diagnosis document, or null
+};
+
+// A record from an evaluation document (and a diagnosis document, may be null). The
+// machine comes from the document's conditions unless `machine` is given; throws
+// circtest::Error (data) when there is none or the document is not an evaluation.
+TestRecord record_from_result(const nlohmann::json& result, const nlohmann::json& diagnosis,
+                              const std::string& machine = {});
+
+// The storage interface. Every call throws DatabaseError (exit code 11) with the database
+// named when the database cannot be used.
+class Store {
+ public:
+  virtual ~Store() = default;
+  // Stores one test in one transaction: all of it or, on any failure, nothing.
+  virtual std::int64_t add(const TestRecord& record) = 0;
+  // The tests of a machine at or after `since` (ISO 8601 prefix; empty: all), oldest first,
+  // with their measures.
+  virtual std::vector<TestRecord> tests(const std::string& machine, const std::string& since) = 0;
+  virtual std::vector<std::string> machines() = 0;
+  virtual int schema_version() = 0;
+  virtual const std::string& name() const = 0;  // for messages (no password)
+};
+
+// The newest schema this build knows; older databases are migrated on open, newer ones
+// refused.
+int latest_schema_version() noexcept;
+
+// Opens (creating and migrating when needed) the history at `url`: empty for the default
+// SQLite file, "postgresql://..." / "postgres://..." for a server (a libpq URI), else
+// "sqlite:PATH" or a file path.
+std::unique_ptr<Store> open_store(const std::string& url);
+
+// $XDG_DATA_HOME/circtest/history.sqlite ($HOME/.local/share when XDG_DATA_HOME is unset).
+std::string default_database_path();
+
+// SHA-256 of a file's contents, lowercase hex. Throws IoError.
+std::string sha256_file(const std::string& path);
+
+// Pass/fail limits of the trend: H, G, F, backlash (mm) and squareness (urad).
+struct Limits {
+  std::optional<double> h_mm, g_mm, f_mm, backlash_mm, squareness_urad;
+  bool empty() const { return !h_mm && !g_mm && !f_mm && !backlash_mm && !squareness_urad; }
+};
+// "H=0.015,G=0.020" (mm; squareness in urad). Throws UsageError naming --limits.
+Limits parse_limits(const std::string& text);
+// The quantities of a test that exceed their limit, e.g. {"H 0.0210 > 0.0150 mm"}.
+std::vector<std::string> breaches(const TestRecord& test, const Limits& limits);
+
+// Outputs of `circana history`: a text table, a circtest.history/1 document, an SVG trend.
+std::string history_text(const std::string& machine, const std::vector<TestRecord>& tests,
+                         const Limits& limits);
+nlohmann::ordered_json history_json(const std::string& machine,
+                                    const std::vector<TestRecord>& tests, const Limits& limits);
+std::string history_svg(const std::string& machine, const std::vector<TestRecord>& tests,
+                        const Limits& limits, int width_px = 720);
+
+}  // namespace circtest::history

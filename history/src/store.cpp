@@ -1,0 +1,337 @@
+// The schema, its migrations and the queries, written once over detail::Connection.
+#include <openssl/evp.h>
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+
+#include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
+#include "circtest/history/history.hpp"
+#include "connection.hpp"
+
+namespace circtest::history {
+
+using detail::Connection;
+using detail::Row;
+using detail::Value;
+using json = nlohmann::json;
+
+namespace {
+
+// Migration N (1-based) brings the schema from version N-1 to N. Append, never edit: a
+// database records the versions it has applied. {id} is the backend's auto-numbered key.
+const std::vector<std::vector<std::string>>& migrations() {
+  static const std::vector<std::vector<std::string>> m = {
+      {
+          "CREATE TABLE tests (id {id}, machine TEXT NOT NULL, tested_at TEXT NOT NULL, "
+          "stored_at TEXT NOT NULL, plane TEXT NOT NULL, channels TEXT NOT NULL, "
+          "trace_path TEXT NOT NULL, trace_sha256 TEXT, h_mm DOUBLE PRECISION, "
+          "g_mm DOUBLE PRECISION, f_mm DOUBLE PRECISION, backlash_mm DOUBLE PRECISION, "
+          "squareness_urad DOUBLE PRECISION, conditions TEXT NOT NULL, result TEXT NOT NULL, "
+          "diagnosis TEXT)",
+          "CREATE INDEX tests_machine_time ON tests (machine, tested_at)",
+          "CREATE TABLE measures (test_id BIGINT NOT NULL REFERENCES tests (id) ON DELETE "
+          "CASCADE, seq INTEGER NOT NULL, kind TEXT NOT NULL, label TEXT NOT NULL, "
+          "direction TEXT NOT NULL, feed_mm_per_min DOUBLE PRECISION, "
+          "value_mm DOUBLE PRECISION NOT NULL, PRIMARY KEY (test_id, seq))",
+      },
+  };
+  return m;
+}
+
+Value number(const std::optional<double>& v) {
+  return v ? Value(fmt::format("{:.17g}", *v)) : Value();
+}
+std::optional<double> number(const Value& v) {
+  if (!v) return std::nullopt;
+  return parse_finite(*v);
+}
+
+std::string utc_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  tm utc{};
+  gmtime_r(&ts.tv_sec, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+// Rolls back unless committed: a store is all or nothing, whatever throws.
+class Transaction {
+ public:
+  explicit Transaction(Connection& c) : c_(c) { c_.begin_write(); }
+  ~Transaction() {
+    if (!done_) c_.rollback();
+  }
+  void commit() {
+    c_.commit();
+    done_ = true;
+  }
+
+ private:
+  Connection& c_;
+  bool done_ = false;
+};
+
+class SqlStore final : public Store {
+ public:
+  explicit SqlStore(std::unique_ptr<Connection> c) : c_(std::move(c)) { migrate(); }
+
+  std::int64_t add(const TestRecord& r) override {
+    Transaction tx(*c_);
+    const auto rows = c_->query(
+        "INSERT INTO tests (machine, tested_at, stored_at, plane, channels, trace_path, "
+        "trace_sha256, h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, "
+        "diagnosis) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        {r.machine, r.tested_at, r.stored_at.empty() ? utc_now() : r.stored_at, r.plane, r.channels,
+         r.trace_path, r.trace_sha256.empty() ? Value() : Value(r.trace_sha256), number(r.h_mm),
+         number(r.g_mm), number(r.f_mm), number(r.backlash_mm), number(r.squareness_urad),
+         r.conditions.dump(), r.result.dump(),
+         r.diagnosis.is_null() ? Value() : Value(r.diagnosis.dump())});
+    if (rows.size() != 1 || !rows[0][0]) {
+      throw DatabaseError(c_->name() + ": the new test got no id");
+    }
+    const std::int64_t id = std::stoll(*rows[0][0]);
+    for (std::size_t i = 0; i < r.measures.size(); ++i) {
+      const Measure& m = r.measures[i];
+      c_->query(
+          "INSERT INTO measures (test_id, seq, kind, label, direction, feed_mm_per_min, "
+          "value_mm) VALUES (?, ?, ?, ?, ?, ?, ?)",
+          {std::to_string(id), std::to_string(i), m.kind, m.label, m.direction,
+           number(m.feed_mm_per_min), number(m.value_mm)});
+    }
+    tx.commit();
+    return id;
+  }
+
+  std::vector<TestRecord> tests(const std::string& machine, const std::string& since) override {
+    const auto rows = c_->query(
+        "SELECT id, machine, tested_at, stored_at, plane, channels, trace_path, trace_sha256, "
+        "h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, diagnosis "
+        "FROM tests WHERE machine = ? AND tested_at >= ? ORDER BY tested_at, id",
+        {machine, since});
+    std::vector<TestRecord> out;
+    for (const Row& row : rows) {
+      TestRecord r;
+      r.id = std::stoll(row[0].value_or("0"));
+      r.machine = row[1].value_or("");
+      r.tested_at = row[2].value_or("");
+      r.stored_at = row[3].value_or("");
+      r.plane = row[4].value_or("");
+      r.channels = row[5].value_or("");
+      r.trace_path = row[6].value_or("");
+      r.trace_sha256 = row[7].value_or("");
+      r.h_mm = number(row[8]);
+      r.g_mm = number(row[9]);
+      r.f_mm = number(row[10]);
+      r.backlash_mm = number(row[11]);
+      r.squareness_urad = number(row[12]);
+      r.conditions = parse(row[13], r.id);
+      r.result = parse(row[14], r.id);
+      r.diagnosis = row[15] ? parse(row[15], r.id) : json(nullptr);
+      out.push_back(std::move(r));
+    }
+    const auto mrows = c_->query(
+        "SELECT m.test_id, m.kind, m.label, m.direction, m.feed_mm_per_min, m.value_mm "
+        "FROM measures m JOIN tests t ON t.id = m.test_id "
+        "WHERE t.machine = ? AND t.tested_at >= ? ORDER BY m.test_id, m.seq",
+        {machine, since});
+    for (const Row& row : mrows) {
+      const std::int64_t id = std::stoll(row[0].value_or("0"));
+      auto it = std::find_if(out.begin(), out.end(), [id](const auto& t) { return t.id == id; });
+      if (it == out.end()) continue;  // stored between the two queries
+      it->measures.push_back({row[1].value_or(""), row[2].value_or(""), row[3].value_or(""),
+                              number(row[4]), number(row[5]).value_or(0.0)});
+    }
+    return out;
+  }
+
+  std::vector<std::string> machines() override {
+    std::vector<std::string> out;
+    for (const Row& row : c_->query("SELECT DISTINCT machine FROM tests ORDER BY machine")) {
+      out.push_back(row[0].value_or(""));
+    }
+    return out;
+  }
+
+  int schema_version() override {
+    const auto rows = c_->query("SELECT MAX(version) FROM circtest_schema");
+    return rows.empty() || !rows[0][0] ? 0 : std::stoi(*rows[0][0]);
+  }
+
+  const std::string& name() const override { return c_->name(); }
+
+ private:
+  json parse(const Value& v, std::int64_t id) const {
+    try {
+      return json::parse(v.value_or("null"));
+    } catch (const json::exception&) {
+      throw DatabaseError(fmt::format("{}: test {} holds a broken JSON document", c_->name(), id));
+    }
+  }
+
+  // Creates the schema, or brings it up to date, in one transaction under a lock: two
+  // processes opening a new database at once do not both migrate it.
+  void migrate() {
+    Transaction tx(*c_);
+    c_->lock_schema();
+    c_->query("CREATE TABLE IF NOT EXISTS circtest_schema (version INTEGER NOT NULL)");
+    const int have = schema_version();
+    const int latest = latest_schema_version();
+    if (have > latest) {
+      throw DatabaseError(fmt::format(
+          "{}: the history has schema version {}, newer than this circtest knows ({}): use a "
+          "newer circtest",
+          c_->name(), have, latest));
+    }
+    for (int v = have; v < latest; ++v) {
+      for (std::string sql : migrations()[static_cast<std::size_t>(v)]) {
+        if (const auto p = sql.find("{id}"); p != std::string::npos) {
+          sql.replace(p, 4, c_->id_column());
+        }
+        c_->query(sql);
+      }
+      c_->query("INSERT INTO circtest_schema (version) VALUES (?)", {std::to_string(v + 1)});
+    }
+    tx.commit();
+  }
+
+  std::unique_ptr<Connection> c_;
+};
+
+}  // namespace
+
+int latest_schema_version() noexcept {
+  return static_cast<int>(migrations().size());
+}
+
+std::string default_database_path() {
+  std::string base;
+  if (const char* x = std::getenv("XDG_DATA_HOME"); x && *x) {
+    base = x;
+  } else if (const char* h = std::getenv("HOME"); h && *h) {
+    base = std::string(h) + "/.local/share";
+  } else {
+    throw UsageError("--db: neither XDG_DATA_HOME nor HOME is set; give --db PATH or URL");
+  }
+  return base + "/circtest/history.sqlite";
+}
+
+std::unique_ptr<Store> open_store(const std::string& url) {
+  if (url.rfind("postgresql://", 0) == 0 || url.rfind("postgres://", 0) == 0) {
+    return std::make_unique<SqlStore>(detail::open_postgresql(url));
+  }
+  std::string path = url;
+  if (path.rfind("sqlite:", 0) == 0) path = path.substr(7);
+  if (path.empty()) path = default_database_path();
+  return std::make_unique<SqlStore>(detail::open_sqlite(path));
+}
+
+std::string sha256_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path, std::string("cannot open for reading: ") + std::strerror(errno));
+  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(), EVP_MD_CTX_free);
+  if (!ctx || EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr) != 1) {
+    throw Error(ExitCode::internal, "SHA-256 is not available");
+  }
+  std::vector<char> buf(1 << 20);
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    if (in.gcount() > 0) {
+      EVP_DigestUpdate(ctx.get(), buf.data(), static_cast<std::size_t>(in.gcount()));
+    }
+  }
+  if (in.bad()) throw IoError(path, "read failed");
+  std::array<unsigned char, EVP_MAX_MD_SIZE> md{};
+  unsigned int n = 0;
+  EVP_DigestFinal_ex(ctx.get(), md.data(), &n);
+  std::string hex;
+  for (unsigned int i = 0; i < n; ++i) hex += fmt::format("{:02x}", md[i]);
+  return hex;
+}
+
+TestRecord record_from_result(const json& result, const json& diagnosis,
+                              const std::string& machine) {
+  const std::string not_eval =
+      "not an evaluation document (circtest.evaluation/1: the output of circana analyze --json)";
+  if (!result.is_object() || !result.contains("runs") || !result["runs"].is_array()) {
+    throw Error(ExitCode::data, not_eval);
+  }
+  if (result.contains("schema") &&
+      result["schema"].get<std::string>().rfind("circtest.evaluation/", 0) != 0) {
+    throw Error(ExitCode::data, not_eval + ", got " + result["schema"].get<std::string>());
+  }
+  auto text = [](const json& j, const char* key) -> std::string {
+    return j.contains(key) && j[key].is_string() ? j[key].get<std::string>() : std::string();
+  };
+  auto opt = [](const json& j, const char* key) -> std::optional<double> {
+    return j.contains(key) && j[key].is_number() ? std::optional<double>(j[key].get<double>())
+                                                 : std::nullopt;
+  };
+  TestRecord r;
+  r.conditions = result.value("conditions", json::object());
+  r.machine = machine.empty() ? text(r.conditions, "machine") : machine;
+  if (r.machine.empty()) {
+    throw Error(ExitCode::data,
+                "no machine name: give --machine NAME or record it in the trace (# machine: NAME)");
+  }
+  r.conditions["machine"] = r.machine;
+  r.tested_at = text(r.conditions, "start_time");
+  if (r.tested_at.empty()) r.tested_at = text(r.conditions, "date");
+  if (r.tested_at.empty()) r.tested_at = utc_now();
+  r.plane = text(result, "plane");
+  if (result.contains("channels") && result["channels"].is_array()) {
+    for (const auto& c : result["channels"]) {
+      r.channels += (r.channels.empty() ? "" : ",") + c.get<std::string>();
+    }
+  }
+  r.trace_path = text(result, "source");
+  r.result = result;
+  r.diagnosis = diagnosis;
+  const json& runs = result["runs"];
+  if (result.contains("pairs")) {
+    for (const auto& p : result["pairs"]) {
+      const std::size_t ccw = p["runs"][0].get<std::size_t>();
+      const json& run = ccw < runs.size() ? runs[ccw] : json::object();
+      const double h = p["H"].get<double>();
+      r.measures.push_back({"H", text(run, "label"), "CCW/CW", opt(run, "feed_mm_per_min"), h});
+      r.h_mm = std::max(r.h_mm.value_or(h), h);
+    }
+  }
+  for (const auto& run : runs) {
+    const auto feed = opt(run, "feed_mm_per_min");
+    const std::string label = text(run, "label"), dir = text(run, "direction");
+    if (auto g = opt(run, "G")) {
+      r.measures.push_back({"G", label, dir, feed, *g});
+      r.g_mm = std::max(r.g_mm.value_or(*g), *g);
+    }
+    for (const char* k : {"F_max", "F_min"}) {
+      if (auto f = opt(run, k)) {
+        r.measures.push_back({k, label, dir, feed, *f});
+        r.f_mm = std::max(r.f_mm.value_or(std::abs(*f)), std::abs(*f));
+      }
+    }
+  }
+  if (diagnosis.is_object()) {
+    if (diagnosis.contains("backlash_mm") && diagnosis["backlash_mm"].is_object()) {
+      for (const auto& [axis, v] : diagnosis["backlash_mm"].items()) {
+        if (v.is_number()) {
+          r.backlash_mm = std::max(r.backlash_mm.value_or(0.0), std::abs(v.get<double>()));
+        }
+      }
+    }
+    r.squareness_urad = opt(diagnosis, "squareness_urad");
+  }
+  return r;
+}
+
+}  // namespace circtest::history

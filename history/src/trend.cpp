@@ -1,0 +1,296 @@
+// `circana history`: the trend of H, G, F, backlash and squareness of one machine, and the
+// pass/fail check of its latest test against limits.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <iterator>
+
+#include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
+#include "circtest/history/history.hpp"
+
+namespace circtest::history {
+
+namespace {
+
+using ojson = nlohmann::ordered_json;
+
+struct Quantity {
+  const char* name;  // as in --limits
+  const char* unit;
+  double scale;  // to the display unit
+  std::optional<double> TestRecord::*value;
+  std::optional<double> Limits::*limit;
+};
+
+// Limits and values of H, G, F and backlash in mm (shown in um), squareness in urad.
+constexpr Quantity kQuantities[] = {
+    {"H", "um", 1000.0, &TestRecord::h_mm, &Limits::h_mm},
+    {"G", "um", 1000.0, &TestRecord::g_mm, &Limits::g_mm},
+    {"F", "um", 1000.0, &TestRecord::f_mm, &Limits::f_mm},
+    {"backlash", "um", 1000.0, &TestRecord::backlash_mm, &Limits::backlash_mm},
+    {"squareness", "urad", 1.0, &TestRecord::squareness_urad, &Limits::squareness_urad},
+};
+
+std::string cell(const std::optional<double>& v, double scale) {
+  return v ? fmt::format("{:.1f}", *v * scale) : std::string("-");
+}
+
+std::string escape(std::string_view s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+// Seconds since the epoch of an ISO 8601 date or date-time (UTC), when it parses.
+std::optional<double> epoch_s(const std::string& iso) {
+  tm t{};
+  const char* end = strptime(iso.c_str(), "%Y-%m-%dT%H:%M:%S", &t);
+  if (!end) {
+    t = {};
+    end = strptime(iso.c_str(), "%Y-%m-%d", &t);
+  }
+  if (!end) return std::nullopt;
+  return static_cast<double>(timegm(&t));
+}
+
+}  // namespace
+
+Limits parse_limits(const std::string& text) {
+  Limits l;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const auto comma = std::min(text.find(',', pos), text.size());
+    const std::string item = text.substr(pos, comma - pos);
+    const auto eq = item.find('=');
+    const Quantity* q = nullptr;
+    if (eq != std::string::npos) {
+      for (const auto& k : kQuantities) {
+        if (item.substr(0, eq) == k.name) q = &k;
+      }
+    }
+    if (!q) {
+      throw UsageError(
+          fmt::format("--limits: expected NAME=VALUE,... with NAME one of H, G, F, backlash (mm), "
+                      "squareness (urad), got '{}'",
+                      item));
+    }
+    const double v = parse_option_number("--limits " + std::string(q->name), item.substr(eq + 1));
+    if (!(v > 0)) throw UsageError(fmt::format("--limits {}: expected a positive number", q->name));
+    l.*(q->limit) = v;
+    pos = comma + 1;
+  }
+  return l;
+}
+
+std::vector<std::string> breaches(const TestRecord& t, const Limits& limits) {
+  std::vector<std::string> out;
+  for (const auto& q : kQuantities) {
+    const auto& lim = limits.*(q.limit);
+    if (!lim) continue;
+    const auto& v = t.*(q.value);
+    if (!v) {
+      // A check that cannot be made does not pass.
+      out.push_back(
+          fmt::format("{} not measured{}", q.name,
+                      q.value == &TestRecord::backlash_mm || q.value == &TestRecord::squareness_urad
+                          ? " (no diagnosis stored)"
+                          : ""));
+    } else if (std::abs(*v) > *lim) {
+      out.push_back(fmt::format("{} {:.1f} > {:.1f} {}", q.name, std::abs(*v) * q.scale,
+                                *lim * q.scale, q.unit));
+    }
+  }
+  return out;
+}
+
+std::string history_text(const std::string& machine, const std::vector<TestRecord>& tests,
+                         const Limits& limits) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out, "History of machine {}: {} test(s)\n", machine, tests.size());
+  fmt::format_to(out, "{:<25} {:>6} {:>5} {:>8} {:>8} {:>8} {:>11} {:>11}  {}\n", "tested at", "id",
+                 "plane", "H um", "G um", "F um", "backlash um", "square urad",
+                 limits.empty() ? "trace" : "check");
+  for (const auto& t : tests) {
+    std::string last;
+    if (limits.empty()) {
+      last = t.trace_path;
+    } else {
+      const auto b = breaches(t, limits);
+      last = "ok";
+      if (!b.empty()) {
+        last = "FAIL:";
+        for (const auto& x : b) last += " " + x + ";";
+        last.pop_back();
+      }
+    }
+    fmt::format_to(out, "{:<25} {:>6} {:>5} {:>8} {:>8} {:>8} {:>11} {:>11}  {}\n", t.tested_at,
+                   t.id, t.plane, cell(t.h_mm, 1000), cell(t.g_mm, 1000), cell(t.f_mm, 1000),
+                   cell(t.backlash_mm, 1000), cell(t.squareness_urad, 1), last);
+  }
+  if (!limits.empty() && !tests.empty()) {
+    const auto b = breaches(tests.back(), limits);
+    if (b.empty()) {
+      fmt::format_to(out, "Latest test ({}): within the limits\n", tests.back().tested_at);
+    } else {
+      fmt::format_to(out, "Latest test ({}): OUT OF TOLERANCE:", tests.back().tested_at);
+      for (const auto& x : b) fmt::format_to(out, " {};", x);
+      s.back() = '\n';
+    }
+  }
+  return s;
+}
+
+ojson history_json(const std::string& machine, const std::vector<TestRecord>& tests,
+                   const Limits& limits) {
+  auto opt = [](const std::optional<double>& v) { return v ? ojson(*v) : ojson(nullptr); };
+  ojson j;
+  j["schema"] = "circtest.history/1";
+  j["units"] = "mm";
+  j["machine"] = machine;
+  ojson lim = ojson::object();
+  for (const auto& q : kQuantities) {
+    if (limits.*(q.limit)) lim[q.name] = *(limits.*(q.limit));
+  }
+  j["limits"] = lim;
+  ojson arr = ojson::array();
+  for (const auto& t : tests) {
+    ojson measures = ojson::array();
+    for (const auto& m : t.measures) {
+      measures.push_back({{"kind", m.kind},
+                          {"label", m.label},
+                          {"direction", m.direction},
+                          {"feed_mm_per_min", opt(m.feed_mm_per_min)},
+                          {"value", m.value_mm}});
+    }
+    ojson test = {{"id", t.id},
+                  {"tested_at", t.tested_at},
+                  {"stored_at", t.stored_at},
+                  {"plane", t.plane},
+                  {"channels", t.channels},
+                  {"trace_path", t.trace_path},
+                  {"trace_sha256", t.trace_sha256.empty() ? ojson(nullptr) : ojson(t.trace_sha256)},
+                  {"H", opt(t.h_mm)},
+                  {"G", opt(t.g_mm)},
+                  {"F", opt(t.f_mm)},
+                  {"backlash", opt(t.backlash_mm)},
+                  {"squareness_urad", opt(t.squareness_urad)},
+                  {"measures", measures},
+                  {"conditions", ojson::parse(t.conditions.dump())}};
+    if (!limits.empty()) test["breaches"] = breaches(t, limits);
+    arr.push_back(std::move(test));
+  }
+  j["tests"] = arr;
+  if (!limits.empty() && !tests.empty()) j["pass"] = breaches(tests.back(), limits).empty();
+  return j;
+}
+
+std::string history_svg(const std::string& machine, const std::vector<TestRecord>& tests,
+                        const Limits& limits, int width_px) {
+  const double w = width_px, panel_h = 120, top = 40, left = 70, right = 20, gap = 30;
+  const double n_panels = static_cast<double>(std::size(kQuantities));
+  const double height = top + n_panels * (panel_h + gap) + 20;
+  // x: time when every date parses, else the order of the tests.
+  std::vector<double> xs;
+  bool by_time = true;
+  for (const auto& t : tests) {
+    const auto e = epoch_s(t.tested_at);
+    if (!e) by_time = false;
+    xs.push_back(e.value_or(0));
+  }
+  if (!by_time) {
+    for (std::size_t i = 0; i < xs.size(); ++i) xs[i] = static_cast<double>(i);
+  }
+  double x0 = xs.empty() ? 0 : *std::min_element(xs.begin(), xs.end());
+  double x1 = xs.empty() ? 1 : *std::max_element(xs.begin(), xs.end());
+  if (x1 <= x0) x1 = x0 + 1;
+  auto px = [&](double x) { return left + (x - x0) / (x1 - x0) * (w - left - right); };
+
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out,
+                 "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+                 "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"11\">\n"
+                 "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+                 "<text x=\"10\" y=\"20\" font-size=\"14\" font-weight=\"bold\">Trend of machine "
+                 "{2}: {3} test(s){4}</text>\n",
+                 w, height, escape(machine), tests.size(),
+                 tests.empty()
+                     ? ""
+                     : escape(", " + tests.front().tested_at + " to " + tests.back().tested_at));
+  double y0 = top;
+  for (const auto& q : kQuantities) {
+    const auto& lim = limits.*(q.limit);
+    double vmax = lim ? *lim * q.scale : 0.0;
+    for (const auto& t : tests) {
+      if (const auto& v = t.*(q.value)) vmax = std::max(vmax, std::abs(*v) * q.scale);
+    }
+    if (!(vmax > 0)) vmax = 1;
+    vmax *= 1.15;
+    auto py = [&](double v) { return y0 + panel_h - v / vmax * panel_h; };
+    fmt::format_to(out,
+                   "<g class=\"panel\" data-quantity=\"{0}\">\n<rect x=\"{1}\" y=\"{2}\" "
+                   "width=\"{3}\" height=\"{4}\" fill=\"none\" stroke=\"#999\"/>\n"
+                   "<text x=\"{1}\" y=\"{5}\" font-weight=\"bold\">{0} ({6})</text>\n"
+                   "<text x=\"{7}\" y=\"{8}\" text-anchor=\"end\">{9:.1f}</text>\n"
+                   "<text x=\"{7}\" y=\"{10}\" text-anchor=\"end\">0</text>\n",
+                   q.name, left, y0, w - left - right, panel_h, y0 - 4, q.unit, left - 4, y0 + 10,
+                   vmax, y0 + panel_h);
+    if (lim) {
+      fmt::format_to(out,
+                     "<line class=\"limit\" x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" "
+                     "y2=\"{:.1f}\" stroke=\"#c0392b\" stroke-dasharray=\"6,3\"/>\n"
+                     "<text x=\"{:.1f}\" y=\"{:.1f}\" fill=\"#c0392b\" text-anchor=\"end\">limit "
+                     "{:.1f}</text>\n",
+                     left, py(*lim * q.scale), w - right, py(*lim * q.scale), w - right - 2,
+                     py(*lim * q.scale) - 3, *lim * q.scale);
+    }
+    std::string pts;
+    for (std::size_t i = 0; i < tests.size(); ++i) {
+      const auto& v = tests[i].*(q.value);
+      if (!v) continue;
+      const double vx = px(xs[i]), vy = py(std::abs(*v) * q.scale);
+      fmt::format_to(std::back_inserter(pts), "{:.1f},{:.1f} ", vx, vy);
+      const bool bad = lim && std::abs(*v) > *lim;
+      fmt::format_to(out,
+                     "<circle class=\"point\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\">"
+                     "<title>{} {}: {:.2f} {}</title></circle>\n",
+                     vx, vy, bad ? "#c0392b" : "#1f5fbf", escape(tests[i].tested_at), q.name,
+                     std::abs(*v) * q.scale, q.unit);
+    }
+    if (!pts.empty()) {
+      fmt::format_to(out,
+                     "<polyline points=\"{}\" fill=\"none\" stroke=\"#1f5fbf\" "
+                     "stroke-width=\"1.2\"/>\n",
+                     pts);
+    } else {
+      fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\" fill=\"#777\">not measured</text>\n",
+                     left + 10, y0 + panel_h / 2);
+    }
+    s += "</g>\n";
+    y0 += panel_h + gap;
+  }
+  return s + "</svg>\n";
+}
+
+}  // namespace circtest::history

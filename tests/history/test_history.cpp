@@ -1,0 +1,442 @@
+// The history of a machine's tests in real databases: an SQLite file, and a PostgreSQL server
+// started here (initdb + pg_ctl in a temporary folder, as an unprivileged user when run as
+// root). The same tests run against both; nothing is mocked.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <pwd.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "circtest/analysis/report.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/history/history.hpp"
+#include "machine_sim.hpp"
+
+namespace fs = std::filesystem;
+using namespace circtest;
+using namespace circtest::history;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct Result {
+  int code = -1;
+  std::string out, err;
+};
+
+Result run(const std::string& cmd, const fs::path& dir) {
+  const fs::path out = dir / "stdout", err = dir / "stderr";
+  const int status = std::system((cmd + " >" + out.string() + " 2>" + err.string()).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(out), slurp(err)};
+}
+
+// A PostgreSQL server of its own in a temporary folder, reachable only by its Unix socket.
+class PostgresServer {
+ public:
+  PostgresServer() {
+    static int servers = 0;
+    const int n = servers++;
+    dir_ = fs::temp_directory_path() / fmt::format("circtest-pg-{}-{}", getpid(), n);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    bin_ = find_bin();
+    // initdb refuses to run as root: the server runs as nobody then.
+    if (geteuid() == 0) {
+      const passwd* pw = getpwnam("nobody");
+      if (!pw || chown(dir_.c_str(), pw->pw_uid, pw->pw_gid) != 0) {
+        throw std::runtime_error("cannot hand " + dir_.string() + " to nobody");
+      }
+      as_ = "runuser -u nobody -- ";
+    }
+    port_ = 20000 + static_cast<int>((getpid() * 2 + n) % 20000);
+    sh(fmt::format("{}'{}/initdb' -D '{}/data' -A trust -U circtest --no-sync -E UTF8", as_, bin_,
+                   dir_.string()));
+    start();
+  }
+  ~PostgresServer() {
+    stop();
+    fs::remove_all(dir_);
+  }
+  void start() {
+    sh(
+        fmt::format("{}'{}/pg_ctl' -D '{}/data' -l '{}/log' -w -o \"-k {} -p {} -c "
+                    "listen_addresses='' -c fsync=off\" start",
+                    as_, bin_, dir_.string(), dir_.string(), dir_.string(), port_));
+  }
+  void stop() {
+    std::system(fmt::format("{}'{}/pg_ctl' -D '{}/data' -m fast -w stop >/dev/null 2>&1", as_, bin_,
+                            dir_.string())
+                    .c_str());
+  }
+  // Stops at once, as a crash would: open transactions are lost, never half-applied.
+  void kill() {
+    std::system(fmt::format("{}'{}/pg_ctl' -D '{}/data' -m immediate -w stop >/dev/null 2>&1", as_,
+                            bin_, dir_.string())
+                    .c_str());
+  }
+  std::string url(const std::string& db = "postgres") const {
+    return fmt::format("postgresql:///{}?host={}&port={}&user=circtest", db, dir_.string(), port_);
+  }
+  void create_database(const std::string& name) {
+    sh(fmt::format("psql -q -h '{}' -p {} -U circtest -d postgres -c 'CREATE DATABASE {}'",
+                   dir_.string(), port_, name));
+  }
+
+ private:
+  static std::string find_bin() {
+    for (const auto& e : fs::directory_iterator("/usr/lib/postgresql")) {
+      if (fs::exists(e.path() / "bin/initdb")) return (e.path() / "bin").string();
+    }
+    throw std::runtime_error(
+        "PostgreSQL is not installed (the postgresql package of scripts/debian-packages.txt)");
+  }
+  void sh(const std::string& cmd) {
+    const std::string full = cmd + " >>'" + (dir_ / "setup.log").string() + "' 2>&1";
+    if (std::system(full.c_str()) != 0) {
+      throw std::runtime_error("failed: " + cmd + "\n" + slurp(dir_ / "setup.log"));
+    }
+  }
+  fs::path dir_;
+  std::string bin_, as_;
+  int port_ = 0;
+};
+
+PostgresServer* g_server = nullptr;
+int g_databases = 0;
+
+// The evaluation document of a simulated test with a known backlash (H = backlash).
+nlohmann::json simulated_result(double backlash_mm, const std::string& date, const fs::path& dir) {
+  sim::MachineModel m;
+  m.x.backlash_mm = backlash_mm;
+  sim::CircleProgram p;
+  p.period_s = 0.004;
+  Trace t = sim::simulate(m, p);
+  t.metadata.set("machine", "VMC-3");
+  t.metadata.set("date", date);
+  t.metadata.set("operator", "A. Sato");
+  const fs::path path = dir / fmt::format("trace-{}.csv", date);
+  write_trace(path.string(), t);
+  const Trace back = read_trace(path.string());
+  return nlohmann::json::parse(to_json(evaluate(back, {})).dump());
+}
+
+enum class Backend { sqlite, postgresql };
+
+class History : public ::testing::TestWithParam<Backend> {
+ protected:
+  static void SetUpTestSuite() {
+    if (!g_server) g_server = new PostgresServer();
+  }
+  static void TearDownTestSuite() {
+    delete g_server;
+    g_server = nullptr;
+  }
+  void SetUp() override {
+    std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    std::replace(test.begin(), test.end(), '/', '-');
+    dir_ = fs::temp_directory_path() / fmt::format("circtest-history-{}-{}", getpid(), test);
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    if (GetParam() == Backend::sqlite) {
+      url_ = (dir_ / "history.sqlite").string();
+    } else {
+      // A fresh database per test: migration from nothing every time.
+      const std::string db = fmt::format("t{}", ++g_databases);
+      g_server->create_database(db);
+      url_ = g_server->url(db);
+    }
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string circana(const std::string& args) const {
+    return std::string(CIRCANA_PATH) + " " + args + " --db '" + url_ + "'";
+  }
+
+  fs::path dir_;
+  std::string url_;
+};
+
+std::string name(const ::testing::TestParamInfo<Backend>& info) {
+  return info.param == Backend::sqlite ? "SQLite" : "PostgreSQL";
+}
+
+}  // namespace
+
+TEST_P(History, MigratesAnEmptyDatabaseOnFirstUse) {
+  if (GetParam() == Backend::sqlite) std::ofstream(url_).flush();  // an empty file
+  const auto store = open_store(url_);
+  EXPECT_EQ(store->schema_version(), latest_schema_version());
+  EXPECT_TRUE(store->machines().empty());
+  // Opening again finds it current and applies nothing twice.
+  EXPECT_EQ(open_store(url_)->schema_version(), latest_schema_version());
+}
+
+TEST_P(History, StoresListsAndTrendsTestsOfAMachine) {
+  const std::vector<std::pair<double, std::string>> tests = {
+      {0.010, "2026-01-05"}, {0.015, "2026-03-02"}, {0.020, "2026-06-01"}};
+  {
+    const auto store = open_store(url_);
+    for (const auto& [b, date] : tests) {
+      TestRecord r = record_from_result(simulated_result(b, date, dir_), nullptr);
+      r.trace_sha256 = sha256_file(r.trace_path);
+      store->add(r);
+    }
+    // Another machine's test stays apart.
+    store->add(record_from_result(simulated_result(0.005, "2026-02-01", dir_), nullptr, "HMC-1"));
+  }
+  const auto store = open_store(url_);
+  EXPECT_EQ(store->machines(), (std::vector<std::string>{"HMC-1", "VMC-3"}));
+  const auto all = store->tests("VMC-3", "");
+  ASSERT_EQ(all.size(), 3u);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const auto& t = all[i];
+    EXPECT_EQ(t.tested_at, tests[i].second);  // oldest first
+    // The simulator's only error is X backlash: H equals it.
+    ASSERT_TRUE(t.h_mm);
+    EXPECT_NEAR(*t.h_mm, tests[i].first, 0.0005);
+    ASSERT_EQ(t.measures.size(), 7u);  // H, and G, F_max, F_min of two runs
+    EXPECT_EQ(t.measures[0].kind, "H");
+    EXPECT_EQ(t.measures[0].label, "XY");
+    EXPECT_NEAR(t.measures[0].feed_mm_per_min.value_or(0), 1000.0, 5.0);
+    EXPECT_EQ(t.measures[1].kind, "G");
+    EXPECT_EQ(t.measures[1].direction, "CCW");
+    EXPECT_EQ(t.conditions["operator"], "A. Sato");
+    EXPECT_EQ(t.channels, "x,y");
+    EXPECT_EQ(t.plane, "XY");
+    EXPECT_EQ(t.result["runs"].size(), 2u);
+    EXPECT_EQ(t.trace_sha256.size(), 64u);
+    EXPECT_FALSE(t.backlash_mm);  // no diagnosis stored
+  }
+  EXPECT_EQ(store->tests("VMC-3", "2026-03-01").size(), 2u);
+  EXPECT_EQ(store->tests("VMC-3", "2026-07-01").size(), 0u);
+
+  // The CLI: the table, the JSON and the trend plot.
+  Result r = run(circana("history --machine VMC-3 --since 2026-02-01 --json"), dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["schema"], "circtest.history/1");
+  ASSERT_EQ(j["tests"].size(), 2u);
+  EXPECT_NEAR(j["tests"][1]["H"].get<double>(), 0.020, 0.0005);
+  r = run(circana("history --machine VMC-3 --svg " + (dir_ / "trend.svg").string()), dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("History of machine VMC-3: 3 test(s)"), std::string::npos) << r.out;
+  const std::string svg = slurp(dir_ / "trend.svg");
+  std::size_t points = 0;
+  for (auto p = svg.find("class=\"point\""); p != std::string::npos;
+       p = svg.find("class=\"point\"", p + 1)) {
+    ++points;
+  }
+  EXPECT_EQ(points, 9u);  // H, G, F of three tests; no backlash or squareness without diagnosis
+  EXPECT_NE(svg.find("data-quantity=\"squareness\""), std::string::npos);
+}
+
+TEST_P(History, LimitsMakeItAPassFailCheckOfTheLatestTest) {
+  const auto store = open_store(url_);
+  store->add(record_from_result(simulated_result(0.030, "2026-01-05", dir_), nullptr));
+  store->add(record_from_result(simulated_result(0.012, "2026-04-01", dir_), nullptr));
+  Result r = run(circana("history --machine VMC-3 --limits H=0.015"), dir_);
+  EXPECT_EQ(r.code, 0) << r.err;  // the old breach is history; the latest is within
+  EXPECT_NE(r.out.find("FAIL: H 30.0 > 15.0 um"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("Latest test (2026-04-01): within the limits"), std::string::npos);
+  r = run(circana("history --machine VMC-3 --limits H=0.010,G=0.5"), dir_);
+  EXPECT_EQ(r.code, 9) << r.err;
+  EXPECT_EQ(r.err, "");
+  EXPECT_NE(r.out.find("OUT OF TOLERANCE: H 12.0 > 10.0 um"), std::string::npos) << r.out;
+  // A limit on what was not measured fails: a check that cannot be made does not pass.
+  r = run(circana("history --machine VMC-3 --limits backlash=0.01 --json"), dir_);
+  EXPECT_EQ(r.code, 9);
+  EXPECT_EQ(nlohmann::json::parse(r.out)["pass"], false);
+  r = run(circana("history --machine VMC-3 --limits H=abc"), dir_);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.err, "circana: error: --limits H: expected a number, got 'abc'\n");
+}
+
+TEST_P(History, BadRequestsGiveClearErrors) {
+  open_store(url_)->add(record_from_result(simulated_result(0.01, "2026-01-05", dir_), nullptr));
+  Result r = run(circana("history --machine VMC-9"), dir_);
+  EXPECT_EQ(r.code, 5);
+  EXPECT_EQ(r.out, "");
+  EXPECT_NE(r.err.find("no tests of machine 'VMC-9' (machines in the history: VMC-3)"),
+            std::string::npos)
+      << r.err;
+  r = run(circana("history --machine VMC-3 --since yesterday"), dir_);
+  EXPECT_EQ(r.code, 2);
+  // A trace without a machine name cannot go into a per-machine history.
+  const fs::path json = dir_ / "r.json";
+  auto doc = simulated_result(0.01, "2026-01-06", dir_);
+  doc["conditions"].erase("machine");
+  std::ofstream(json) << doc.dump();
+  r = run(circana("store " + json.string()), dir_);
+  EXPECT_EQ(r.code, 5);
+  EXPECT_EQ(r.err,
+            "circana: error: no machine name: give --machine NAME or record it in the trace "
+            "(# machine: NAME)\n");
+  r = run(circana("store " + json.string() + " --machine VMC-4"), dir_);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("Stored as test 2 of machine VMC-4"), std::string::npos) << r.out;
+}
+
+TEST_P(History, ADatabaseOfANewerSchemaIsRefused) {
+  { const auto store = open_store(url_); }
+  // What a newer circtest would have left: a higher version.
+  if (GetParam() == Backend::sqlite) {
+    ASSERT_EQ(
+        std::system(("sqlite3 '" + url_ + "' 'INSERT INTO circtest_schema VALUES (99)'").c_str()),
+        0);
+  } else {
+    const auto q = url_.find('?');
+    const std::string db =
+        url_.substr(std::string("postgresql:///").size(), q - std::string("postgresql:///").size());
+    ASSERT_EQ(std::system(
+                  ("psql -q '" + url_ + "' -c 'INSERT INTO circtest_schema VALUES (99)'").c_str()),
+              0)
+        << db;
+  }
+  try {
+    open_store(url_);
+    FAIL() << "a newer schema was accepted";
+  } catch (const DatabaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("schema version 99, newer than this circtest knows (1)"),
+              std::string::npos)
+        << e.what();
+  }
+  const Result r = run(circana("history --machine X"), dir_);
+  EXPECT_EQ(r.code, 11);
+  EXPECT_EQ(r.out, "");
+}
+
+// Two machines finishing together: two processes, 200 stores each, none lost.
+TEST_P(History, ConcurrentStoresFromTwoProcessesLoseNothing) {
+  open_store(url_);  // created first, so the race is between stores, not migrations
+  const nlohmann::json doc = simulated_result(0.01, "2026-01-05", dir_);
+  constexpr int kPerProcess = 200;
+  std::vector<pid_t> children;
+  for (int p = 0; p < 2; ++p) {
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      int code = 0;
+      try {
+        const auto store = open_store(url_);
+        for (int i = 0; i < kPerProcess; ++i) {
+          TestRecord r = record_from_result(doc, nullptr, fmt::format("M{}", p));
+          r.tested_at = fmt::format("2026-01-05T00:00:{:03d}", i);
+          store->add(r);
+        }
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "child %d: %s\n", p, e.what());
+        code = 1;
+      }
+      _exit(code);
+    }
+    children.push_back(pid);
+  }
+  for (pid_t pid : children) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
+  }
+  const auto store = open_store(url_);
+  for (int p = 0; p < 2; ++p) {
+    const auto tests = store->tests(fmt::format("M{}", p), "");
+    ASSERT_EQ(tests.size(), static_cast<std::size_t>(kPerProcess));
+    for (const auto& t : tests) EXPECT_EQ(t.measures.size(), 7u);
+  }
+}
+
+// A store cut off in the middle (the process killed, the server crashing) leaves whole tests
+// only: each test has all its measures or is not there.
+TEST_P(History, AStoreCutOffLeavesNoHalfTest) {
+  open_store(url_);
+  const nlohmann::json doc = simulated_result(0.01, "2026-01-05", dir_);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    try {
+      const auto store = open_store(url_);
+      for (int i = 0;; ++i) store->add(record_from_result(doc, nullptr));
+    } catch (...) {
+    }
+    _exit(0);
+  }
+  usleep(400000);
+  if (GetParam() == Backend::sqlite) {
+    ::kill(pid, SIGKILL);
+  } else {
+    g_server->kill();
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (GetParam() == Backend::postgresql) g_server->start();
+  const auto tests = open_store(url_)->tests("VMC-3", "");
+  EXPECT_GT(tests.size(), 0u);
+  for (const auto& t : tests) EXPECT_EQ(t.measures.size(), 7u) << "test " << t.id;
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, History, ::testing::Values(Backend::sqlite, Backend::postgresql),
+                         name);
+
+TEST(HistorySqlite, ACorruptFileIsAClearError) {
+  const fs::path dir = fs::temp_directory_path() / fmt::format("circtest-corrupt-{}", getpid());
+  fs::create_directories(dir);
+  const fs::path db = dir / "history.sqlite";
+  std::ofstream(db) << std::string(4096, 'x');
+  const Result r =
+      run(std::string(CIRCANA_PATH) + " history --machine VMC-3 --db " + db.string(), dir);
+  EXPECT_EQ(r.code, 11);
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err, "circana: error: " + db.string() +
+                       ": not a usable SQLite history database (file is not a database): move "
+                       "it away or give another --db\n");
+  EXPECT_EQ(slurp(db), std::string(4096, 'x'));  // left as it was
+  fs::remove_all(dir);
+}
+
+TEST(HistoryPostgres, AStoreWhileTheServerIsStoppedFailsAndWritesNothing) {
+  PostgresServer server;
+  const fs::path dir = fs::temp_directory_path() / fmt::format("circtest-pgstop-{}", getpid());
+  fs::create_directories(dir);
+  open_store(server.url())
+      ->add(record_from_result(simulated_result(0.01, "2026-01-05", dir), nullptr));
+  const fs::path json = dir / "r.json";
+  std::ofstream(json) << simulated_result(0.02, "2026-02-05", dir).dump();
+  server.stop();
+  const Result r = run(
+      std::string(CIRCANA_PATH) + " store " + json.string() + " --db '" + server.url() + "'", dir);
+  EXPECT_EQ(r.code, 11);
+  EXPECT_EQ(r.out, "");
+  EXPECT_NE(r.err.find("cannot connect to the history server"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1);
+  server.start();
+  const auto tests = open_store(server.url())->tests("VMC-3", "");
+  ASSERT_EQ(tests.size(), 1u);
+  EXPECT_EQ(tests[0].tested_at, "2026-01-05");
+  fs::remove_all(dir);
+}
+
+TEST(HistorySha256, KnownDigests) {
+  const fs::path p = fs::temp_directory_path() / fmt::format("circtest-sha-{}", getpid());
+  std::ofstream(p) << "abc";
+  // FIPS 180-2, appendix B.1.
+  EXPECT_EQ(sha256_file(p.string()),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  std::ofstream(p, std::ios::trunc).flush();
+  EXPECT_EQ(sha256_file(p.string()),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  fs::remove(p);
+  EXPECT_THROW(sha256_file(p.string()), IoError);
+}
