@@ -73,7 +73,8 @@ class SimMachine : public ::testing::Test {
                       " --out " + (out_ / "run").string() + " --timeout 300";
     for (const auto& [k, v] : all) cmd += " --set SIM." + k + "=" + v;
     const int rc = run(cmd + " >" + (out_ / "run.log").string() + " 2>&1");
-    ASSERT_EQ(rc, 0) << slurp_if_exists(out_ / "run.log") << slurp_if_exists(out_ / "run" / "linuxcnc.log");
+    ASSERT_EQ(rc, 0) << slurp_if_exists(out_ / "run.log")
+                     << slurp_if_exists(out_ / "run" / "linuxcnc.log");
     // circgen's program stops once before any motion (M0 after its messages); the headless
     // driver logs the messages and answers the pause like an operator at cycle start.
     const std::string log = slurp_if_exists(out_ / "run" / "linuxcnc.log");
