@@ -59,6 +59,7 @@ po::variables_map parse(const po::options_description& desc,
   answer_info(desc, args);
   po::variables_map vm;
   try {
+    refuse_option_placeholders(args);
     po::store(po::command_line_parser(args).options(desc).positional(pos).run(), vm);
     po::notify(vm);
   } catch (const po::required_option& e) {

@@ -55,6 +55,7 @@ int run(int argc, char** argv) {
   pos.add("diagnosis", 1);
   po::variables_map vm;
   try {
+    refuse_option_placeholders(argc, argv);
     po::store(po::command_line_parser(argc - 1, argv + 1).options(opts).positional(pos).run(), vm);
     po::notify(vm);
   } catch (const po::error& e) {

@@ -90,6 +90,7 @@ int run(int argc, char** argv) {
   try {
     const int style =
         po::command_line_style::default_style & ~po::command_line_style::allow_guessing;
+    refuse_option_placeholders(argc, argv);
     po::store(po::command_line_parser(argc, argv).options(options).style(style).run(), vm);
     po::notify(vm);
   } catch (const po::error& e) {

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "circtest/core/cli.hpp"
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/sha256.hpp"
@@ -120,6 +121,7 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
   }
   po::variables_map vm;
   try {
+    refuse_option_placeholders(argc, argv);
     po::store(po::command_line_parser(argc, argv).options(desc).run(), vm);
     po::notify(vm);
   } catch (const po::error& e) {

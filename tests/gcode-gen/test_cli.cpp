@@ -59,6 +59,11 @@ std::vector<BadCase> usage_cases() {
        2,
        "--plane: 'XZ' is not XY, YZ or ZX"},
       {"malformed_diameter", {"--d", "15O", "--f", "300"}, 2, "--d: expected a number, got '15O'"},
+      // Boost.Program_options' error text loops for ever on its own placeholders (fuzzer).
+      {"option_placeholder",
+       {"--d", "150", "--x%original_token%"},
+       2,
+       "argument 3: '%original_token%' is not accepted in an argument"},
       {"malformed_feed", {"--d", "150", "--f", "fast"}, 2, "--f: expected a number, got 'fast'"},
       {"empty_sweep_entry",
        {"--d", "150", "--feeds", "300,,600"},
