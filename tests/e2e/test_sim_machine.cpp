@@ -42,6 +42,9 @@ class SimMachine : public ::testing::Test {
         std::string("circtest-e2e-") +
         ::testing::UnitTest::GetInstance()->current_test_info()->name());
     out_ = scratch_->dir();
+    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
+    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                              fs::perms::others_read | fs::perms::others_exec);
     generate("XY");
   }
 
