@@ -49,6 +49,25 @@ std::string store_result(const nlohmann::json& result, const std::string& trace_
       record.tested_at, store->name(),
       record.trace_sha256.empty() ? "; the trace file was not found, no SHA-256" : "");
 }
+
+// A ball bar's trace (forced, or no position columns named and an `r` channel present): the
+// positions from the bar's length along the commanded angle, and the options pointed at them.
+std::optional<RadialPositions> radial_set_up(const Trace& read, bool forced,
+                                             EvaluationOptions& options) {
+  if (!forced &&
+      !(options.column_a.empty() && is_radial_trace(read, trace_plane(read, options.plane)))) {
+    return std::nullopt;
+  }
+  RadialOptions ro_radial;
+  ro_radial.plane = options.plane;
+  ro_radial.centre = options.centre;
+  ro_radial.radius_mm = options.nominal_radius_mm;
+  RadialPositions radial = radial_positions(read, ro_radial);
+  options.column_a = radial.column_a;
+  options.column_b = radial.column_b;
+  if (!options.centre) options.centre = PlanePoint{radial.centre_a_mm, radial.centre_b_mm};
+  return radial;
+}
 }  // namespace
 
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
@@ -61,18 +80,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace read = read_trace(request.trace_path, ro);
   EvaluationOptions options = request.options;
   // A ball bar's trace: positions from the bar's length along the commanded angle.
-  std::optional<RadialPositions> radial;
-  if (request.radial ||
-      (options.column_a.empty() && is_radial_trace(read, trace_plane(read, options.plane)))) {
-    RadialOptions ro_radial;
-    ro_radial.plane = options.plane;
-    ro_radial.centre = options.centre;
-    ro_radial.radius_mm = options.nominal_radius_mm;
-    radial = radial_positions(read, ro_radial);
-    options.column_a = radial->column_a;
-    options.column_b = radial->column_b;
-    if (!options.centre) options.centre = PlanePoint{radial->centre_a_mm, radial->centre_b_mm};
-  }
+  const std::optional<RadialPositions> radial = radial_set_up(read, request.radial, options);
   const Trace& trace = radial ? radial->trace : read;
   Evaluation ev = evaluate(trace, options);
   if (radial) ev.notes.insert(ev.notes.begin(), radial->note);
@@ -109,19 +117,8 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   DiagnosisOptions options = request.options;
   EvaluationOptions& eo = options.evaluation;
   // A ball bar's trace, as for analyze: it measures no absolute length along an axis.
-  std::optional<RadialPositions> radial;
-  if (request.radial ||
-      (eo.column_a.empty() && is_radial_trace(read, trace_plane(read, eo.plane)))) {
-    RadialOptions ro_radial;
-    ro_radial.plane = eo.plane;
-    ro_radial.centre = eo.centre;
-    ro_radial.radius_mm = eo.nominal_radius_mm;
-    radial = radial_positions(read, ro_radial);
-    eo.column_a = radial->column_a;
-    eo.column_b = radial->column_b;
-    if (!eo.centre) eo.centre = PlanePoint{radial->centre_a_mm, radial->centre_b_mm};
-    options.absolute_channels = false;
-  }
+  const std::optional<RadialPositions> radial = radial_set_up(read, request.radial, eo);
+  if (radial) options.absolute_channels = false;
   Diagnosis d = diagnose(radial ? radial->trace : read, options);
   if (radial) d.notes.insert(d.notes.begin(), radial->note);
   out << (request.json ? to_json(d).dump(2) + "\n" : text_report(d));
