@@ -940,6 +940,16 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     cy->phase_rad = std::atan2(sol.x[jc], sol.x[js]);
     cy->amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
     refined = true;
+    // The peak may have been the spikes' residual before they were fitted: the same test as
+    // when it was found, now with the spikes in the model.
+    if (cy->amplitude_mm < options.min_cyclic_amplitude_mm ||
+        cy->amplitude_mm < 5.0 * cy->amplitude_se_mm) {
+      cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, ks)));
+      cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, kc)));
+      (ax == 0 ? st.pitch_a : st.pitch_b) = 0.0;
+      cy.reset();
+      fit();
+    }
   }
   if (refined) search_spikes();
 
