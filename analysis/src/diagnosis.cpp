@@ -13,6 +13,7 @@
 #include <numeric>
 
 #include "circtest/core/error.hpp"
+#include "radial_profile.hpp"
 
 namespace circtest {
 
@@ -579,25 +580,14 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       info.group = 0;
     }
     info.begin = S.size();
-    double prev = 0, unwrap = 0;
+    const detail::PathPolar polar = detail::path_polar(
+        std::span(col_a).subspan(rr.run.begin, rr.run.size()),
+        std::span(col_b).subspan(rr.run.begin, rr.run.size()), PlanePoint{ca, cb});
     double lo = 0, hi = 0;
     for (std::size_t i = rr.run.begin; i < rr.run.end; ++i) {
       const double da = col_a[i] - ca, db = col_b[i] - cb;
-      const double r = std::hypot(da, db);
-      double ang = std::atan2(db, da);
-      if (i > rr.run.begin) {
-        double step = ang + unwrap - prev;
-        while (step > kPi) {
-          unwrap -= 2 * kPi;
-          step -= 2 * kPi;
-        }
-        while (step < -kPi) {
-          unwrap += 2 * kPi;
-          step += 2 * kPi;
-        }
-      }
-      const double u = ang + unwrap;
-      prev = u;
+      const double r = polar.radius_mm[i - rr.run.begin];
+      const double u = polar.angle_rad[i - rr.run.begin];
       if (i == rr.run.begin) lo = hi = u;
       lo = std::min(lo, u);
       hi = std::max(hi, u);

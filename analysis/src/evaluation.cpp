@@ -7,8 +7,10 @@
 #include <numbers>
 #include <numeric>
 
+#include "circtest/analysis/radial.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "radial_profile.hpp"
 
 namespace circtest {
 
@@ -21,7 +23,40 @@ std::span<const double> slice(const std::vector<double>& v, const Run& r) {
   return {v.data() + r.begin, r.size()};
 }
 
-// "x,y,z" metadata -> the plane's two coordinates.
+}  // namespace
+
+std::string_view value_source_name(ValueSource source) noexcept {
+  switch (source) {
+    case ValueSource::option:
+      return "option";
+    case ValueSource::metadata:
+      return "metadata";
+    case ValueSource::commanded:
+      return "commanded";
+    case ValueSource::none:
+      break;
+  }
+  return "";
+}
+
+std::optional<ValueSource> parse_value_source(std::string_view name) {
+  for (ValueSource s :
+       {ValueSource::none, ValueSource::option, ValueSource::metadata, ValueSource::commanded}) {
+    if (name == value_source_name(s)) return s;
+  }
+  return std::nullopt;
+}
+
+std::string_view f_centre_method_name(FCentreMethod method) noexcept {
+  return method == FCentreMethod::lsc ? "lsc" : "nominal";
+}
+
+std::optional<FCentreMethod> parse_f_centre_method(std::string_view name) {
+  if (name == "lsc") return FCentreMethod::lsc;
+  if (name == "nominal") return FCentreMethod::nominal;
+  return std::nullopt;
+}
+
 std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
   const std::string* v = trace.metadata.find("centre_mm");
   if (!v) return std::nullopt;
@@ -44,106 +79,6 @@ std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
                     xyz[static_cast<std::size_t>(axes.second - 'x')]};
 }
 
-struct AngleRadius {
-  std::vector<double> angle;  // increasing, unwrapped, starting in [-pi, pi)
-  std::vector<double> radius;
-};
-
-AngleRadius polar(std::span<const double> a, std::span<const double> b, double ca, double cb) {
-  AngleRadius p;
-  const std::size_t n = a.size();
-  p.angle.resize(n);
-  p.radius.resize(n);
-  double prev = 0.0;
-  double offset = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double da = a[i] - ca, db = b[i] - cb;
-    double ang = std::atan2(db, da);
-    if (i > 0) {
-      // Unwrap along the path: successive samples are far less than pi apart.
-      double step = ang + offset - prev;
-      while (step > kPi) {
-        offset -= 2 * kPi;
-        step -= 2 * kPi;
-      }
-      while (step < -kPi) {
-        offset += 2 * kPi;
-        step += 2 * kPi;
-      }
-    }
-    p.angle[i] = ang + offset;
-    p.radius[i] = std::hypot(da, db);
-    prev = p.angle[i];
-  }
-  if (n > 1 && p.angle.back() < p.angle.front()) {
-    std::reverse(p.angle.begin(), p.angle.end());
-    std::reverse(p.radius.begin(), p.radius.end());
-  }
-  if (!std::is_sorted(p.angle.begin(), p.angle.end())) {
-    // A path that backs up locally (noise at a reversal): order by angle.
-    std::vector<std::size_t> idx(n);
-    std::iota(idx.begin(), idx.end(), 0);
-    std::stable_sort(idx.begin(), idx.end(),
-                     [&](std::size_t i, std::size_t j) { return p.angle[i] < p.angle[j]; });
-    AngleRadius q;
-    q.angle.resize(n);
-    q.radius.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      q.angle[i] = p.angle[idx[i]];
-      q.radius[i] = p.radius[idx[i]];
-    }
-    p = std::move(q);
-  }
-  return p;
-}
-
-struct OneWay {
-  double max = -1.0;
-  double at = 0.0;
-  double lo = 0.0, hi = 0.0;
-  bool any = false;
-};
-
-// Samples of `from` against the interpolated radius of `ref` at the same angle.
-OneWay compare(const AngleRadius& ref, const AngleRadius& from) {
-  OneWay w;
-  if (ref.angle.size() < 2) return w;
-  const double a0 = ref.angle.front();
-  const double a1 = ref.angle.back();
-  for (std::size_t i = 0; i < from.angle.size(); ++i) {
-    double phi = from.angle[i];
-    phi = a0 + std::fmod(std::fmod(phi - a0, 2 * kPi) + 2 * kPi, 2 * kPi);
-    if (phi > a1) continue;  // outside the reference arc
-    auto it = std::upper_bound(ref.angle.begin(), ref.angle.end(), phi);
-    std::size_t j = static_cast<std::size_t>(it - ref.angle.begin());
-    if (j == 0) j = 1;
-    if (j >= ref.angle.size()) j = ref.angle.size() - 1;
-    const double x0 = ref.angle[j - 1], x1 = ref.angle[j];
-    const double t = x1 > x0 ? (phi - x0) / (x1 - x0) : 0.0;
-    const double r = ref.radius[j - 1] + t * (ref.radius[j] - ref.radius[j - 1]);
-    const double d = std::abs(from.radius[i] - r);
-    if (!w.any) {
-      w.lo = w.hi = phi;
-      w.any = true;
-    }
-    w.lo = std::min(w.lo, phi);
-    w.hi = std::max(w.hi, phi);
-    if (d > w.max) {
-      w.max = d;
-      w.at = phi;
-    }
-  }
-  return w;
-}
-
-double wrap_deg(double rad) {
-  double d = std::fmod(rad * kRadToDeg, 360.0);
-  if (d < 0) d += 360.0;
-  return d;
-}
-
-}  // namespace
-
 double Temperatures::radius_factor() const {
   double f = 1.0;
   if (instrument_C) f += instrument_expansion_per_K * (*instrument_C - 20.0);
@@ -151,67 +86,33 @@ double Temperatures::radius_factor() const {
   return f;
 }
 
-RadialDifference max_radial_difference(std::span<const double> a1, std::span<const double> b1,
-                                       std::span<const double> a2, std::span<const double> b2,
-                                       double centre_a_mm, double centre_b_mm) {
-  const AngleRadius p1 = polar(a1, b1, centre_a_mm, centre_b_mm);
-  const AngleRadius p2 = polar(a2, b2, centre_a_mm, centre_b_mm);
-  const OneWay w12 = compare(p1, p2);
-  const OneWay w21 = compare(p2, p1);
-  RadialDifference out;
-  if (!w12.any && !w21.any) return out;
-  const OneWay& best = w12.max >= w21.max ? w12 : w21;
-  out.max_mm = std::max(0.0, best.max);
-  out.at_angle_deg = wrap_deg(best.at);
-  const double o12 = w12.any ? w12.hi - w12.lo : 0.0;
-  const double o21 = w21.any ? w21.hi - w21.lo : 0.0;
-  out.overlap_deg = std::max(o12, o21) * kRadToDeg;
-  return out;
-}
+namespace {
 
-Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
-  Evaluation ev;
-  ev.source = trace.source;
-  ev.conditions = trace.metadata;
-  for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
-  ev.g_method = options.g_method;
+// Set-up resolution: plane, columns, nominal radius and centre, temperatures. Options win,
+// then the trace's metadata; the commanded path fills the rest once the runs are known.
+void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evaluation& ev) {
+  ev.plane = trace_plane(trace, options.plane);
 
-  // Plane: the option, else metadata, else XY.
-  if (options.plane) {
-    ev.plane = *options.plane;
-  } else if (const std::string* p = trace.metadata.find("plane")) {
-    const auto parsed = parse_plane(*p);
-    if (!parsed) {
-      throw ParseError(trace.source, trace.metadata.line_of("plane"),
-                       fmt::format("metadata 'plane': expected XY, YZ or ZX, got '{}'", *p));
-    }
-    ev.plane = *parsed;
-  }
+  ev.columns = plane_columns(trace, ev.plane, options.column_a, options.column_b);
+  ev.channel_a = trace.columns[static_cast<std::size_t>(ev.columns.a)];
+  ev.channel_b = trace.columns[static_cast<std::size_t>(ev.columns.b)];
 
-  const PlaneColumns cols = plane_columns(trace, ev.plane, options.column_a, options.column_b);
-  ev.columns = cols;
-  ev.channel_a = trace.columns[static_cast<std::size_t>(cols.a)];
-  ev.channel_b = trace.columns[static_cast<std::size_t>(cols.b)];
-  const auto& col_a = trace.values[static_cast<std::size_t>(cols.a)];
-  const auto& col_b = trace.values[static_cast<std::size_t>(cols.b)];
-
-  // Nominal radius and centre: options, then metadata, then the commanded path.
   if (options.nominal_radius_mm) {
     ev.nominal_radius_mm = options.nominal_radius_mm;
-    ev.nominal_radius_source = "option";
+    ev.nominal_radius_source = ValueSource::option;
   } else if (auto r = trace.metadata.number("radius_mm", trace.source)) {
     ev.nominal_radius_mm = r;
-    ev.nominal_radius_source = "metadata";
+    ev.nominal_radius_source = ValueSource::metadata;
   } else if (auto d = trace.metadata.number("diameter_mm", trace.source)) {
     ev.nominal_radius_mm = *d / 2.0;
-    ev.nominal_radius_source = "metadata";
+    ev.nominal_radius_source = ValueSource::metadata;
   }
   if (options.centre) {
     ev.centre = options.centre;
-    ev.centre_source = "option";
+    ev.centre_source = ValueSource::option;
   } else if (auto c = metadata_centre(trace, ev.plane)) {
     ev.centre = c;
-    ev.centre_source = "metadata";
+    ev.centre_source = ValueSource::metadata;
   }
   if (ev.nominal_radius_mm && *ev.nominal_radius_mm <= 0.0) {
     throw UsageError(fmt::format("nominal radius must be positive, got {}", *ev.nominal_radius_mm));
@@ -230,15 +131,10 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
     ev.temperatures.instrument_expansion_per_K = *v;
   }
   ev.temperature_factor = ev.temperatures.radius_factor();
+}
 
-  SegmentationOptions so;
-  so.centre = ev.centre;
-  so.radius_mm = ev.nominal_radius_mm;
-  so.min_sweep_deg = options.min_arc_deg;
-  const Segmentation seg = segment_trace(trace, cols, so);
-  ev.segmentation = seg.method;
-
-  // Commanded columns give the nominal circle when nothing else did.
+// The commanded columns of the first run give the nominal circle when nothing else did.
+void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluation& ev) {
   const std::vector<double>* cmd_a =
       trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).first));
   const std::vector<double>* cmd_b =
@@ -249,11 +145,11 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
       const Circle c = fit_lsc(slice(*cmd_a, r0), slice(*cmd_b, r0));
       if (!ev.nominal_radius_mm) {
         ev.nominal_radius_mm = c.radius_mm;
-        ev.nominal_radius_source = "commanded";
+        ev.nominal_radius_source = ValueSource::commanded;
       }
       if (!ev.centre) {
         ev.centre = PlanePoint{c.centre_a_mm, c.centre_b_mm};
-        ev.centre_source = "commanded";
+        ev.centre_source = ValueSource::commanded;
       }
     }
   }
@@ -262,94 +158,132 @@ Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
         "F not computed: no nominal radius (give --radius, a radius_mm metadata line, or "
         "commanded columns)");
   }
+}
 
-  const std::vector<double>* t = trace.column("t");
-  for (const Run& run : seg.runs) {
-    RunResult rr;
-    rr.run = run;
-    rr.label = direction_label(ev.plane, run.direction);
-    rr.first_line = trace.line_of_row[run.begin];
-    rr.last_line = trace.line_of_row[run.end - 1];
-    const auto a = slice(col_a, run);
-    const auto b = slice(col_b, run);
-    rr.lsc = fit_lsc(a, b);
-    rr.mzc = fit_mzc(a, b);
-    rr.g_mzc_mm = rr.mzc.zone_width_mm;
-    const RadialRange about_lsc = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm);
-    rr.g_lsc_mm = about_lsc.width_mm();
-    if (t && run.size() > 1) {
-      const double dt = (*t)[run.end - 1] - (*t)[run.begin];
-      if (dt > 0) rr.feed_mm_per_min = run.sweep_deg / kRadToDeg * rr.lsc.radius_mm / dt * 60.0;
-    }
-
-    const bool full = run.sweep_deg >= 359.0;
-    bool use_lsc = false;
-    switch (options.f_centre) {
-      case FCentre::automatic:
-        use_lsc = full || !ev.centre;
-        break;
-      case FCentre::lsc:
-        use_lsc = true;
-        break;
-      case FCentre::nominal:
-        if (!ev.centre) {
-          throw UsageError(
-              "--f-centre nominal needs the set-up centre: give --centre A,B or a centre_mm "
-              "metadata line");
-        }
-        break;
-    }
-    if (use_lsc && !full) {
-      ev.notes.push_back(fmt::format(
-          "run {} sweeps {:.1f} deg: F about the LSC centre of a partial arc is not an ISO "
-          "230-4 method (3.5 b needs a full circle); give the set-up centre with --centre",
-          ev.runs.size() + 1, run.sweep_deg));
-    }
-    rr.f_centre_method = use_lsc ? "lsc" : "nominal";
-    rr.f_centre = use_lsc ? PlanePoint{rr.lsc.centre_a_mm, rr.lsc.centre_b_mm} : *ev.centre;
-    if (ev.nominal_radius_mm) {
-      // About the LSC centre the range is the one G_lsc already took.
-      const RadialRange rng =
-          use_lsc ? about_lsc : radial_range(a, b, rr.f_centre.a_mm, rr.f_centre.b_mm);
-      rr.f_max_mm = rng.max_mm * ev.temperature_factor - *ev.nominal_radius_mm;
-      rr.f_min_mm = rng.min_mm * ev.temperature_factor - *ev.nominal_radius_mm;
-    }
-    ev.runs.push_back(std::move(rr));
+// Clause 3: G and F of one run (and its LSC, MZC and feed).
+RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run, FCentre f_centre,
+                       std::vector<std::string>& notes) {
+  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
+  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  RunResult rr;
+  rr.run = run;
+  rr.label = direction_label(ev.plane, run.direction);
+  rr.first_line = trace.line_of_row[run.begin];
+  rr.last_line = trace.line_of_row[run.end - 1];
+  const auto a = slice(col_a, run);
+  const auto b = slice(col_b, run);
+  rr.lsc = fit_lsc(a, b);
+  rr.mzc = fit_mzc(a, b);
+  rr.g_mzc_mm = rr.mzc.zone_width_mm;
+  const RadialRange about_lsc = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm);
+  rr.g_lsc_mm = about_lsc.width_mm();
+  if (const std::vector<double>* t = trace.column("t"); t && run.size() > 1) {
+    const double dt = (*t)[run.end - 1] - (*t)[run.begin];
+    if (dt > 0) rr.feed_mm_per_min = run.sweep_deg / kRadToDeg * rr.lsc.radius_mm / dt * 60.0;
   }
 
-  // H: adjacent runs of opposite direction, measured one right after the other (clause 5).
+  const bool full = run.sweep_deg >= 359.0;
+  bool use_lsc = false;
+  switch (f_centre) {
+    case FCentre::automatic:
+      use_lsc = full || !ev.centre;
+      break;
+    case FCentre::lsc:
+      use_lsc = true;
+      break;
+    case FCentre::nominal:
+      if (!ev.centre) {
+        throw UsageError(
+            "--f-centre nominal needs the set-up centre: give --centre A,B or a centre_mm "
+            "metadata line");
+      }
+      break;
+  }
+  if (use_lsc && !full) {
+    notes.push_back(fmt::format(
+        "run {} sweeps {:.1f} deg: F about the LSC centre of a partial arc is not an ISO "
+        "230-4 method (3.5 b needs a full circle); give the set-up centre with --centre",
+        ev.runs.size() + 1, run.sweep_deg));
+  }
+  rr.f_centre_method = use_lsc ? FCentreMethod::lsc : FCentreMethod::nominal;
+  rr.f_centre = use_lsc ? PlanePoint{rr.lsc.centre_a_mm, rr.lsc.centre_b_mm} : *ev.centre;
+  if (ev.nominal_radius_mm) {
+    // About the LSC centre the range is the one G_lsc already took.
+    const RadialRange rng =
+        use_lsc ? about_lsc : radial_range(a, b, rr.f_centre.a_mm, rr.f_centre.b_mm);
+    rr.f_max_mm = rng.max_mm * ev.temperature_factor - *ev.nominal_radius_mm;
+    rr.f_min_mm = rng.min_mm * ev.temperature_factor - *ev.nominal_radius_mm;
+  }
+  return rr;
+}
+
+// Clause 5: H of two runs of opposite direction, about the LSC centre of both together.
+HysteresisResult hysteresis_of(const Trace& trace, const Evaluation& ev, std::size_t first) {
+  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
+  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  const RunResult& r1 = ev.runs[first];
+  const RunResult& r2 = ev.runs[first + 1];
+  HysteresisResult h;
+  h.run_ccw = r1.run.direction == Direction::CCW ? first : first + 1;
+  h.run_cw = r1.run.direction == Direction::CCW ? first + 1 : first;
+  std::vector<double> ja, jb;
+  ja.reserve(r1.run.size() + r2.run.size());
+  jb.reserve(ja.capacity());
+  for (const RunResult* r : {&r1, &r2}) {
+    const auto a = slice(col_a, r->run);
+    const auto b = slice(col_b, r->run);
+    ja.insert(ja.end(), a.begin(), a.end());
+    jb.insert(jb.end(), b.begin(), b.end());
+  }
+  h.common_lsc = fit_lsc(ja, jb);
+  const PlanePoint centre{h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm};
+  const RadialDifference d = detail::radial_difference(
+      detail::radial_profile(slice(col_a, r1.run), slice(col_b, r1.run), centre),
+      detail::radial_profile(slice(col_a, r2.run), slice(col_b, r2.run), centre));
+  h.h_mm = d.max_mm;
+  h.at_angle_deg = d.at_angle_deg;
+  h.overlap_deg = d.overlap_deg;
+  return h;
+}
+
+// H pairing: adjacent runs of opposite direction, measured one right after the other.
+void pair_hysteresis(const Trace& trace, Evaluation& ev) {
   for (std::size_t i = 0; i + 1 < ev.runs.size();) {
-    const RunResult& r1 = ev.runs[i];
-    const RunResult& r2 = ev.runs[i + 1];
-    if (r1.run.direction == r2.run.direction) {
+    if (ev.runs[i].run.direction == ev.runs[i + 1].run.direction) {
       ++i;
       continue;
     }
-    HysteresisResult h;
-    h.run_ccw = r1.run.direction == Direction::CCW ? i : i + 1;
-    h.run_cw = r1.run.direction == Direction::CCW ? i + 1 : i;
-    std::vector<double> ja, jb;
-    ja.reserve(r1.run.size() + r2.run.size());
-    jb.reserve(ja.capacity());
-    for (const RunResult* r : {&r1, &r2}) {
-      const auto a = slice(col_a, r->run);
-      const auto b = slice(col_b, r->run);
-      ja.insert(ja.end(), a.begin(), a.end());
-      jb.insert(jb.end(), b.begin(), b.end());
-    }
-    h.common_lsc = fit_lsc(ja, jb);
-    const RadialDifference d = max_radial_difference(
-        slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run), slice(col_b, r2.run),
-        h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm);
-    h.h_mm = d.max_mm;
-    h.at_angle_deg = d.at_angle_deg;
-    h.overlap_deg = d.overlap_deg;
-    ev.hysteresis.push_back(h);
+    ev.hysteresis.push_back(hysteresis_of(trace, ev, i));
     i += 2;
   }
   if (ev.hysteresis.empty()) {
     ev.notes.push_back("H not computed: no CCW run followed by a CW run (or the reverse)");
   }
+}
+
+}  // namespace
+
+Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
+  Evaluation ev;
+  ev.source = trace.source;
+  ev.conditions = trace.metadata;
+  for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
+  ev.g_method = options.g_method;
+  resolve_set_up(trace, options, ev);
+
+  SegmentationOptions so;
+  so.centre = ev.centre;
+  so.radius_mm = ev.nominal_radius_mm;
+  so.min_sweep_deg = options.min_arc_deg;
+  const Segmentation seg = segment_trace(trace, ev.columns, so);
+  ev.segmentation = seg.method;
+  resolve_from_commanded(trace, seg, ev);
+
+  for (const Run& run : seg.runs) {
+    RunResult rr = evaluate_run(trace, ev, run, options.f_centre, ev.notes);
+    ev.runs.push_back(std::move(rr));
+  }
+  pair_hysteresis(trace, ev);
   return ev;
 }
 

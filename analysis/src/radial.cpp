@@ -66,25 +66,11 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
   if (options.centre) {
     out.centre_a_mm = options.centre->a_mm;
     out.centre_b_mm = options.centre->b_mm;
-    out.centre_source = "option";
-  } else if (const std::string* c = trace.metadata.find("centre_mm")) {
-    std::vector<double> xyz;
-    std::size_t pos = 0;
-    while (pos <= c->size()) {
-      const std::size_t comma = std::min(c->find(',', pos), c->size());
-      const auto v = parse_finite(std::string_view(*c).substr(pos, comma - pos));
-      if (!v) break;
-      xyz.push_back(*v);
-      pos = comma + 1;
-    }
-    if (xyz.size() != 3 || pos <= c->size()) {
-      throw ParseError(
-          trace.source, trace.metadata.line_of("centre_mm"),
-          fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *c));
-    }
-    out.centre_a_mm = xyz[static_cast<std::size_t>(axes.first - 'x')];
-    out.centre_b_mm = xyz[static_cast<std::size_t>(axes.second - 'x')];
-    out.centre_source = "metadata";
+    out.centre_source = ValueSource::option;
+  } else if (const auto c = metadata_centre(trace, plane)) {
+    out.centre_a_mm = c->a_mm;
+    out.centre_b_mm = c->b_mm;
+    out.centre_source = ValueSource::metadata;
   } else {
     // The commanded circle of the measured arcs (marker rows, else all): feed-in moves and
     // approaches would pull a fit over every row.
@@ -103,7 +89,7 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
     const Circle fit = fit_lsc(a, b);
     out.centre_a_mm = fit.centre_a_mm;
     out.centre_b_mm = fit.centre_b_mm;
-    out.centre_source = "commanded";
+    out.centre_source = ValueSource::commanded;
   }
 
   // A bar length near 0 is a length change: without bar_length_mm it would be read as a
@@ -157,7 +143,7 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
       "{},{} ({}); a length channel sees radial deviations only (no tangential error), and F "
       "rests on the bar's calibrated length",
       bar_length ? fmt::format(" + bar_length_mm {}", *bar_length) : std::string(), name_a, name_b,
-      out.centre_a_mm, out.centre_b_mm, out.centre_source);
+      out.centre_a_mm, out.centre_b_mm, value_source_name(out.centre_source));
   return out;
 }
 

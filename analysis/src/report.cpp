@@ -71,8 +71,9 @@ std::string text_report(const Evaluation& ev) {
   line("Notes", meta("notes"));
   s += "Conditions (clause 4.4)\n";
   if (ev.nominal_radius_mm) {
-    line("Diameter", fmt::format("{:.4f} mm (radius {:.4f} mm, from {})", 2 * *ev.nominal_radius_mm,
-                                 *ev.nominal_radius_mm, ev.nominal_radius_source));
+    line("Diameter",
+         fmt::format("{:.4f} mm (radius {:.4f} mm, from {})", 2 * *ev.nominal_radius_mm,
+                     *ev.nominal_radius_mm, value_source_name(ev.nominal_radius_source)));
   } else {
     line("Diameter", kNone);
   }
@@ -97,7 +98,7 @@ std::string text_report(const Evaluation& ev) {
   line("Circle centre (mm)", meta("centre_mm"));
   if (ev.centre) {
     line("Nominal centre", fmt::format("{:.4f}, {:.4f} mm (from {})", ev.centre->a_mm,
-                                       ev.centre->b_mm, ev.centre_source));
+                                       ev.centre->b_mm, value_source_name(ev.centre_source)));
   }
   line("Tool-side offset (mm)", meta("offset_tool_mm"));
   line("Workpiece-side offset (mm)", meta("offset_workpiece_mm"));
@@ -189,7 +190,8 @@ std::string text_report(const Evaluation& ev) {
     if (r.f_max_mm) {
       fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}  (centre: {})\n",
                      i + 1, direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
-                     um(*r.f_max_mm), r.label, um(*r.f_min_mm), r.f_centre_method);
+                     um(*r.f_max_mm), r.label, um(*r.f_min_mm),
+                     f_centre_method_name(r.f_centre_method));
     } else {
       fmt::format_to(out, "   run {} {:>3} F: not available\n", i + 1,
                      direction_name(r.run.direction));

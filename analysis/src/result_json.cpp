@@ -96,9 +96,9 @@ json to_json(const Evaluation& ev) {
   j["segmentation"] = segmentation_method_name(ev.segmentation);
   j["g_method"] = g_method_name(ev.g_method);
   j["nominal_radius"] = opt(ev.nominal_radius_mm);
-  j["nominal_radius_source"] = ev.nominal_radius_source;
+  j["nominal_radius_source"] = value_source_name(ev.nominal_radius_source);
   j["nominal_centre"] = ev.centre ? json::array({ev.centre->a_mm, ev.centre->b_mm}) : json(nullptr);
-  j["nominal_centre_source"] = ev.centre_source;
+  j["nominal_centre_source"] = value_source_name(ev.centre_source);
   j["temperature"] = {{"corrected", ev.temperatures.available()},
                       {"machine_C", opt(ev.temperatures.machine_C)},
                       {"instrument_C", opt(ev.temperatures.instrument_C)},
@@ -127,7 +127,7 @@ json to_json(const Evaluation& ev) {
         {"G_lsc", r.g_lsc_mm},
         {"F_max", opt(r.f_max_mm)},
         {"F_min", opt(r.f_min_mm)},
-        {"F_centre", r.f_centre_method},
+        {"F_centre", f_centre_method_name(r.f_centre_method)},
         {"F_centre_point", {r.f_centre.a_mm, r.f_centre.b_mm}},
         {"centre", {r.lsc.centre_a_mm, r.lsc.centre_b_mm}},
         {"radius", r.lsc.radius_mm},
@@ -186,11 +186,15 @@ Evaluation evaluation_from_json(const json& j, const std::string& source) {
     rd.fail("g_method", "min-zone or least-squares");
   }
   ev.nominal_radius_mm = rd.optional_number(j, "nominal_radius", "");
-  ev.nominal_radius_source = rd.text(j, "nominal_radius_source", "");
+  const auto radius_source = parse_value_source(rd.text(j, "nominal_radius_source", ""));
+  if (!radius_source) rd.fail("nominal_radius_source", "option, metadata, commanded or empty");
+  ev.nominal_radius_source = *radius_source;
   if (const json& c = rd.at(j, "nominal_centre", ""); !c.is_null()) {
     ev.centre = rd.point(c, "nominal_centre");
   }
-  ev.centre_source = rd.text(j, "nominal_centre_source", "");
+  const auto centre_source = parse_value_source(rd.text(j, "nominal_centre_source", ""));
+  if (!centre_source) rd.fail("nominal_centre_source", "option, metadata, commanded or empty");
+  ev.centre_source = *centre_source;
   const json& t = rd.at(j, "temperature", "");
   ev.temperatures.machine_C = rd.optional_number(t, "machine_C", "temperature");
   ev.temperatures.instrument_C = rd.optional_number(t, "instrument_C", "temperature");
@@ -216,7 +220,9 @@ Evaluation evaluation_from_json(const json& j, const std::string& source) {
     rr.g_lsc_mm = rd.number(r, "G_lsc", path);
     rr.f_max_mm = rd.optional_number(r, "F_max", path);
     rr.f_min_mm = rd.optional_number(r, "F_min", path);
-    rr.f_centre_method = rd.text(r, "F_centre", path);
+    const auto f_centre = parse_f_centre_method(rd.text(r, "F_centre", path));
+    if (!f_centre) rd.fail(path + ".F_centre", "lsc or nominal");
+    rr.f_centre_method = *f_centre;
     rr.f_centre = rd.point(r, "F_centre_point", path);
     const PlanePoint centre = rd.point(r, "centre", path);
     rr.lsc = {centre.a_mm, centre.b_mm, rd.number(r, "radius", path)};

@@ -61,7 +61,7 @@ TEST(Evaluation, PerfectMachineGivesZeroErrors) {
   }
   ASSERT_EQ(ev.hysteresis.size(), 1u);
   EXPECT_LT(ev.hysteresis[0].h_mm, 1e-9);
-  EXPECT_EQ(ev.nominal_radius_source, "metadata");
+  EXPECT_EQ(ev.nominal_radius_source, ValueSource::metadata);
 }
 
 TEST(Evaluation, BacklashGivesHEqualToThePlay) {
@@ -161,7 +161,7 @@ TEST(Evaluation, PartialArcUsesTheNominalCentre) {
   ASSERT_EQ(ev.runs.size(), 2u);
   for (const auto& r : ev.runs) {
     EXPECT_NEAR(r.run.sweep_deg, 120.0, 0.2);
-    EXPECT_EQ(r.f_centre_method, "nominal");
+    EXPECT_EQ(r.f_centre_method, FCentreMethod::nominal);
     EXPECT_NEAR(*r.f_max_mm, kR * 40e-6, 1e-7);
     EXPECT_NEAR(*r.f_min_mm, kR * 40e-6, 1e-7);
   }
@@ -241,7 +241,7 @@ TEST(Evaluation, RadiusAndCentreFromCommandedColumnsWhenNoMetadata) {
   Trace t = sim::simulate({}, {});
   t.metadata = {};
   const Evaluation ev = evaluate(t, {});
-  EXPECT_EQ(ev.nominal_radius_source, "commanded");
+  EXPECT_EQ(ev.nominal_radius_source, ValueSource::commanded);
   EXPECT_NEAR(*ev.nominal_radius_mm, kR, 1e-9);
 }
 
@@ -259,4 +259,28 @@ TEST(Evaluation, MalformedCentreMetadataNamesItsLine) {
     EXPECT_STREQ(e.what(),
                  "t.csv:3: metadata 'centre_mm': expected three numbers x,y,z, got '1,2'");
   }
+}
+
+// The H merge against an analytic truth: paths that cross +-180 deg, one CW, one sweeping
+// more than a turn, sampled at unrelated angles.
+TEST(Evaluation, RadialDifferenceOfKnownProfiles) {
+  constexpr double kPi = 3.14159265358979323846;
+  const double radius = 50.0, bump = 0.004, peak = 1.0;  // the difference peaks at 1 rad
+  const double ca = 3.0, cb = -2.0;
+  std::vector<double> a1, b1, a2, b2;
+  for (int i = 0; i < 3000; ++i) {  // CCW from 100 deg over 380 deg
+    const double th = (100.0 + 380.0 * i / 2999.0) * kPi / 180.0;
+    a1.push_back(ca + radius * std::cos(th));
+    b1.push_back(cb + radius * std::sin(th));
+  }
+  for (int i = 0; i < 2711; ++i) {  // CW from 200 deg over 360 deg
+    const double th = (200.0 - 360.0 * i / 2711.0) * kPi / 180.0;
+    const double r = radius + bump * (1.0 + std::cos(th - peak)) / 2.0;
+    a2.push_back(ca + r * std::cos(th));
+    b2.push_back(cb + r * std::sin(th));
+  }
+  const RadialDifference d = max_radial_difference(a1, b1, a2, b2, ca, cb);
+  EXPECT_NEAR(d.max_mm, bump, 1e-8);
+  EXPECT_NEAR(d.at_angle_deg, peak * 180.0 / kPi, 0.2);
+  EXPECT_NEAR(d.overlap_deg, 360.0, 0.2);
 }

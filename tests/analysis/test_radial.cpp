@@ -99,7 +99,7 @@ TEST(Radial, TraceWithoutPositionColumnsIsRadial) {
   EXPECT_TRUE(is_radial_trace(trace, Plane::ZX));
   const RadialPositions radial = radial_positions(trace, {});
   EXPECT_EQ(radial.column_a, "x_r");
-  EXPECT_EQ(radial.centre_source, "metadata");
+  EXPECT_EQ(radial.centre_source, ValueSource::metadata);
   EXPECT_NE(radial.note.find("radial deviations only"), std::string::npos);
 }
 
@@ -113,7 +113,7 @@ TEST(Radial, CentreFromTheCommandedArcsWithoutMetadata) {
     if (k != "centre_mm") kept.set(k, v);
   trace.metadata = kept;
   const RadialPositions radial = radial_positions(trace, {});
-  EXPECT_EQ(radial.centre_source, "commanded");
+  EXPECT_EQ(radial.centre_source, ValueSource::commanded);
   EXPECT_NEAR(radial.centre_a_mm, 12.5, 1e-9);
   EXPECT_NEAR(radial.centre_b_mm, -40.0, 1e-9);
 }

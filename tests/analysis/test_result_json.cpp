@@ -75,4 +75,12 @@ TEST(ResultJson, RefusesAnotherSchemaOrAMissingKey) {
   json wrong = j;
   wrong["pairs"][0]["runs"] = json::array({0, 7});
   EXPECT_ERROR(evaluation_from_json(wrong), ExitCode::parse, "'pairs[0].runs'");
+  json source = j;
+  source["nominal_centre_source"] = "guessed";
+  EXPECT_ERROR(evaluation_from_json(source), ExitCode::parse,
+               "'nominal_centre_source': expected option, metadata, commanded or empty");
+  json f_centre = j;
+  f_centre["runs"][0]["F_centre"] = "auto";
+  EXPECT_ERROR(evaluation_from_json(f_centre), ExitCode::parse,
+               "'runs[0].F_centre': expected lsc or nominal");
 }

@@ -2,6 +2,7 @@
 // The results of ISO 230-4 clause 3 for a trace: H, G and F per direction.
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "circtest/analysis/circle_fit.hpp"
@@ -13,6 +14,17 @@ namespace circtest {
 
 enum class GMethod { min_zone, least_squares };
 enum class FCentre { automatic, nominal, lsc };
+
+// Where a set-up value came from. JSON and the report spell it "option", "metadata",
+// "commanded", or "" for none.
+enum class ValueSource { none, option, metadata, commanded };
+std::string_view value_source_name(ValueSource source) noexcept;
+std::optional<ValueSource> parse_value_source(std::string_view name);
+
+// The centre a run's F was taken about ("nominal" or "lsc").
+enum class FCentreMethod { nominal, lsc };
+std::string_view f_centre_method_name(FCentreMethod method) noexcept;
+std::optional<FCentreMethod> parse_f_centre_method(std::string_view name);
 
 // Clause 4.1: F is reported at 20 deg C. The instrument's reading is scaled by its own
 // expansion and the machine's: r_20 = r * (1 + a_i (T_i - 20) - a_m (T_m - 20)).
@@ -52,7 +64,7 @@ struct RunResult {
   // F against the nominal radius (corrected to 20 deg C when temperatures are known).
   std::optional<double> f_max_mm;
   std::optional<double> f_min_mm;
-  std::string f_centre_method;  // "lsc" or "nominal"
+  FCentreMethod f_centre_method = FCentreMethod::nominal;
   PlanePoint f_centre;
   std::optional<double> feed_mm_per_min;  // from the time column, when present
   double g_mm(GMethod m) const { return m == GMethod::min_zone ? g_mzc_mm : g_lsc_mm; }
@@ -77,9 +89,9 @@ struct Evaluation {
   SegmentationMethod segmentation = SegmentationMethod::automatic;
   GMethod g_method = GMethod::min_zone;
   std::optional<double> nominal_radius_mm;
-  std::string nominal_radius_source;  // "option", "metadata", "commanded", or empty
-  std::optional<PlanePoint> centre;   // nominal / set-up centre
-  std::string centre_source;
+  ValueSource nominal_radius_source = ValueSource::none;
+  std::optional<PlanePoint> centre;  // nominal / set-up centre
+  ValueSource centre_source = ValueSource::none;
   Temperatures temperatures;
   double temperature_factor = 1.0;
   std::vector<RunResult> runs;
@@ -91,6 +103,10 @@ struct Evaluation {
 // Runs the whole evaluation. Options left empty are taken from the trace's metadata
 // (plane, radius_mm / diameter_mm, centre_mm, temperatures) or commanded columns.
 Evaluation evaluate(const Trace& trace, EvaluationOptions options);
+
+// The trace's `centre_mm` metadata ("x,y,z") as the plane's two coordinates; ParseError
+// naming the line when it is not three numbers.
+std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane);
 
 // Largest |r1(theta) - r2(theta)| over the angles both paths cover, about a centre,
 // with each path's radius linearly interpolated in angle at the other's samples.

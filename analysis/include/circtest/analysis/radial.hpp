@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "circtest/analysis/evaluation.hpp"
 #include "circtest/core/plane.hpp"
 #include "circtest/core/trace.hpp"
 
@@ -37,8 +38,8 @@ struct RadialPositions {
   std::string column_b;
   double centre_a_mm = 0.0;
   double centre_b_mm = 0.0;
-  std::string centre_source;  // "option", "metadata" or "commanded"
-  std::string note;           // what was evaluated, for the report
+  ValueSource centre_source = ValueSource::none;
+  std::string note;  // what was evaluated, for the report
 };
 
 // Throws ParseError naming the file when `r` or the commanded columns are missing, or

@@ -1,0 +1,46 @@
+#pragma once
+// Internal: a path's radius as a function of its angle about a centre. The evaluation's H
+// and the diagnosis both unwrap the measured angle along a run; this unit is the one copy.
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "circtest/analysis/evaluation.hpp"
+#include "circtest/core/plane.hpp"
+
+namespace circtest::detail {
+
+// Angle about `centre`, unwrapped along the path (successive samples are far less than pi
+// apart), and radius; in path order.
+struct PathPolar {
+  std::vector<double> angle_rad;
+  std::vector<double> radius_mm;
+  std::size_t size() const { return angle_rad.size(); }
+};
+PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre);
+
+// The same samples ordered by increasing angle, the first in [-pi, pi) (a CW path is
+// reversed; a path that backs up locally, noise at a reversal, is sorted).
+struct RadialProfile {
+  std::vector<double> angle_rad;
+  std::vector<double> radius_mm;
+  std::size_t size() const { return angle_rad.size(); }
+};
+RadialProfile radial_profile(std::span<const double> a, std::span<const double> b,
+                             PlanePoint centre);
+
+// The largest |r_from - r_ref| with r_ref linearly interpolated in angle at each sample of
+// `from` that falls inside ref's arc (angles taken modulo 2 pi into it), and the angular
+// range those samples cover.
+struct ProfileDifference {
+  double max_mm = -1.0;
+  double at_rad = 0.0;
+  double lo_rad = 0.0, hi_rad = 0.0;
+  bool any = false;
+};
+ProfileDifference compare_profiles(const RadialProfile& ref, const RadialProfile& from);
+
+// Both ways round: the largest difference of the two, where it is, and the overlap.
+RadialDifference radial_difference(const RadialProfile& p1, const RadialProfile& p2);
+
+}  // namespace circtest::detail
