@@ -263,7 +263,7 @@ void pair_hysteresis(const Trace& trace, Evaluation& ev) {
 
 }  // namespace
 
-Evaluation evaluate(const Trace& trace, EvaluationOptions options) {
+Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   Evaluation ev;
   ev.source = trace.source;
   ev.conditions = trace.metadata;

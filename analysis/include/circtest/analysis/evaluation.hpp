@@ -102,7 +102,7 @@ struct Evaluation {
 
 // Runs the whole evaluation. Options left empty are taken from the trace's metadata
 // (plane, radius_mm / diameter_mm, centre_mm, temperatures) or commanded columns.
-Evaluation evaluate(const Trace& trace, EvaluationOptions options);
+Evaluation evaluate(const Trace& trace, const EvaluationOptions& options);
 
 // The trace's `centre_mm` metadata ("x,y,z") as the plane's two coordinates; ParseError
 // naming the line when it is not three numbers.
