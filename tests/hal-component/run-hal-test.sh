@@ -1,7 +1,7 @@
 #!/bin/bash
 # Runs one circlog HAL test (a directory with test.sh and expected) against the module in the
 # build tree, without installing anything (without `expected`, prints test.sh's output):
-#   run-hal-test.sh TEST_DIR MODULE.so RECORDER
+#   run-hal-test.sh TEST_DIR MODULE.so RECORDER [MORE_MODULE.so]...
 # As root it re-runs itself through scripts/hal-sandbox (private mount, IPC, PID and network
 # namespaces; the build's circlog.so beside the system modules; realtime as `nobody`; every
 # process killed when the test ends), so a LinuxCNC running elsewhere on the machine is
@@ -11,6 +11,8 @@ set -euo pipefail
 test_dir=$(cd "$1" && pwd)
 module=$(readlink -f "$2")
 recorder=$(readlink -f "$3")
+more=()
+for m in "${@:4}"; do more+=(--module "$(readlink -f "$m")"); done
 here=$(cd "$(dirname "$0")" && pwd)
 system_modules=/usr/lib/linuxcnc/modules
 
@@ -23,7 +25,7 @@ if [ "${CIRCLOG_TEST_INSIDE:-}" != 1 ]; then
   chmod 755 "$work"
   rc=0
   CIRCLOG_TEST_INSIDE=1 CIRCLOG_WORK=$work \
-    "$here/../../scripts/hal-sandbox" --work "$work" --module "$module" --net -- "$0" "$@" || rc=$?
+    "$here/../../scripts/hal-sandbox" --work "$work" --module "$module" "${more[@]}" --net -- "$0" "$@" || rc=$?
   if [ "$rc" = 0 ] && [ -z "${CIRCLOG_KEEP_WORK:-}" ]; then
     rm -rf "$work"
   else

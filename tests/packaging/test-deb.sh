@@ -40,8 +40,8 @@ in_root() { chroot "$root" env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root 
 
 # Fresh as far as circtest goes: no earlier install may answer for the package.
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record /usr/bin/circcomp \
-  /usr/lib/linuxcnc/modules/circlog.so /usr/share/man/man1/circana.1 \
-  /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9; do
+  /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
+  /usr/share/man/man1/circana.1 /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9; do
   rm -f "$root$f"
 done
 in_root dpkg -s circtest >/dev/null 2>&1 && in_root dpkg --purge circtest >/dev/null
@@ -51,7 +51,8 @@ cp "$deb" "$root/tmp/circtest.deb"
 in_root dpkg -i /tmp/circtest.deb >"$work/dpkg.log" 2>&1 || { cat "$work/dpkg.log"; fail "dpkg -i"; }
 in_root dpkg --verify circtest || fail "dpkg --verify: installed files differ from the package"
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record \
-  /usr/lib/linuxcnc/modules/circlog.so /usr/share/man/man1/circgen.1 \
+  /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
+  /usr/share/man/man1/circgen.1 \
   /usr/share/man/man1/circana.1 /usr/share/man/man1/circlog-record.1 \
   /usr/share/man/man9/circlog.9 /usr/share/bash-completion/completions/circana \
   /usr/bin/circcomp /usr/share/man/man1/circcomp.1; do
