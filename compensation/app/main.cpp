@@ -1,6 +1,8 @@
 // circcomp: writes a circtest diagnosis back into a LinuxCNC configuration. Only option
 // parsing lives here; the work is circtest::compensation.
 #include <boost/program_options.hpp>
+#include <csignal>
+#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -104,7 +106,19 @@ int run(int argc, char** argv) {
     std::cout << "circcomp: nothing to change in " << ini << "\n";
     return 0;
   }
-  apply_plan(plan);
+  // The crash test's hook (docs/compensation.md): SIGKILL itself after step K, as a power cut
+  // or an OOM kill would stop it, so the test sees what such a stop leaves.
+  StepHook hook;
+  if (const char* k = std::getenv("CIRCCOMP_KILL_AFTER_STEP")) {
+    const auto kill_step =
+        static_cast<std::size_t>(parse_option_index("CIRCCOMP_KILL_AFTER_STEP", k));
+    hook = [kill_step](std::size_t step, const std::string& what) {
+      if (step != kill_step) return;
+      std::cerr << "circcomp: killed after step " << step << " (" << what << ")" << std::endl;
+      ::raise(SIGKILL);
+    };
+  }
+  apply_plan(plan, hook);
   print_summary(plan, std::cout);
   for (const auto& f : plan.files) {
     std::cout << "circcomp: " << (f.existed ? "changed " : "created ") << f.path << "\n";

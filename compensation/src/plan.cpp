@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -34,6 +35,7 @@ constexpr double kMaxCyclicMm = 0.05;
 constexpr double kMinBacklashMm = 1e-4;
 constexpr double kMinScalePpm = 0.5;
 constexpr double kMinCyclicMm = 1e-4;
+constexpr double kMinSquarenessUrad = 0.5;
 
 std::string number_text(double v) {
   std::string s = fmt::format("{:.7f}", v);
@@ -135,6 +137,155 @@ std::string slurp_if(const std::string& path, bool& existed) {
   std::error_code ec;
   existed = fs::exists(path, ec);
   return existed ? read_file(path) : std::string();
+}
+
+// The squareness key of [CIRCTEST_COMP] and the circtest_kins pin for a plane.
+struct SquarenessKey {
+  const char* key;
+  const char* pin;
+};
+constexpr SquarenessKey kSquarenessKeys[] = {
+    {"SQUARENESS_XY", "squareness-xy"},
+    {"SQUARENESS_YZ", "squareness-yz"},
+    {"SQUARENESS_ZX", "squareness-zx"},
+};
+
+// The HAL file circcomp adds to [HAL] HALFILE: the kinematics' pins from the INI's values.
+std::string comp_hal_text() {
+  std::string t =
+      "# Written by circcomp (circtest): the squareness compensation of the circtest_kins\n"
+      "# kinematics. The values, in rad, live in the INI's [CIRCTEST_COMP] section;\n"
+      "# `circcomp revert` removes this file. Pin meanings: docs/kinematics.md.\n";
+  for (const auto& k : kSquarenessKeys) {
+    t += fmt::format("setp circtest-kins.{} [CIRCTEST_COMP]{}\n", k.pin, k.key);
+  }
+  return t;
+}
+
+// Rewrites "loadrt trivkins ..." lines of a HAL file to load circtest_kins with the same
+// arguments; returns the number of lines changed.
+int swap_loadrt(std::string& text) {
+  int changed = 0;
+  std::size_t b = 0;
+  while (b < text.size()) {
+    std::size_t e = text.find('\n', b);
+    if (e == std::string::npos) e = text.size();
+    std::size_t p = text.find_first_not_of(" \t", b);
+    if (p < e && text.compare(p, 6, "loadrt") == 0) {
+      std::size_t q = text.find_first_not_of(" \t", p + 6);
+      if (q < e && q > p + 6 && text.compare(q, 8, "trivkins") == 0 &&
+          (q + 8 == e || text[q + 8] == ' ' || text[q + 8] == '\t' || text[q + 8] == '\r')) {
+        text.replace(q, 8, "circtest_kins");
+        e += 5;
+        ++changed;
+      }
+    }
+    b = e + 1;
+  }
+  return changed;
+}
+
+// Whether a HAL file loads the kinematics through the INI ("loadrt [KINS]KINEMATICS").
+bool loads_kins_from_ini(const std::string& text) {
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream words(line);
+    std::string cmd, what;
+    words >> cmd >> what;
+    if (cmd == "loadrt" && what == "[KINS]KINEMATICS") return true;
+  }
+  return false;
+}
+
+// Squareness ALPHA (urad, already scaled by the gain) added to the kinematics' current value:
+// [KINS] KINEMATICS becomes circtest_kins (same arguments), a literal "loadrt trivkins" in a HAL
+// file follows, [CIRCTEST_COMP] keeps the three angles and circtest-comp.hal, added as the last
+// [HAL] HALFILE, sets the pins from them.
+void plan_squareness(IniDocument& ini, const DiagnosisInput& d, double alpha_urad, Plan& plan,
+                     std::map<std::string, std::pair<bool, std::string>>& files) {
+  const auto kins = ini.find("KINS", "KINEMATICS");
+  joints_of(ini, d.axes[0]);  // refuses a kinematics circcomp cannot map, names a missing axis
+  joints_of(ini, d.axes[1]);
+  std::istringstream words(kins->value);
+  std::string module, rest;
+  words >> module;
+  std::getline(words, rest);
+  const bool active = module == "circtest_kins";
+  const std::string key = "SQUARENESS_" + d.plane;
+  double current = 0.0;
+  if (const auto e = ini.find("CIRCTEST_COMP", key)) {
+    const auto v = parse_finite(e->value);
+    if (!v) {
+      throw DataError(
+          e->file, e->line,
+          fmt::format("[CIRCTEST_COMP] {} = '{}': expected an angle in rad", key, e->value));
+    }
+    if (active) {
+      current = *v;
+    } else {
+      plan.notes.push_back(fmt::format(
+          "[CIRCTEST_COMP] {} = {} was not in effect (the kinematics is {}, not circtest_kins): "
+          "the measurement saw none of it, so it is replaced, not added to",
+          key, e->value, module));
+    }
+  }
+  const double next = current + alpha_urad * 1e-6;
+  if (!active) ini.set("KINS", "KINEMATICS", "circtest_kins" + rest);
+  for (const auto& k : kSquarenessKeys) {
+    const bool ours = key == k.key;
+    if (ours) {
+      ini.set("CIRCTEST_COMP", k.key, fmt::format("{:.6e}", next));
+    } else if (!ini.find("CIRCTEST_COMP", k.key) || !active) {
+      ini.set("CIRCTEST_COMP", k.key, "0.0");
+    }
+  }
+  if (!active) {
+    ini.comment_before("CIRCTEST_COMP", "SQUARENESS_XY",
+                       "circcomp: squareness compensated by circtest_kins, rad (XY: x += value "
+                       "* y; YZ: y += value * z; ZX: z += value * x); set by circtest-comp.hal");
+  }
+  plan.changes.push_back(fmt::format(
+      "[CIRCTEST_COMP] {}: {:.3f} -> {:.3f} urad (circtest_kins{})", key, current * 1e6, next * 1e6,
+      active ? "" : fmt::format(", replacing {} in [KINS] KINEMATICS", module)));
+
+  // The HAL side: the module loaded, and its pins set.
+  const std::string dir = ini_dir(ini.path());
+  const auto halfiles = ini.get_all("HAL", "HALFILE");
+  bool loaded = false, has_comp = false;
+  for (const auto& h : halfiles) {
+    if (h.value == "circtest-comp.hal") {
+      has_comp = true;
+      continue;
+    }
+    const fs::path path = fs::path(dir.empty() ? "." : dir) / h.value;
+    std::error_code ec;
+    if (fs::path(h.value).extension() != ".hal" || !fs::is_regular_file(path, ec)) continue;
+    std::string text = read_file(path.string());
+    if (loads_kins_from_ini(text)) loaded = true;
+    if (!active && swap_loadrt(text) > 0) {
+      loaded = true;
+      files[path.string()] = {true, text};
+      plan.changes.push_back(fmt::format("{}: loadrt trivkins -> loadrt circtest_kins", h.value));
+    } else if (active && text.find("circtest_kins") != std::string::npos) {
+      loaded = true;
+    }
+  }
+  if (!loaded) {
+    plan.notes.push_back(
+        "no HAL file beside the INI loads the kinematics ('loadrt [KINS]KINEMATICS' or 'loadrt "
+        "trivkins'): make sure circtest_kins is what your configuration loads");
+  }
+  if (!has_comp) {
+    ini.append("HAL", "HALFILE", "circtest-comp.hal");
+    const fs::path comp = fs::path(dir.empty() ? "." : dir) / "circtest-comp.hal";
+    bool existed = false;
+    const std::string before = slurp_if(comp.string(), existed);
+    if (existed && before != comp_hal_text()) {
+      throw DataError(comp.string(), 0,
+                      "exists but is not [HAL] HALFILE and not circcomp's: move it away first");
+    }
+    files[comp.string()] = {existed, comp_hal_text()};
+  }
 }
 
 }  // namespace
@@ -368,15 +519,16 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     }
   }
 
-  // Squareness: LinuxCNC 2.9 has no skew compensation in trivkins.
-  if (wants("squareness") && d.squareness_urad.value &&
-      std::fabs(*d.squareness_urad.value) >= 1.0) {
-    plan.advice.push_back(fmt::format(
-        "{}/{} squareness {:+.1f} urad: not written (LinuxCNC 2.9's trivkins has no skew term; "
-        "the angle between +{} and +{} is 90 deg {} {:.1f} urad): correct the machine's "
-        "geometry, or a skew kinematics",
-        d.axes[0], d.axes[1], *d.squareness_urad.value, d.axes[0], d.axes[1],
-        *d.squareness_urad.value >= 0 ? "-" : "+", std::fabs(*d.squareness_urad.value)));
+  // Squareness: through the circtest_kins kinematics module.
+  if (wants("squareness")) {
+    std::optional<double> v;
+    try {
+      v = accepted(d.squareness_urad, fmt::format("{}/{} squareness", d.axes[0], d.axes[1]),
+                   kMinSquarenessUrad, kMaxSquarenessUrad, "urad", o.force, plan.notes);
+    } catch (const DataError& e) {
+      throw DataError(d.source, 0, e.detail());
+    }
+    if (v) plan_squareness(ini, d, o.gain * *v, plan, tables);
   }
   // Advice: what a configuration file cannot fix.
   if (d.servo_mismatch_ms.value && std::fabs(*d.servo_mismatch_ms.value) >= 0.05) {
@@ -464,7 +616,7 @@ std::string file_diff(const FileChange& f) {
   while (i < n || j < m) {
     if (i < n && j < m && a[i] == b[j])
       ops.push_back({' ', i++, j++});
-    else if (j < m && (i == n || lcs[i][j + 1] >= lcs[i + 1][j]))
+    else if (j < m && (i == n || lcs[i][j + 1] > lcs[i + 1][j]))  // ties: '-' first
       ops.push_back({'+', i, j++});
     else
       ops.push_back({'-', i++, j});
@@ -524,33 +676,58 @@ std::string unified_diff(const Plan& plan) {
 
 // The manifest says, per file, whether it existed and where its original is kept; it is
 // written after the originals and before any file changes, so a crash at any step leaves
-// either nothing changed or a manifest that revert can undo.
-void apply_plan(const Plan& plan) {
+// either nothing changed (the previous manifest, if any, still names its own backups) or a
+// manifest that revert can undo. Backups carry this apply's own prefix, so a crashed apply
+// never overwrites the originals an earlier, complete apply kept; the older ones go once the
+// new manifest is in place.
+void apply_plan(const Plan& plan, const StepHook& after_step) {
   const fs::path state = state_dir(plan.ini_path);
   std::error_code ec;
   fs::create_directories(state, ec);
   if (ec) throw IoError(state.string(), "cannot create: " + ec.message());
+  std::size_t step = 0;
+  auto write = [&](const std::string& path, const std::string& text, const std::string& what) {
+    AtomicOutput out(path);
+    out.write(text);
+    if (after_step) after_step(step++, what + ": written, not yet in place");
+    out.commit();
+    if (after_step) after_step(step++, what + ": in place");
+  };
+  const std::string prefix = fmt::format(
+      "{:x}-{:x}", std::chrono::steady_clock::now().time_since_epoch().count(), ::getpid());
   std::string manifest = "circcomp-manifest 1\n";
   for (std::size_t i = 0; i < plan.files.size(); ++i) {
     const FileChange& f = plan.files[i];
     const std::string abs = fs::absolute(f.path).string();
     if (f.existed) {
-      const std::string backup = fmt::format("{}.orig", i);
-      write_file_atomic((state / backup).string(), f.before);
+      const std::string backup = fmt::format("{}-{}.orig", prefix, i);
+      write((state / backup).string(), f.before, "original of " + f.path);
       manifest += fmt::format("existed\t{}\t{}\n", backup, abs);
     } else {
       manifest += fmt::format("created\t-\t{}\n", abs);
     }
   }
-  write_file_atomic((state / "manifest").string(), manifest);
-  for (const FileChange& f : plan.files) write_file_atomic(f.path, f.after);
+  write((state / "manifest").string(), manifest, "manifest");
+  // Originals of earlier (complete or crashed) applies: not named by the manifest now.
+  for (const auto& entry : fs::directory_iterator(state, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.ends_with(".orig") && !name.starts_with(prefix + "-")) fs::remove(entry.path(), ec);
+  }
+  for (const FileChange& f : plan.files) write(f.path, f.after, f.path);
 }
 
 bool revert(const std::string& ini_path) {
   const fs::path state = state_dir(ini_path);
   const fs::path manifest_path = state / "manifest";
   std::error_code ec;
-  if (!fs::exists(manifest_path, ec)) return false;
+  if (!fs::exists(manifest_path, ec)) {
+    // Originals of an apply killed before its manifest was in place: it changed nothing.
+    for (const auto& entry : fs::directory_iterator(state, ec)) {
+      if (entry.path().filename().string().ends_with(".orig")) fs::remove(entry.path(), ec);
+    }
+    fs::remove(state, ec);  // only when empty
+    return false;
+  }
   std::istringstream in(read_file(manifest_path.string()));
   std::string line;
   std::getline(in, line);
@@ -585,8 +762,9 @@ bool revert(const std::string& ini_path) {
   fsync_parent_directory(ini_path);
   // The manifest goes last: a crash before this point reverts again to the same state.
   fs::remove(manifest_path, ec);
-  for (const auto& [backup, path] : steps) {
-    if (!backup.empty()) fs::remove(state / backup, ec);
+  // Every original, also those a crashed apply left without a manifest naming them.
+  for (const auto& entry : fs::directory_iterator(state, ec)) {
+    if (entry.path().filename().string().ends_with(".orig")) fs::remove(entry.path(), ec);
   }
   fs::remove(state, ec);
   return true;

@@ -351,3 +351,162 @@ TEST(Compensation, CliExitCodes) {
   EXPECT_NE(err.find("circtest.diagnosis/1"), std::string::npos) << err;
   EXPECT_EQ(run("plan --ini " + (s.dir / "none.ini").string() + " " + diagnosis), 3);
 }
+
+// ---- squareness through circtest_kins ----
+
+namespace {
+
+std::string hal_machine(const std::string& kins, const std::string& extra = "") {
+  return machine(kins) + "[HAL]\nHALFILE = mill.hal\nHALFILE = LIB:basic_sim.tcl\n\n" + extra;
+}
+
+DiagnosisInput square(double urad, const std::string& plane = "XY") {
+  DiagnosisInput d;
+  d.source = "d.json";
+  d.plane = plane;
+  d.axes = plane == "XY"   ? std::array<char, 2>{'X', 'Y'}
+           : plane == "YZ" ? std::array<char, 2>{'Y', 'Z'}
+                           : std::array<char, 2>{'Z', 'X'};
+  d.squareness_urad = {urad, 0.5};
+  return d;
+}
+
+const FileChange* change_of(const Plan& plan, const std::string& suffix) {
+  for (const auto& f : plan.files) {
+    if (f.path.ends_with(suffix)) return &f;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(Compensation, SquarenessSwitchesToCircTestKins) {
+  Scratch s;
+  const std::string text = hal_machine("trivkins coordinates=XYZ kinstype=1");
+  const std::string ini = s.write("m.ini", text);
+  const std::string hal_text = "# the mill\nloadrt  trivkins coordinates=XYZ\nloadrt motmod\n";
+  s.write("mill.hal", hal_text);
+  const Plan plan = make_plan(ini, square(100.0), only("squareness"));
+  ASSERT_EQ(plan.files.size(), 3u);  // INI, mill.hal, the new circtest-comp.hal
+  const IniDocument after = IniDocument::parse(change_of(plan, "m.ini")->after);
+  EXPECT_EQ(after.get("KINS", "KINEMATICS"), "circtest_kins coordinates=XYZ kinstype=1");
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_XY"), "1.000000e-04");
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_YZ"), "0.0");
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_ZX"), "0.0");
+  const auto halfiles = after.get_all("HAL", "HALFILE");
+  ASSERT_EQ(halfiles.size(), 3u);
+  EXPECT_EQ(halfiles[2].value, "circtest-comp.hal");  // last: after the kinematics is loaded
+  EXPECT_EQ(change_of(plan, "mill.hal")->after,
+            "# the mill\nloadrt  circtest_kins coordinates=XYZ\nloadrt motmod\n");
+  const FileChange* comp = change_of(plan, "circtest-comp.hal");
+  ASSERT_TRUE(comp);
+  EXPECT_FALSE(comp->existed);
+  EXPECT_NE(comp->after.find("setp circtest-kins.squareness-xy [CIRCTEST_COMP]SQUARENESS_XY\n"),
+            std::string::npos);
+
+  // Applied and reverted byte-identical, the created HAL file removed.
+  apply_plan(plan);
+  EXPECT_EQ(s.read("mill.hal"), change_of(plan, "mill.hal")->after);
+  EXPECT_TRUE(revert(ini));
+  EXPECT_EQ(s.read("m.ini"), text);
+  EXPECT_EQ(s.read("mill.hal"), hal_text);
+  EXPECT_FALSE(fs::exists(s.dir / "circtest-comp.hal"));
+}
+
+TEST(Compensation, SquarenessIsIncrementalOnCircTestKins) {
+  Scratch s;
+  const std::string ini =
+      s.write("m.ini", hal_machine("circtest_kins coordinates=XYZ",
+                                   "[CIRCTEST_COMP]\nSQUARENESS_XY = 1.0e-04\n"
+                                   "SQUARENESS_YZ = 2.0e-05\nSQUARENESS_ZX = 0.0\n"));
+  s.write("mill.hal", "loadrt [KINS]KINEMATICS\n");
+  // The measurement saw 100 urad compensated; a residual of -3 urad gives 97 urad.
+  Plan plan = make_plan(ini, square(-3.0), only("squareness"));
+  IniDocument after = IniDocument::parse(change_of(plan, "m.ini")->after);
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_XY"), "9.700000e-05");
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_YZ"), "2.0e-05");  // untouched
+  EXPECT_EQ(after.get("KINS", "KINEMATICS"), "circtest_kins coordinates=XYZ");
+  // YZ: its own key, the others kept; half the residual with --gain 0.5.
+  PlanOptions half = only("squareness");
+  half.gain = 0.5;
+  plan = make_plan(ini, square(10.0, "YZ"), half);
+  after = IniDocument::parse(change_of(plan, "m.ini")->after);
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_YZ"), "2.500000e-05");
+  EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_XY"), "1.0e-04");
+  // The HAL file is added once: a plan that finds it in HALFILE adds no second line.
+  const std::string listed =
+      s.write("l.ini", hal_machine("circtest_kins coordinates=XYZ",
+                                   "[CIRCTEST_COMP]\nSQUARENESS_XY = 1.0e-04\nSQUARENESS_YZ = 0\n"
+                                   "SQUARENESS_ZX = 0\n"));
+  IniDocument l = IniDocument::load(listed);
+  l.append("HAL", "HALFILE", "circtest-comp.hal");
+  write_file_atomic(listed, l.render());
+  plan = make_plan(listed, square(5.0), only("squareness"));
+  ASSERT_EQ(plan.files.size(), 1u);
+  EXPECT_EQ(IniDocument::parse(plan.files[0].after).get_all("HAL", "HALFILE").size(), 3u);
+}
+
+TEST(Compensation, SquarenessRefusals) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", hal_machine("trivkins coordinates=XYZ"));
+  s.write("mill.hal", "loadrt [KINS]KINEMATICS\n");
+  try {
+    make_plan(ini, square(1500.0), only("squareness"));
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("X/Y squareness = 1500.0 urad is implausible"),
+              std::string::npos)
+        << e.what();
+  }
+  // A circtest-comp.hal that is not circcomp's is never overwritten.
+  s.write("circtest-comp.hal", "# someone's own file\n");
+  EXPECT_THROW(make_plan(ini, square(50.0), only("squareness")), DataError);
+  fs::remove(s.dir / "circtest-comp.hal");
+  // Kinematics other than trivkins/circtest_kins: refused.
+  const std::string five = s.write("5.ini", hal_machine("5axiskins"));
+  EXPECT_THROW(make_plan(five, square(50.0), only("squareness")), DataError);
+  // Below half a microradian there is nothing to write.
+  EXPECT_TRUE(make_plan(ini, square(0.2), only("squareness")).files.empty());
+}
+
+#if defined(CIRCANA_PATH)
+// The cyclic phase convention across the two programs: the test simulator puts
+// A sin(2 pi x / pitch) on X in machine coordinates with the circle's centre far from 0, circana
+// diagnose fits it, and the table circcomp plans must cancel it at machine positions (it
+// would be off by 2 pi centre / pitch if either side measured x from the centre).
+TEST(Compensation, CyclicPhaseIsInMachineCoordinatesFromDiagnoseToTable) {
+  Scratch s;
+  const std::string trace = (s.dir / "cyc.csv").string();
+  const std::string diagnosis = (s.dir / "cyc.json").string();
+  ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
+                         " --d 40 --f 1000 --cx 101.3 --cy 37.9 --kv-x 1000 --kv-y 1000"
+                         " --cyclic-x 0.003 --pitch-x 5 --noise 0.0002 >/dev/null")
+                            .c_str()),
+            0);
+  ASSERT_EQ(std::system((std::string(CIRCANA_PATH) + " diagnose " + trace +
+                         " --pitch X=5 --json >" + diagnosis)
+                            .c_str()),
+            0);
+  // X's travel short enough for 16 points a pitch within 256 entries.
+  std::string text = machine("trivkins coordinates=XYZ", "");
+  text.replace(text.find("MIN_LIMIT = -300\nMAX_LIMIT = 300"), 32,
+               "MIN_LIMIT = 80\nMAX_LIMIT = 125");
+  const std::string ini = s.write("m.ini", text);
+  const Plan plan = make_plan(ini, read_diagnosis(diagnosis), only("cyclic"));
+  const FileChange* table = nullptr;
+  for (const auto& f : plan.files) {
+    if (f.path.ends_with("circtest-joint0.comp")) table = &f;
+  }
+  std::string notes;
+  for (const auto& n : plan.notes) notes += n + "\n";
+  ASSERT_TRUE(table) << notes;
+  const CompTable t = parse_comp_table(table->after, 1, "t");
+  double worst = 0;
+  for (double x = 80; x <= 125; x += 0.01) {  // the circle's X range and beyond
+    const double motor = x + t.at(x).forward_trim;
+    const double actual = motor + 0.003 * std::sin(2 * std::numbers::pi * motor / 5.0);
+    worst = std::max(worst, std::fabs(actual - x));
+  }
+  EXPECT_LT(worst, 0.003 * 0.05);  // under 5 % of the amplitude left
+}
+#endif

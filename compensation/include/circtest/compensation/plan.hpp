@@ -2,6 +2,8 @@
 // circcomp: a diagnosis written back into a LinuxCNC 2.9 configuration as incremental
 // corrections (new = current + gain * measured residual), planned as whole-file contents,
 // applied atomically with the originals kept, reverted byte-identical.
+#include <cstddef>
+#include <functional>
 #include <optional>
 #include <set>
 #include <string>
@@ -46,7 +48,11 @@ void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis,
 std::string unified_diff(const Plan& plan);
 
 // Writes the originals and a manifest into <ini dir>/.circcomp/, then every file atomically.
-void apply_plan(const Plan& plan);
+// AFTER_STEP, when given, is called after every step (a temporary written but not yet renamed
+// into place, then the rename) with the step's number from 0 and a description: the crash
+// test kills the process there (circcomp's CIRCCOMP_KILL_AFTER_STEP).
+using StepHook = std::function<void(std::size_t step, const std::string& what)>;
+void apply_plan(const Plan& plan, const StepHook& after_step = {});
 // Restores the state before the last apply byte-identical (created files removed). Returns
 // false when there is nothing to revert (a second revert is a no-op).
 bool revert(const std::string& ini_path);

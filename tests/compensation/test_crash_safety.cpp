@@ -1,0 +1,208 @@
+// circcomp apply SIGKILLed after each of its steps (CIRCCOMP_KILL_AFTER_STEP: the process
+// kills itself with SIGKILL there, so nothing of it runs afterwards, as in a power cut): every
+// configuration file is then wholly the old or wholly the new version, no temporary is left,
+// and circcomp revert restores the state before the apply byte-identical.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <string>
+
+#include "circtest/core/atomic_file.hpp"
+#include "circtest/core/sha256.hpp"
+
+namespace fs = std::filesystem;
+using namespace circtest;
+
+namespace {
+
+using Tree = std::map<std::string, std::string>;  // relative path -> content
+
+// The configuration's files (the .circcomp state folder apart).
+Tree tree_of(const fs::path& dir) {
+  Tree t;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const std::string rel = fs::relative(e.path(), dir).string();
+    if (rel.starts_with(".circcomp")) continue;
+    if (e.is_regular_file()) t[rel] = read_file(e.path().string());
+  }
+  return t;
+}
+
+void spit(const fs::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+// A mill with a HAL file that loads trivkins by name: a backlash, a scale table and the
+// squareness change four files (INI and HAL changed, a COMP_FILE and circtest-comp.hal created).
+void make_machine(const fs::path& dir) {
+  fs::create_directories(dir);
+  std::string ini =
+      "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
+      "coordinates=XYZ\nJOINTS = 3\n\n[HAL]\nHALFILE = mill.hal\n\n";
+  for (int j = 0; j < 3; ++j) {
+    ini += "[JOINT_" + std::to_string(j) +
+           "]\nTYPE = LINEAR\nMIN_LIMIT = -300\nMAX_LIMIT = 300\nBACKLASH = 0.008\n\n";
+  }
+  spit(dir / "m.ini", ini);
+  spit(dir / "mill.hal", "loadrt trivkins coordinates=XYZ\nloadrt motmod\n");
+}
+
+std::string diagnosis_for(const fs::path& ini, double squareness_urad, bool with_scale) {
+  std::string scale = with_scale ? R"("scale_ppm": {"X": 40.0, "Y": 0.0},)"
+                                 : R"("scale_ppm": {"X": 0.0, "Y": 0.0},)";
+  return R"({"schema": "circtest.diagnosis/1", "units": "mm", "plane": "XY", "axes": ["X", "Y"],
+    "backlash_mm": {"X": 0.002, "Y": 0.0}, )" +
+         scale + R"( "squareness_urad": )" + std::to_string(squareness_urad) + R"(,
+    "standard_error": {"backlash_mm": {"X": 1e-5, "Y": 1e-5}, "scale_ppm": {"X": 0.5, "Y": 0.5},
+                       "squareness_urad": 0.5},
+    "ini_sha256": ")" +
+         sha256_hex(read_file(ini.string())) + "\"}";
+}
+
+struct Outcome {
+  bool killed = false;
+  int exit_code = -1;
+  std::string err;
+};
+
+Outcome apply(const fs::path& dir, const fs::path& diagnosis, long kill_after) {
+  const fs::path err = dir.parent_path() / (dir.filename().string() + ".err");
+  std::string cmd;
+  if (kill_after >= 0) cmd = "CIRCCOMP_KILL_AFTER_STEP=" + std::to_string(kill_after) + " ";
+  cmd += std::string(CIRCCOMP_PATH) + " apply --ini " + (dir / "m.ini").string() + " " +
+         diagnosis.string() + " >/dev/null 2>" + err.string();
+  const int status = std::system(cmd.c_str());
+  Outcome o;
+  // system() runs sh -c; a child killed by a signal shows as 128 + signal in sh's status.
+  o.killed = WIFEXITED(status) && WEXITSTATUS(status) == 128 + SIGKILL;
+  o.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  o.err = read_file(err.string());
+  return o;
+}
+
+int revert(const fs::path& dir) {
+  const std::string cmd =
+      std::string(CIRCCOMP_PATH) + " revert --ini " + (dir / "m.ini").string() + " >/dev/null";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Every file of NOW is OLD's or NEW's version of it; created files are absent or whole.
+void expect_whole(const Tree& now, const Tree& old_tree, const Tree& new_tree, long k) {
+  for (const auto& [name, text] : now) {
+    const auto o = old_tree.find(name), n = new_tree.find(name);
+    ASSERT_TRUE(o != old_tree.end() || n != new_tree.end())
+        << "step " << k << ": a file neither version has: " << name;
+    EXPECT_TRUE((o != old_tree.end() && o->second == text) ||
+                (n != new_tree.end() && n->second == text))
+        << "step " << k << ": " << name << " is torn";
+  }
+  for (const auto& [name, text] : old_tree) {
+    EXPECT_TRUE(now.count(name)) << "step " << k << ": " << name << " disappeared";
+  }
+}
+
+// Only the manifest and originals in the state folder: no temporary of any write.
+void expect_no_temporaries(const fs::path& dir, long k) {
+  const fs::path state = dir / ".circcomp";
+  if (!fs::exists(state)) return;
+  for (const auto& e : fs::directory_iterator(state)) {
+    const std::string name = e.path().filename().string();
+    EXPECT_TRUE(name == "manifest" || name.ends_with(".orig"))
+        << "step " << k << ": left behind: " << name;
+  }
+}
+
+// "k7" (GCC 12 warns falsely on "k" + std::to_string(k), -Wrestrict).
+std::string named(const char* prefix, long k) {
+  std::string s(prefix);
+  s += std::to_string(k);
+  return s;
+}
+
+class CrashSafety : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = fs::temp_directory_path() / ("circcomp-crash-" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(root_);
+  }
+  fs::path root_;
+};
+
+}  // namespace
+
+TEST_F(CrashSafety, KilledAtEveryStepOfAFirstApply) {
+  // The new version: one complete apply.
+  const fs::path ref = root_ / "ref";
+  make_machine(ref);
+  const Tree old_tree = tree_of(ref);
+  spit(root_ / "ref.json", diagnosis_for(ref / "m.ini", 100.0, true));
+  ASSERT_EQ(apply(ref, root_ / "ref.json", -1).exit_code, 0);
+  const Tree new_tree = tree_of(ref);
+  ASSERT_EQ(new_tree.size(), old_tree.size() + 2);  // the COMP_FILE and circtest-comp.hal
+  for (const auto& [name, text] : old_tree) ASSERT_NE(new_tree.at(name), text) << name;
+
+  long steps = 0;
+  for (long k = 0; k < 100; ++k) {
+    const fs::path dir = root_ / named("k", k);
+    make_machine(dir);
+    const fs::path diagnosis = root_ / (named("k", k) + ".json");
+    spit(diagnosis, diagnosis_for(dir / "m.ini", 100.0, true));
+    const Outcome o = apply(dir, diagnosis, k);
+    if (!o.killed) {
+      ASSERT_EQ(o.exit_code, 0) << o.err;  // K beyond the last step: a complete apply
+      EXPECT_EQ(tree_of(dir), new_tree);
+      steps = k;
+      break;
+    }
+    EXPECT_NE(o.err.find("killed after step " + std::to_string(k)), std::string::npos) << o.err;
+    expect_whole(tree_of(dir), old_tree, new_tree, k);
+    expect_no_temporaries(dir, k);
+    ASSERT_EQ(revert(dir), 0) << "step " << k;
+    EXPECT_EQ(tree_of(dir), old_tree) << "step " << k << ": revert did not restore";
+    EXPECT_FALSE(fs::exists(dir / ".circcomp")) << "step " << k;
+    EXPECT_EQ(revert(dir), 0);  // a second revert: nothing to do
+    EXPECT_EQ(tree_of(dir), old_tree);
+  }
+  // Two steps (temporary written, renamed) for each of 2 originals, the manifest, 4 files.
+  EXPECT_EQ(steps, 2 * (2 + 1 + 4));
+}
+
+TEST_F(CrashSafety, KilledDuringASecondApplyKeepsTheFirstOnesOriginals) {
+  // Apply 1 (backlash and scale) completes; apply 2 (squareness, measured after apply 1) is
+  // killed. Revert undoes apply 2 when its manifest was in place, else apply 1: never a mix,
+  // and never the originals of apply 1 lost to apply 2's backups.
+  for (long k = 0; k < 100; ++k) {
+    const fs::path dir = root_ / named("s", k);
+    make_machine(dir);
+    const Tree original = tree_of(dir);
+    spit(root_ / "one.json", diagnosis_for(dir / "m.ini", 0.0, true));
+    ASSERT_EQ(apply(dir, root_ / "one.json", -1).exit_code, 0);
+    const Tree after_one = tree_of(dir);
+    spit(root_ / "two.json", diagnosis_for(dir / "m.ini", 80.0, false));
+    const Outcome o = apply(dir, root_ / "two.json", k);
+    if (!o.killed) {
+      ASSERT_EQ(o.exit_code, 0) << o.err;
+      EXPECT_GT(k, 4);
+      break;
+    }
+    expect_no_temporaries(dir, k);
+    ASSERT_EQ(revert(dir), 0);
+    // Before the new manifest is in place the steps are the originals and the manifest's
+    // temporary; from then on revert undoes apply 2.
+    const bool committed = o.err.find("original of") == std::string::npos &&
+                           o.err.find("manifest: written") == std::string::npos;
+    EXPECT_EQ(tree_of(dir), committed ? after_one : original)
+        << "step " << k << " (" << o.err << ")";
+  }
+}
