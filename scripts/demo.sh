@@ -1,39 +1,107 @@
 #!/usr/bin/env bash
-# The README's main command: install, build, then run the whole circular test on the
-# simulated LinuxCNC mill (configs/sim-mill, default [SIM] errors: backlash on X, squareness
-# of X to Y, a position-loop gain mismatch): circgen writes the D150 F1000 program,
-# circtest-run runs it headless while circlog logs the servo thread, circana evaluates the
-# instrument (table) channels. Everything lands in ./out/ (or $1). Run as root.
+# The README's main command: install, build, then the closed loop on the simulated LinuxCNC
+# mill (configs/sim-mill, copied to ./out/machine so the repository's copy never changes):
+#   measure  circgen writes the D150 F1000 program, circtest-run runs it headless while
+#            circlog logs the servo thread, circana evaluates the instrument (table) channels;
+#   diagnose circana diagnose splits H and G into backlash, scale, squareness, servo ...;
+#   plan     circcomp plan shows the diff of what it would write;
+#   apply    circcomp apply writes it (BACKLASH / COMP_FILE, circtest_kins for squareness);
+#   measure  the same program again on the compensated machine, diagnose again;
+# then prints H, G, F and the diagnosis before and after side by side. Everything lands in
+# ./out/ (or $1). Run as root.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
 BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
+bin=$(cd "$BUILD_DIR" && pwd)
 out=${1:-out}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
-ini=configs/sim-mill/sim-mill.ini
+circana=$bin/analysis/circana circcomp=$bin/compensation/circcomp ini_tool=$bin/core/circtest-ini
 
-"$BUILD_DIR/gcode-gen/circgen" --d 150 --f 1000 --ini "$ini" -o "$out/test.ngc"
-echo "circtest: running $out/test.ngc on the simulated mill (about a minute)..."
-CIRCTEST_BIN=$(cd "$BUILD_DIR" && pwd) configs/circtest-run --ini "$ini" --program "$out/test.ngc" \
-  --out "$out/run"
-cp "$out/run/trace.csv" "$out/trace.csv"
-"$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --json >"$out/result.json"
-"$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --svg "$out/plot.svg" >"$out/report.txt"
-"$BUILD_DIR/analysis/circana" analyze "$out/trace.csv" --columns x_fb,y_fb >"$out/report-motor.txt"
-cat "$out/report.txt"
+# The machine: sim-mill's own errors (backlash on X, X out of square to Y, unequal
+# position-loop gains) plus a scale error on X, in a copy that circcomp may change.
+rm -rf "$out/machine"
+cp -r configs/sim-mill "$out/machine"
+ini=$out/machine/sim-mill.ini
+"$ini_tool" set "$ini" SIM SCALE_X 50e-6
+sim() { "$ini_tool" get "$ini" SIM "$1"; }
 
-sim() { "$BUILD_DIR/core/circtest-ini" get "$ini" SIM "$1"; }
+"$bin/gcode-gen/circgen" --d 150 --f 1000 --ini "$ini" -o "$out/test.ngc"
+
+measure() {  # NAME: run the program, evaluate and diagnose
+  local name=$1
+  echo "circtest: running $out/test.ngc on the simulated mill ($name, about a minute)..."
+  CIRCTEST_BIN=$bin configs/circtest-run --ini "$ini" --program "$out/test.ngc" \
+    --out "$out/$name-run"
+  cp "$out/$name-run/trace.csv" "$out/$name.csv"
+  "$circana" analyze "$out/$name.csv" --json >"$out/$name.json"
+  "$circana" analyze "$out/$name.csv" --svg "$out/$name.svg" --scale-um-per-div 5 \
+    >"$out/$name-report.txt"
+}
+
+measure before
+"$circana" diagnose "$out/before.csv" --json >"$out/diagnosis.json"
+"$circana" diagnose "$out/before.csv" >"$out/diagnosis.txt"
+"$circcomp" plan --ini "$ini" "$out/diagnosis.json" >"$out/plan.diff"
+"$circcomp" apply --ini "$ini" "$out/diagnosis.json" >"$out/apply.txt"
+measure after
+"$circana" diagnose "$out/after.csv" --json >"$out/after-diagnosis.json"
+"$circana" diagnose "$out/after.csv" >"$out/after-diagnosis.txt"
+
+cat "$out/before-report.txt"
+echo
+echo "circcomp plan (the whole diff is in $out/plan.diff):"
+grep '^# ' "$out/plan.diff" || true
+echo
+python3 - "$out" <<'EOF'
+import json, sys
+out = sys.argv[1]
+before, after = (json.load(open(f"{out}/{n}.json")) for n in ("before", "after"))
+d0, d1 = (json.load(open(f"{out}/{n}.json")) for n in ("diagnosis", "after-diagnosis"))
+def um(v): return "-" if v is None else f"{v * 1e3:8.2f}"
+def num(v, f="{:8.2f}"): return "-" if v is None else f.format(v)
+def geometric_g(d):  # the modelled G less the servo terms' shares
+    g = d["model_G_mm"]
+    for c in d["contributions"]:
+        if c["source"] in ("servo mismatch", "radius change"):
+            g -= c["share_mm"]
+    return g
+rows = [("H (um)", um(before["H"]), um(after["H"]))]
+for i, (r0, r1) in enumerate(zip(before["runs"], after["runs"])):
+    lab = r0["label"]
+    rows += [(f"G {lab} (um)", um(r0["G"]), um(r1["G"])),
+             (f"F {lab} max/min (um)", f"{um(r0['F_max']).strip()}/{um(r0['F_min']).strip()}",
+              f"{um(r1['F_max']).strip()}/{um(r1['F_min']).strip()}")]
+ax = d0["axes"]
+for a in ax:
+    rows.append((f"backlash {a} (um)", um(d0["backlash_mm"][a]), um(d1["backlash_mm"][a])))
+for a in ax:
+    rows.append((f"scale {a} (ppm)", num(d0["scale_ppm"][a]), num(d1["scale_ppm"][a])))
+rows += [("scale mismatch (ppm)", num(d0["scale_mismatch_ppm"]), num(d1["scale_mismatch_ppm"])),
+         ("squareness (urad)", num(d0["squareness_urad"]), num(d1["squareness_urad"])),
+         ("servo mismatch (ms)", num(d0["servo_mismatch_ms"], "{:8.3f}"),
+          num(d1["servo_mismatch_ms"], "{:8.3f}")),
+         ("modelled G (um)", um(d0["model_G_mm"]), um(d1["model_G_mm"])),
+         ("  without servo terms (um)", um(geometric_g(d0)), um(geometric_g(d1)))]
+print(f"{'':28} {'before':>14} {'after':>14}")
+for name, b, a in rows:
+    print(f"{name:28} {b:>14} {a:>14}")
+EOF
+
 echo
 echo "circtest: done. Files in $out/:"
-echo "  test.ngc          the ISO 230-4 test program (circgen --d 150 --f 1000)"
-echo "  trace.csv         what circlog logged every servo period: commanded (x_cmd), motor"
-echo "                    encoder (x_fb) and table (x, the instrument) positions"
-echo "  result.json       H, G, F per direction in mm (circana analyze --json)"
-echo "  report.txt        the clause 6 report above, from the instrument (table) channels"
-echo "  plot.svg          the actual paths of both runs, deviations magnified (open in a browser)"
-echo "  report-motor.txt  the same from the motor encoders, which cannot see play or squareness"
-echo "  run/              the LinuxCNC configuration as run and its log"
-echo "The simulated machine has backlash $(sim BACKLASH_X) mm on X, squareness $(sim SQUARENESS_XY) rad"
-echo "of X to Y and position-loop gains $(sim KV_X)/$(sim KV_Y) 1/s: H shows the play, G the"
-echo "ellipse of squareness and gain mismatch (tilted the other way in each direction)."
+echo "  test.ngc                   the ISO 230-4 test program (circgen --d 150 --f 1000)"
+echo "  before.csv, after.csv      what circlog logged every servo period (commanded x_cmd,"
+echo "                             motor x_fb and table x, the instrument), before and after"
+echo "  before.json, after.json    H, G, F per direction in mm (circana analyze --json)"
+echo "  before-report.txt, after-report.txt   the clause 6 reports"
+echo "  before.svg, after.svg      the paths of both runs at one scale (5 um/div), to compare"
+echo "  diagnosis.json/.txt        circana diagnose of the first run (what circcomp reads)"
+echo "  plan.diff                  circcomp plan: every file it changes or creates, and advice"
+echo "  after-diagnosis.json/.txt  circana diagnose of the compensated machine"
+echo "  machine/                   the compensated configuration (circcomp revert --ini"
+echo "                             $ini undoes it)"
+echo "The simulated machine has backlash $(sim BACKLASH_X) mm and scale $(sim SCALE_X) on X,"
+echo "squareness $(sim SQUARENESS_XY) rad of X to Y, position-loop gains $(sim KV_X)/$(sim KV_Y) 1/s."
+echo "circcomp writes backlash, scale and squareness; the gain mismatch stays (advice in plan.diff)."

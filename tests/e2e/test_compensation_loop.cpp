@@ -36,7 +36,7 @@ std::string slurp(const fs::path& p) {
 
 std::string metadata(const fs::path& trace, const std::string& key) {
   std::ifstream in(trace);
-  for (std::string line; std::getline(in, line) && line.rfind("#", 0) == 0;) {
+  for (std::string line; std::getline(in, line) && line.rfind('#', 0) == 0;) {
     const std::string prefix = "# " + key + ": ";
     if (line.rfind(prefix, 0) == 0) return line.substr(prefix.size());
   }
