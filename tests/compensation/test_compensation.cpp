@@ -252,7 +252,9 @@ TEST(Compensation, CrlfStaysCrlf) {
     ++inis;
     EXPECT_NE(f.after.find("COMP_FILE = circtest-joint0.comp\r\n"), std::string::npos);
     for (std::size_t i = 0; i < f.after.size(); ++i) {
-      if (f.after[i] == '\n') ASSERT_EQ(f.after[i - 1], '\r') << "bare LF at " << i;
+      if (f.after[i] == '\n') {
+        ASSERT_EQ(f.after[i - 1], '\r') << "bare LF at " << i;
+      }
     }
   }
   EXPECT_EQ(inis, 1);
