@@ -240,6 +240,7 @@ class TraceParser {
                        line_no_ == 0 ? "empty file: expected a header row of column names"
                                      : "no header row: expected a line of column names");
     }
+    check_metadata(trace_.metadata, trace_.source);
     return std::move(trace_);
   }
 

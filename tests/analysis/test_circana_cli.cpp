@@ -206,18 +206,36 @@ TEST_F(CircanaCli, SegmentIdsNoIntegerHoldsAreRefusedAtTheirLine) {
   }
 }
 
-TEST_F(CircanaCli, NonFiniteResultsAreRefusedNotPrinted) {
+TEST_F(CircanaCli, ImplausibleMetadataIsAParseErrorAtItsLine) {
+  // Values that once gave F = -inf or a usage error without a file: the reader refuses them
+  // at their line (exit 4) before anything is evaluated. The metadata line is line 1.
   const auto none = [](std::vector<std::string>&) {};
   for (const std::string meta :
-       {"# radius_mm: 1e308\n", "# temperature_machine_C: 1e308\n",
-        "# expansion_instrument_per_K: 1e308\n# temperature_instrument_C: 25\n"}) {
+       {"# radius_mm: -75\n", "# radius_mm: 1e308\n", "# temperature_machine_C: 1e308\n",
+        "# expansion_instrument_per_K: 1e308\n", "# units: furlong\n"}) {
     // Replaces the example's own line of that key.
     const std::string t = edited_example(dir_, "meta.csv", 0, none, meta);
     const CommandResult r = run("analyze " + t);
-    EXPECT_EQ(r.exit_code, 5) << meta << r.out << r.err;
+    EXPECT_EQ(r.exit_code, 4) << meta << r.out << r.err;
     EXPECT_EQ(r.out, "");
-    EXPECT_NE(r.err.find("is not a usable number"), std::string::npos) << r.err;
+    const std::string key = meta.substr(2, meta.find(':') - 2);
+    EXPECT_EQ(r.err.rfind("circana: error: " + t + ":1: metadata '" + key + "': expected ", 0), 0u)
+        << r.err;
   }
+  const std::string t = edited_example(dir_, "meta.csv", 0, none, "# radius_mm: -75\n");
+  expect_error("analyze " + t, 4,
+               t + ":1: metadata 'radius_mm': expected a radius in mm above 0 and at most 100000, "
+                   "got '-75'");
+}
+
+TEST_F(CircanaCli, NonFiniteResultsAreRefusedNotPrinted) {
+  // The metadata cannot carry such values any more (above); an option still can.
+  const std::string t = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
+  const CommandResult r = run("analyze " + t + " --radius 1e308");
+  EXPECT_EQ(r.exit_code, 5) << r.out << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_NE(r.err.find("nominal_radius = 1e+308 is not a usable number"), std::string::npos)
+      << r.err;
 }
 
 TEST_F(CircanaCli, BadOptions) {

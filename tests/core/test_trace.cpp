@@ -128,13 +128,56 @@ TEST(TraceReaderErrors, DuplicateColumn) {
 }
 
 TEST(TraceReaderErrors, MetadataNumber) {
-  const Trace t = parse_trace("# radius_mm: 7o\nx\n1\n", "in.csv");
+  // A key the reader does not interpret is checked where it is used.
+  const Trace t = parse_trace("# offset_tool_mm: 7o\nx\n1\n", "in.csv");
   try {
-    t.metadata.number("radius_mm", t.source);
+    t.metadata.number("offset_tool_mm", t.source);
     FAIL() << "expected an error";
   } catch (const ParseError& e) {
-    EXPECT_STREQ(e.what(), "in.csv:1: metadata 'radius_mm': expected a finite number, got '7o'");
+    EXPECT_STREQ(e.what(),
+                 "in.csv:1: metadata 'offset_tool_mm': expected a finite number, got '7o'");
   }
+}
+
+TEST(TraceReaderErrors, InterpretedMetadataValuesAreCheckedAtTheirLine) {
+  struct Case {
+    const char* line;
+    const char* message;
+  };
+  for (const Case& c : {
+           Case{"radius_mm: -75", "metadata 'radius_mm': expected a radius in mm above 0 and at "
+                                  "most 100000, got '-75'"},
+           Case{"radius_mm: 0", "metadata 'radius_mm': expected a radius in mm above 0"},
+           Case{"diameter_mm: 1e308", "metadata 'diameter_mm': expected a diameter in mm"},
+           Case{"diameter_mm: 7o", "got '7o'"},
+           Case{"centre_mm: 1,2", "metadata 'centre_mm': expected three numbers x,y,z in mm"},
+           Case{"centre_mm: 1,2,nan", "metadata 'centre_mm': expected three numbers"},
+           Case{"plane: XZ", "metadata 'plane': expected XY, YZ or ZX, got 'XZ'"},
+           Case{"units: furlong", "metadata 'units': expected mm or inch, got 'furlong'"},
+           Case{"arc_deg: 0", "metadata 'arc_deg': expected a measured arc in deg above 0"},
+           Case{"arc_deg: inf", "metadata 'arc_deg'"},
+           Case{"feed_mm_per_min: -500", "metadata 'feed_mm_per_min': expected a feed"},
+           Case{"feeds_mm_per_min: 500,,1000", "metadata 'feeds_mm_per_min'"},
+           Case{"temperature_machine_C: -300", "metadata 'temperature_machine_C'"},
+           Case{"expansion_instrument_per_K: 1e308", "metadata 'expansion_instrument_per_K'"},
+           Case{"sample_period_s: 0", "metadata 'sample_period_s'"},
+           Case{"rows: 2.5", "metadata 'rows': expected a row count"},
+       }) {
+    const std::string text = std::string("# generator: test\n# ") + c.line + "\nt,x\n0,1\n";
+    EXPECT_EQ(code_of(text), ExitCode::parse) << c.line;
+    const std::string m = message_of(text);
+    EXPECT_EQ(m.rfind("in.csv:2: ", 0), 0u) << m;
+    EXPECT_NE(m.find(c.message), std::string::npos) << m;
+  }
+  // Good values, case and blanks as the writers give them, pass.
+  const Trace t = parse_trace(
+      "# radius_mm: 75\n# diameter_mm: 150\n# centre_mm: 0, -12.5,1e2\n# plane: zx\n"
+      "# units: inch\n# arc_deg: 360\n# feeds_mm_per_min: 500,1000\n# rows: 1\n"
+      "# temperature_machine_C: 20.5\n# expansion_machine_per_K: 1.15e-5\nt,x\n0,1\n",
+      "in.csv");
+  EXPECT_EQ(t.rows(), 1u);
+  // A bad header value later overridden by the trailer still names the header's line.
+  EXPECT_EQ(message_of("# arc_deg: -1\nt,x\n0,1\n# arc_deg: 360\n").rfind("in.csv:1: ", 0), 0u);
 }
 
 TEST(TraceFile, MissingFileIsAnIoError) {

@@ -35,6 +35,11 @@ class TraceMetadata {
   std::vector<std::size_t> lines_;
 };
 
+// The values of the metadata keys the tools interpret (radius_mm, centre_mm, plane, units,
+// arc_deg, temperatures, ...: docs/trace-format.md) against their format and plausible range.
+// Throws ParseError naming `source` and the line of the first bad value. The readers call it.
+void check_metadata(const TraceMetadata& metadata, const std::string& source);
+
 struct Trace {
   std::string source;  // file name, for messages
   TraceMetadata metadata;
