@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "circtest/core/error.hpp"
@@ -62,6 +63,10 @@ CompTable parse_comp_table(const std::string& text, int type, const std::string&
     }
     CompEntry e{*v[0], *v[1], *v[2]};
     if (type == 0) e = {e.nominal, e.nominal - e.forward_trim, e.nominal - e.reverse_trim};
+    if (!std::isfinite(e.forward_trim) || !std::isfinite(e.reverse_trim)) {
+      // Type 0: nominal - actual of two finite numbers can still overflow (fuzz_comp_table).
+      throw ParseError(source, line_no, "a trim (nominal - actual) is not a finite number");
+    }
     if (!table.entries.empty() && !(e.nominal > table.entries.back().nominal)) {
       throw ParseError(source, line_no, "nominal positions must increase strictly");
     }
@@ -75,13 +80,16 @@ CompTable parse_comp_table(const std::string& text, int type, const std::string&
 }
 
 std::string render_comp_table(const CompTable& table) {
+  // Shortest text that reads back as the same double (LinuxCNC reads it with %lf): a fixed
+  // 9 decimals once rounded a machine's own table on rewriting, and could make two close
+  // nominal positions equal (fuzz_comp_table).
   std::string out;
   for (const CompEntry& e : table.entries) {
     if (table.type == 0) {
-      out += fmt::format("{:.9f} {:.9f} {:.9f}\n", e.nominal, e.nominal - e.forward_trim,
+      out += fmt::format("{} {} {}\n", e.nominal, e.nominal - e.forward_trim,
                          e.nominal - e.reverse_trim);
     } else {
-      out += fmt::format("{:.9f} {:.9f} {:.9f}\n", e.nominal, e.forward_trim, e.reverse_trim);
+      out += fmt::format("{} {} {}\n", e.nominal, e.forward_trim, e.reverse_trim);
     }
   }
   return out;

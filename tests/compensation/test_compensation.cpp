@@ -182,6 +182,14 @@ TEST(Compensation, TableRulesOfLinuxcnc) {
   EXPECT_THROW(parse_comp_table("# a comment\n0 0 0\n", 1, "c"), ParseError);
   EXPECT_THROW(parse_comp_table("0 0 0\n0 0 0\n", 1, "c"), ParseError);
   EXPECT_THROW(parse_comp_table("0 0 0\n\n1 0 0\n", 1, "c"), ParseError);
+  // fuzz_comp_table: a type-0 difference of two finite positions overflowing to inf.
+  EXPECT_THROW(parse_comp_table("1e308 -1e308 0\n", 0, "c"), ParseError);
+  // Written back at full precision: a value below 1e-9 and close nominals survive a rewrite.
+  const CompTable fine = parse_comp_table("-500.00000333333 0.01 0\n-500.0000000001 5 1\n", 1, "c");
+  const CompTable back = parse_comp_table(render_comp_table(fine), 1, "c");
+  ASSERT_EQ(back.entries.size(), 2u);
+  EXPECT_EQ(back.entries[0].nominal, -500.00000333333);
+  EXPECT_EQ(back.entries[1].nominal, -500.0000000001);
   std::string big;
   for (int i = 0; i < 257; ++i) big += std::to_string(i) + " 0 0\n";
   try {
