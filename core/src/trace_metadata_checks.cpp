@@ -18,11 +18,11 @@ namespace circtest {
 namespace {
 
 enum class Kind {
-  number,        // one finite number in [min, max] (min excluded when positive is set)
-  list,          // comma-separated numbers, each as `number`; `count` of them (0: any, >= 1)
-  count,         // a non-negative integer
-  plane,         // XY, YZ or ZX
-  length_unit,   // mm or inch
+  number,       // one finite number in [min, max] (min excluded when positive is set)
+  list,         // comma-separated numbers, each as `number`; `count` of them (0: any, >= 1)
+  count,        // a non-negative integer
+  plane,        // XY, YZ or ZX
+  length_unit,  // mm or inch
 };
 
 struct KeyRule {
@@ -62,8 +62,7 @@ constexpr std::array kRules{
             "a start angle in deg within +-3600"},
     KeyRule{meta_key::lead_deg, Kind::number, 0.0, 3600.0, false, 0,
             "a lead arc in deg from 0 to 3600"},
-    KeyRule{meta_key::dwell_s, Kind::number, 0.0, 3600.0, false, 0,
-            "a dwell in s from 0 to 3600"},
+    KeyRule{meta_key::dwell_s, Kind::number, 0.0, 3600.0, false, 0, "a dwell in s from 0 to 3600"},
     KeyRule{meta_key::sample_period_s, Kind::number, 0.0, 10.0, true, 0,
             "a sample period in s above 0 and at most 10"},
     KeyRule{meta_key::temperature_air_C, Kind::number, -273.15, 1000.0, false, 0,
@@ -139,9 +138,9 @@ void check_metadata(const TraceMetadata& metadata, const std::string& source) {
     for (const KeyRule& r : kRules) {
       if (key != r.key) continue;
       if (!valid(r, value)) {
-        throw ParseError(source, metadata.line_at(i),
-                         fmt::format("metadata '{}': expected {}, got '{}'", key, r.expected,
-                                     shown(value)));
+        throw ParseError(
+            source, metadata.line_at(i),
+            fmt::format("metadata '{}': expected {}, got '{}'", key, r.expected, shown(value)));
       }
       break;
     }

@@ -145,8 +145,9 @@ TEST(TraceReaderErrors, InterpretedMetadataValuesAreCheckedAtTheirLine) {
     const char* message;
   };
   for (const Case& c : {
-           Case{"radius_mm: -75", "metadata 'radius_mm': expected a radius in mm above 0 and at "
-                                  "most 100000, got '-75'"},
+           Case{"radius_mm: -75",
+                "metadata 'radius_mm': expected a radius in mm above 0 and at "
+                "most 100000, got '-75'"},
            Case{"radius_mm: 0", "metadata 'radius_mm': expected a radius in mm above 0"},
            Case{"diameter_mm: 1e308", "metadata 'diameter_mm': expected a diameter in mm"},
            Case{"diameter_mm: 7o", "got '7o'"},
