@@ -29,6 +29,9 @@ const char* kUsage =
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
     "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json]\n"
+    "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
+    "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
+    "                      [--db URL]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
     "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n"
     "       circana store RESULT.json|TRACE [--db URL] [the analyze options]\n"
@@ -108,10 +111,12 @@ struct Parsed {
   po::variables_map vm;
   AnalyzeRequest request;
 };
+// `several`: --trace may be repeated and a second argument is the before trace (report).
 Parsed analyze_options(const std::vector<std::string>& args, const char* command,
-                       const std::function<void(po::options_description&)>& extra) {
+                       const std::function<void(po::options_description&)>& extra,
+                       bool several = false) {
   po::options_description desc(command);
-  desc.add_options()("trace", po::value<std::string>()->required(), "trace file")(
+  desc.add_options()("trace", po::value<std::vector<std::string>>()->required(), "trace file")(
       "radius", po::value<std::string>(), "nominal radius, mm")("centre", po::value<std::string>(),
                                                                 "nominal (set-up) centre A,B, mm")(
       "plane", po::value<std::string>(), "XY, YZ or ZX")(
@@ -127,6 +132,7 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   extra(desc);
   po::positional_options_description pos;
   pos.add("trace", 1);
+  if (several) pos.add("before", 1);
   Parsed parsed;
   parsed.vm = parse(desc, pos, args);
   const auto& vm = parsed.vm;
@@ -137,7 +143,12 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
     return parse_option_number(std::string("--") + name, vm[name].as<std::string>());
   };
   AnalyzeRequest& req = parsed.request;
-  req.trace_path = vm["trace"].as<std::string>();
+  const auto& traces = vm["trace"].as<std::vector<std::string>>();
+  if (traces.size() > 1 && !several) {
+    throw UsageError(std::string("circana ") + command + ": one trace, got also '" + traces[1] +
+                     "'");
+  }
+  req.trace_path = traces.front();
   req.json = vm.count("json") > 0;
   req.radial = vm.count("radial") > 0;
   if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
@@ -268,6 +279,33 @@ int diagnose(const std::vector<std::string>& args) {
   return run_diagnose(req, std::cout);
 }
 
+int report(const std::vector<std::string>& args) {
+  const Parsed p = analyze_options(
+      args, "report",
+      [](po::options_description& d) {
+        d.add_options()("output,o", po::value<std::string>()->required(), "the HTML file to write")(
+            "before", po::value<std::vector<std::string>>(),
+            "an earlier test of a plane, overlaid (also the second argument)")(
+            "diagnosis", po::value<std::vector<std::string>>(),
+            "a plane's diagnosis (circana diagnose --json) instead of diagnosing here")(
+            "db", po::value<std::string>(), "the trend from this history (SQLite file or URL)");
+      },
+      true);
+  if (p.request.json) throw UsageError("--json: not for circana report (it writes HTML)");
+  if (!p.request.svg_path.empty()) throw UsageError("--svg: only for circana analyze");
+  ReportRequest req;
+  req.trace_paths = p.vm["trace"].as<std::vector<std::string>>();
+  if (p.vm.count("before")) req.before_paths = p.vm["before"].as<std::vector<std::string>>();
+  if (p.vm.count("diagnosis"))
+    req.diagnosis_paths = p.vm["diagnosis"].as<std::vector<std::string>>();
+  req.options = p.request.options;
+  req.radial = p.request.radial;
+  req.plot = p.request.plot;
+  req.output_path = p.vm["output"].as<std::string>();
+  if (p.vm.count("db")) req.db_url = p.vm["db"].as<std::string>();
+  return run_report(req, std::cout);
+}
+
 int fit(const std::vector<std::string>& args) {
   po::options_description desc("fit");
   desc.add_options()("points", po::value<std::string>()->required(), "points file")(
@@ -310,8 +348,9 @@ int main(int argc, char** argv) {
   return run_cli("circana", [&]() -> int {
     if (argc < 2)
       throw UsageError(
-          "missing command: expected analyze, diagnose, fit, import-polar, store or history (see "
-          "circana --help)");
+          "missing command: expected analyze, diagnose, report, fit, import-polar, store or "
+          "history "
+          "(see circana --help)");
     const std::string command = argv[1];
     const std::vector<std::string> args(argv + 2, argv + argc);
     if (command == "--help" || command == "-h" || command == "help") {
@@ -329,10 +368,11 @@ int main(int argc, char** argv) {
       if (command == "import-polar") return import_polar(args);
       if (command == "store") return store(args);
       if (command == "history") return history(args);
+      if (command == "report") return report(args);
     } catch (const InfoShown&) {
       return 0;
     }
     throw UsageError("unknown command '" + command +
-                     "': expected analyze, diagnose, fit, import-polar, store or history");
+                     "': expected analyze, diagnose, report, fit, import-polar, store or history");
   });
 }

@@ -70,25 +70,36 @@ std::optional<RadialPositions> radial_set_up(const Trace& read, bool forced,
 }
 }  // namespace
 
-int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
+EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& given,
+                             bool radial_forced) {
   TraceReadOptions ro;
-  ro.keep = analysis_columns(request.options.column_a, request.options.column_b);
+  ro.keep = analysis_columns(given.column_a, given.column_b);
   // Columns asked for by name must exist; the reader's message lists every column found.
-  for (const std::string* c : {&request.options.column_a, &request.options.column_b}) {
+  for (const std::string* c : {&given.column_a, &given.column_b}) {
     if (!c->empty()) ro.required.push_back(*c);
   }
-  const Trace read = read_trace(request.trace_path, ro);
-  EvaluationOptions options = request.options;
+  Trace read = read_trace(path, ro);
+  EvaluationOptions options = given;
   // A ball bar's trace: positions from the bar's length along the commanded angle.
-  const std::optional<RadialPositions> radial = radial_set_up(read, request.radial, options);
-  const Trace& trace = radial ? radial->trace : read;
-  Evaluation ev = evaluate(trace, options);
-  if (radial) ev.notes.insert(ev.notes.begin(), radial->note);
-  if (!read.column("t")) {
-    ev.notes.push_back(
+  std::optional<RadialPositions> radial = radial_set_up(read, radial_forced, options);
+  EvaluatedTrace out;
+  out.radial = radial.has_value();
+  out.trace = radial ? std::move(radial->trace) : std::move(read);
+  out.evaluation = evaluate(out.trace, options);
+  if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
+  if (!out.trace.column("t")) {
+    out.evaluation.notes.push_back(
         "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
   }
-  require_finite_results(ev);
+  require_finite_results(out.evaluation);
+  return out;
+}
+
+int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
+  const EvaluatedTrace evaluated =
+      evaluate_file(request.trace_path, request.options, request.radial);
+  const Trace& trace = evaluated.trace;
+  const Evaluation& ev = evaluated.evaluation;
   std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
   if (!request.json) {
     // The diagnosis is a summary here; a trace it cannot handle still gets its H, G and F.

@@ -9,33 +9,11 @@
 #include <numbers>
 
 #include "circtest/analysis/report.hpp"
+#include "circtest/core/strings.hpp"
 
 namespace circtest {
 
 namespace {
-
-std::string escape(std::string_view s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
 
 // The smallest of 1, 2, 5 x 10^k at or above x.
 double nice_at_least(double x) {
@@ -174,7 +152,7 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
                  "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
                  "circular test, plane {}</text>\n",
                  plane_name(first.plane));
-  fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", escape(first.source));
+  fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", xml_escape(first.source));
   // Grid: the reference circle and rings every division, spokes every 45 deg.
   for (int j = -4; j <= 4; ++j) {
     fmt::format_to(out,
@@ -248,7 +226,7 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
   double y = size + 10;
   for (const auto& [text, col] : legend) {
     fmt::format_to(out, "<text class=\"legend\" x=\"10\" y=\"{:.0f}\" fill=\"{}\">{}</text>\n", y,
-                   col, escape(text));
+                   col, xml_escape(text));
     y += 18;
   }
   s += "</svg>\n";

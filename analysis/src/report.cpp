@@ -42,21 +42,19 @@ std::string feed_text(const std::optional<double>& feed_mm_per_min) {
   return feed_mm_per_min ? fmt::format("{:.0f} mm/min", *feed_mm_per_min) : std::string("feed ?");
 }
 
-std::string text_report(const Evaluation& ev) {
-  std::string s;
-  auto out = std::back_inserter(s);
+std::vector<ReportSection> header_sections(const Evaluation& ev) {
+  std::vector<ReportSection> sections;
   constexpr const char* kNone = "not recorded";
   auto meta = [&ev](const char* key) -> std::string {
     const std::string* v = ev.conditions.find(key);
     return v && !v->empty() ? *v : std::string(kNone);
   };
-  auto line = [&out](const char* title, const std::string& value) {
-    fmt::format_to(out, "  {:<28}{}\n", std::string(title) + ":", value);
+  auto line = [&sections](std::string title, std::string value) {
+    sections.back().items.push_back({std::move(title), std::move(value)});
   };
-  fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
-  // Clause 6: every item is printed, "not recorded" when neither the trace nor an option
+  // Clause 6: every item is listed, "not recorded" when neither the trace nor an option
   // gave it, so a missing condition is visible instead of silently absent.
-  s += "Test (clause 6)\n";
+  sections.push_back({"Test (clause 6)", {}});
   {
     std::string date = meta("date");
     if (date == kNone) date = meta("start_time");
@@ -69,7 +67,7 @@ std::string text_report(const Evaluation& ev) {
   line("Instrument", meta("instrument"));
   line("Channels evaluated", channels_text(ev));
   line("Notes", meta("notes"));
-  s += "Conditions (clause 4.4)\n";
+  sections.push_back({"Conditions (clause 4.4)", {}});
   if (ev.nominal_radius_mm) {
     line("Diameter",
          fmt::format("{:.4f} mm (radius {:.4f} mm, from {})", 2 * *ev.nominal_radius_mm,
@@ -157,7 +155,20 @@ std::string text_report(const Evaluation& ev) {
   for (const auto& [key, value] : ev.conditions.entries()) {
     if (kShown.count(key) || key.rfind("channel.", 0) == 0) continue;
     if (!seen.insert(key).second) continue;
-    fmt::format_to(out, "  {:<28}{}\n", key + ":", *ev.conditions.find(key));
+    line(key, *ev.conditions.find(key));
+  }
+  return sections;
+}
+
+std::string text_report(const Evaluation& ev) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
+  for (const ReportSection& section : header_sections(ev)) {
+    s += section.title + "\n";
+    for (const ReportItem& item : section.items) {
+      fmt::format_to(out, "  {:<28}{}\n", item.title + ":", item.value);
+    }
   }
   s += "\n";
   for (const auto& h : ev.hysteresis) {

@@ -9,6 +9,7 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/history/history.hpp"
 
 namespace circtest::history {
@@ -36,29 +37,6 @@ constexpr Quantity kQuantities[] = {
 
 std::string cell(const std::optional<double>& v, double scale) {
   return v ? fmt::format("{:.1f}", *v * scale) : std::string("-");
-}
-
-std::string escape(std::string_view s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
 }
 
 // Seconds since the epoch of an ISO 8601 date or date-time (UTC), when it parses.
@@ -228,16 +206,16 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
 
   std::string s;
   auto out = std::back_inserter(s);
-  fmt::format_to(out,
-                 "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-                 "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"11\">\n"
-                 "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-                 "<text x=\"10\" y=\"20\" font-size=\"14\" font-weight=\"bold\">Trend of machine "
-                 "{2}: {3} test(s){4}</text>\n",
-                 w, height, escape(machine), tests.size(),
-                 tests.empty()
-                     ? ""
-                     : escape(", " + tests.front().tested_at + " to " + tests.back().tested_at));
+  fmt::format_to(
+      out,
+      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+      "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"11\">\n"
+      "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+      "<text x=\"10\" y=\"20\" font-size=\"14\" font-weight=\"bold\">Trend of machine "
+      "{2}: {3} test(s){4}</text>\n",
+      w, height, xml_escape(machine), tests.size(),
+      tests.empty() ? ""
+                    : xml_escape(", " + tests.front().tested_at + " to " + tests.back().tested_at));
   double y0 = top;
   for (const auto& q : kQuantities) {
     const auto& lim = limits.*(q.limit);
@@ -275,7 +253,7 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
       fmt::format_to(out,
                      "<circle class=\"point\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\">"
                      "<title>{} {}: {:.2f} {}</title></circle>\n",
-                     vx, vy, bad ? "#c0392b" : "#1f5fbf", escape(tests[i].tested_at), q.name,
+                     vx, vy, bad ? "#c0392b" : "#1f5fbf", xml_escape(tests[i].tested_at), q.name,
                      std::abs(*v) * q.scale, q.unit);
     }
     if (!pts.empty()) {

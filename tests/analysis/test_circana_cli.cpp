@@ -246,9 +246,10 @@ TEST_F(CircanaCli, BadOptions) {
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
   expect_error("analyze", 2, "missing the trace argument: expected a file name");
   expect_error("fit --json", 2, "missing the points argument: expected a file name");
-  expect_error("frobnicate", 2,
-               "unknown command 'frobnicate': expected analyze, diagnose, fit, import-polar, store "
-               "or history");
+  expect_error(
+      "frobnicate", 2,
+      "unknown command 'frobnicate': expected analyze, diagnose, report, fit, import-polar, "
+      "store or history");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {

@@ -2,12 +2,23 @@
 // The circana commands as library calls: main.cpp only parses options.
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/plot.hpp"
 
 namespace circtest {
+
+// A trace file read and evaluated as circana analyze does (a ball bar's `r` channel turned
+// into positions when forced or when it is the only channel); every result finite.
+struct EvaluatedTrace {
+  Trace trace;  // the trace evaluated (a ball bar's: with the positions made from `r`)
+  Evaluation evaluation;
+  bool radial = false;  // evaluated from the length channel r
+};
+EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& options,
+                             bool radial);
 
 struct AnalyzeRequest {
   std::string trace_path;
@@ -54,6 +65,20 @@ struct HistoryRequest {
   std::string limits;  // "H=0.015,G=0.020"; empty: no check
 };
 int run_history(const HistoryRequest& request, std::ostream& out);
+
+// circana report: the self-contained HTML report (html_report.hpp), one page per plane.
+struct ReportRequest {
+  std::vector<std::string> trace_paths;      // one per plane
+  std::vector<std::string> before_paths;     // earlier tests, each matched to its plane's page
+  std::vector<std::string> diagnosis_paths;  // circana diagnose --json documents, by plane;
+                                             // the others' planes are diagnosed here
+  EvaluationOptions options;
+  bool radial = false;
+  PlotOptions plot;
+  std::string db_url;  // the trend from this history; empty: no trend
+  std::string output_path;
+};
+int run_report(const ReportRequest& request, std::ostream& out);
 
 struct FitRequest {
   std::string points_path;

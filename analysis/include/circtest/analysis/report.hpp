@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/analysis/evaluation.hpp"
@@ -12,6 +13,18 @@
 namespace circtest {
 
 std::string text_report(const Evaluation& evaluation);
+
+// The clause 6 (test) and clause 4.4 (conditions) items of a report in order, each with its
+// value or "not recorded": the text and the HTML report list the same items.
+struct ReportItem {
+  std::string title;
+  std::string value;
+};
+struct ReportSection {
+  std::string title;
+  std::vector<ReportItem> items;
+};
+std::vector<ReportSection> header_sections(const Evaluation& evaluation);
 
 struct FitReport {
   std::string source;

@@ -28,4 +28,30 @@ std::string join(const Range& items, std::string_view separator = ",") {
   return out;
 }
 
+// The text with &, <, > and " replaced by their entities: safe inside XML/HTML text and
+// double-quoted attribute values (SVG plots, the HTML report).
+inline std::string xml_escape(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
 }  // namespace circtest

@@ -1,0 +1,299 @@
+// circana report opened in real headless Chromium (label report): the page loads with no
+// console message and references nothing outside itself, is not blank, its DOM holds the
+// numbers of circana analyze --json and of the simulator's injected errors, and printing
+// gives exactly one A4 page per plane. Without chromium every test here is skipped with a
+// message (ctest shows it as skipped), never passed.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "circtest/core/strings.hpp"
+#include "scratch.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using circtest::testing::CommandResult;
+using circtest::testing::run_command;
+using circtest::testing::slurp;
+
+std::vector<std::string> words(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
+std::string mm(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.12g", v);
+  return buf;
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
+  return n;
+}
+
+class HtmlReport : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::string(CHROMIUM_PATH).empty() || !fs::exists(CHROMIUM_PATH)) {
+      GTEST_SKIP() << "chromium not installed (Debian package chromium): the HTML report is "
+                      "not checked";
+    }
+  }
+
+  CommandResult circana(const std::vector<std::string>& args) {
+    std::vector<std::string> argv{CIRCANA_PATH};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run_command(argv);
+  }
+  CommandResult circana(const std::string& args) { return circana(words(args)); }
+
+  std::string simtrace(const std::string& name, const std::string& args) {
+    const std::string path = (dir_ / name).string();
+    std::vector<std::string> argv{SIMTRACE_PATH, "-o", path};
+    for (auto& w : words(args)) argv.push_back(std::move(w));
+    const CommandResult r = run_command(argv);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return path;
+  }
+
+  // Chromium, headless, with its own profile (parallel tests do not share one) and logging of
+  // the page's console on stderr.
+  CommandResult chromium(const std::vector<std::string>& args) {
+    std::vector<std::string> argv{CHROMIUM_PATH,
+                                  "--headless",
+                                  "--disable-gpu",
+                                  "--no-first-run",
+                                  "--user-data-dir=" + (dir_ / "profile").string(),
+                                  "--enable-logging=stderr",
+                                  "--v=0"};
+    // The sandbox needs user namespaces Chromium refuses to use as root.
+    if (geteuid() == 0) argv.push_back("--no-sandbox");
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run_command(argv);
+  }
+  std::string dom(const std::string& html) {
+    const CommandResult r = chromium({"--dump-dom", "file://" + html});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    console_ = r.err;
+    return r.out;
+  }
+  // The pages of the printed PDF: pdfinfo when installed, else the /Type /Page objects.
+  int printed_pages(const std::string& html, const std::string& pdf) {
+    const CommandResult r =
+        chromium({"--no-pdf-header-footer", "--print-to-pdf=" + pdf, "file://" + html});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    if (!std::string(PDFINFO_PATH).empty()) {
+      const CommandResult info = run_command({PDFINFO_PATH, pdf});
+      EXPECT_EQ(info.exit_code, 0) << info.err;
+      std::smatch m;
+      static const std::regex a4(R"(Page size:\s+(\d+(\.\d+)?) x (\d+(\.\d+)?) pts)");
+      EXPECT_TRUE(std::regex_search(info.out, m, a4)) << info.out;
+      if (!m.empty()) {
+        EXPECT_NEAR(std::stod(m[1]), 595.0, 2.0) << "A4 width";
+        EXPECT_NEAR(std::stod(m[3]), 842.0, 2.0) << "A4 height";
+      }
+      static const std::regex pages(R"(Pages:\s+(\d+))");
+      if (std::regex_search(info.out, m, pages)) return std::stoi(m[1]);
+      ADD_FAILURE() << "pdfinfo: no page count\n" << info.out;
+      return -1;
+    }
+    const std::string bytes = slurp(pdf);
+    static const std::regex page(R"(/Type\s*/Page\b)");
+    return static_cast<int>(
+        std::distance(std::sregex_iterator(bytes.begin(), bytes.end(), page), {}));
+  }
+  // The page's console lines in Chromium's log (errors, warnings, logs alike).
+  std::string console_messages() const {
+    std::string out;
+    std::istringstream in(console_);
+    for (std::string line; std::getline(in, line);) {
+      if (line.find(":CONSOLE") != std::string::npos) out += line + "\n";
+    }
+    return out;
+  }
+
+  circtest::testing::ScratchDir scratch_{"circana-report"};
+  fs::path dir_ = scratch_.dir();
+  std::string console_;
+};
+
+}  // namespace
+
+// The detectors themselves: a page with a script error and an external image is caught.
+TEST_F(HtmlReport, TheConsoleAndReferenceChecksCatchABadPage) {
+  const std::string bad = (dir_ / "bad.html").string();
+  circtest::testing::spit(bad,
+                          "<!DOCTYPE html><html><body><p>x</p><img "
+                          "src=\"http://example.invalid/x.png\"><script>undefinedFn();</script>"
+                          "</body></html>\n");
+  const std::string d = dom(bad);
+  EXPECT_NE(console_messages().find("undefinedFn"), std::string::npos) << console_;
+  EXPECT_NE(d.find("src="), std::string::npos);
+}
+
+TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
+  // Injected errors are the truth: X backlash alone makes H of the XY test equal to it.
+  const std::string xy = simtrace("xy.csv", "--backlash-x 0.005 --seed 1");
+  const std::string yz = simtrace("yz.csv", "--plane YZ --backlash-y 0.003 --seed 2");
+  const std::string zx = simtrace("zx.csv", "--plane ZX --backlash-x 0.004 --seed 3");
+  const std::string html = (dir_ / "report.html").string();
+  CommandResult r = circana({"report", xy, "--trace", yz, "--trace", zx, "-o", html, "--machine",
+                             "VMC-3", "--operator", "A. Sato"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("3 plane page(s) (XY, YZ, ZX)"), std::string::npos) << r.out;
+
+  const std::string d = dom(html);
+  EXPECT_EQ(console_messages(), "") << "the page logged to the console";
+  // Self-contained: nothing loaded from anywhere (the only URL is the SVG namespace).
+  for (const char* ref : {"src=", "href=", "<link", "<script", "@import", "url("}) {
+    EXPECT_EQ(d.find(ref), std::string::npos) << ref;
+  }
+  EXPECT_EQ(count(d, "http"), count(d, "http://www.w3.org/2000/svg"));
+  EXPECT_EQ(count(d, "<section class=\"plane\""), 3u);
+  // Clause 6 header, as in the text report.
+  EXPECT_NE(d.find("Test (clause 6)"), std::string::npos);
+  EXPECT_NE(d.find("A. Sato"), std::string::npos);
+  EXPECT_NE(d.find("VMC-3"), std::string::npos);
+  EXPECT_NE(d.find("not recorded"), std::string::npos);
+
+  // Every H, G, F of analyze --json is in the DOM, exactly (data-mm) and as read (um).
+  const std::vector<std::pair<std::string, double>> truth = {{xy, 0.005}, {yz, 0.003}, {zx, 0.004}};
+  for (const auto& [trace, backlash] : truth) {
+    r = circana({"analyze", trace, "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    ASSERT_EQ(j["pairs"].size(), 1u) << trace;
+    const double h = j["pairs"][0]["H"].get<double>();
+    EXPECT_NEAR(h, backlash, 0.0005) << trace;
+    char um[32];
+    std::snprintf(um, sizeof um, "%.1f", h * 1000.0);
+    EXPECT_NE(d.find("data-mm=\"" + mm(h) + "\">" + um + "</span>"), std::string::npos)
+        << trace << " H " << mm(h);
+    ASSERT_EQ(j["runs"].size(), 2u);
+    for (const auto& run : j["runs"]) {
+      for (const char* k : {"G", "F_max", "F_min"}) {
+        EXPECT_NE(d.find("data-mm=\"" + mm(run[k].get<double>()) + "\""), std::string::npos)
+            << trace << " " << k;
+      }
+    }
+  }
+  // The diagnosis ran: its ranked contributions are bars.
+  r = circana({"diagnose", xy, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto diag = nlohmann::json::parse(r.out);
+  ASSERT_FALSE(diag["contributions"].empty());
+  EXPECT_NE(d.find("data-mm=\"" + mm(diag["contributions"][0]["G_mm"].get<double>()) + "\""),
+            std::string::npos);
+  EXPECT_GE(count(d, "class=\"contribution\""), diag["contributions"].size());
+
+  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 3);
+
+  // Not blank: a screenshot of the report is far richer than one of an empty page.
+  const std::string empty = (dir_ / "empty.html").string();
+  circtest::testing::spit(empty, "<!DOCTYPE html><html><body></body></html>\n");
+  ASSERT_EQ(chromium({"--screenshot=" + (dir_ / "empty.png").string(), "--window-size=800,1200",
+                      "file://" + empty})
+                .exit_code,
+            0);
+  ASSERT_EQ(chromium({"--screenshot=" + (dir_ / "report.png").string(), "--window-size=800,1200",
+                      "file://" + html})
+                .exit_code,
+            0);
+  const auto blank = fs::file_size(dir_ / "empty.png");
+  const auto shot = fs::file_size(dir_ / "report.png");
+  EXPECT_GT(shot, 10 * blank) << "screenshot " << shot << " bytes, empty page " << blank;
+}
+
+TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
+  const std::string before = simtrace("before.csv", "--backlash-x 0.008 --seed 4");
+  const std::string after = simtrace("after.csv", "--backlash-x 0.002 --seed 5");
+  // The trend: three tests of this machine in an SQLite history.
+  const std::string db = (dir_ / "history.sqlite").string();
+  for (const auto& [b, date] : std::vector<std::pair<std::string, std::string>>{
+           {"0.006", "2026-01-05"}, {"0.008", "2026-03-02"}}) {
+    const std::string t = simtrace("h" + date + ".csv", "--backlash-x " + b);
+    const CommandResult s =
+        circana({"store", t, "--db", db, "--machine", "VMC-3", "--notes", "dated " + date});
+    ASSERT_EQ(s.exit_code, 0) << s.err;
+  }
+  ASSERT_EQ(circana({"store", after, "--db", db, "--machine", "VMC-3"}).exit_code, 0);
+  // A diagnosis from a file: its first contribution marked so that it cannot be recomputed.
+  CommandResult r = circana({"diagnose", after, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto diag = nlohmann::json::parse(r.out);
+  ASSERT_FALSE(diag["contributions"].empty());
+  diag["contributions"][0]["G_mm"] = 0.0123456;
+  const std::string diag_path = (dir_ / "diag.json").string();
+  circtest::testing::spit(diag_path, diag.dump());
+
+  const std::string html = (dir_ / "report.html").string();
+  r = circana({"report", after, before, "-o", html, "--machine", "VMC-3", "--db", db, "--diagnosis",
+               diag_path, "--scale-um-per-div", "2"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string d = dom(html);
+  EXPECT_EQ(console_messages(), "");
+  // Before and after: both traces drawn (the before dashed), H of both in the table.
+  EXPECT_NE(d.find("Before: " + before), std::string::npos);
+  EXPECT_GE(count(d, "stroke-dasharray=\"5,3\""), 2u);
+  EXPECT_NE(d.find("1 division = 2 um (fixed)"), std::string::npos);
+  const auto h_of = [&](const std::string& trace) {
+    const CommandResult a = circana({"analyze", trace, "--json"});
+    return nlohmann::json::parse(a.out)["pairs"][0]["H"].get<double>();
+  };
+  const double h_after = h_of(after), h_before = h_of(before);
+  EXPECT_NEAR(h_after, 0.002, 0.0005);
+  EXPECT_NEAR(h_before, 0.008, 0.0005);
+  char cells[160];
+  std::snprintf(cells, sizeof cells,
+                "<td class=\"num before\">%.1f</td><td class=\"num change\">%+.1f</td>",
+                h_before * 1000.0, (h_after - h_before) * 1000.0);
+  EXPECT_NE(d.find(cells), std::string::npos) << cells;
+  // The diagnosis of the file, not one made here.
+  EXPECT_NE(d.find("data-mm=\"0.0123456\""), std::string::npos);
+  // The trend: a panel per quantity, the three stored tests as points of H.
+  const auto h_panel = d.find("data-quantity=\"H\"");
+  ASSERT_NE(h_panel, std::string::npos);
+  const std::string panel = d.substr(h_panel, d.find("</g>", h_panel) - h_panel);
+  EXPECT_EQ(count(panel, "class=\"point\""), 3u);
+  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 1);
+}
+
+// Bad requests: one clear line, the documented exit code, no file left behind.
+TEST_F(HtmlReport, BadRequests) {
+  const std::string xy = simtrace("xy.csv", "--backlash-x 0.005");
+  const std::string yz = simtrace("yz.csv", "--plane YZ");
+  const std::string out = (dir_ / "r.html").string();
+  auto expect = [&](const std::vector<std::string>& args, int code, const std::string& message) {
+    const CommandResult r = circana(args);
+    EXPECT_EQ(r.exit_code, code) << circtest::join(args, " ") << "\n" << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
+    EXPECT_EQ(count(r.err, "\n"), 1u) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  };
+  expect({"report", xy, yz, "-o", out}, 5, "a before trace of plane YZ, but the report's traces");
+  expect({"report", xy, "--trace", xy, "-o", out}, 5, "plane XY twice in one report");
+  expect({"report", xy}, 2, "output");
+  expect({"report", xy, "-o", out, "--json"}, 2, "--json: not for circana report");
+  const std::string junk = (dir_ / "junk.json").string();
+  circtest::testing::spit(junk, "{\"schema\": \"circtest.evaluation/1\"}");
+  expect({"report", xy, "-o", out, "--diagnosis", junk}, 4,
+         junk + ": expected a circtest.diagnosis/1 document");
+  // A directory in the output's place is never replaced.
+  fs::create_directory(dir_ / "dir.html");
+  const CommandResult r = circana({"report", xy, "-o", (dir_ / "dir.html").string()});
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_TRUE(fs::is_directory(dir_ / "dir.html"));
+}
