@@ -29,6 +29,7 @@ const char* kUsage =
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
     "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json]\n"
+    "                        [--store [--db URL]]\n"
     "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
     "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
     "                      [--db URL]\n"
@@ -267,7 +268,9 @@ std::map<char, double> pitch_list(const std::string& text) {
 
 int diagnose(const std::vector<std::string>& args) {
   const Parsed p = analyze_options(args, "diagnose", [](po::options_description& d) {
-    d.add_options()("pitch", po::value<std::string>(), "cyclic-error pitch per axis, X=5,Y=5");
+    d.add_options()("pitch", po::value<std::string>(), "cyclic-error pitch per axis, X=5,Y=5")(
+        "store", "also keep the test and its diagnosis in the history")(
+        "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
   });
   if (!p.request.svg_path.empty()) throw UsageError("--svg: only for circana analyze");
   DiagnoseRequest req;
@@ -276,6 +279,11 @@ int diagnose(const std::vector<std::string>& args) {
   req.radial = p.request.radial;
   req.options.evaluation = p.request.options;
   if (p.vm.count("pitch")) req.options.pitch_mm = pitch_list(p.vm["pitch"].as<std::string>());
+  req.store = p.vm.count("store") > 0;
+  if (p.vm.count("db")) {
+    if (!req.store) throw UsageError("--db: only with --store");
+    req.db_url = p.vm["db"].as<std::string>();
+  }
   return run_diagnose(req, std::cout);
 }
 

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "circtest/analysis/diagnosis.hpp"
+#include "circtest/analysis/history_record.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/report.hpp"
@@ -29,14 +30,10 @@ std::vector<std::string> analysis_columns(const std::string& a, const std::strin
   return keep;
 }
 
-nlohmann::json plain(const nlohmann::ordered_json& j) {
-  return nlohmann::json::parse(j.dump());
-}
-
-// Stores an evaluation document; returns the line that says so.
-std::string store_result(const nlohmann::json& result, const std::string& trace_path,
-                         const std::string& db_url) {
-  history::TestRecord record = history::record_from_result(result, nullptr);
+// Stores a test (its diagnosis too, when given); returns the line that says so.
+std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
+                         const std::string& trace_path, const std::string& db_url) {
+  history::TestRecord record = history_record(ev, diagnosis);
   std::error_code ec;
   if (!trace_path.empty() && std::filesystem::is_regular_file(trace_path, ec)) {
     record.trace_sha256 = history::sha256_file(trace_path);
@@ -46,7 +43,8 @@ std::string store_result(const nlohmann::json& result, const std::string& trace_
   const std::int64_t id = store->add(record);
   return fmt::format(
       "Stored as test {} of machine {} (tested at {}) in {}{}\n", id, record.machine,
-      record.tested_at, store->name(),
+      record.tested_at.empty() ? std::string("the time of storing") : record.tested_at,
+      store->name(),
       record.trace_sha256.empty() ? "; the trace file was not found, no SHA-256" : "");
 }
 
@@ -112,7 +110,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   if (!request.svg_path.empty())
     write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));
   if (request.store) {
-    const std::string stored = store_result(plain(to_json(ev)), request.trace_path, request.db_url);
+    const std::string stored = store_result(ev, nullptr, request.trace_path, request.db_url);
     if (!request.json) text += "\n" + stored;
   }
   out << text;
@@ -121,18 +119,21 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
 }
 
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
-  TraceReadOptions ro;
-  ro.keep =
-      analysis_columns(request.options.evaluation.column_a, request.options.evaluation.column_b);
-  const Trace read = read_trace(request.trace_path, ro);
+  const EvaluatedTrace evaluated =
+      evaluate_file(request.trace_path, request.options.evaluation, request.radial);
   DiagnosisOptions options = request.options;
-  EvaluationOptions& eo = options.evaluation;
-  // A ball bar's trace, as for analyze: it measures no absolute length along an axis.
-  const std::optional<RadialPositions> radial = radial_set_up(read, request.radial, eo);
-  if (radial) options.absolute_channels = false;
-  Diagnosis d = diagnose(radial ? radial->trace : read, options);
-  if (radial) d.notes.insert(d.notes.begin(), radial->note);
-  out << (request.json ? to_json(d).dump(2) + "\n" : text_report(d));
+  // A ball bar's trace measures no absolute length along an axis.
+  if (evaluated.radial) options.absolute_channels = false;
+  Diagnosis d = diagnose(evaluated.trace, evaluated.evaluation, options);
+  // The radial note is the evaluation's first note: what was evaluated.
+  if (evaluated.radial) d.notes.insert(d.notes.begin(), evaluated.evaluation.notes.front());
+  std::string text = request.json ? to_json(d).dump(2) + "\n" : text_report(d);
+  if (request.store) {
+    const std::string stored =
+        store_result(evaluated.evaluation, &d, request.trace_path, request.db_url);
+    if (!request.json) text += "\n" + stored;
+  }
+  out << text;
   out.flush();
   return 0;
 }
@@ -141,45 +142,30 @@ int run_store(const StoreRequest& request, std::ostream& out) {
   const std::string head = read_file(request.path).substr(0, 4096);
   const auto first = head.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && head[first] == '{') {
-    nlohmann::json result;
+    nlohmann::ordered_json document;
     try {
-      result = nlohmann::json::parse(read_file(request.path));
+      document = nlohmann::ordered_json::parse(read_file(request.path));
     } catch (const nlohmann::json::parse_error& e) {
       throw ParseError(request.path, 0, std::string("not valid JSON: ") + e.what());
     }
-    if (!result.is_object()) throw ParseError(request.path, 0, "expected a JSON object");
-    if (result.contains("schema") && result["schema"].is_string() &&
-        result["schema"].get<std::string>().rfind("circtest.diagnosis/", 0) == 0) {
+    if (!document.is_object()) throw ParseError(request.path, 0, "expected a JSON object");
+    if (document.contains("schema") && document["schema"].is_string() &&
+        document["schema"].get<std::string>().rfind("circtest.diagnosis/", 0) == 0) {
       throw DataError(request.path, 0,
-                      "a diagnosis document: store the trace or its evaluation "
-                      "(circana analyze --json)");
+                      "a diagnosis document: store the trace (circana diagnose --store) or its "
+                      "evaluation (circana analyze --json)");
     }
-    if (!result.contains("conditions") || !result["conditions"].is_object()) {
-      result["conditions"] = nlohmann::json::object();
-    }
-    for (const auto& [key, value] : request.options.conditions) result["conditions"][key] = value;
-    try {
-      const std::string source = result.contains("source") && result["source"].is_string()
-                                     ? result["source"].get<std::string>()
-                                     : "";
-      out << store_result(result, source, request.db_url);
-    } catch (const nlohmann::json::exception& e) {
-      throw DataError(request.path, 0, std::string("not an evaluation document: ") + e.what());
-    }
+    // Conditions are optional in a hand-made document; the command line adds to them.
+    if (!document.contains("conditions")) document["conditions"] = nlohmann::ordered_json::object();
+    Evaluation ev = evaluation_from_json(document, request.path);
+    for (const auto& [key, value] : request.options.conditions) ev.conditions.set(key, value);
+    out << store_result(ev, nullptr, ev.source, request.db_url);
     out.flush();
     return 0;
   }
-  // A trace: evaluated and stored as analyze --store does; only the line naming the test out.
-  AnalyzeRequest analyze;
-  analyze.trace_path = request.path;
-  analyze.options = request.options;
-  analyze.radial = request.radial;
-  analyze.store = true;
-  analyze.db_url = request.db_url;
-  std::ostringstream report;
-  run_analyze(analyze, report);
-  const std::string text = report.str();
-  out << text.substr(text.rfind("\nStored as test ") + 1);
+  // A trace: evaluated and stored as analyze --store does (no diagnosis: diagnose --store).
+  const EvaluatedTrace evaluated = evaluate_file(request.path, request.options, request.radial);
+  out << store_result(evaluated.evaluation, nullptr, request.path, request.db_url);
   out.flush();
   return 0;
 }

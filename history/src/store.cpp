@@ -88,15 +88,16 @@ class SqlStore final : public Store {
 
   std::int64_t add(const TestRecord& r) override {
     Transaction tx(*c_);
+    const std::string now = utc_now();
     const auto rows = c_->query(
         "INSERT INTO tests (machine, tested_at, stored_at, plane, channels, trace_path, "
         "trace_sha256, h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, "
         "diagnosis) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
-        {r.machine, r.tested_at, r.stored_at.empty() ? utc_now() : r.stored_at, r.plane, r.channels,
-         r.trace_path, r.trace_sha256.empty() ? Value() : Value(r.trace_sha256), number(r.h_mm),
-         number(r.g_mm), number(r.f_mm), number(r.backlash_mm), number(r.squareness_urad),
-         r.conditions.dump(), r.result.dump(),
-         r.diagnosis.is_null() ? Value() : Value(r.diagnosis.dump())});
+        {r.machine, r.tested_at.empty() ? now : r.tested_at,
+         r.stored_at.empty() ? now : r.stored_at, r.plane, r.channels, r.trace_path,
+         r.trace_sha256.empty() ? Value() : Value(r.trace_sha256), number(r.h_mm), number(r.g_mm),
+         number(r.f_mm), number(r.backlash_mm), number(r.squareness_urad), r.conditions.dump(),
+         r.result.dump(), r.diagnosis.is_null() ? Value() : Value(r.diagnosis.dump())});
     if (rows.size() != 1 || !rows[0][0]) {
       throw DatabaseError(c_->name() + ": the new test got no id");
     }
@@ -257,81 +258,6 @@ std::string sha256_file(const std::string& path) {
   std::string hex;
   for (unsigned int i = 0; i < n; ++i) hex += fmt::format("{:02x}", md[i]);
   return hex;
-}
-
-TestRecord record_from_result(const json& result, const json& diagnosis,
-                              const std::string& machine) {
-  const std::string not_eval =
-      "not an evaluation document (circtest.evaluation/1: the output of circana analyze --json)";
-  if (!result.is_object() || !result.contains("runs") || !result["runs"].is_array()) {
-    throw Error(ExitCode::data, not_eval);
-  }
-  if (result.contains("schema") &&
-      result["schema"].get<std::string>().rfind("circtest.evaluation/", 0) != 0) {
-    throw Error(ExitCode::data, not_eval + ", got " + result["schema"].get<std::string>());
-  }
-  auto text = [](const json& j, const char* key) -> std::string {
-    return j.contains(key) && j[key].is_string() ? j[key].get<std::string>() : std::string();
-  };
-  auto opt = [](const json& j, const char* key) -> std::optional<double> {
-    return j.contains(key) && j[key].is_number() ? std::optional<double>(j[key].get<double>())
-                                                 : std::nullopt;
-  };
-  TestRecord r;
-  r.conditions = result.value("conditions", json::object());
-  r.machine = machine.empty() ? text(r.conditions, "machine") : machine;
-  if (r.machine.empty()) {
-    throw Error(ExitCode::data,
-                "no machine name: give --machine NAME or record it in the trace (# machine: NAME)");
-  }
-  r.conditions["machine"] = r.machine;
-  r.tested_at = text(r.conditions, "start_time");
-  if (r.tested_at.empty()) r.tested_at = text(r.conditions, "date");
-  if (r.tested_at.empty()) r.tested_at = utc_now();
-  r.plane = text(result, "plane");
-  if (result.contains("channels") && result["channels"].is_array()) {
-    for (const auto& c : result["channels"]) {
-      r.channels += (r.channels.empty() ? "" : ",") + c.get<std::string>();
-    }
-  }
-  r.trace_path = text(result, "source");
-  r.result = result;
-  r.diagnosis = diagnosis;
-  const json& runs = result["runs"];
-  if (result.contains("pairs")) {
-    for (const auto& p : result["pairs"]) {
-      const std::size_t ccw = p["runs"][0].get<std::size_t>();
-      const json& run = ccw < runs.size() ? runs[ccw] : json::object();
-      const double h = p["H"].get<double>();
-      r.measures.push_back({"H", text(run, "label"), "CCW/CW", opt(run, "feed_mm_per_min"), h});
-      r.h_mm = std::max(r.h_mm.value_or(h), h);
-    }
-  }
-  for (const auto& run : runs) {
-    const auto feed = opt(run, "feed_mm_per_min");
-    const std::string label = text(run, "label"), dir = text(run, "direction");
-    if (auto g = opt(run, "G")) {
-      r.measures.push_back({"G", label, dir, feed, *g});
-      r.g_mm = std::max(r.g_mm.value_or(*g), *g);
-    }
-    for (const char* k : {"F_max", "F_min"}) {
-      if (auto f = opt(run, k)) {
-        r.measures.push_back({k, label, dir, feed, *f});
-        r.f_mm = std::max(r.f_mm.value_or(std::abs(*f)), std::abs(*f));
-      }
-    }
-  }
-  if (diagnosis.is_object()) {
-    if (diagnosis.contains("backlash_mm") && diagnosis["backlash_mm"].is_object()) {
-      for (const auto& [axis, v] : diagnosis["backlash_mm"].items()) {
-        if (v.is_number()) {
-          r.backlash_mm = std::max(r.backlash_mm.value_or(0.0), std::abs(v.get<double>()));
-        }
-      }
-    }
-    r.squareness_urad = opt(diagnosis, "squareness_urad");
-  }
-  return r;
 }
 
 }  // namespace circtest::history

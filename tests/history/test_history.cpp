@@ -15,6 +15,7 @@
 #include <map>
 #include <sstream>
 
+#include "circtest/analysis/history_record.hpp"
 #include "circtest/analysis/report.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/history/history.hpp"
@@ -117,6 +118,13 @@ class PostgresServer {
 
 PostgresServer* g_server = nullptr;
 int g_databases = 0;
+
+// The record of an evaluation document, read back as circana store reads it.
+TestRecord record_from_result(const nlohmann::json& document, std::nullptr_t,
+                              const std::string& machine = {}) {
+  return history_record(evaluation_from_json(nlohmann::ordered_json::parse(document.dump())),
+                        nullptr, machine);
+}
 
 // The evaluation document of a simulated test with a known backlash (H = backlash).
 nlohmann::json simulated_result(double backlash_mm, const std::string& date, const fs::path& dir) {
@@ -263,6 +271,57 @@ TEST_P(History, LimitsMakeItAPassFailCheckOfTheLatestTest) {
   r = run(circana("history --machine VMC-3 --limits H=abc"), dir_);
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.err, "circana: error: --limits H: expected a number, got 'abc'\n");
+}
+
+// diagnose --store keeps the diagnosis: the backlash and squareness columns are the
+// simulator's injected errors, and --limits checks them.
+TEST_P(History, DiagnoseStoreFillsBacklashAndSquareness) {
+  sim::MachineModel m;
+  m.x.backlash_mm = 0.008;
+  m.squareness_rad = 40e-6;
+  sim::CircleProgram p;
+  p.period_s = 0.004;
+  Trace t = sim::simulate(m, p);
+  t.metadata.set("machine", "VMC-3");
+  t.metadata.set("date", "2026-05-01");
+  const fs::path trace = dir_ / "diag.csv";
+  write_trace(trace.string(), t);
+  // store TRACE keeps no diagnosis: a backlash limit cannot be checked.
+  Result r = run(circana("store " + trace.string()), dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run(circana("history --machine VMC-3 --limits backlash=0.02"), dir_);
+  EXPECT_EQ(r.code, 9) << r.out;
+  EXPECT_NE(r.out.find("backlash not measured (no diagnosis stored)"), std::string::npos) << r.out;
+
+  r = run(circana("diagnose " + trace.string() + " --store"), dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("Stored as test 2 of machine VMC-3 (tested at 2026-05-01)"),
+            std::string::npos)
+      << r.out;
+  const auto tests = open_store(url_)->tests("VMC-3", "");
+  ASSERT_EQ(tests.size(), 2u);
+  const TestRecord& d = tests[1];
+  ASSERT_TRUE(d.backlash_mm);
+  EXPECT_NEAR(*d.backlash_mm, 0.008, 0.0004);
+  ASSERT_TRUE(d.squareness_urad);
+  EXPECT_NEAR(*d.squareness_urad, 40.0, 2.0);
+  EXPECT_EQ(d.diagnosis["schema"], "circtest.diagnosis/1");
+  ASSERT_TRUE(d.h_mm);
+  EXPECT_NEAR(*d.h_mm, 0.008, 0.0005);
+  EXPECT_FALSE(tests[0].backlash_mm);
+  r = run(circana("history --machine VMC-3 --limits backlash=0.01,squareness=50"), dir_);
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = run(circana("history --machine VMC-3 --limits backlash=0.005 --json"), dir_);
+  EXPECT_EQ(r.code, 9) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(j["tests"][1]["backlash"].get<double>(), 0.008, 0.0004);
+  EXPECT_NEAR(j["tests"][1]["squareness_urad"].get<double>(), 40.0, 2.0);
+  r = run(circana("history --machine VMC-3 --limits squareness=30"), dir_);
+  EXPECT_EQ(r.code, 9) << r.out;
+  // --json with --store prints the diagnosis document only.
+  r = run(circana("diagnose " + trace.string() + " --store --json"), dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["schema"], "circtest.diagnosis/1");
 }
 
 TEST_P(History, BadRequestsGiveClearErrors) {

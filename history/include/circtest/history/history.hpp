@@ -2,10 +2,10 @@
 // The history of every machine's circular tests: one schema, kept in an embedded SQLite file
 // (default) or on a shop-wide PostgreSQL server, created and migrated on first use.
 //
-// This part reads the result documents (circtest.evaluation/1, circtest.diagnosis/1), not
-// the analysis types: it has its own dependencies (libsqlite3, libpq, libcrypto) that the
-// analysis library and circgen need not carry, and a stored test stays readable whatever
-// the analysis code becomes.
+// This part stores records and keeps the result documents (circtest.evaluation/1,
+// circtest.diagnosis/1) as they were; it does not read them. The analysis makes the record
+// from its own types (circtest/analysis/history_record.hpp: a stored document goes through
+// evaluation_from_json first), so a document's keys are read in one place.
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -27,7 +27,8 @@ struct Measure {
 struct TestRecord {
   std::int64_t id = 0;       // set by the store
   std::string machine;       // the history is kept per machine
-  std::string tested_at;     // ISO 8601, UTC when known (the trace's start_time or date)
+  std::string tested_at;     // ISO 8601, UTC when known (the trace's start_time or date);
+                             // empty: the store takes the time of storing
   std::string stored_at;     // ISO 8601 UTC, set by the store
   std::string plane;         // "XY", ...
   std::string channels;      // "x,y"
@@ -45,12 +46,6 @@ struct TestRecord {
   nlohmann::json result;               // the evaluation document as stored
   nlohmann::json diagnosis = nullptr;  // the diagnosis document, or null
 };
-
-// A record from an evaluation document (and a diagnosis document, may be null). The
-// machine comes from the document's conditions unless `machine` is given; throws
-// circtest::Error (data) when there is none or the document is not an evaluation.
-TestRecord record_from_result(const nlohmann::json& result, const nlohmann::json& diagnosis,
-                              const std::string& machine = {});
 
 // The storage interface. Every call throws DatabaseError (exit code 11) with the database
 // named when the database cannot be used.

@@ -1,0 +1,22 @@
+#pragma once
+// The history's record of a test (circtest::history) made from the analysis' own types: an
+// evaluation (a stored document is read back through evaluation_from_json first, so every
+// key is checked once, by the schema's own reader) and, when there is one, its diagnosis.
+#include <string>
+
+#include "circtest/analysis/diagnosis.hpp"
+#include "circtest/analysis/evaluation.hpp"
+#include "circtest/history/history.hpp"
+
+namespace circtest {
+
+// H per pair, G (the evaluation's headline method), F_max and F_min per run, the trend's
+// largest H, G and |F|; from the diagnosis the larger backlash of the plane's two axes and
+// the squareness. The machine is `machine` when given, else the evaluation's `machine`
+// condition; DataError when there is none. tested_at is the trace's start_time or date, else
+// empty (the store then takes the time of storing).
+history::TestRecord history_record(const Evaluation& evaluation,
+                                   const Diagnosis* diagnosis = nullptr,
+                                   const std::string& machine = {});
+
+}  // namespace circtest
