@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The README's test command: set up, build, lint (clang-format on every C/C++ file, clang-tidy
-# on the last commit's C++ files: scripts/lint.sh), run every test (labels unit, hal, e2e, ...).
+# on the last commit's C++ files: scripts/lint.sh), run every test (labels unit, hal, e2e, db,
+# report (headless Chromium), package, tools).
 # Extra arguments go to ctest, e.g. `scripts/test.sh -L unit`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
