@@ -28,7 +28,7 @@ const char* kUsage =
     "                     [--svg PLOT.svg] [--scale-um-per-div UM] [--radial]\n"
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
-    "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json]\n"
+    "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json] [--svg F]\n"
     "                        [--store [--db URL]]\n"
     "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
     "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
@@ -272,8 +272,9 @@ int diagnose(const std::vector<std::string>& args) {
         "store", "also keep the test and its diagnosis in the history")(
         "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
   });
-  if (!p.request.svg_path.empty()) throw UsageError("--svg: only for circana analyze");
   DiagnoseRequest req;
+  req.svg_path = p.request.svg_path;
+  req.plot = p.request.plot;
   req.trace_path = p.request.trace_path;
   req.json = p.request.json;
   req.radial = p.request.radial;

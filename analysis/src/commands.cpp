@@ -99,16 +99,26 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
   std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
-  if (!request.json) {
-    // The diagnosis is a summary here; a trace it cannot handle still gets its H, G and F.
+  // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
+  // still gets its H, G and F.
+  std::optional<Diagnosis> diagnosis;
+  std::string diagnosis_error;
+  if (!request.json || !request.svg_path.empty()) {
     try {
-      text += short_text_report(diagnose(trace, ev));
+      diagnosis = diagnose(trace, ev);
     } catch (const Error& e) {
-      text += std::string("\nDiagnosis: not available (") + e.what() + ")\n";
+      diagnosis_error = e.what();
     }
   }
-  if (!request.svg_path.empty())
-    write_file_atomic(request.svg_path, svg_plot(ev, trace, request.plot));
+  if (!request.json) {
+    text += diagnosis ? short_text_report(*diagnosis)
+                      : std::string("\nDiagnosis: not available (") + diagnosis_error + ")\n";
+  }
+  if (!request.svg_path.empty()) {
+    PlotOptions plot = request.plot;
+    if (diagnosis) plot.diagnosis = &*diagnosis;
+    write_file_atomic(request.svg_path, svg_plot(ev, trace, plot));
+  }
   if (request.store) {
     const std::string stored = store_result(ev, nullptr, request.trace_path, request.db_url);
     if (!request.json) text += "\n" + stored;
@@ -127,6 +137,11 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   Diagnosis d = diagnose(evaluated.trace, evaluated.evaluation, options);
   // The radial note is the evaluation's first note: what was evaluated.
   if (evaluated.radial) d.notes.insert(d.notes.begin(), evaluated.evaluation.notes.front());
+  if (!request.svg_path.empty()) {
+    PlotOptions plot = request.plot;
+    plot.diagnosis = &d;
+    write_file_atomic(request.svg_path, svg_plot(evaluated.evaluation, evaluated.trace, plot));
+  }
   std::string text = request.json ? to_json(d).dump(2) + "\n" : text_report(d);
   if (request.store) {
     const std::string stored =

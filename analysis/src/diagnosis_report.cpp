@@ -43,6 +43,14 @@ json to_json(const Diagnosis& d) {
   j["axes"] = {std::string(1, d.axes[0]), std::string(1, d.axes[1])};
   j["feeds_mm_per_min"] = d.feeds_mm_per_min;
   j["backlash_mm"] = per_axis(d, d.backlash_mm);
+  // The step at each end of the axis' travel on its own (added in circtest.diagnosis/1).
+  json ends = json::object();
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& e = d.backlash_reversals_mm[k];
+    ends[std::string(1, d.axes[k])] =
+        e ? json{{"positive_end", (*e)[0]}, {"negative_end", (*e)[1]}} : json(nullptr);
+  }
+  j["backlash_reversals_mm"] = ends;
   j["reversal_spike_mm"] = per_axis(d, d.spike_mm);
   j["reversal_spike_ms"] = per_axis(d, d.spike_ms);
   j["scale_ppm"] = per_axis(d, d.scale_ppm);
@@ -132,6 +140,10 @@ std::string text_report(const Diagnosis& d) {
                      *b.value < -std::max(1e-4, 2 * b.standard_error.value_or(0))
                          ? ": negative, over-compensated"
                          : (*b.value > 1e-4 ? " of lost motion" : ""));
+      if (const auto& e = d.backlash_reversals_mm[k]) {
+        fmt::format_to(out, "    at the + end of {} {:.1f} um, at the - end {:.1f} um\n", X,
+                       (*e)[0] * 1e3, (*e)[1] * 1e3);
+      }
     } else {
       fmt::format_to(out, "  {} backlash: not available\n", X);
     }

@@ -80,6 +80,80 @@ Layer polar_paths(const PlotLayer& in, const PlotOptions& options, double& dmax)
   return layer;
 }
 
+// The diagnosis panel: one line per identified source, then the contributions to the modelled
+// G as bars scaled to the largest, then the residual. Returns its height.
+double diagnosis_panel(std::string& s, const Diagnosis& d, double x0, double y0, double width) {
+  auto out = std::back_inserter(s);
+  std::vector<std::string> lines;
+  for (std::size_t k = 0; k < 2; ++k) {
+    const char a = d.axes[k];
+    if (d.backlash_mm[k].value) {
+      std::string l = fmt::format("{} backlash {:.1f} um", a, *d.backlash_mm[k].value * 1e3);
+      if (const auto& e = d.backlash_reversals_mm[k]) {
+        l += fmt::format(" (+ end {:.1f}, - end {:.1f})", (*e)[0] * 1e3, (*e)[1] * 1e3);
+      }
+      lines.push_back(l);
+    }
+    if (d.spike_mm[k].value && d.spike_ms[k].value) {
+      lines.push_back(fmt::format("{} reversal spike {:.1f} um, decay {:.1f} ms", a,
+                                  *d.spike_mm[k].value * 1e3, *d.spike_ms[k].value));
+    }
+    if (const auto& c = d.cyclic[k]) {
+      lines.push_back(fmt::format("{} cyclic {:.2f} um at pitch {:.3f} mm", a,
+                                  c->amplitude_mm * 1e3, c->pitch_mm));
+    }
+  }
+  if (d.squareness_urad.value) {
+    const double v = *d.squareness_urad.value;
+    lines.push_back(fmt::format("squareness {:+.1f} urad (+{}/+{} at 90 deg {} {:.1f} urad)", v,
+                                d.axes[0], d.axes[1], v >= 0 ? "-" : "+", std::abs(v)));
+  }
+  if (d.servo_mismatch_ms.value) {
+    const double m = *d.servo_mismatch_ms.value;
+    lines.push_back(fmt::format("servo mismatch: {} lags {} by {:.3f} ms",
+                                m >= 0 ? d.axes[0] : d.axes[1], m >= 0 ? d.axes[1] : d.axes[0],
+                                std::abs(m)));
+  }
+  if (d.scale_mismatch_ppm.value) {
+    lines.push_back(fmt::format("scale mismatch s_{} - s_{} {:+.1f} ppm", d.axes[0], d.axes[1],
+                                *d.scale_mismatch_ppm.value));
+  }
+  double y = y0;
+  fmt::format_to(out,
+                 "<g class=\"diagnosis\">\n<text x=\"{:.0f}\" y=\"{:.0f}\" font-size=\"14\" "
+                 "font-weight=\"bold\">Diagnosis (circana diagnose)</text>\n",
+                 x0, y);
+  y += 20;
+  for (const std::string& l : lines) {
+    fmt::format_to(out, "<text class=\"source\" x=\"{:.0f}\" y=\"{:.0f}\">{}</text>\n", x0, y,
+                   xml_escape(l));
+    y += 17;
+  }
+  y += 8;
+  fmt::format_to(
+      out, "<text x=\"{:.0f}\" y=\"{:.0f}\" font-weight=\"bold\">{}</text>\n", x0, y,
+      xml_escape(fmt::format("Contributions to the modelled G ({:.1f} um)", d.model_g_mm * 1e3)));
+  y += 8;
+  double gmax = 0.0;
+  for (const auto& c : d.contributions) gmax = std::max(gmax, c.g_mm);
+  const double bar_w = width - 10.0;
+  for (const auto& c : d.contributions) {
+    const double w = gmax > 0 ? bar_w * c.g_mm / gmax : 0.0;
+    fmt::format_to(
+        out,
+        "<rect class=\"contribution\" x=\"{:.0f}\" y=\"{:.0f}\" width=\"{:.1f}\" "
+        "height=\"14\" fill=\"#9ab8e0\"/>\n<text x=\"{:.0f}\" y=\"{:.0f}\">{}</text>\n",
+        x0, y + 4, w, x0 + 3, y + 15,
+        xml_escape(fmt::format("{}: G {:.2f} um, {:.0f} %", c.source, c.g_mm * 1e3, c.percent)));
+    y += 20;
+  }
+  y += 10;
+  fmt::format_to(out, "<text x=\"{:.0f}\" y=\"{:.0f}\">{}</text>\n</g>\n", x0, y,
+                 xml_escape(fmt::format("residual (measured - model): RMS {:.2f} um, G {:.2f} um",
+                                        d.residual_rms_mm * 1e3, d.residual_g_mm * 1e3)));
+  return y - y0 + 10;
+}
+
 }  // namespace
 
 std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions& options) {
@@ -142,12 +216,22 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
 
   std::string s;
   auto out = std::back_inserter(s);
-  const double height = size + 20.0 + 18.0 * static_cast<double>(legend.size());
+  double height = size + 20.0 + 18.0 * static_cast<double>(legend.size());
+  // The diagnosis panel beside the plot: drawn first into its own string, as its height can
+  // set the document's.
+  constexpr double kPanelWidth = 380.0;
+  std::string panel;
+  if (options.diagnosis) {
+    const double h = diagnosis_panel(panel, *options.diagnosis, size + 10.0, 18.0, kPanelWidth);
+    height = std::max(height, h + 28.0);
+  }
+  const double width = options.diagnosis ? size + 20.0 + kPanelWidth : size;
   fmt::format_to(out,
                  "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
                  "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"12\">\n"
                  "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
-                 size, height);
+                 width, height);
+  s += panel;
   fmt::format_to(out,
                  "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
                  "circular test, plane {}</text>\n",

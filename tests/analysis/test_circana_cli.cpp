@@ -297,6 +297,15 @@ TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
   EXPECT_NE(text.out.find("is 90 deg - 100."), std::string::npos) << text.out;
   const CommandResult analyze = run("analyze " + trace);
   EXPECT_NE(analyze.out.find("Diagnosis"), std::string::npos);
+  // --svg: the plot with the diagnosis panel, from diagnose and from analyze (also with --json).
+  const std::string svg = (dir_ / "diag.svg").string();
+  ASSERT_EQ(run("diagnose " + trace + " --json --svg " + svg).exit_code, 0);
+  EXPECT_NE(circtest::testing::slurp(svg).find("X backlash 10.0 um"), std::string::npos);
+  EXPECT_NE(circtest::testing::slurp(svg).find("class=\"contribution\""), std::string::npos);
+  fs::remove(svg);
+  ASSERT_EQ(run("analyze " + trace + " --json --svg " + svg).exit_code, 0);
+  EXPECT_NE(circtest::testing::slurp(svg).find("servo mismatch: X lags Y by 3.0"),
+            std::string::npos);
   expect_error("diagnose " + trace + " --pitch X5", 2,
                "--pitch: expected AXIS=MM items like X=5,Y=5, got 'X5'");
   expect_error("diagnose " + trace + " --pitch X=-1", 2,

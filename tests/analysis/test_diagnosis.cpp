@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <numbers>
 #include <string>
 
 #include "circtest/analysis/diagnosis.hpp"
@@ -83,6 +85,14 @@ void expect_recovered(const Diagnosis& d, const Truth& t, const std::string& wha
   ASSERT_TRUE(d.backlash_mm[1].value);
   EXPECT_NEAR(*d.backlash_mm[0].value, t.backlash_a, tol(t.backlash_a, 0.3 * kUm));
   EXPECT_NEAR(*d.backlash_mm[1].value, t.backlash_b, tol(t.backlash_b, 0.3 * kUm));
+  // Each end on its own, where the arcs cover both: the same play at both.
+  for (std::size_t k = 0; k < 2; ++k) {
+    const double b = k == 0 ? t.backlash_a : t.backlash_b;
+    if (const auto& e = d.backlash_reversals_mm[k]) {
+      EXPECT_NEAR((*e)[0], b, tol(b, 0.3 * kUm)) << "+ end of axis " << k;
+      EXPECT_NEAR((*e)[1], b, tol(b, 0.3 * kUm)) << "- end of axis " << k;
+    }
+  }
   for (int k = 0; k < 2; ++k) {
     const double h = k == 0 ? t.spike_a : t.spike_b;
     const double ms = k == 0 ? t.spike_ms_a : t.spike_ms_b;
@@ -245,6 +255,43 @@ INSTANTIATE_TEST_SUITE_P(Planes, Diagnose,
                                            Case{Plane::ZX, 360}, Case{Plane::XY, 220},
                                            Case{Plane::YZ, 220}, Case{Plane::ZX, 220}),
                          name);
+
+// The two reversals of an axis apart: 10 um of play, and 4 um more lost at the + end of X that
+// the table then recovers evenly until the - end (x += e (1 - phi / pi) while X moves -, phi
+// the angle since the + end). The + end steps 14 um, the - end 10 um; the mean is what the
+// model's single backlash gets.
+TEST(DiagnoseReversals, TheTwoEndsOfAnAxisSeparately) {
+  Truth t;
+  t.backlash_a = 10 * kUm;
+  t.noise = 0.2 * kUm;
+  sim::CircleProgram p = program(Plane::XY, 360);
+  p.start_deg = 45.0;  // both ends of X inside the runs, not at their start
+  Trace trace = simulate(t, p);
+  const double e = 4 * kUm;
+  auto& x = trace.values[static_cast<std::size_t>(trace.column_index("x"))];
+  const auto& y = *trace.column("y");
+  const auto& seg = *trace.column("segment");
+  for (std::size_t i = 0; i < trace.rows(); ++i) {
+    if (seg[i] < 1) continue;
+    const double dir = seg[i] == 1 ? 1.0 : -1.0;  // the program's runs: CCW, then CW
+    double phi = std::fmod(dir * std::atan2(y[i] - p.centre_mm[1], x[i] - p.centre_mm[0]),
+                           2 * std::numbers::pi);
+    if (phi < 0) phi += 2 * std::numbers::pi;
+    if (phi < std::numbers::pi) x[i] += e * (1.0 - phi / std::numbers::pi);
+  }
+  const Diagnosis d = diagnose(trace);
+  ASSERT_TRUE(d.backlash_reversals_mm[0]);
+  std::printf("X backlash %.3f um, + end %.3f um (14), - end %.3f um (10)\n",
+              *d.backlash_mm[0].value * 1e3, (*d.backlash_reversals_mm[0])[0] * 1e3,
+              (*d.backlash_reversals_mm[0])[1] * 1e3);
+  EXPECT_NEAR((*d.backlash_reversals_mm[0])[0], 14 * kUm, 0.5 * kUm);
+  EXPECT_NEAR((*d.backlash_reversals_mm[0])[1], 10 * kUm, 0.5 * kUm);
+  ASSERT_TRUE(d.backlash_reversals_mm[1]);  // Y: no play at either end
+  EXPECT_NEAR((*d.backlash_reversals_mm[1])[0], 0.0, 0.3 * kUm);
+  EXPECT_NEAR((*d.backlash_reversals_mm[1])[1], 0.0, 0.3 * kUm);
+  const std::string text = text_report(d);
+  EXPECT_NE(text.find("at the + end of X 1"), std::string::npos) << text;
+}
 
 // The modelled G is the G the instrument measured, less what the model leaves.
 TEST(DiagnoseContributions, ModelledGIsTheMeasuredG) {

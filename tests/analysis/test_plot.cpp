@@ -61,3 +61,51 @@ TEST(Plot, DrawnDeviationsMatchThePathAtTheStatedScale) {
   // 0.1 px of rounding in the SVG coordinates.
   EXPECT_NEAR(drawn, truth, 0.1 / px_per_mm + 0.002 * truth);
 }
+
+// The diagnosis panel: every identified source with its value, one bar per contribution in
+// rank order with lengths in proportion to their G, and the plot itself unchanged beside it.
+TEST(Plot, DiagnosisPanelListsTheSourcesAndScalesTheBars) {
+  sim::MachineModel m;
+  m.x.backlash_mm = 0.012;
+  m.x.kv_per_s = 30;
+  m.y.kv_per_s = 33;
+  m.squareness_rad = 60e-6;
+  sim::CircleProgram p;
+  p.start_deg = 45.0;
+  const Trace trace = sim::simulate(m, p);
+  const Evaluation ev = evaluate(trace, {});
+  const Diagnosis d = diagnose(trace, ev);
+  PlotOptions po;
+  const std::string plain = svg_plot(ev, trace, po);
+  po.diagnosis = &d;
+  const std::string svg = svg_plot(ev, trace, po);
+  EXPECT_EQ(plain.find("class=\"diagnosis\""), std::string::npos);
+  ASSERT_NE(svg.find("class=\"diagnosis\""), std::string::npos);
+  EXPECT_NE(svg.find("X backlash 12.0 um (+ end 12.0, - end 12.0)"), std::string::npos) << svg;
+  EXPECT_NE(svg.find("squareness +60.0 urad"), std::string::npos);
+  EXPECT_NE(svg.find("servo mismatch: X lags Y by 3.03"), std::string::npos);
+  // The polar plot's paths are the same with and without the panel.
+  auto polylines = [](const std::string& s) {
+    // Plain search: std::regex recurses per character and overflows the stack on a path.
+    std::string all;
+    for (std::size_t at = s.find("<polyline"); at != std::string::npos;
+         at = s.find("<polyline", at + 1)) {
+      all += s.substr(at, s.find("/>", at) - at);
+    }
+    return all;
+  };
+  EXPECT_EQ(polylines(svg), polylines(plain));
+  // Bars: one per contribution, ranked, widths in proportion to G.
+  std::vector<double> widths;
+  const std::string rect = "<rect class=\"contribution\"";
+  for (std::size_t at = svg.find(rect); at != std::string::npos; at = svg.find(rect, at + 1)) {
+    const std::size_t w = svg.find("width=\"", at) + 7;
+    widths.push_back(std::stod(svg.substr(w, svg.find('"', w) - w)));
+  }
+  ASSERT_EQ(widths.size(), d.contributions.size());
+  ASSERT_GE(widths.size(), 3u);
+  for (std::size_t k = 1; k < widths.size(); ++k) {
+    EXPECT_LE(widths[k], widths[k - 1]);
+    EXPECT_NEAR(widths[k] / widths[0], d.contributions[k].g_mm / d.contributions[0].g_mm, 0.01);
+  }
+}

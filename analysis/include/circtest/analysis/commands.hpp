@@ -40,9 +40,11 @@ struct DiagnoseRequest {
   std::string trace_path;
   DiagnosisOptions options;
   bool json = false;
-  bool radial = false;  // a ball bar's trace (found by itself when it has the r column)
-  bool store = false;   // also keep the test with its diagnosis in the history (--store)
-  std::string db_url;   // the history: empty for the default SQLite file
+  bool radial = false;   // a ball bar's trace (found by itself when it has the r column)
+  bool store = false;    // also keep the test with its diagnosis in the history (--store)
+  std::string db_url;    // the history: empty for the default SQLite file
+  std::string svg_path;  // also write the plot with the diagnosis panel there, when set
+  PlotOptions plot;
 };
 // Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write.
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out);

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/core/trace.hpp"
 
@@ -16,6 +17,9 @@ struct PlotOptions {
   // A fixed scale (mm of deviation per grid division) so that two plots compare; automatic
   // (1, 2, 5 x 10^k covering the largest deviation in 4 divisions) when empty.
   std::optional<double> mm_per_division;
+  // A diagnosis of the same trace: drawn as a panel beside the polar plot (the identified
+  // sources with their values, and the ranked contributions to G as bars). Not owned.
+  const Diagnosis* diagnosis = nullptr;
 };
 
 // An SVG document of the evaluation's runs, drawn from the trace it was made from: each
