@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Times `circana analyze --json` on a 1e6-sample CCW+CW trace, text and binary, against the
 # floors measured in the same rounds by bench/parse_baseline (parsing every number with
-# std::from_chars; reading the .ctb's bytes), prints the ratios and circana's peak memory.
+# std::from_chars; reading the .ctb's bytes), prints the ratios and circana's peak memory;
+# then `circana diagnose --json` on the same files against analyze (issue 9: at most 2x).
 # Rounds interleave circana and the floors, so a busy machine slows both alike; the best
 # round of each counts.
 # usage: bench/analyze-cli.sh [BUILD_DIR] [ROUNDS]   (Release build; needs /usr/bin/time)
@@ -52,3 +53,25 @@ bench() {
 echo "machine: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg), best of $rounds rounds"
 bench "$work/trace-1e6.csv" csv
 bench "$work/trace-1e6.ctb" binary
+
+# diagnose FILE: best wall and CPU of `circana diagnose --json` and of `analyze --json`,
+# interleaved, and their ratio; diagnose's peak memory.
+diagnose_bench() {
+  local file=$1 dw=999 dc=999 aw=999 ac=999 t
+  for _ in $(seq "$rounds"); do
+    t=$( { /usr/bin/time -f '%e %U %S' "$build/analysis/circana" diagnose "$file" --json >/dev/null; } 2>&1 | tail -1)
+    dw=$(min "$dw" "$(cut -d' ' -f1 <<<"$t")")
+    dc=$(min "$dc" "$(awk '{ print $2 + $3 }' <<<"$t")")
+    t=$( { /usr/bin/time -f '%e %U %S' "$build/analysis/circana" analyze "$file" --json >/dev/null; } 2>&1 | tail -1)
+    aw=$(min "$aw" "$(cut -d' ' -f1 <<<"$t")")
+    ac=$(min "$ac" "$(awk '{ print $2 + $3 }' <<<"$t")")
+  done
+  local rss
+  rss=$( { /usr/bin/time -f '%M' "$build/analysis/circana" diagnose "$file" --json >/dev/null; } 2>&1 | tail -1)
+  awk -v f="$file" -v dw="$dw" -v dc="$dc" -v aw="$aw" -v ac="$ac" -v rss="$rss" 'BEGIN {
+    printf "%s: circana diagnose --json %.3f s wall, %.2f s CPU; analyze --json %.3f s wall, %.2f s CPU\n", f, dw, dc, aw, ac
+    printf "  diagnose / analyze: %.2fx wall, %.2fx CPU (target 2x); diagnose peak RSS %d MiB\n", dw / aw, dc / ac, rss / 1024
+  }'
+}
+diagnose_bench "$work/trace-1e6.csv"
+diagnose_bench "$work/trace-1e6.ctb"
