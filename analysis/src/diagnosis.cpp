@@ -7,8 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <cstdio>
-#include <cstdlib>
 #include <numbers>
 #include <numeric>
 
@@ -1227,13 +1225,6 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     }
     model[i] = shape;
     resid[i] = S.dr[i] - full;
-  }
-  if (const char* dump = std::getenv("CIRCTEST_DIAG_DUMP")) {
-    std::FILE* f = std::fopen(dump, "w");
-    for (std::size_t i = 0; i < S.size(); ++i)
-      std::fprintf(f, "%u,%.6f,%.6f,%.6f,%.6f,%.6f\n", S.run[i], std::atan2(S.s[i], S.c[i]),
-                   S.dr[i] * 1e3, resid[i] * 1e3, since_a(S, st, i), since_b(S, st, i));
-    std::fclose(f);
   }
   reversal_steps(S, resid, D);
   double ss = 0.0;
