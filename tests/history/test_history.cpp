@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "circtest/analysis/history_record.hpp"
@@ -68,7 +69,20 @@ class PostgresServer {
                    dir_.string()));
     start();
   }
+  // The server of the ctest fixture history_pg (pg-server.sh), shared by every db test
+  // process: neither stopped nor removed here.
+  PostgresServer(fs::path dir, int port) : dir_(std::move(dir)), port_(port), owned_(false) {}
+  // The fixture's server when ctest started one (CIRCTEST_PG_SHARED_DIR/server), else null.
+  static std::unique_ptr<PostgresServer> shared() {
+    std::ifstream in(fs::path(CIRCTEST_PG_SHARED_DIR) / "server");
+    std::string dir;
+    int port = 0;
+    if (!(in >> dir >> port)) return nullptr;
+    return std::make_unique<PostgresServer>(dir, port);
+  }
+  bool owned() const { return owned_; }
   ~PostgresServer() {
+    if (!owned_) return;
     stop();
     fs::remove_all(dir_);
   }
@@ -114,6 +128,7 @@ class PostgresServer {
   fs::path dir_;
   std::string bin_, as_;
   int port_ = 0;
+  bool owned_ = true;
 };
 
 PostgresServer* g_server = nullptr;
@@ -147,7 +162,10 @@ enum class Backend { sqlite, postgresql };
 class History : public ::testing::TestWithParam<Backend> {
  protected:
   static void SetUpTestSuite() {
-    if (!g_server) g_server = new PostgresServer();
+    if (!g_server) {
+      auto shared = PostgresServer::shared();
+      g_server = shared ? shared.release() : new PostgresServer();
+    }
   }
   static void TearDownTestSuite() {
     delete g_server;
@@ -163,7 +181,8 @@ class History : public ::testing::TestWithParam<Backend> {
       url_ = (dir_ / "history.sqlite").string();
     } else {
       // A fresh database per test: migration from nothing every time.
-      const std::string db = fmt::format("t{}", ++g_databases);
+      // Named by process too: the fixture's server is shared by every test process.
+      const std::string db = fmt::format("t{}_{}", getpid(), ++g_databases);
       g_server->create_database(db);
       url_ = g_server->url(db);
     }
@@ -420,6 +439,15 @@ TEST_P(History, ConcurrentStoresFromTwoProcessesLoseNothing) {
 // A store cut off in the middle (the process killed, the server crashing) leaves whole tests
 // only: each test has all its measures or is not there.
 TEST_P(History, AStoreCutOffLeavesNoHalfTest) {
+  // The server is killed here: never the fixture's, which other test processes use.
+  PostgresServer* server = g_server;
+  std::unique_ptr<PostgresServer> own;
+  if (GetParam() == Backend::postgresql && !g_server->owned()) {
+    own = std::make_unique<PostgresServer>();
+    own->create_database("cut");
+    url_ = own->url("cut");
+    server = own.get();
+  }
   open_store(url_);
   const nlohmann::json doc = simulated_result(0.01, "2026-01-05", dir_);
   const pid_t pid = fork();
@@ -436,11 +464,11 @@ TEST_P(History, AStoreCutOffLeavesNoHalfTest) {
   if (GetParam() == Backend::sqlite) {
     ::kill(pid, SIGKILL);
   } else {
-    g_server->kill();
+    server->kill();
   }
   int status = 0;
   waitpid(pid, &status, 0);
-  if (GetParam() == Backend::postgresql) g_server->start();
+  if (GetParam() == Backend::postgresql) server->start();
   const auto tests = open_store(url_)->tests("VMC-3", "");
   EXPECT_GT(tests.size(), 0u);
   for (const auto& t : tests) EXPECT_EQ(t.measures.size(), 7u) << "test " << t.id;
