@@ -48,6 +48,8 @@ measure before
 measure after
 "$circana" diagnose "$out/after.csv" --json >"$out/after-diagnosis.json"
 "$circana" diagnose "$out/after.csv" >"$out/after-diagnosis.txt"
+"$circana" analyze "$out/after.csv" --compare "$out/before.csv" --svg "$out/before-after.svg" \
+  --scale-um-per-div 5 >/dev/null
 
 cat "$out/before-report.txt"
 echo
@@ -96,7 +98,8 @@ echo "  before.csv, after.csv      what circlog logged every servo period (comma
 echo "                             motor x_fb and table x, the instrument), before and after"
 echo "  before.json, after.json    H, G, F per direction in mm (circana analyze --json)"
 echo "  before-report.txt, after-report.txt   the clause 6 reports"
-echo "  before.svg, after.svg      the paths of both runs at one scale (5 um/div), to compare"
+echo "  before-after.svg           both tests in one plot at 5 um/div: before solid, after dashed"
+echo "  before.svg, after.svg      each test alone, at the same scale"
 echo "  diagnosis.json/.txt        circana diagnose of the first run (what circcomp reads)"
 echo "  plan.diff                  circcomp plan: every file it changes or creates, and advice"
 echo "  after-diagnosis.json/.txt  circana diagnose of the compensated machine"

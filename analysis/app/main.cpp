@@ -25,7 +25,8 @@ const char* kUsage =
     "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
     "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
     "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
-    "                     [--svg PLOT.svg] [--scale-um-per-div UM] [--radial]\n"
+    "                     [--svg PLOT.svg] [--compare EARLIER_TRACE] [--scale-um-per-div UM]\n"
+    "                     [--radial]\n"
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
     "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json] [--svg F]\n"
@@ -128,6 +129,7 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
                                                      "")("json", "JSON on stdout")(
       "svg", po::value<std::string>(), "write the plot of the paths to this SVG file")(
       "scale-um-per-div", po::value<std::string>(), "fixed plot scale, um per division")(
+      "compare", po::value<std::string>(), "with --svg: an earlier trace drawn under this one")(
       "radial", "evaluate the length channel r (ball bar) even if the trace has x,y");
   add_condition_options(desc);
   extra(desc);
@@ -153,6 +155,7 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   req.json = vm.count("json") > 0;
   req.radial = vm.count("radial") > 0;
   if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
+  if (vm.count("compare")) req.compare_path = vm["compare"].as<std::string>();
   auto& o = req.options;
   o.nominal_radius_mm = number("radius");
   if (o.nominal_radius_mm && *o.nominal_radius_mm <= 0) {
@@ -219,6 +222,7 @@ int store(const std::vector<std::string>& args) {
     d.add_options()("db", po::value<std::string>(),
                     "the history: SQLite file or postgresql:// URL");
   });
+  if (!p.request.compare_path.empty()) throw UsageError("--compare: only for circana analyze");
   StoreRequest req;
   req.path = p.request.trace_path;
   req.options = p.request.options;
@@ -272,6 +276,7 @@ int diagnose(const std::vector<std::string>& args) {
         "store", "also keep the test and its diagnosis in the history")(
         "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
   });
+  if (!p.request.compare_path.empty()) throw UsageError("--compare: only for circana analyze");
   DiagnoseRequest req;
   req.svg_path = p.request.svg_path;
   req.plot = p.request.plot;

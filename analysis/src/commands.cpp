@@ -94,6 +94,9 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& g
 }
 
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
+  if (!request.compare_path.empty() && request.svg_path.empty()) {
+    throw UsageError("--compare: draws into the plot, so it needs --svg");
+  }
   const EvaluatedTrace evaluated =
       evaluate_file(request.trace_path, request.options, request.radial);
   const Trace& trace = evaluated.trace;
@@ -114,7 +117,13 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
     text += diagnosis ? short_text_report(*diagnosis)
                       : std::string("\nDiagnosis: not available (") + diagnosis_error + ")\n";
   }
-  if (!request.svg_path.empty()) {
+  if (!request.svg_path.empty() && !request.compare_path.empty()) {
+    const EvaluatedTrace before =
+        evaluate_file(request.compare_path, request.options, request.radial);
+    write_file_atomic(request.svg_path, svg_plot({{&before.evaluation, &before.trace, "before"},
+                                                  {&ev, &trace, "after"}},
+                                                 request.plot));
+  } else if (!request.svg_path.empty()) {
     PlotOptions plot = request.plot;
     if (diagnosis) plot.diagnosis = &*diagnosis;
     write_file_atomic(request.svg_path, svg_plot(ev, trace, plot));

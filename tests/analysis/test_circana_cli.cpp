@@ -470,3 +470,25 @@ TEST_F(CircanaCli, TraceWithoutTimeIsEvaluatedWithANote) {
   EXPECT_FALSE(b["runs"][0].contains("feed_mm_per_min") &&
                !b["runs"][0]["feed_mm_per_min"].is_null());
 }
+
+TEST_F(CircanaCli, CompareDrawsTheEarlierTestUnderThisOneInOnePlot) {
+  const std::string before = (dir_ / "before.csv").string();
+  const std::string after = (dir_ / "after.csv").string();
+  ASSERT_EQ(simtrace("-o " + before + " --d 150 --f 1000 --backlash-x 0.02"), 0);
+  ASSERT_EQ(simtrace("-o " + after + " --d 150 --f 1000 --backlash-x 0.002"), 0);
+  const std::string svg = (dir_ / "both.svg").string();
+  const CommandResult r = run("analyze " + after + " --svg " + svg + " --compare " + before);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string text = circtest::testing::slurp(svg);
+  // Both tests' H in the legend: the earlier one (20 um play) first, this one dashed.
+  const auto h_before = text.find("before: H_XY = 20.0 um");
+  const auto h_after = text.find("after: H_XY = 2.0 um");
+  EXPECT_NE(h_before, std::string::npos) << text.substr(0, 4000);
+  EXPECT_NE(h_after, std::string::npos);
+  EXPECT_LT(h_before, h_after);
+  EXPECT_NE(text.find("after: channels evaluated x, y (dashed)"), std::string::npos);
+  expect_error("analyze " + after + " --compare " + before, 2,
+               "--compare: draws into the plot, so it needs --svg");
+  expect_error("diagnose " + after + " --compare " + before, 2,
+               "--compare: only for circana analyze");
+}

@@ -26,6 +26,9 @@ struct AnalyzeRequest {
   bool json = false;
   std::string svg_path;  // also write the clause 6 plot there (atomically), when set
   PlotOptions plot;
+  // With svg_path: an earlier trace of the same test (before a compensation), evaluated with
+  // the same options and drawn under this one in the same frame (--compare).
+  std::string compare_path;
   // Evaluate the radial channel `r` even when the plane's position columns exist (a trace
   // without them is evaluated from `r` anyway).
   bool radial = false;
