@@ -33,6 +33,21 @@ void print_summary(const Plan& plan, std::ostream& out) {
   for (const auto& a : plan.advice) out << "# advice: " << a << "\n";
 }
 
+// The crash test's hook (docs/compensation.md): SIGKILL itself after step K of apply or
+// revert, as a power cut or an OOM kill would stop it, so the test sees what such a stop
+// leaves.
+StepHook crash_test_hook() {
+  const char* k = std::getenv("CIRCCOMP_KILL_AFTER_STEP");
+  if (k == nullptr) return {};
+  const auto kill_step =
+      static_cast<std::size_t>(parse_option_index("CIRCCOMP_KILL_AFTER_STEP", k));
+  return [kill_step](std::size_t step, const std::string& what) {
+    if (step != kill_step) return;
+    std::cerr << "circcomp: killed after step " << step << " (" << what << ")" << std::endl;
+    ::raise(SIGKILL);
+  };
+}
+
 int run(int argc, char** argv) {
   if (argc < 2) throw UsageError(std::string("expected plan, apply or revert\n") + kUsage);
   const std::string command = argv[1];
@@ -70,7 +85,7 @@ int run(int argc, char** argv) {
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
   if (command == "revert") {
     if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
-    std::cout << (revert(ini)
+    std::cout << (revert(ini, crash_test_hook())
                       ? "circcomp: reverted " + ini + " to the state before the last apply\n"
                       : "circcomp: nothing to revert for " + ini + "\n");
     return 0;
@@ -106,19 +121,7 @@ int run(int argc, char** argv) {
     std::cout << "circcomp: nothing to change in " << ini << "\n";
     return 0;
   }
-  // The crash test's hook (docs/compensation.md): SIGKILL itself after step K, as a power cut
-  // or an OOM kill would stop it, so the test sees what such a stop leaves.
-  StepHook hook;
-  if (const char* k = std::getenv("CIRCCOMP_KILL_AFTER_STEP")) {
-    const auto kill_step =
-        static_cast<std::size_t>(parse_option_index("CIRCCOMP_KILL_AFTER_STEP", k));
-    hook = [kill_step](std::size_t step, const std::string& what) {
-      if (step != kill_step) return;
-      std::cerr << "circcomp: killed after step " << step << " (" << what << ")" << std::endl;
-      ::raise(SIGKILL);
-    };
-  }
-  apply_plan(plan, hook);
+  apply_plan(plan, crash_test_hook());
   print_summary(plan, std::cout);
   for (const auto& f : plan.files) {
     std::cout << "circcomp: " << (f.existed ? "changed " : "created ") << f.path << "\n";

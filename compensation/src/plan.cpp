@@ -716,7 +716,7 @@ void apply_plan(const Plan& plan, const StepHook& after_step) {
   for (const FileChange& f : plan.files) write(f.path, f.after, f.path);
 }
 
-bool revert(const std::string& ini_path) {
+bool revert(const std::string& ini_path, const StepHook& after_step) {
   const fs::path state = state_dir(ini_path);
   const fs::path manifest_path = state / "manifest";
   std::error_code ec;
@@ -749,19 +749,24 @@ bool revert(const std::string& ini_path) {
     steps.push_back(
         {kind == "existed" ? line.substr(t1 + 1, t2 - t1 - 1) : "", line.substr(t2 + 1)});
   }
+  std::size_t step = 0;
   for (const auto& [backup, path] : steps) {
     if (backup.empty()) {
       fs::remove(path, ec);
       if (ec) throw IoError(path, "cannot remove: " + ec.message());
+      fsync_parent_directory(path);
+      if (after_step) after_step(step++, path + ": removed");
     } else {
       const std::string original = read_file((state / backup).string());
       bool exists = false;
       if (slurp_if(path, exists) != original || !exists) write_file_atomic(path, original);
+      if (after_step) after_step(step++, path + ": restored");
     }
   }
   fsync_parent_directory(ini_path);
   // The manifest goes last: a crash before this point reverts again to the same state.
   fs::remove(manifest_path, ec);
+  if (after_step) after_step(step++, "manifest removed");
   // Every original, also those a crashed apply left without a manifest naming them.
   for (const auto& entry : fs::directory_iterator(state, ec)) {
     if (entry.path().filename().string().ends_with(".orig")) fs::remove(entry.path(), ec);

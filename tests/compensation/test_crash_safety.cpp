@@ -86,9 +86,11 @@ Outcome apply(const fs::path& dir, const fs::path& diagnosis, long kill_after) {
   return o;
 }
 
-int revert(const fs::path& dir) {
-  const std::string cmd =
-      std::string(CIRCCOMP_PATH) + " revert --ini " + (dir / "m.ini").string() + " >/dev/null";
+int revert(const fs::path& dir, long kill_after = -1) {
+  std::string cmd;
+  if (kill_after >= 0) cmd = "CIRCCOMP_KILL_AFTER_STEP=" + std::to_string(kill_after) + " ";
+  cmd +=
+      std::string(CIRCCOMP_PATH) + " revert --ini " + (dir / "m.ini").string() + " >/dev/null 2>&1";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -205,4 +207,32 @@ TEST_F(CrashSafety, KilledDuringASecondApplyKeepsTheFirstOnesOriginals) {
     EXPECT_EQ(tree_of(dir), committed ? after_one : original)
         << "step " << k << " (" << o.err << ")";
   }
+}
+
+TEST_F(CrashSafety, KilledRevertIsFinishedByTheNextOne) {
+  // A complete apply, then revert killed after each of its steps (each file restored or
+  // removed, the manifest removed): every file whole, and a second revert ends at the state
+  // before the apply.
+  long steps = 0;
+  for (long k = 0; k < 100; ++k) {
+    const fs::path dir = root_ / named("r", k);
+    make_machine(dir);
+    const Tree old_tree = tree_of(dir);
+    spit(root_ / "r.json", diagnosis_for(dir / "m.ini", 100.0, true));
+    ASSERT_EQ(apply(dir, root_ / "r.json", -1).exit_code, 0);
+    const Tree new_tree = tree_of(dir);
+    const int rc = revert(dir, k);
+    if (rc != 128 + SIGKILL) {
+      ASSERT_EQ(rc, 0);
+      EXPECT_EQ(tree_of(dir), old_tree);
+      steps = k;
+      break;
+    }
+    expect_whole(tree_of(dir), old_tree, new_tree, k);
+    expect_no_temporaries(dir, k);
+    ASSERT_EQ(revert(dir), 0) << "step " << k;
+    EXPECT_EQ(tree_of(dir), old_tree) << "step " << k;
+    EXPECT_FALSE(fs::exists(dir / ".circcomp")) << "step " << k;
+  }
+  EXPECT_EQ(steps, 4 + 1);  // four files, then the manifest
 }

@@ -55,6 +55,8 @@ using StepHook = std::function<void(std::size_t step, const std::string& what)>;
 void apply_plan(const Plan& plan, const StepHook& after_step = {});
 // Restores the state before the last apply byte-identical (created files removed). Returns
 // false when there is nothing to revert (a second revert is a no-op).
-bool revert(const std::string& ini_path);
+// AFTER_STEP as for apply_plan, after each file and after the manifest's removal: a revert
+// killed anywhere is finished by the next one.
+bool revert(const std::string& ini_path, const StepHook& after_step = {});
 
 }  // namespace circtest::compensation
