@@ -123,7 +123,13 @@ namespace {
 // Each pass evaluates the cost, J^T J and J^T e at the trial parameters; a trial that does not
 // lower the cost is rejected and retried with a larger damping, reusing the stored normal
 // equations.
-Circle lsc_refine(const double* pa, const double* pb, std::size_t n, Vec2 m, Circle start) {
+struct Points {
+  const double* a;
+  const double* b;
+  std::size_t n;
+};
+
+Circle lsc_refine(std::span<const Points> sets, Vec2 m, Circle start) {
   struct Eval {
     double jtj[6];  // xx, xy, xr, yy, yr, rr
     double jte[3];
@@ -131,31 +137,36 @@ Circle lsc_refine(const double* pa, const double* pb, std::size_t n, Vec2 m, Cir
   };
   auto evaluate = [&](double cx, double cy, double r) {
     Neumaier acc[10];
-    for (std::size_t start_i = 0; start_i < n; start_i += kBlock) {
-      const std::size_t stop = std::min(n, start_i + kBlock);
-      double s[10] = {};
-      for (std::size_t i = start_i; i < stop; ++i) {
-        const double dx = pa[i] - m.x - cx;
-        const double dy = pb[i] - m.y - cy;
-        // sqrt instead of std::hypot in the hot loop: the data are centred, so dx^2 + dy^2
-        // cannot overflow or underflow for any coordinate in mm, and hypot is ~10x slower.
-        const double d = std::sqrt(dx * dx + dy * dy);
-        const double inv = d > 0.0 ? 1.0 / d : 0.0;
-        const double ux = dx * inv, uy = dy * inv;
-        const double e = d - r;
-        // Jacobian row is (-ux, -uy, -1); signs are folded into the step below.
-        s[0] += ux * ux;
-        s[1] += ux * uy;
-        s[2] += ux;
-        s[3] += uy * uy;
-        s[4] += uy;
-        s[5] += 1.0;
-        s[6] += ux * e;
-        s[7] += uy * e;
-        s[8] += e;
-        s[9] += e * e;
+    for (const Points& set : sets) {
+      const double* pa = set.a;
+      const double* pb = set.b;
+      const std::size_t n = set.n;
+      for (std::size_t start_i = 0; start_i < n; start_i += kBlock) {
+        const std::size_t stop = std::min(n, start_i + kBlock);
+        double s[10] = {};
+        for (std::size_t i = start_i; i < stop; ++i) {
+          const double dx = pa[i] - m.x - cx;
+          const double dy = pb[i] - m.y - cy;
+          // sqrt instead of std::hypot in the hot loop: the data are centred, so dx^2 + dy^2
+          // cannot overflow or underflow for any coordinate in mm, and hypot is ~10x slower.
+          const double d = std::sqrt(dx * dx + dy * dy);
+          const double inv = d > 0.0 ? 1.0 / d : 0.0;
+          const double ux = dx * inv, uy = dy * inv;
+          const double e = d - r;
+          // Jacobian row is (-ux, -uy, -1); signs are folded into the step below.
+          s[0] += ux * ux;
+          s[1] += ux * uy;
+          s[2] += ux;
+          s[3] += uy * uy;
+          s[4] += uy;
+          s[5] += 1.0;
+          s[6] += ux * e;
+          s[7] += uy * e;
+          s[8] += e;
+          s[9] += e * e;
+        }
+        for (int k = 0; k < 10; ++k) acc[k].add(s[k]);
       }
-      for (int k = 0; k < 10; ++k) acc[k].add(s[k]);
     }
     Eval ev{};
     for (int k = 0; k < 6; ++k) ev.jtj[k] = acc[k].value();
@@ -221,31 +232,76 @@ constexpr std::size_t kSubsamplePoints = std::size_t{1} << 14;
 
 }  // namespace
 
-Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
-  fit_detail::check_points(a, b, "fit_lsc");
-  const std::size_t n = a.size();
-  const double* pa = a.data();
-  const double* pb = b.data();
-  const Vec2 m = fit_detail::mean_point(pa, pb, n);
+namespace {
+
+// The fit over one or two point sets: the start from an evenly strided subset of all of them
+// when they are large, then the full passes over each set in place (no joined copy).
+Circle fit_lsc_sets(std::span<const Points> sets, Vec2 m) {
+  std::size_t n = 0;
+  for (const Points& p : sets) n += p.n;
   if (n <= kSubsampleAbove) {
-    return lsc_refine(pa, pb, n, m, fit_detail::kasa_about(pa, pb, n, m));
+    if (sets.size() == 1) {
+      return lsc_refine(sets, m, fit_detail::kasa_about(sets[0].a, sets[0].b, n, m));
+    }
+    std::vector<double> ja, jb;
+    for (const Points& p : sets) {
+      ja.insert(ja.end(), p.a, p.a + p.n);
+      jb.insert(jb.end(), p.b, p.b + p.n);
+    }
+    return lsc_refine(sets, m, fit_detail::kasa_about(ja.data(), jb.data(), n, m));
   }
   const std::size_t stride = n / kSubsamplePoints;
   std::vector<double> sa, sb;
-  sa.reserve(n / stride + 1);
-  sb.reserve(n / stride + 1);
-  for (std::size_t i = 0; i < n; i += stride) {
-    sa.push_back(pa[i]);
-    sb.push_back(pb[i]);
+  sa.reserve(n / stride + sets.size());
+  sb.reserve(n / stride + sets.size());
+  for (const Points& p : sets) {
+    for (std::size_t i = 0; i < p.n; i += stride) {
+      sa.push_back(p.a[i]);
+      sb.push_back(p.b[i]);
+    }
   }
   Circle rough;
   try {
-    rough = lsc_refine(sa.data(), sb.data(), sa.size(), m,
-                       fit_detail::kasa_about(sa.data(), sb.data(), sa.size(), m));
+    const Points sub{sa.data(), sb.data(), sa.size()};
+    rough = lsc_refine({&sub, 1}, m, fit_detail::kasa_about(sa.data(), sb.data(), sa.size(), m));
   } catch (const DataError&) {
-    rough = fit_detail::kasa_about(pa, pb, n, m);  // a degenerate subset: start from all points
+    // A degenerate subset: start from all points.
+    std::vector<double> ja, jb;
+    for (const Points& p : sets) {
+      ja.insert(ja.end(), p.a, p.a + p.n);
+      jb.insert(jb.end(), p.b, p.b + p.n);
+    }
+    rough = fit_detail::kasa_about(ja.data(), jb.data(), n, m);
   }
-  return lsc_refine(pa, pb, n, m, rough);
+  return lsc_refine(sets, m, rough);
+}
+
+}  // namespace
+
+Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
+  fit_detail::check_points(a, b, "fit_lsc");
+  const Points all{a.data(), b.data(), a.size()};
+  return fit_lsc_sets({&all, 1}, fit_detail::mean_point(a.data(), b.data(), a.size()));
+}
+
+Circle fit_lsc(std::span<const double> a1, std::span<const double> b1, std::span<const double> a2,
+               std::span<const double> b2) {
+  if (a1.size() != b1.size()) fit_detail::check_points(a1, b1, "fit_lsc");
+  if (a2.size() != b2.size()) fit_detail::check_points(a2, b2, "fit_lsc");
+  if (a1.size() < 3 || a2.size() < 3) {
+    // Too few in one set for its own mean: join them (a few points at most).
+    std::vector<double> ja(a1.begin(), a1.end()), jb(b1.begin(), b1.end());
+    ja.insert(ja.end(), a2.begin(), a2.end());
+    jb.insert(jb.end(), b2.begin(), b2.end());
+    return fit_lsc(ja, jb);
+  }
+  const std::size_t n1 = a1.size(), n2 = a2.size();
+  const Vec2 m1 = fit_detail::mean_point(a1.data(), b1.data(), n1);
+  const Vec2 m2 = fit_detail::mean_point(a2.data(), b2.data(), n2);
+  const double w1 = static_cast<double>(n1) / static_cast<double>(n1 + n2);
+  const Vec2 m{m1.x + (m2.x - m1.x) * (1.0 - w1), m1.y + (m2.y - m1.y) * (1.0 - w1)};
+  const Points sets[2] = {{a1.data(), b1.data(), n1}, {a2.data(), b2.data(), n2}};
+  return fit_lsc_sets(sets, m);
 }
 
 }  // namespace circtest

@@ -13,6 +13,7 @@
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "circtest/history/history.hpp"
 
 #include <filesystem>
@@ -22,12 +23,33 @@
 namespace circtest {
 
 namespace {
-std::vector<std::string> analysis_columns(const std::string& a, const std::string& b) {
-  std::vector<std::string> keep = {"t", "marker", "segment", "x",     "y",
-                                   "z", "x_cmd",  "y_cmd",   "z_cmd", std::string(kRadialColumn)};
-  if (!a.empty()) keep.push_back(a);
-  if (!b.empty()) keep.push_back(b);
-  return keep;
+// The columns the evaluation reads: time, marker, segment, the plane's actual and commanded
+// positions, the radial channel, and any named with --columns. The plane is known only at the
+// header (option, else metadata), so the reader asks then; an XY trace's z and z_cmd are
+// never parsed.
+TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
+  return [plane = options.plane, a = options.column_a,
+          b = options.column_b](const TraceMetadata& metadata) {
+    Plane p = plane.value_or(Plane::XY);
+    if (!plane) {
+      // An unreadable plane keeps every axis; the evaluation then reports it with its line.
+      const std::string* text = metadata.find(meta_key::plane);
+      if (text && !parse_plane(*text)) return std::vector<std::string>{};
+      if (text) p = *parse_plane(*text);
+    }
+    const PlaneAxes axes = plane_axes(p);
+    std::vector<std::string> keep = {column_name::t,
+                                     column_name::marker,
+                                     column_name::segment,
+                                     column_name::actual(axes.first),
+                                     column_name::actual(axes.second),
+                                     column_name::commanded(axes.first),
+                                     column_name::commanded(axes.second),
+                                     std::string(kRadialColumn)};
+    if (!a.empty()) keep.push_back(a);
+    if (!b.empty()) keep.push_back(b);
+    return keep;
+  };
 }
 
 // Stores a test (its diagnosis too, when given); returns the line that says so.
@@ -71,7 +93,7 @@ std::optional<RadialPositions> radial_set_up(const Trace& read, bool forced,
 EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& given,
                              bool radial_forced) {
   TraceReadOptions ro;
-  ro.keep = analysis_columns(given.column_a, given.column_b);
+  ro.keep_for = analysis_columns(given);
   // Columns asked for by name must exist; the reader's message lists every column found.
   for (const std::string* c : {&given.column_a, &given.column_b}) {
     if (!c->empty()) ro.required.push_back(*c);

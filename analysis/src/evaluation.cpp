@@ -226,16 +226,8 @@ HysteresisResult hysteresis_of(const Trace& trace, const Evaluation& ev, std::si
   HysteresisResult h;
   h.run_ccw = r1.run.direction == Direction::CCW ? first : first + 1;
   h.run_cw = r1.run.direction == Direction::CCW ? first + 1 : first;
-  std::vector<double> ja, jb;
-  ja.reserve(r1.run.size() + r2.run.size());
-  jb.reserve(ja.capacity());
-  for (const RunResult* r : {&r1, &r2}) {
-    const auto a = slice(col_a, r->run);
-    const auto b = slice(col_b, r->run);
-    ja.insert(ja.end(), a.begin(), a.end());
-    jb.insert(jb.end(), b.begin(), b.end());
-  }
-  h.common_lsc = fit_lsc(ja, jb);
+  h.common_lsc = fit_lsc(slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run),
+                         slice(col_b, r2.run));
   const PlanePoint centre{h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm};
   const RadialDifference d = detail::radial_difference(
       detail::radial_profile(slice(col_a, r1.run), slice(col_b, r1.run), centre),

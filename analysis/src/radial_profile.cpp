@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <numeric>
 
 #include "circtest/analysis/evaluation.hpp"
 
@@ -23,88 +22,122 @@ double wrap_deg(double rad) {
 
 }  // namespace
 
-PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre) {
-  PathPolar p;
-  const std::size_t n = a.size();
-  p.angle_rad.resize(n);
-  p.radius_mm.resize(n);
-  double prev = 0.0;
-  double offset = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double da = a[i] - centre.a_mm, db = b[i] - centre.b_mm;
-    const double ang = std::atan2(db, da);
-    if (i > 0) {
-      // Unwrap along the path: successive samples are far less than pi apart.
-      double step = ang + offset - prev;
+namespace {
+
+// Unwraps atan2's angle along a path: successive samples are far less than pi apart.
+class Unwrapper {
+ public:
+  double next(double ang) {
+    if (started_) {
+      double step = ang + offset_ - prev_;
       while (step > kPi) {
-        offset -= 2 * kPi;
+        offset_ -= 2 * kPi;
         step -= 2 * kPi;
       }
       while (step < -kPi) {
-        offset += 2 * kPi;
+        offset_ += 2 * kPi;
         step += 2 * kPi;
       }
     }
-    p.angle_rad[i] = ang + offset;
-    p.radius_mm[i] = std::hypot(da, db);
-    prev = p.angle_rad[i];
+    started_ = true;
+    prev_ = ang + offset_;
+    return prev_;
+  }
+
+ private:
+  double prev_ = 0.0;
+  double offset_ = 0.0;
+  bool started_ = false;
+};
+
+// Stable insertion sort by angle: linear on a path that backs up only here and there. Gives
+// up (false) once the moves pass `budget`, leaving a permutation of the input.
+bool insertion_sort(std::vector<AngleRadius>& p, std::size_t budget) {
+  std::size_t moves = 0;
+  for (std::size_t i = 1; i < p.size(); ++i) {
+    if (!(p[i].angle_rad < p[i - 1].angle_rad)) continue;
+    const AngleRadius v = p[i];
+    std::size_t j = i;
+    while (j > 0 && v.angle_rad < p[j - 1].angle_rad) {
+      p[j] = p[j - 1];
+      --j;
+      if (++moves > budget) {
+        p[j] = v;
+        return false;
+      }
+    }
+    p[j] = v;
+  }
+  return true;
+}
+
+}  // namespace
+
+// sqrt instead of std::hypot below: coordinates in mm about a centre near the data neither
+// overflow nor underflow when squared, and hypot costs several times more.
+PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre) {
+  PathPolar p;
+  const std::size_t n = a.size();
+  p.angle_rad.reserve(n);
+  p.radius_mm.reserve(n);
+  Unwrapper unwrap;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double da = a[i] - centre.a_mm, db = b[i] - centre.b_mm;
+    p.angle_rad.push_back(unwrap.next(std::atan2(db, da)));
+    p.radius_mm.push_back(std::sqrt(da * da + db * db));
   }
   return p;
 }
 
 RadialProfile radial_profile(std::span<const double> a, std::span<const double> b,
                              PlanePoint centre) {
-  PathPolar path = path_polar(a, b, centre);
-  RadialProfile p{std::move(path.angle_rad), std::move(path.radius_mm)};
-  const std::size_t n = p.size();
-  if (n > 1 && p.angle_rad.back() < p.angle_rad.front()) {
-    std::reverse(p.angle_rad.begin(), p.angle_rad.end());
-    std::reverse(p.radius_mm.begin(), p.radius_mm.end());
+  RadialProfile p;
+  const std::size_t n = a.size();
+  p.points.reserve(n);
+  Unwrapper unwrap;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double da = a[i] - centre.a_mm, db = b[i] - centre.b_mm;
+    p.points.push_back({unwrap.next(std::atan2(db, da)), std::sqrt(da * da + db * db)});
   }
-  if (!std::is_sorted(p.angle_rad.begin(), p.angle_rad.end())) {
-    std::vector<std::size_t> idx(n);
-    std::iota(idx.begin(), idx.end(), 0);
-    std::stable_sort(idx.begin(), idx.end(),
-                     [&](std::size_t i, std::size_t j) { return p.angle_rad[i] < p.angle_rad[j]; });
-    RadialProfile q;
-    q.angle_rad.resize(n);
-    q.radius_mm.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      q.angle_rad[i] = p.angle_rad[idx[i]];
-      q.radius_mm[i] = p.radius_mm[idx[i]];
-    }
-    p = std::move(q);
-  }
+  auto& v = p.points;
+  if (n > 1 && v.back().angle_rad < v.front().angle_rad) std::reverse(v.begin(), v.end());
+  const auto by_angle = [](const AngleRadius& x, const AngleRadius& y) {
+    return x.angle_rad < y.angle_rad;
+  };
+  if (!insertion_sort(v, 8 * n + 1024)) std::stable_sort(v.begin(), v.end(), by_angle);
   return p;
 }
 
-ProfileDifference compare_profiles(const RadialProfile& ref, const RadialProfile& from) {
+ProfileDifference compare_profiles(const RadialProfile& ref_profile,
+                                   const RadialProfile& from_profile) {
+  const std::vector<AngleRadius>& ref = ref_profile.points;
+  const std::vector<AngleRadius>& from = from_profile.points;
   ProfileDifference w;
   const std::size_t n = ref.size();
   if (n < 2) return w;
-  const double a0 = ref.angle_rad.front();
-  const double a1 = ref.angle_rad.back();
+  const double a0 = ref.front().angle_rad;
+  const double a1 = ref.back().angle_rad;
   // `from` is sorted by angle, so its angles taken into ref's arc increase except where they
   // wrap by 2 pi: one forward merge per piece instead of a binary search per sample.
   std::size_t j = 0;  // first ref angle above phi
   double prev_phi = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < from.size(); ++i) {
-    const double phi =
-        a0 + std::fmod(std::fmod(from.angle_rad[i] - a0, 2 * kPi) + 2 * kPi, 2 * kPi);
+  for (const AngleRadius& f : from) {
+    const double phi = a0 + std::fmod(std::fmod(f.angle_rad - a0, 2 * kPi) + 2 * kPi, 2 * kPi);
     if (phi > a1) continue;  // outside the reference arc
     if (phi < prev_phi) {
       j = static_cast<std::size_t>(
-          std::upper_bound(ref.angle_rad.begin(), ref.angle_rad.end(), phi) -
-          ref.angle_rad.begin());
+          std::upper_bound(ref.begin(), ref.end(), phi,
+                           [](double x, const AngleRadius& y) { return x < y.angle_rad; }) -
+          ref.begin());
     } else {
-      while (j < n && ref.angle_rad[j] <= phi) ++j;
+      while (j < n && ref[j].angle_rad <= phi) ++j;
     }
     prev_phi = phi;
     const std::size_t k = std::clamp<std::size_t>(j, 1, n - 1);
-    const double x0 = ref.angle_rad[k - 1], x1 = ref.angle_rad[k];
+    const double x0 = ref[k - 1].angle_rad, x1 = ref[k].angle_rad;
     const double t = x1 > x0 ? (phi - x0) / (x1 - x0) : 0.0;
-    const double r = ref.radius_mm[k - 1] + t * (ref.radius_mm[k] - ref.radius_mm[k - 1]);
-    const double d = std::abs(from.radius_mm[i] - r);
+    const double r = ref[k - 1].radius_mm + t * (ref[k].radius_mm - ref[k - 1].radius_mm);
+    const double d = std::abs(f.radius_mm - r);
     if (!w.any) {
       w.lo_rad = w.hi_rad = phi;
       w.any = true;

@@ -20,11 +20,15 @@ struct PathPolar {
 PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre);
 
 // The same samples ordered by increasing angle, the first in [-pi, pi) (a CW path is
-// reversed; a path that backs up locally, noise at a reversal, is sorted).
+// reversed; a path that backs up locally, noise at a reversal, is sorted, equal angles kept
+// in path order).
+struct AngleRadius {
+  double angle_rad;
+  double radius_mm;
+};
 struct RadialProfile {
-  std::vector<double> angle_rad;
-  std::vector<double> radius_mm;
-  std::size_t size() const { return angle_rad.size(); }
+  std::vector<AngleRadius> points;
+  std::size_t size() const { return points.size(); }
 };
 RadialProfile radial_profile(std::span<const double> a, std::span<const double> b,
                              PlanePoint centre);

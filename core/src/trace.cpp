@@ -317,13 +317,16 @@ class TraceParser {
     // Linear in the number of names: a header of 200,000 names is read in milliseconds.
     std::unordered_set<std::string_view> seen;
     seen.reserve(n);
-    std::unordered_set<std::string_view> keep(options_.keep.begin(), options_.keep.end());
+    // The columns to keep may depend on the metadata above the header (the plane).
+    const std::vector<std::string> chosen =
+        options_.keep_for ? options_.keep_for(trace_.metadata) : options_.keep;
+    std::unordered_set<std::string_view> keep(chosen.begin(), chosen.end());
     for (std::size_t i = 0; i < n; ++i) {
       if (names[i].empty()) fail(fmt::format("header: column {} has no name", i + 1));
       if (!seen.insert(names[i]).second) {
         fail(fmt::format("header: duplicate column '{}'", names[i]));
       }
-      if (options_.keep.empty() || keep.count(names[i])) {
+      if (chosen.empty() || keep.count(names[i])) {
         target_[i] = static_cast<int>(trace_.columns.size());
         trace_.columns.push_back(names[i]);
       }
@@ -354,13 +357,15 @@ class TraceParser {
   void row(std::string_view text) {
     const char* p = text.data();
     const char* const end = p + text.size();
-    if (std::memchr(p, '"', text.size()) != nullptr) return row_checked(text);
+    // No scan for quotes up front: a quote fails the number parse or stops the skip of an
+    // unkept field, and either sends the line to row_checked().
     const std::size_t last = field_count_ - 1;
     for (std::size_t f = 0; f <= last; ++f) {
       if (target_[f] < 0) {
-        const char* comma = static_cast<const char*>(std::memchr(p, ',', end - p));
-        if ((comma == nullptr) != (f == last)) return row_checked(text);
-        p = comma ? comma + 1 : end;
+        while (p < end && *p != ',' && *p != '"') ++p;
+        if (p < end && *p == '"') return row_checked(text);
+        if ((p == end) != (f == last)) return row_checked(text);
+        if (p < end) ++p;
         continue;
       }
       while (p < end && blank(*p)) ++p;

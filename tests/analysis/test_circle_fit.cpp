@@ -527,3 +527,37 @@ TEST(circle_fit_Mzc, OneGrossOutlierStillGivesTheZoneThatHoldsIt) {
 
 }  // namespace
 }  // namespace circtest
+
+namespace circtest {
+
+// The two-set LSC (H's common circle, fitted without joining the runs) is the LSC of the
+// joined points, small sets and sets large enough for the subsample start alike.
+TEST(CircleFitLsc, TwoSetsFitLikeTheirUnion) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (std::size_t n : {std::size_t{5}, std::size_t{400}, std::size_t{90000}}) {
+    SCOPED_TRACE(n);
+    std::vector<double> a1, b1, a2, b2;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double t1 = 2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(n);
+      const double t2 = 0.3 - 1.7 * std::numbers::pi * static_cast<double>(i) /
+                                  static_cast<double>(n);  // CW, 306 deg
+      a1.push_back(120.0 + 60.0 * std::cos(t1) + noise(rng));
+      b1.push_back(-40.0 + 60.0 * std::sin(t1) + noise(rng));
+      a2.push_back(120.01 + 60.02 * std::cos(t2) + noise(rng));
+      b2.push_back(-40.0 + 60.02 * std::sin(t2) + noise(rng));
+    }
+    std::vector<double> ja = a1, jb = b1;
+    ja.insert(ja.end(), a2.begin(), a2.end());
+    jb.insert(jb.end(), b2.begin(), b2.end());
+    const Circle joined = fit_lsc(ja, jb);
+    const Circle two = fit_lsc(a1, b1, a2, b2);
+    EXPECT_NEAR(two.centre_a_mm, joined.centre_a_mm, 1e-9);
+    EXPECT_NEAR(two.centre_b_mm, joined.centre_b_mm, 1e-9);
+    EXPECT_NEAR(two.radius_mm, joined.radius_mm, 1e-9);
+  }
+  const std::vector<double> one = {1.0}, two_points = {1.0, 2.0};
+  EXPECT_THROW(fit_lsc(one, one, two_points, one), Error);  // lengths differ
+}
+
+}  // namespace circtest

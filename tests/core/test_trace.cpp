@@ -66,6 +66,24 @@ TEST(TraceReader, KeepsOnlyWantedColumnsAndIgnoresUnknownOnes) {
   EXPECT_DOUBLE_EQ((*t.column("y"))[0], 2.0);
 }
 
+// The plane's columns only (keep_for sees the metadata above the header), and a quoted field
+// with a comma in a column that is not kept still splits the row right.
+TEST(TraceReader, KeepForChoosesColumnsFromTheMetadata) {
+  TraceReadOptions o;
+  std::string plane_seen;
+  o.keep_for = [&](const TraceMetadata& m) {
+    plane_seen = m.find("plane") ? *m.find("plane") : "";
+    return plane_seen == "ZX" ? std::vector<std::string>{"z", "x"}
+                              : std::vector<std::string>{"x", "y"};
+  };
+  const Trace t = parse_trace("# plane: ZX\nx,note,y,z\n1,\"a,b\",2,3\n4,c,5,6\n", "in.csv", o);
+  EXPECT_EQ(plane_seen, "ZX");
+  ASSERT_EQ(t.columns, (std::vector<std::string>{"x", "z"}));
+  EXPECT_EQ(*t.column("z"), (std::vector<double>{3.0, 6.0}));
+  EXPECT_EQ(*t.column("x"), (std::vector<double>{1.0, 4.0}));
+  EXPECT_EQ(t.line_of_row, (std::vector<std::uint32_t>{3, 4}));
+}
+
 TEST(TraceReader, LaterMetadataWins) {
   const Trace t = parse_trace("# overruns: 0\nx\n1\n# overruns: 5\n", "in.csv");
   EXPECT_EQ(*t.metadata.find("overruns"), "5");

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -55,7 +56,11 @@ struct Trace {
 };
 
 struct TraceReadOptions {
-  std::vector<std::string> keep;      // columns to keep (empty: keep all)
+  std::vector<std::string> keep;  // columns to keep (empty: keep all)
+  // When set, called at the header row with the metadata read so far; its result replaces
+  // `keep` (e.g. only the columns of the plane the metadata names).
+  using KeepFor = std::function<std::vector<std::string>(const TraceMetadata&)>;
+  KeepFor keep_for;
   std::vector<std::string> required;  // columns that must exist (else ParseError at the header)
   // When the trace has a `t` column: reject time going backwards (DataError at that row).
   bool check_time_monotonic = true;
