@@ -29,6 +29,7 @@ const char* kUsage =
     "                     [--radial]\n"
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
+    "                     [--units mm|inch] [--radius-tolerance MM] [--warn-inconsistent]\n"
     "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json] [--svg F]\n"
     "                        [--store [--db URL]]\n"
     "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
@@ -130,7 +131,11 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
       "svg", po::value<std::string>(), "write the plot of the paths to this SVG file")(
       "scale-um-per-div", po::value<std::string>(), "fixed plot scale, um per division")(
       "compare", po::value<std::string>(), "with --svg: an earlier trace drawn under this one")(
-      "radial", "evaluate the length channel r (ball bar) even if the trace has x,y");
+      "radial", "evaluate the length channel r (ball bar) even if the trace has x,y")(
+      "units", po::value<std::string>(), "unit of the trace's positions: mm or inch")(
+      "radius-tolerance", po::value<std::string>(),
+      "largest nominal-to-measured radius difference, mm")(
+      "warn-inconsistent", "note a radius mismatch or a short run instead of refusing");
   add_condition_options(desc);
   extra(desc);
   po::positional_options_description pos;
@@ -199,6 +204,16 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
     if (*d <= 0) throw UsageError("--scale-um-per-div: expected a positive number");
     req.plot.mm_per_division = *d / 1000.0;
   }
+  if (vm.count("units")) {
+    const std::string u = vm["units"].as<std::string>();
+    if (u != "mm" && u != "inch") throw UsageError("--units: expected mm or inch, got '" + u + "'");
+    o.input_checks.position_units = u == "mm" ? PositionUnits::mm : PositionUnits::inch;
+  }
+  if (auto t = number("radius-tolerance")) {
+    if (!(*t > 0)) throw UsageError("--radius-tolerance: expected a positive number");
+    o.input_checks.radius_tolerance_mm = *t;
+  }
+  o.input_checks.warn_only = vm.count("warn-inconsistent") > 0;
   if (auto a = number("alpha-machine")) o.temperatures.machine_expansion_per_K = *a;
   if (auto a = number("alpha-instrument")) o.temperatures.instrument_expansion_per_K = *a;
   return parsed;

@@ -99,6 +99,9 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& g
     if (!c->empty()) ro.required.push_back(*c);
   }
   Trace read = read_trace(path, ro);
+  // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
+  const std::optional<std::string> units = resolve_units(
+      read, trace_plane(read, given.plane), given.nominal_radius_mm, given.input_checks);
   EvaluationOptions options = given;
   // A ball bar's trace: positions from the bar's length along the commanded angle.
   std::optional<RadialPositions> radial = radial_set_up(read, radial_forced, options);
@@ -107,6 +110,7 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& g
   out.trace = radial ? std::move(radial->trace) : std::move(read);
   out.evaluation = evaluate(out.trace, options);
   if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
+  if (units) out.evaluation.notes.insert(out.evaluation.notes.begin(), *units);
   if (!out.trace.column("t")) {
     out.evaluation.notes.push_back(
         "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
@@ -166,8 +170,12 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
   Diagnosis d = diagnose(evaluated.trace, evaluated.evaluation, options);
-  // The radial note is the evaluation's first note: what was evaluated.
-  if (evaluated.radial) d.notes.insert(d.notes.begin(), evaluated.evaluation.notes.front());
+  // What was evaluated: the units and radial notes lead the evaluation's notes.
+  const auto& en = evaluated.evaluation.notes;
+  const std::size_t lead =
+      (evaluated.radial ? 1u : 0u) + (!en.empty() && en.front().starts_with("units: ") ? 1u : 0u);
+  d.notes.insert(d.notes.begin(), en.begin(),
+                 en.begin() + static_cast<std::ptrdiff_t>(std::min(lead, en.size())));
   if (!request.svg_path.empty()) {
     PlotOptions plot = request.plot;
     plot.diagnosis = &d;

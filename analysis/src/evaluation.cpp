@@ -173,6 +173,8 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run,
   const auto a = slice(col_a, run);
   const auto b = slice(col_b, run);
   rr.lsc = fit_lsc(a, b);
+  // One glitched row would set the minimum zone: named, not evaluated.
+  check_outliers(trace, ev.runs.size() + 1, run, a, b, rr.lsc);
   rr.mzc = fit_mzc(a, b);
   rr.g_mzc_mm = rr.mzc.zone_width_mm;
   const RadialRange about_lsc = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm);
@@ -262,6 +264,7 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
   ev.g_method = options.g_method;
   resolve_set_up(trace, options, ev);
+  check_plane_motion(trace, ev.plane, ev.columns);
 
   SegmentationOptions so;
   so.centre = ev.centre;
@@ -269,10 +272,22 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   so.min_sweep_deg = options.min_arc_deg;
   const Segmentation seg = segment_trace(trace, ev.columns, so);
   ev.segmentation = seg.method;
+  ev.notes.insert(ev.notes.end(), seg.notes.begin(), seg.notes.end());
   resolve_from_commanded(trace, seg, ev);
 
   for (const Run& run : seg.runs) {
+    const std::size_t number = ev.runs.size() + 1;
+    if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
+      ev.notes.push_back(*note);
+    }
     RunResult rr = evaluate_run(trace, ev, run, options.f_centre, ev.notes);
+    if (ev.nominal_radius_mm) {
+      if (auto note = check_nominal_radius(
+              trace, number, run, rr.lsc.radius_mm * ev.temperature_factor, *ev.nominal_radius_mm,
+              std::string(value_source_name(ev.nominal_radius_source)), options.input_checks)) {
+        ev.notes.push_back(*note);
+      }
+    }
     ev.runs.push_back(std::move(rr));
   }
   pair_hysteresis(trace, ev);

@@ -64,6 +64,49 @@ Run make_run(const double* a, const double* b, Span s, const Circle& c) {
   return r;
 }
 
+// Splits a marked span where the rotation about its centre turns back by more than
+// kReversalDeg, at the turning row (the extremum of the accumulated angle).
+std::vector<Span> split_at_reversals(const double* a, const double* b, Span s, const Circle& c,
+                                     std::size_t min_points) {
+  std::vector<Span> out;
+  const double hysteresis = kReversalDeg / kRadToDeg;
+  double theta = 0.0;  // accumulated angle from the span's first row
+  double extreme = 0.0;
+  std::size_t extreme_row = s.begin;
+  int dir = 0;
+  std::size_t begin = s.begin;
+  double pa = a[s.begin] - c.centre_a_mm, pb = b[s.begin] - c.centre_b_mm;
+  for (std::size_t i = s.begin + 1; i < s.end; ++i) {
+    const double qa = a[i] - c.centre_a_mm, qb = b[i] - c.centre_b_mm;
+    theta += std::atan2(pa * qb - pb * qa, pa * qa + pb * qb);
+    pa = qa;
+    pb = qb;
+    if (dir == 0) {
+      if (std::abs(theta) > hysteresis) dir = theta > 0 ? 1 : -1;
+      extreme = theta;
+      extreme_row = i;
+      continue;
+    }
+    if ((theta - extreme) * dir > 0) {
+      extreme = theta;
+      extreme_row = i;
+    } else if ((extreme - theta) * dir > hysteresis) {
+      out.push_back({begin, extreme_row + 1});
+      begin = extreme_row + 1;  // the turning row ends the first run
+      dir = -dir;
+      extreme = theta;
+      extreme_row = i;
+    }
+  }
+  out.push_back({begin, s.end});
+  // A part of a few rows is a glitch (one sample far off the circle turns the angle back and
+  // forth), not a run: the span stays whole and the outlier check names that row.
+  for (const Span& part : out) {
+    if (part.end - part.begin < min_points) return {s};
+  }
+  return out;
+}
+
 // Finds the arcs at constant radius inside [lo, hi): moving samples near the circle,
 // split where the rotation changes sign; stretches under min_sweep are dropped (lead arcs,
 // feed-in moves), overtravel beyond 360 deg is trimmed evenly.
@@ -285,16 +328,43 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
             fmt::format("run {} (lines {}-{}): too few points ({}), expected at least {}", number,
                         line(s.begin), line(s.end - 1), s.end - s.begin, options.min_points));
       }
-      Run r = make_run(a, b, s, centre_of(a, b, s, options));
-      r.segment_id = seg_id(s.begin);
-      if (r.sweep_deg < options.min_sweep_deg) {
-        throw DataError(trace.source, line(s.begin),
-                        fmt::format("run {} (lines {}-{}) sweeps {:.1f} deg: expected an arc of at "
-                                    "least {:.0f} deg (ISO 230-4 clause 3.1)",
-                                    number, line(s.begin), line(s.end - 1), r.sweep_deg,
-                                    options.min_sweep_deg));
+      const Circle centre = centre_of(a, b, s, options);
+      const std::vector<Span> parts = split_at_reversals(a, b, s, centre, options.min_points);
+      std::vector<Run> runs;
+      for (const Span& part : parts) {
+        const std::size_t no = result.runs.size() + runs.size() + 1;
+        Run r = make_run(a, b, part, centre);
+        r.segment_id = seg_id(s.begin);
+        if (r.sweep_deg < options.min_sweep_deg || part.end - part.begin < options.min_points) {
+          throw DataError(
+              trace.source, line(part.begin),
+              fmt::format("run {} (lines {}-{}) sweeps {:.1f} deg{}: expected an arc of at "
+                          "least {:.0f} deg (ISO 230-4 clause 3.1)",
+                          no, line(part.begin), line(part.end - 1), r.sweep_deg,
+                          parts.size() > 1 ? fmt::format(" (its marked span, lines {}-{}, "
+                                                         "reverses there)",
+                                                         line(s.begin), line(s.end - 1))
+                                           : std::string(),
+                          options.min_sweep_deg));
+        }
+        runs.push_back(r);
       }
-      result.runs.push_back(r);
+      if (runs.size() > 1) {
+        std::string turns;
+        for (std::size_t k = 1; k < parts.size(); ++k) {
+          turns += fmt::format("{}{}", k > 1 ? ", " : "", line(parts[k - 1].end - 1));
+        }
+        std::string sweeps;
+        for (const Run& r : runs) {
+          sweeps += fmt::format("{}{} {:.1f} deg", sweeps.empty() ? "" : ", ",
+                                direction_name(r.direction), r.sweep_deg);
+        }
+        result.notes.push_back(
+            fmt::format("marked span lines {}-{} holds both directions: split where the "
+                        "rotation reverses (at line {}) into {} runs: {}",
+                        line(s.begin), line(s.end - 1), turns, runs.size(), sweeps));
+      }
+      result.runs.insert(result.runs.end(), runs.begin(), runs.end());
     } else {
       for (Run r : automatic_runs(a, b, s, options)) {
         r.segment_id = seg_id(r.begin);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "circtest/analysis/circle_fit.hpp"
+#include "circtest/analysis/input_checks.hpp"
 #include "circtest/analysis/segmentation.hpp"
 #include "circtest/core/plane.hpp"
 #include "circtest/core/trace.hpp"
@@ -50,6 +51,8 @@ struct EvaluationOptions {
   // Test conditions stated on the command line (--machine, --operator, ...: metadata key
   // and value); they override the trace's metadata in the report.
   std::vector<std::pair<std::string, std::string>> conditions;
+  // Refusals of inconsistent inputs and their overrides (docs/input-checks.md).
+  InputCheckOptions input_checks;
 };
 
 struct RunResult {

@@ -34,6 +34,10 @@ struct Run {
   std::size_t size() const { return end - begin; }
 };
 
+// The back-travel that makes a reversal inside a marked span: far above the jitter of a
+// dwell (a few thousandths of a degree), far below any arc the standard evaluates.
+inline constexpr double kReversalDeg = 5.0;
+
 struct SegmentationOptions {
   // Centre estimate for the angles (nominal centre); estimated from the data when absent.
   std::optional<PlanePoint> centre;
@@ -45,9 +49,12 @@ struct SegmentationOptions {
 struct Segmentation {
   SegmentationMethod method = SegmentationMethod::automatic;
   std::vector<Run> runs;
+  std::vector<std::string> notes;  // for the report: e.g. a marked span split at a reversal
 };
 
-// Runs are the stretches where `marker` is non-zero (split where `segment` changes); else
+// Runs are the stretches where `marker` is non-zero (split where `segment` changes, and
+// where the rotation reverses by more than kReversalDeg: one marked span holding a CCW and a
+// CW run becomes two runs, with a note); else
 // the stretches of one non-zero `segment` value trimmed to the arc at constant radius;
 // else found automatically: moving samples at the circle's radius, split where the
 // direction of rotation changes, with dwells, feed-in moves and lead arcs off the circle

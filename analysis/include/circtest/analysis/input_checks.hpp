@@ -1,0 +1,66 @@
+#pragma once
+// Checks that the inputs of an evaluation agree with each other before a number is reported
+// (issue 12: "never a confident wrong number"): the trace's units, the plane, the nominal
+// radius against the measured circle, each run against the arc the program said, and single
+// samples far off the circle. Each either passes, refuses (DataError naming the file and
+// line, exit 5), or with InputCheckOptions::warn_only gives a note for the report instead.
+// docs/input-checks.md has the rules, the tolerances and why.
+#include <optional>
+#include <span>
+#include <string>
+
+#include "circtest/analysis/circle_fit.hpp"
+#include "circtest/analysis/segmentation.hpp"
+#include "circtest/core/plane.hpp"
+#include "circtest/core/trace.hpp"
+
+namespace circtest {
+
+enum class PositionUnits { mm, inch };
+
+struct InputCheckOptions {
+  // --warn-inconsistent: a nominal radius far from the measured one, or a run shorter than
+  // the program's arc, gives a note instead of a refusal.
+  bool warn_only = false;
+  // --radius-tolerance: how far the least-squares radius may be from the nominal one;
+  // default max(1 % of the nominal radius, 0.05 mm).
+  std::optional<double> radius_tolerance_mm;
+  // --units: the unit of the trace's position columns, when `units: inch` leaves it open.
+  std::optional<PositionUnits> position_units;
+};
+
+// A trace whose metadata says `units: inch` ran an inch program; its positions are in inch
+// only if the machine's own units are (LinuxCNC logs machine units). The positions' circle
+// decides: a least-squares radius within 10 % of radius_mm (or diameter_mm / 2, or
+// `nominal_radius_mm`) means mm; within 10 % of it / 25.4 means inch, and every position
+// column is converted to mm (all but t, period, marker, segment). Anything else, or no
+// nominal radius, is refused unless `options.position_units` says it. Returns the note for
+// the report (nullopt for a trace in mm).
+std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plane,
+                                         std::optional<double> nominal_radius_mm,
+                                         const InputCheckOptions& options);
+
+// The plane's two columns must both move: a circle in that plane moves both by about its
+// diameter. Refuses (DataError) when the smaller range is below max(1 um, 2 % of the larger)
+// over the measured rows (marker rows, else all), naming the plane and the ranges of every
+// position column.
+void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns);
+
+// The run's least-squares radius (`fitted_mm`, at 20 deg C) against the nominal radius.
+std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,
+                                                const Run& run, double fitted_mm, double nominal_mm,
+                                                const std::string& nominal_source,
+                                                const InputCheckOptions& options);
+
+// The run's sweep against the metadata's arc_deg (the measured arc the program ran): shorter
+// than arc_deg - max(1 deg, 3 %) is a run cut off (a recording stopped early).
+std::optional<std::string> check_run_arc(const Trace& trace, std::size_t run_number, const Run& run,
+                                         const InputCheckOptions& options);
+
+// A sample whose distance from the run's least-squares circle differs from the median one
+// by more than max(50 x the robust spread (1.4826 MAD), 1 % of the radius, 0.05 mm) is an
+// outlier: the MZC zone (G) would be set by that one row. Refused, naming its line.
+void check_outliers(const Trace& trace, std::size_t run_number, const Run& run,
+                    std::span<const double> a, std::span<const double> b, const Circle& lsc);
+
+}  // namespace circtest

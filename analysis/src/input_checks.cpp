@@ -1,0 +1,246 @@
+#include "circtest/analysis/input_checks.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
+
+namespace circtest {
+namespace {
+
+constexpr double kMmPerInch = 25.4;
+
+std::size_t line_of(const Trace& trace, std::size_t row) {
+  return row < trace.line_of_row.size() ? trace.line_of_row[row] : 0;
+}
+
+// The rows a test measured: the marker rows when the trace has them, else every row.
+std::vector<std::size_t> measured_rows(const Trace& trace) {
+  std::vector<std::size_t> rows;
+  const std::vector<double>* marker = trace.column(column_name::marker);
+  for (std::size_t i = 0; i < trace.rows(); ++i) {
+    if (!marker || (*marker)[i] >= 0.5) rows.push_back(i);
+  }
+  if (rows.empty()) {  // no marked row: segmentation reports that; check every row here
+    for (std::size_t i = 0; i < trace.rows(); ++i) rows.push_back(i);
+  }
+  return rows;
+}
+
+struct Range {
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -std::numeric_limits<double>::infinity();
+  double width() const { return hi >= lo ? hi - lo : 0.0; }
+};
+
+Range range_of(const std::vector<double>& v, const std::vector<std::size_t>& rows) {
+  Range r;
+  for (std::size_t i : rows) {
+    r.lo = std::min(r.lo, v[i]);
+    r.hi = std::max(r.hi, v[i]);
+  }
+  return r;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+double default_radius_tolerance(double nominal_mm) {
+  return std::max(0.01 * nominal_mm, 0.05);
+}
+
+// A refusal, or with warn_only the same text as a note.
+std::optional<std::string> refuse_or_note(const Trace& trace, std::size_t line,
+                                          const std::string& message,
+                                          const InputCheckOptions& options) {
+  if (!options.warn_only) {
+    throw DataError(trace.source, line, message + " (--warn-inconsistent to evaluate anyway)");
+  }
+  return "warning: " + message;
+}
+
+}  // namespace
+
+std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plane,
+                                         std::optional<double> nominal_radius_mm,
+                                         const InputCheckOptions& options) {
+  const std::string* units = trace.metadata.find(meta_key::units);
+  if (!units || *units == "mm") {
+    if (options.position_units == PositionUnits::inch) {
+      // The option overrides: a hand-made trace in inch without the key.
+    } else {
+      return std::nullopt;
+    }
+  }
+  const std::size_t units_line = trace.metadata.line_of(meta_key::units);
+  bool inch = false;
+  std::string why;
+  if (options.position_units) {
+    inch = *options.position_units == PositionUnits::inch;
+    why = fmt::format("--units {}", inch ? "inch" : "mm");
+  } else {
+    if (!nominal_radius_mm) {
+      if (auto r = trace.metadata.number(meta_key::radius_mm, trace.source)) {
+        nominal_radius_mm = r;
+      } else if (auto d = trace.metadata.number(meta_key::diameter_mm, trace.source)) {
+        nominal_radius_mm = *d / 2.0;
+      }
+    }
+    if (!nominal_radius_mm) {
+      throw DataError(trace.source, units_line,
+                      "metadata 'units: inch': the program ran in inch, but the positions may be "
+                      "in inch or in mm (LinuxCNC logs the machine's units) and there is no "
+                      "radius_mm to tell which: give --units inch or --units mm");
+    }
+    // The plane's columns, else its commanded ones (a ball bar's trace).
+    const Plane p = plane.value_or(Plane::XY);
+    const PlaneAxes axes = plane_axes(p);
+    const std::vector<double>* a = trace.column(column_name::actual(axes.first));
+    const std::vector<double>* b = trace.column(column_name::actual(axes.second));
+    if (!a || !b) {
+      a = trace.column(column_name::commanded(axes.first));
+      b = trace.column(column_name::commanded(axes.second));
+    }
+    if (!a || !b) {
+      throw DataError(
+          trace.source, units_line,
+          fmt::format("metadata 'units: inch': no {} position columns to tell whether "
+                      "the positions are in inch or mm: give --units inch or --units mm",
+                      plane_name(p)));
+    }
+    const std::vector<std::size_t> rows = measured_rows(trace);
+    std::vector<double> va, vb;
+    va.reserve(rows.size());
+    vb.reserve(rows.size());
+    for (std::size_t i : rows) {
+      va.push_back((*a)[i]);
+      vb.push_back((*b)[i]);
+    }
+    const double r = va.size() >= 3 ? fit_lsc(va, vb).radius_mm : 0.0;
+    const double nominal = *nominal_radius_mm;
+    const bool as_mm = std::abs(r - nominal) <= 0.1 * nominal;
+    const bool as_inch = std::abs(r * kMmPerInch - nominal) <= 0.1 * nominal;
+    if (as_mm == as_inch) {
+      throw DataError(
+          trace.source, units_line,
+          fmt::format("metadata 'units: inch': the positions' circle (radius {:.4f}) is "
+                      "within 10 % of neither the nominal radius {:.4f} mm nor {:.4f} in: "
+                      "give --units inch or --units mm",
+                      r, nominal, nominal / kMmPerInch));
+    }
+    inch = as_inch;
+    why = fmt::format("their circle (radius {:.4f}) matches the nominal radius {:.4f} {}", r,
+                      inch ? nominal / kMmPerInch : nominal, inch ? "in" : "mm");
+  }
+  if (!inch) {
+    return fmt::format(
+        "units: the program ran in inch; the positions are in mm (the machine's units): {}", why);
+  }
+  for (std::size_t c = 0; c < trace.columns.size(); ++c) {
+    const std::string& name = trace.columns[c];
+    if (name == column_name::t || column_name::is_integer(name)) continue;
+    for (double& v : trace.values[c]) v *= kMmPerInch;
+  }
+  return fmt::format("units: the positions are in inch ({}); converted to mm (x 25.4)", why);
+}
+
+void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns) {
+  if (trace.rows() < 3) return;  // segmentation says "too few points"
+  const std::vector<std::size_t> rows = measured_rows(trace);
+  const std::vector<double>& a = trace.values[static_cast<std::size_t>(columns.a)];
+  const std::vector<double>& b = trace.values[static_cast<std::size_t>(columns.b)];
+  const double wa = range_of(a, rows).width();
+  const double wb = range_of(b, rows).width();
+  const double small = std::min(wa, wb);
+  const double large = std::max(wa, wb);
+  if (small >= std::max(0.001, 0.02 * large)) return;
+  std::string others;
+  for (const char axis : {'x', 'y', 'z'}) {
+    const std::vector<double>* v = trace.column(column_name::actual(axis));
+    if (!v) continue;
+    others +=
+        fmt::format("{}{} {:.3f} mm", others.empty() ? "" : ", ", axis, range_of(*v, rows).width());
+  }
+  const std::string& na = trace.columns[static_cast<std::size_t>(columns.a)];
+  const std::string& nb = trace.columns[static_cast<std::size_t>(columns.b)];
+  throw DataError(
+      trace.source, 0,
+      fmt::format("plane {}: {} moves {:.3f} mm and {} {:.3f} mm over lines {}-{}: no circle in "
+                  "that plane (position ranges: {}); give the plane of the test with --plane",
+                  plane_name(plane), na, wa, nb, wb, line_of(trace, rows.front()),
+                  line_of(trace, rows.back()), others.empty() ? "none" : others));
+}
+
+std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,
+                                                const Run& run, double fitted_mm, double nominal_mm,
+                                                const std::string& nominal_source,
+                                                const InputCheckOptions& options) {
+  // Values beyond any machine are refused by the result checks, which name them.
+  if (!std::isfinite(fitted_mm) || !(std::abs(nominal_mm) <= 1e9)) return std::nullopt;
+  const double tol = options.radius_tolerance_mm.value_or(default_radius_tolerance(nominal_mm));
+  const double diff = fitted_mm - nominal_mm;
+  if (std::abs(diff) <= tol) return std::nullopt;
+  return refuse_or_note(
+      trace, line_of(trace, run.begin),
+      fmt::format("run {} (lines {}-{}): its least-squares radius {:.4f} mm differs from the "
+                  "nominal radius {:.4f} mm ({}) by {:+.4f} mm, more than the tolerance {:.4f} "
+                  "mm (--radius-tolerance): F would measure that difference",
+                  run_number, line_of(trace, run.begin), line_of(trace, run.end - 1), fitted_mm,
+                  nominal_mm, nominal_source, diff, tol),
+      options);
+}
+
+std::optional<std::string> check_run_arc(const Trace& trace, std::size_t run_number, const Run& run,
+                                         const InputCheckOptions& options) {
+  const std::optional<double> arc = trace.metadata.number(meta_key::arc_deg, trace.source);
+  if (!arc) return std::nullopt;
+  const double shortest = *arc - std::max(1.0, 0.03 * *arc);
+  if (run.sweep_deg >= shortest) return std::nullopt;
+  return refuse_or_note(
+      trace, line_of(trace, run.begin),
+      fmt::format("run {} (lines {}-{}) sweeps {:.1f} deg of the {:.1f} deg the program ran "
+                  "(arc_deg, line {}): the run is cut off",
+                  run_number, line_of(trace, run.begin), line_of(trace, run.end - 1), run.sweep_deg,
+                  *arc, trace.metadata.line_of(meta_key::arc_deg)),
+      options);
+}
+
+void check_outliers(const Trace& trace, std::size_t run_number, const Run& run,
+                    std::span<const double> a, std::span<const double> b, const Circle& lsc) {
+  const std::size_t n = a.size();
+  if (n < 8) return;
+  std::vector<double> d(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    d[i] = std::hypot(a[i] - lsc.centre_a_mm, b[i] - lsc.centre_b_mm);
+  }
+  const double med = median(d);
+  std::vector<double> dev(n);
+  for (std::size_t i = 0; i < n; ++i) dev[i] = std::abs(d[i] - med);
+  const double spread = 1.4826 * median(dev);
+  const double limit = std::max({50.0 * spread, 0.01 * lsc.radius_mm, 0.05});
+  std::size_t worst = n;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (dev[i] > limit && (worst == n || dev[i] > dev[worst])) worst = i;
+  }
+  if (worst == n) return;
+  std::size_t count = 0;
+  for (double v : dev) count += v > limit;
+  const std::size_t row = run.begin + worst;
+  throw DataError(
+      trace.source, line_of(trace, row),
+      fmt::format("run {}: an outlier: this sample lies {:.4f} mm from the run's centre, the "
+                  "others {:.4f} mm (spread {:.4f} mm); {} such sample{} (beyond {:.4f} mm), "
+                  "which would set G (the MZC zone): correct or remove the row",
+                  run_number, d[worst], med, spread, count, count == 1 ? "" : "s", limit));
+}
+
+}  // namespace circtest
