@@ -48,6 +48,17 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
                                      std::string(kRadialColumn)};
     if (!a.empty()) keep.push_back(a);
     if (!b.empty()) keep.push_back(b);
+    // A plane option that contradicts the trace's own plane: its axes are kept too, so a
+    // refusal can show where the motion really was.
+    if (plane) {
+      const std::string* text = metadata.find(meta_key::plane);
+      const std::optional<Plane> recorded = text ? parse_plane(*text) : std::nullopt;
+      if (recorded && *recorded != *plane) {
+        const PlaneAxes other = plane_axes(*recorded);
+        keep.push_back(column_name::actual(other.first));
+        keep.push_back(column_name::actual(other.second));
+      }
+    }
     return keep;
   };
 }
