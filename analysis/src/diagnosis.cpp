@@ -66,7 +66,9 @@ struct Samples {
   struct Cache {
     bool valid = false;
     double servo_mismatch_s = 0.0;
+    std::size_t stride = 0;                 // entries are set at the multiples of it
     std::vector<double> since_a, since_b;   // angle travelled since the last reversal, rad
+    std::vector<double> trav_a, trav_b;     // the motor's travel since then, mm
     std::vector<std::int8_t> dir_a, dir_b;  // axis direction after it
   };
   mutable Cache cache;
@@ -97,25 +99,32 @@ double since(const RunInfo& r, double u, double rev) {
   const double t = (u - rev) / kPi;
   return r.dir > 0 ? (t - std::floor(t)) * kPi : (std::ceil(t) - t) * kPi;
 }
-// The reversal bookkeeping depends on the state only through the lag mismatch: cached.
-void refresh(const Samples& S, const State& st) {
+double travelled(const Samples& S, double since) {
+  return S.radius * (1.0 - std::cos(since));
+}
+// The reversal bookkeeping depends on the state only through the lag mismatch: cached, and
+// only at the samples a pass reads (every `stride`-th), since the mismatch changes with
+// every Gauss-Newton step and most passes read a subsample.
+void refresh(const Samples& S, const State& st, std::size_t stride) {
   auto& C = S.cache;
-  if (C.valid && C.servo_mismatch_s == st.servo_mismatch_s) return;
+  if (C.valid && C.servo_mismatch_s == st.servo_mismatch_s && stride % C.stride == 0) return;
   const std::size_t n = S.size();
-  C.since_a.resize(n);
-  C.since_b.resize(n);
+  for (auto* v : {&C.since_a, &C.since_b, &C.trav_a, &C.trav_b}) v->resize(n);
   C.dir_a.resize(n);
   C.dir_b.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < n; i += stride) {
     const RunInfo& r = S.runs[S.run[i]];
     const double sa = shift(S, st, i, true), sb = shift(S, st, i, false);
     C.since_a[i] = since(r, S.u[i], sa);
     C.since_b[i] = since(r, S.u[i], kPi / 2 + sb);
+    C.trav_a[i] = travelled(S, C.since_a[i]);
+    C.trav_b[i] = travelled(S, C.since_b[i]);
     // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos.
     C.dir_a[i] = static_cast<std::int8_t>(-r.dir * sgn(std::sin(S.u[i] - sa)));
     C.dir_b[i] = static_cast<std::int8_t>(r.dir * sgn(std::cos(S.u[i] - sb)));
   }
   C.servo_mismatch_s = st.servo_mismatch_s;
+  C.stride = stride;
   C.valid = true;
 }
 double since_a(const Samples& S, const State&, std::size_t i) {
@@ -145,10 +154,6 @@ std::pair<double, double> backlash_terms(double new_dir, double travelled_mm, do
   return {old_dir / 2.0, 0.0};
 }
 
-double travelled(const Samples& S, double since) {
-  return S.radius * (1.0 - std::cos(since));
-}
-
 double value(const Samples& S, const State& st, const Column& col, std::size_t i) {
   const double c = S.c[i], s = S.s[i];
   const RunInfo& r = S.runs[S.run[i]];
@@ -167,11 +172,9 @@ double value(const Samples& S, const State& st, const Column& col, std::size_t i
     case Kind::servo:
       return r.dir * r.speed_mm_s * s * c;
     case Kind::backlash_a:
-      return backlash_terms(dir_a(S, st, i), travelled(S, since_a(S, st, i)), st.backlash_a).first *
-             c;
+      return backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).first * c;
     case Kind::backlash_b:
-      return backlash_terms(dir_b(S, st, i), travelled(S, since_b(S, st, i)), st.backlash_b).first *
-             s;
+      return backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).first * s;
     case Kind::spike_a:
       if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
       return -dir_a(S, st, i) * std::exp(-since_a(S, st, i) * R / r.speed_mm_s / st.tau_a) * c;
@@ -215,11 +218,9 @@ double offset(const Samples& S, const State& st, const std::vector<Column>& cols
   }
   for (const Column& col : cols) {
     if (col.kind == Kind::backlash_a && st.backlash_a > 0) {
-      o += backlash_terms(dir_a(S, st, i), travelled(S, since_a(S, st, i)), st.backlash_a).second *
-           S.c[i];
+      o += backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).second * S.c[i];
     } else if (col.kind == Kind::backlash_b && st.backlash_b > 0) {
-      o += backlash_terms(dir_b(S, st, i), travelled(S, since_b(S, st, i)), st.backlash_b).second *
-           S.s[i];
+      o += backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).second * S.s[i];
     }
   }
   return o;
@@ -234,7 +235,7 @@ struct Normal {
 
 Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& cols,
                   std::size_t stride) {
-  refresh(S, st);
+  refresh(S, st, stride);
   const auto p = static_cast<Eigen::Index>(cols.size());
   Normal N;
   N.M = Eigen::MatrixXd::Zero(p, p);
@@ -342,11 +343,15 @@ struct Profile {
   Eigen::VectorXd e;               // base residual
   Eigen::MatrixXd inv;             // (J^T J)^-1 of the base fit (full-data scaling)
   double rss = 0.0;
+  // The spike terms' parts that do not depend on the decay, per axis and profile row: the
+  // signed projection (-direction * cos or sin) and the time since the reversal (negative when
+  // the feed is unknown). The decay search evaluates the spike columns hundreds of times.
+  std::array<Eigen::VectorXd, 2> spike_sign, spike_dt_s;
 };
 
 Profile make_profile(const Samples& S, const State& st, const std::vector<Column>& cols,
                      const Solution& base, std::size_t stride) {
-  refresh(S, st);
+  refresh(S, st, stride);
   Profile P;
   for (std::size_t i = 0; i < S.size(); i += stride) {
     if (!at_reversal(S, st, i)) P.index.push_back(i);
@@ -361,6 +366,18 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
       P.J(r, j) = value(S, st, cols[static_cast<std::size_t>(j)], i);
     P.e[r] = S.dr[i] - offset(S, st, cols, i) - P.J.row(r).dot(base.x);
   }
+  for (std::size_t ax = 0; ax < 2; ++ax) {
+    P.spike_sign[ax].resize(n);
+    P.spike_dt_s[ax].resize(n);
+  }
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const std::size_t i = P.index[static_cast<std::size_t>(r)];
+    const double v = S.runs[S.run[i]].speed_mm_s;
+    P.spike_sign[0][r] = -dir_a(S, st, i) * S.c[i];
+    P.spike_sign[1][r] = -dir_b(S, st, i) * S.s[i];
+    P.spike_dt_s[0][r] = v > 0 ? since_a(S, st, i) * S.radius / v : -1.0;
+    P.spike_dt_s[1][r] = v > 0 ? since_b(S, st, i) * S.radius / v : -1.0;
+  }
   // (J^T J)^-1 of this subsample, so that the profile is consistent within itself.
   const Eigen::MatrixXd M = P.J.transpose() * P.J;
   Eigen::VectorXd d = M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
@@ -373,28 +390,42 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   return P;
 }
 
+// One added column on the profile's rows. A spike term is exp(-dt / tau) times its sign, the
+// same value as `value` gives; past exp(-700) (1e-304) it is taken as zero, which spares the
+// slow underflow path of exp and changes no sum.
+void profile_column(const Samples& S, const State& st, const Profile& P, const Column& col,
+                    Eigen::Ref<Eigen::VectorXd> out) {
+  const Eigen::Index n = P.J.rows();
+  if (col.kind == Kind::spike_a || col.kind == Kind::spike_b) {
+    const std::size_t ax = col.kind == Kind::spike_a ? 0 : 1;
+    const double tau = ax == 0 ? st.tau_a : st.tau_b;
+    if (tau <= 0) {
+      out.setZero();
+      return;
+    }
+    const double cut = 700.0 * tau;
+    const Eigen::VectorXd& sign = P.spike_sign[ax];
+    const Eigen::VectorXd& dt = P.spike_dt_s[ax];
+    for (Eigen::Index r = 0; r < n; ++r) {
+      out[r] = dt[r] < 0 || dt[r] > cut ? 0.0 : sign[r] * std::exp(-dt[r] / tau);
+    }
+    return;
+  }
+  for (Eigen::Index r = 0; r < n; ++r)
+    out[r] = value(S, st, col, P.index[static_cast<std::size_t>(r)]);
+}
+
 // Residual sum of squares when the columns `extra` join the base fit:
 // RSS_base - g^T H^-1 g with g = S^T e0 and H = S^T S - S^T J (J^T J)^-1 J^T S.
 double profile_rss(const Samples& S, const State& st, const Profile& P,
                    const std::vector<Column>& extra) {
-  const auto p = P.J.cols();
   const auto q = static_cast<Eigen::Index>(extra.size());
-  Eigen::MatrixXd SS = Eigen::MatrixXd::Zero(q, q);
-  Eigen::MatrixXd SJ = Eigen::MatrixXd::Zero(q, p);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(q);
-  Eigen::VectorXd srow(q);
-  for (Eigen::Index r = 0; r < P.J.rows(); ++r) {
-    const std::size_t i = P.index[static_cast<std::size_t>(r)];
-    bool any = false;
-    for (Eigen::Index j = 0; j < q; ++j) {
-      srow[j] = value(S, st, extra[static_cast<std::size_t>(j)], i);
-      any = any || srow[j] != 0.0;
-    }
-    if (!any) continue;
-    SS.noalias() += srow * srow.transpose();
-    SJ.noalias() += srow * P.J.row(r);
-    g += P.e[r] * srow;
-  }
+  Eigen::MatrixXd X(P.J.rows(), q);
+  for (Eigen::Index j = 0; j < q; ++j)
+    profile_column(S, st, P, extra[static_cast<std::size_t>(j)], X.col(j));
+  const Eigen::MatrixXd SS = X.transpose() * X;
+  const Eigen::MatrixXd SJ = X.transpose() * P.J;
+  const Eigen::VectorXd g = X.transpose() * P.e;
   const Eigen::MatrixXd H = SS - SJ * P.inv * SJ.transpose();
   Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
   if (ldlt.info() != Eigen::Success || H.diagonal().minCoeff() <= 0) return P.rss;
@@ -594,7 +625,11 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
   // The linearisation point: the nominal circle, else the least-squares circle of all runs.
   double ca = 0, cb = 0, R = 0;
-  {
+  if (ev.centre && ev.nominal_radius_mm) {
+    ca = ev.centre->a_mm;
+    cb = ev.centre->b_mm;
+    R = *ev.nominal_radius_mm;
+  } else {
     std::vector<double> xa, xb;
     for (const auto& r : ev.runs) {
       xa.insert(xa.end(), col_a.begin() + static_cast<std::ptrdiff_t>(r.run.begin),
@@ -624,6 +659,12 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   bool have_ccw = false, have_cw = false;
   bool reversal_a = false, reversal_b = false;
   double min_sweep = 360.0;
+  {
+    std::size_t total = 0;
+    for (const RunResult& rr : ev.runs) total += rr.run.size();
+    for (auto* v : {&S.c, &S.s, &S.dr, &S.pos_a, &S.pos_b, &S.u}) v->reserve(total);
+    S.run.reserve(total);
+  }
   for (std::size_t k = 0; k < ev.runs.size(); ++k) {
     const RunResult& rr = ev.runs[k];
     RunInfo info;
@@ -817,7 +858,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         ce.pitch_source = "option";
       } else {
         std::vector<double> pos, proj, res;
-        refresh(S, st);
+        refresh(S, st, cstride);
         for (std::size_t i = 0; i < S.size(); i += cstride) {
           double e = S.dr[i] - offset(S, st, cols, i);
           for (std::size_t j = 0; j < cols.size(); ++j)
@@ -1210,7 +1251,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   }
 
   // Residual over every sample, and the model's terms for the contributions.
-  refresh(S, st);
+  refresh(S, st, 1);
   std::vector<double> model(S.size(), 0.0), resid(S.size(), 0.0);
   for (std::size_t i = 0; i < S.size(); ++i) {
     double full = offset(S, st, cols, i);
@@ -1269,13 +1310,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       for (std::size_t j : mine) {
         t += value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
         if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
-          t += backlash_terms(dir_a(S, st, i), travelled(S, since_a(S, st, i)), st.backlash_a)
-                   .second *
-               S.c[i];
+          t += backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).second * S.c[i];
         } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
-          t += backlash_terms(dir_b(S, st, i), travelled(S, since_b(S, st, i)), st.backlash_b)
-                   .second *
-               S.s[i];
+          t += backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).second * S.s[i];
         }
       }
       return t;
