@@ -1252,17 +1252,44 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
 
   // Residual over every sample, and the model's terms for the contributions.
   refresh(S, st, 1);
+  // The sources of the contributions (below), and each column's: their terms' ranges per run
+  // are taken in the same pass as the residual.
+  std::vector<std::string> sources;
+  std::vector<int> source_of(cols.size(), -1);
+  for (std::size_t j = 0; j < cols.size(); ++j) {
+    const Column& c = cols[j];
+    if (c.kind == Kind::centre_a || c.kind == Kind::centre_b || c.kind == Kind::radius) continue;
+    const std::string name = kind_name(c.kind, D.axes);
+    auto at = std::find(sources.begin(), sources.end(), name);
+    if (at == sources.end()) at = sources.insert(sources.end(), name);
+    source_of[j] = static_cast<int>(at - sources.begin());
+  }
+  const std::size_t ns = sources.size();
+  std::vector<double> term_min(ns * S.runs.size(), std::numeric_limits<double>::infinity());
+  std::vector<double> term_max(ns * S.runs.size(), -std::numeric_limits<double>::infinity());
+  std::vector<double> term_at(ns);
   std::vector<double> model(S.size(), 0.0), resid(S.size(), 0.0);
   for (std::size_t i = 0; i < S.size(); ++i) {
     double full = offset(S, st, cols, i);
     double shape = full;  // without centring and radius
+    std::fill(term_at.begin(), term_at.end(), 0.0);
     for (std::size_t j = 0; j < cols.size(); ++j) {
       const double t = value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
       full += t;
-      if (cols[j].kind != Kind::centre_a && cols[j].kind != Kind::centre_b &&
-          cols[j].kind != Kind::radius) {
-        shape += t;
+      if (source_of[j] < 0) continue;
+      shape += t;
+      double& term = term_at[static_cast<std::size_t>(source_of[j])];
+      term += t;
+      if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
+        term += backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).second * S.c[i];
+      } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
+        term += backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).second * S.s[i];
       }
+    }
+    const std::size_t base = S.run[i] * ns;
+    for (std::size_t k = 0; k < ns; ++k) {
+      term_min[base + k] = std::min(term_min[base + k], term_at[k]);
+      term_max[base + k] = std::max(term_max[base + k], term_at[k]);
     }
     model[i] = shape;
     resid[i] = S.dr[i] - full;
@@ -1294,13 +1321,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   (void)g_run;
   // Contributions: each source's term alone (its G over the runs) and its part of the
   // modelled G at the model's extreme points (these parts add up to the modelled G).
-  std::vector<std::string> sources;
-  for (const Column& c : cols) {
-    if (c.kind == Kind::centre_a || c.kind == Kind::centre_b || c.kind == Kind::radius) continue;
-    const std::string name = kind_name(c.kind, D.axes);
-    if (std::find(sources.begin(), sources.end(), name) == sources.end()) sources.push_back(name);
-  }
-  for (const std::string& name : sources) {
+  for (std::size_t k = 0; k < ns; ++k) {
+    const std::string& name = sources[k];
     std::vector<std::size_t> mine;
     for (std::size_t j = 0; j < cols.size(); ++j) {
       if (kind_name(cols[j].kind, D.axes) == name) mine.push_back(j);
@@ -1319,14 +1341,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     };
     Contribution con;
     con.source = name;
-    for (const RunInfo& r : S.runs) {
-      double mn = std::numeric_limits<double>::infinity(), mx = -mn;
-      for (std::size_t i = r.begin; i < r.end; ++i) {
-        const double t = term(i);
-        mn = std::min(mn, t);
-        mx = std::max(mx, t);
-      }
-      con.g_mm = std::max(con.g_mm, mx - mn);
+    for (std::size_t r = 0; r < S.runs.size(); ++r) {
+      if (S.runs[r].end == S.runs[r].begin) continue;
+      con.g_mm = std::max(con.g_mm, term_max[r * ns + k] - term_min[r * ns + k]);
     }
     con.share_mm = term(imax) - term(imin);
     con.percent = D.model_g_mm > 0 ? 100.0 * con.share_mm / D.model_g_mm : 0.0;
