@@ -13,9 +13,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -49,14 +52,17 @@ class CompensationLoop : public ::testing::Test {
     if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circlog.so")) {
       GTEST_SKIP() << "needs root (private namespaces) or circlog installed";
     }
-    out_ = fs::temp_directory_path() / "circtest-e2e-compensation-loop";
-    fs::remove_all(out_);
-    fs::create_directories(out_);
+    // A folder of its own: two checkouts running this test at once once shared a fixed path.
+    scratch_ = std::make_unique<circtest::testing::ScratchDir>("circtest-e2e-compensation-loop");
+    out_ = scratch_->dir();
+    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
+    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                              fs::perms::others_read | fs::perms::others_exec);
     fs::copy(fs::path(CIRCTEST_SIM_INI).parent_path(), out_ / "machine");
     ini_ = (out_ / "machine" / "sim-mill.ini").string();
   }
   void TearDown() override {
-    if (!HasFailure()) fs::remove_all(out_);
+    if (HasFailure() && scratch_) scratch_->keep();
   }
   void set(const std::string& key, const std::string& value) {
     ASSERT_EQ(run(std::string(CIRCTEST_INI_PATH) + " set " + ini_ + " SIM " + key + " " + value),
@@ -100,6 +106,7 @@ class CompensationLoop : public ::testing::Test {
     return g;
   }
 
+  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
   fs::path out_;
   std::string ini_;
 };
