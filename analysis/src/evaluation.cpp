@@ -280,7 +280,17 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
       ev.notes.push_back(*note);
     }
-    RunResult rr = evaluate_run(trace, ev, run, options.f_centre, ev.notes);
+    RunResult rr;
+    try {
+      rr = evaluate_run(trace, ev, run, options.f_centre, ev.notes);
+    } catch (const DataError& e) {
+      // The fits see bare points; the run's file and lines make their refusal findable.
+      if (!e.file().empty()) throw;
+      const std::size_t first = trace.line_of_row[run.begin];
+      const std::size_t last = trace.line_of_row[run.end - 1];
+      throw DataError(trace.source, first,
+                      fmt::format("run {} (lines {}-{}): {}", number, first, last, e.detail()));
+    }
     if (ev.nominal_radius_mm) {
       if (auto note = check_nominal_radius(
               trace, number, run, rr.lsc.radius_mm * ev.temperature_factor, *ev.nominal_radius_mm,

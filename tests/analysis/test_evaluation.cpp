@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "circtest/analysis/evaluation.hpp"
@@ -178,6 +179,29 @@ TEST(Evaluation, ArcShorterThan90DegreesIsRefused) {
               std::string::npos)
         << e.what();
     EXPECT_GT(e.line(), 0u);
+  }
+}
+
+TEST(Evaluation, AFitsRefusalNamesTheFileAndTheRunsLines) {
+  Trace trace = sim::simulate({}, {});
+  trace.source = "t.csv";
+  const Evaluation good = evaluate(trace, {});
+  ASSERT_EQ(good.runs.size(), 2u);
+  // A sample the reader would refuse, put straight into the second run: the circle fit sees it.
+  const circtest::Run second = good.runs[1].run;
+  const std::size_t row = (second.begin + second.end) / 2;
+  trace.values[static_cast<std::size_t>(trace.column_index("x"))][row] =
+      std::numeric_limits<double>::quiet_NaN();
+  const std::string lines = std::to_string(trace.line_of_row[second.begin]) + "-" +
+                            std::to_string(trace.line_of_row[second.end - 1]);
+  try {
+    evaluate(trace, {});
+    FAIL() << "expected an error";
+  } catch (const DataError& e) {
+    EXPECT_EQ(e.file(), "t.csv");
+    EXPECT_EQ(e.line(), trace.line_of_row[second.begin]);
+    EXPECT_EQ(e.detail(),
+              "run 2 (lines " + lines + "): circle fit: a coordinate is not a finite number");
   }
 }
 
