@@ -50,6 +50,9 @@ measure after
 "$circana" diagnose "$out/after.csv" >"$out/after-diagnosis.txt"
 "$circana" analyze "$out/after.csv" --compare "$out/before.csv" --svg "$out/before-after.svg" \
   --scale-um-per-div 5 >/dev/null
+# The report a service engineer hands over: after against before, with the remaining diagnosis.
+"$circana" report "$out/after.csv" "$out/before.csv" -o "$out/report.html" --scale-um-per-div 5 \
+  --diagnosis "$out/after-diagnosis.json" >/dev/null
 
 cat "$out/before-report.txt"
 echo
@@ -100,6 +103,8 @@ echo "  before.json, after.json    H, G, F per direction in mm (circana analyze 
 echo "  before-report.txt, after-report.txt   the clause 6 reports"
 echo "  before-after.svg           both tests in one plot at 5 um/div: before solid, after dashed"
 echo "  before.svg, after.svg      each test alone, at the same scale"
+echo "  report.html                the report to hand over (circana report): clause 6 header, H/G/F"
+echo "                             before and after, both paths, the remaining diagnosis; prints A4"
 echo "  diagnosis.json/.txt        circana diagnose of the first run (what circcomp reads)"
 echo "  plan.diff                  circcomp plan: every file it changes or creates, and advice"
 echo "  after-diagnosis.json/.txt  circana diagnose of the compensated machine"
