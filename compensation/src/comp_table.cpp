@@ -23,8 +23,11 @@ CompEntry CompTable::at(double position) const {
                                    [](double p, const CompEntry& e) { return p < e.nominal; });
   const auto lo = hi - 1;
   const double t = (position - lo->nominal) / (hi->nominal - lo->nominal);
-  return {position, lo->forward_trim + t * (hi->forward_trim - lo->forward_trim),
-          lo->reverse_trim + t * (hi->reverse_trim - lo->reverse_trim)};
+  // The weighted mean, not lo + t * (hi - lo): the difference of two finite trims of
+  // opposite sign can overflow to inf (fuzz_comp_table), the mean of them cannot.
+  const auto mix = [t](double a, double b) { return (1.0 - t) * a + t * b; };
+  return {position, mix(lo->forward_trim, hi->forward_trim),
+          mix(lo->reverse_trim, hi->reverse_trim)};
 }
 
 CompTable parse_comp_table(const std::string& text, int type, const std::string& source) {

@@ -199,6 +199,10 @@ TEST(Compensation, TableRulesOfLinuxcnc) {
     EXPECT_EQ(e.line(), 257u);
   }
   EXPECT_EQ(parse_comp_table("0 0 0\n1 0.5 -0.5\n\n", 1, "c").at(0.5).forward_trim, 0.25);
+  // fuzz_comp_table: trims of opposite sign near DBL_MAX interpolate to a finite value.
+  const CompTable wide = parse_comp_table("01e30 1e308 0\n1e38 -1e308 0\n", 0, "c");
+  EXPECT_TRUE(std::isfinite(wide.at(5e37).forward_trim));
+  EXPECT_NEAR(wide.at(5e37).forward_trim / 1e308, 0.0, 0.01);
   // A comment on top disables the table in LinuxCNC: circcomp refuses to merge into it.
   Scratch s;
   s.write("x.comp", "# measured 2024\n0 0 0\n");
