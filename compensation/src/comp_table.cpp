@@ -22,7 +22,12 @@ CompEntry CompTable::at(double position) const {
   const auto hi = std::upper_bound(entries.begin(), entries.end(), position,
                                    [](double p, const CompEntry& e) { return p < e.nominal; });
   const auto lo = hi - 1;
-  const double t = (position - lo->nominal) / (hi->nominal - lo->nominal);
+  // Halved when the span overflows (nominals of opposite sign near DBL_MAX, fuzz_comp_table):
+  // halving is exact there, and inf / inf would give NaN.
+  const double span = hi->nominal - lo->nominal;
+  const double t = std::isfinite(span) ? (position - lo->nominal) / span
+                                       : (0.5 * position - 0.5 * lo->nominal) /
+                                             (0.5 * hi->nominal - 0.5 * lo->nominal);
   // The weighted mean, not lo + t * (hi - lo): the difference of two finite trims of
   // opposite sign can overflow to inf (fuzz_comp_table), the mean of them cannot.
   const auto mix = [t](double a, double b) { return (1.0 - t) * a + t * b; };

@@ -203,6 +203,10 @@ TEST(Compensation, TableRulesOfLinuxcnc) {
   const CompTable wide = parse_comp_table("01e30 1e308 0\n1e38 -1e308 0\n", 0, "c");
   EXPECT_TRUE(std::isfinite(wide.at(5e37).forward_trim));
   EXPECT_NEAR(wide.at(5e37).forward_trim / 1e308, 0.0, 0.01);
+  // ... and nominals of opposite sign near DBL_MAX, whose span overflows.
+  const CompTable span = parse_comp_table("-1e308 0 0\n1e308 0 1e308\n", 1, "c");
+  EXPECT_DOUBLE_EQ(span.at(std::nextafter(1e308, 0.0)).reverse_trim, 1e308);
+  EXPECT_DOUBLE_EQ(span.at(0.0).reverse_trim, 0.5e308);
   // A comment on top disables the table in LinuxCNC: circcomp refuses to merge into it.
   Scratch s;
   s.write("x.comp", "# measured 2024\n0 0 0\n");
