@@ -33,10 +33,11 @@ void print_summary(const Plan& plan, std::ostream& out) {
   for (const auto& a : plan.advice) out << "# advice: " << a << "\n";
 }
 
-// The crash test's hook (docs/compensation.md): SIGKILL itself after step K of apply or
-// revert, as a power cut or an OOM kill would stop it, so the test sees what such a stop
-// leaves.
-StepHook crash_test_hook() {
+#ifdef CIRCCOMP_CRASH_TEST
+// Only in the crash test's own build of this file (tests/compensation: circcomp-crash-test,
+// never installed): SIGKILL itself after step K of apply or revert, as a power cut or an OOM
+// kill would stop it, so the test sees what such a stop leaves.
+StepHook after_step_hook() {
   const char* k = std::getenv("CIRCCOMP_KILL_AFTER_STEP");
   if (k == nullptr) return {};
   const auto kill_step =
@@ -47,6 +48,11 @@ StepHook crash_test_hook() {
     ::raise(SIGKILL);
   };
 }
+#else
+StepHook after_step_hook() {
+  return {};
+}
+#endif
 
 int run(int argc, char** argv) {
   if (argc < 2) throw UsageError(std::string("expected plan, apply or revert\n") + kUsage);
@@ -85,7 +91,7 @@ int run(int argc, char** argv) {
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
   if (command == "revert") {
     if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
-    std::cout << (revert(ini, crash_test_hook())
+    std::cout << (revert(ini, after_step_hook())
                       ? "circcomp: reverted " + ini + " to the state before the last apply\n"
                       : "circcomp: nothing to revert for " + ini + "\n");
     return 0;
@@ -121,7 +127,7 @@ int run(int argc, char** argv) {
     std::cout << "circcomp: nothing to change in " << ini << "\n";
     return 0;
   }
-  apply_plan(plan, crash_test_hook());
+  apply_plan(plan, after_step_hook());
   print_summary(plan, std::cout);
   for (const auto& f : plan.files) {
     std::cout << "circcomp: " << (f.existed ? "changed " : "created ") << f.path << "\n";

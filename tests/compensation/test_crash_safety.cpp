@@ -1,7 +1,9 @@
 // circcomp apply SIGKILLed after each of its steps (CIRCCOMP_KILL_AFTER_STEP: the process
 // kills itself with SIGKILL there, so nothing of it runs afterwards, as in a power cut): every
 // configuration file is then wholly the old or wholly the new version, no temporary is left,
-// and circcomp revert restores the state before the apply byte-identical.
+// and circcomp revert restores the state before the apply byte-identical. The hook is only in
+// circcomp-crash-test (the same main.cpp built with CIRCCOMP_CRASH_TEST); the installed
+// circcomp ignores the variable.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -71,11 +73,14 @@ struct Outcome {
   std::string err;
 };
 
-Outcome apply(const fs::path& dir, const fs::path& diagnosis, long kill_after) {
+// K >= 0: circcomp-crash-test kills itself after step K; K < 0: a complete run. PROGRAM: the
+// program run, the crash test's build unless said.
+Outcome apply(const fs::path& dir, const fs::path& diagnosis, long kill_after,
+              const char* program = CIRCCOMP_CRASH_TEST_PATH) {
   const fs::path err = dir.parent_path() / (dir.filename().string() + ".err");
   std::string cmd;
   if (kill_after >= 0) cmd = "CIRCCOMP_KILL_AFTER_STEP=" + std::to_string(kill_after) + " ";
-  cmd += std::string(CIRCCOMP_PATH) + " apply --ini " + (dir / "m.ini").string() + " " +
+  cmd += std::string(program) + " apply --ini " + (dir / "m.ini").string() + " " +
          diagnosis.string() + " >/dev/null 2>" + err.string();
   const int status = std::system(cmd.c_str());
   Outcome o;
@@ -89,8 +94,8 @@ Outcome apply(const fs::path& dir, const fs::path& diagnosis, long kill_after) {
 int revert(const fs::path& dir, long kill_after = -1) {
   std::string cmd;
   if (kill_after >= 0) cmd = "CIRCCOMP_KILL_AFTER_STEP=" + std::to_string(kill_after) + " ";
-  cmd +=
-      std::string(CIRCCOMP_PATH) + " revert --ini " + (dir / "m.ini").string() + " >/dev/null 2>&1";
+  cmd += std::string(CIRCCOMP_CRASH_TEST_PATH) + " revert --ini " + (dir / "m.ini").string() +
+         " >/dev/null 2>&1";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -138,6 +143,25 @@ class CrashSafety : public ::testing::Test {
   void TearDown() override {
     if (!HasFailure()) fs::remove_all(root_);
   }
+
+  // A new machine in ROOT/NAME with one complete apply of a diagnosis (SQUARENESS_URAD, the
+  // scale when WITH_SCALE): the folder and its files before and after.
+  struct Applied {
+    fs::path dir;
+    Tree before, after;
+  };
+  Applied applied_machine(const std::string& name, double squareness_urad, bool with_scale) {
+    Applied m{root_ / name, {}, {}};
+    make_machine(m.dir);
+    m.before = tree_of(m.dir);
+    const fs::path diagnosis = root_ / (name + ".json");
+    spit(diagnosis, diagnosis_for(m.dir / "m.ini", squareness_urad, with_scale));
+    const Outcome o = apply(m.dir, diagnosis, -1);
+    EXPECT_EQ(o.exit_code, 0) << o.err;
+    m.after = tree_of(m.dir);
+    return m;
+  }
+
   fs::path root_;
 };
 
@@ -145,12 +169,10 @@ class CrashSafety : public ::testing::Test {
 
 TEST_F(CrashSafety, KilledAtEveryStepOfAFirstApply) {
   // The new version: one complete apply.
-  const fs::path ref = root_ / "ref";
-  make_machine(ref);
-  const Tree old_tree = tree_of(ref);
-  spit(root_ / "ref.json", diagnosis_for(ref / "m.ini", 100.0, true));
-  ASSERT_EQ(apply(ref, root_ / "ref.json", -1).exit_code, 0);
-  const Tree new_tree = tree_of(ref);
+  const Applied ref = applied_machine("ref", 100.0, true);
+  ASSERT_FALSE(HasFailure());
+  const Tree& old_tree = ref.before;
+  const Tree& new_tree = ref.after;
   ASSERT_EQ(new_tree.size(), old_tree.size() + 2);  // the COMP_FILE and circtest-comp.hal
   for (const auto& [name, text] : old_tree) ASSERT_NE(new_tree.at(name), text) << name;
 
@@ -185,12 +207,9 @@ TEST_F(CrashSafety, KilledDuringASecondApplyKeepsTheFirstOnesOriginals) {
   // killed. Revert undoes apply 2 when its manifest was in place, else apply 1: never a mix,
   // and never the originals of apply 1 lost to apply 2's backups.
   for (long k = 0; k < 100; ++k) {
-    const fs::path dir = root_ / named("s", k);
-    make_machine(dir);
-    const Tree original = tree_of(dir);
-    spit(root_ / "one.json", diagnosis_for(dir / "m.ini", 0.0, true));
-    ASSERT_EQ(apply(dir, root_ / "one.json", -1).exit_code, 0);
-    const Tree after_one = tree_of(dir);
+    const Applied one = applied_machine(named("s", k), 0.0, true);
+    ASSERT_FALSE(HasFailure());
+    const fs::path& dir = one.dir;
     spit(root_ / "two.json", diagnosis_for(dir / "m.ini", 80.0, false));
     const Outcome o = apply(dir, root_ / "two.json", k);
     if (!o.killed) {
@@ -204,7 +223,7 @@ TEST_F(CrashSafety, KilledDuringASecondApplyKeepsTheFirstOnesOriginals) {
     // temporary; from then on revert undoes apply 2.
     const bool committed = o.err.find("original of") == std::string::npos &&
                            o.err.find("manifest: written") == std::string::npos;
-    EXPECT_EQ(tree_of(dir), committed ? after_one : original)
+    EXPECT_EQ(tree_of(dir), committed ? one.after : one.before)
         << "step " << k << " (" << o.err << ")";
   }
 }
@@ -215,12 +234,11 @@ TEST_F(CrashSafety, KilledRevertIsFinishedByTheNextOne) {
   // before the apply.
   long steps = 0;
   for (long k = 0; k < 100; ++k) {
-    const fs::path dir = root_ / named("r", k);
-    make_machine(dir);
-    const Tree old_tree = tree_of(dir);
-    spit(root_ / "r.json", diagnosis_for(dir / "m.ini", 100.0, true));
-    ASSERT_EQ(apply(dir, root_ / "r.json", -1).exit_code, 0);
-    const Tree new_tree = tree_of(dir);
+    const Applied m = applied_machine(named("r", k), 100.0, true);
+    ASSERT_FALSE(HasFailure());
+    const fs::path& dir = m.dir;
+    const Tree& old_tree = m.before;
+    const Tree& new_tree = m.after;
     const int rc = revert(dir, k);
     if (rc != 128 + SIGKILL) {
       ASSERT_EQ(rc, 0);
@@ -235,4 +253,18 @@ TEST_F(CrashSafety, KilledRevertIsFinishedByTheNextOne) {
     EXPECT_FALSE(fs::exists(dir / ".circcomp")) << "step " << k;
   }
   EXPECT_EQ(steps, 4 + 1);  // four files, then the manifest
+}
+
+TEST_F(CrashSafety, TheInstalledCirccompHasNoKillHook) {
+  // The variable that kills circcomp-crash-test after its first step does nothing to the
+  // circcomp that is installed: the apply completes and writes the same files.
+  const Applied ref = applied_machine("ref", 100.0, true);
+  ASSERT_FALSE(HasFailure());
+  const fs::path dir = root_ / "shipped";
+  make_machine(dir);
+  spit(root_ / "shipped.json", diagnosis_for(dir / "m.ini", 100.0, true));
+  const Outcome o = apply(dir, root_ / "shipped.json", 0, CIRCCOMP_PATH);
+  EXPECT_FALSE(o.killed) << o.err;
+  EXPECT_EQ(o.exit_code, 0) << o.err;
+  EXPECT_EQ(tree_of(dir), ref.after);
 }

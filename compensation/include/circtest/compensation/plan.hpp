@@ -50,7 +50,7 @@ std::string unified_diff(const Plan& plan);
 // Writes the originals and a manifest into <ini dir>/.circcomp/, then every file atomically.
 // AFTER_STEP, when given, is called after every step (a temporary written but not yet renamed
 // into place, then the rename) with the step's number from 0 and a description: the crash
-// test kills the process there (circcomp's CIRCCOMP_KILL_AFTER_STEP).
+// test kills the process there (circcomp-crash-test, tests/compensation).
 using StepHook = std::function<void(std::size_t step, const std::string& what)>;
 void apply_plan(const Plan& plan, const StepHook& after_step = {});
 // Restores the state before the last apply byte-identical (created files removed). Returns
