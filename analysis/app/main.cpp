@@ -238,6 +238,15 @@ int store(const std::vector<std::string>& args) {
                     "the history: SQLite file or postgresql:// URL");
   });
   if (!p.request.compare_path.empty()) throw UsageError("--compare: only for circana analyze");
+  // store only writes the history, and a RESULT.json has no points to draw: refused rather
+  // than ignored (analyze --svg --store plots and stores in one call).
+  for (const char* o : {"svg", "scale-um-per-div", "json"}) {
+    if (p.vm.count(o)) {
+      throw UsageError(std::string("--") + o +
+                       ": not for circana store (it only stores; analyze --store plots or prints "
+                       "and stores)");
+    }
+  }
   StoreRequest req;
   req.path = p.request.trace_path;
   req.options = p.request.options;

@@ -502,6 +502,24 @@ TEST_F(CircanaCli, CompareDrawsTheEarlierTestUnderThisOneInOnePlot) {
                "--compare: only for circana analyze");
 }
 
+TEST_F(CircanaCli, StoreRefusesThePlotAndJsonOptionsItWouldIgnore) {
+  // Once `store TRACE --svg F` stored and wrote no F, silently. Refused before the history is
+  // opened (exit 2): nothing stored, no file written.
+  const std::string trace = (dir_ / "store.csv").string();
+  ASSERT_EQ(simtrace("-o " + trace + " --d 150 --f 1000"), 0);
+  const std::string db = (dir_ / "h.sqlite").string();
+  const std::string svg = (dir_ / "store.svg").string();
+  const std::string why =
+      ": not for circana store (it only stores; analyze --store plots or "
+      "prints and stores)";
+  expect_error("store " + trace + " --db " + db + " --svg " + svg, 2, "--svg" + why);
+  expect_error("store " + trace + " --db " + db + " --scale-um-per-div 5", 2,
+               "--scale-um-per-div" + why);
+  expect_error("store " + trace + " --db " + db + " --json", 2, "--json" + why);
+  EXPECT_FALSE(fs::exists(svg));
+  EXPECT_FALSE(fs::exists(db));
+}
+
 namespace {
 
 // A simulated trace's text (circtest-simtrace, an ideal machine: every sample on the circle).
