@@ -4,8 +4,8 @@
 # scripts/hal-sandbox; the writes land in a scratch folder and vanish with the test, the real
 # system is not touched),
 # then checks there that the files are where LinuxCNC and man look, that halrun loads circlog
-# from /usr/lib/linuxcnc/modules, that `man circana` and `man 9 circlog` render, that the
-# programs run, and that dpkg --verify finds the installed files unchanged.
+# from /usr/lib/linuxcnc/modules, that `man circana`, `man 9 circlog` and `man 9 circtest_kins`
+# render, that the programs run, and that dpkg --verify finds the installed files unchanged.
 #   test-deb.sh BUILD_DIR VERSION
 set -euo pipefail
 
@@ -41,7 +41,8 @@ in_root() { chroot "$root" env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root 
 # Fresh as far as circtest goes: no earlier install may answer for the package.
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record /usr/bin/circcomp \
   /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
-  /usr/share/man/man1/circana.1 /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9; do
+  /usr/share/man/man1/circana.1 /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9 \
+  /usr/share/man/man9/circtest_kins.9; do
   rm -f "$root$f"
 done
 in_root dpkg -s circtest >/dev/null 2>&1 && in_root dpkg --purge circtest >/dev/null
@@ -54,7 +55,8 @@ for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record \
   /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
   /usr/share/man/man1/circgen.1 \
   /usr/share/man/man1/circana.1 /usr/share/man/man1/circlog-record.1 \
-  /usr/share/man/man9/circlog.9 /usr/share/bash-completion/completions/circana \
+  /usr/share/man/man9/circlog.9 /usr/share/man/man9/circtest_kins.9 \
+  /usr/share/bash-completion/completions/circana \
   /usr/bin/circcomp /usr/share/man/man1/circcomp.1; do
   in_root dpkg -S "$f" | grep -q '^circtest: ' || fail "$f is not installed by the package"
 done
@@ -72,7 +74,9 @@ man_text=$(in_root env MANWIDTH=80 man -P cat circana 2>"$work/man.err") || fail
 grep -q 'circana analyze' <<<"$man_text" || fail "man circana: no synopsis"
 grep -q "circtest $version" <<<"$man_text" || fail "man circana: no version $version in the footer"
 in_root env MANWIDTH=80 man -P cat 9 circlog | grep -q 'circlog.0.overruns' || fail "man 9 circlog"
-echo "ok: man circana, man 9 circlog render"
+in_root env MANWIDTH=80 man -P cat 9 circtest_kins | grep -q 'circtest-kins.squareness-xy' ||
+  fail "man 9 circtest_kins"
+echo "ok: man circana, man 9 circlog, man 9 circtest_kins render"
 
 # halrun in the installed root, realtime as nobody (rtapi_app refuses root) with its FIFO in
 # a folder nobody owns; circlog comes from /usr/lib/linuxcnc/modules, where the package put it.

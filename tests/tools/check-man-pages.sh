@@ -1,7 +1,9 @@
 #!/bin/bash
 # The man pages (docs/man) and the markdown docs describe the programs as they are: every
 # option a program's --help lists is in its man page and in its markdown doc, every pin the
-# circlog HAL adapter creates is in circlog(9) and docs/circlog.md, and each page renders
+# circlog HAL adapter creates is in circlog(9) and docs/circlog.md, every pin and loadrt
+# parameter of circtest_kins is in circtest_kins(9) (its pins also in docs/kinematics.md), and
+# each page renders
 # without a groff warning.
 #   check-man-pages.sh SOURCE_DIR CIRCGEN CIRCANA CIRCLOG_RECORD CIRCCOMP
 set -u  # no pipefail: grep -q may close a pipe early
@@ -58,6 +60,17 @@ for pin in $pins; do
   grep -qF "${name#circlog.0.}" "$src/docs/circlog.md" || fail "docs/circlog.md does not name $name"
 done
 echo "ok: circlog: $(wc -w <<<"$pins") pins and parameters in circlog(9) and docs/circlog.md"
+
+kins_pins=$(grep -o '"circtest-kins\.[a-z-]*"' "$src/hal-component/src/circtest_kins_hal.cpp" | tr -d '"' | sort -u)
+[ -n "$kins_pins" ] || fail "no pin names found in hal-component/src/circtest_kins_hal.cpp"
+for pin in $kins_pins; do
+  plain "$src/docs/man/circtest_kins.9" | grep -qF "$pin" || fail "circtest_kins(9) does not name $pin"
+  grep -qF "$pin" "$src/docs/kinematics.md" || fail "docs/kinematics.md does not name $pin"
+done
+for param in $(grep -o 'RTAPI_MP_[A-Z]*([a-z_]*' "$src/hal-component/src/circtest_kins_hal.cpp" | sed 's/.*(//'); do
+  plain "$src/docs/man/circtest_kins.9" | grep -qF "$param=" || fail "circtest_kins(9) does not name $param="
+done
+echo "ok: circtest_kins: $(wc -w <<<"$kins_pins") pins in circtest_kins(9) and docs/kinematics.md"
 
 for page in "$src"/docs/man/*.[19]; do
   warnings=$(groff -man -Tutf8 -ww -z "$page" 2>&1)
