@@ -11,6 +11,7 @@
 #include "circtest/analysis/result_json.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
+#include "circtest/core/svg.hpp"
 #include "circtest/core/version.hpp"
 
 namespace circtest {
@@ -189,10 +190,7 @@ std::string diagnosis_svg(const DiagnosisChart& d) {
   for (const auto& c : d.contributions) gmax = std::max(gmax, c.g_mm);
   std::string s;
   auto out = std::back_inserter(s);
-  fmt::format_to(out,
-                 "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-                 "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"11\">\n",
-                 w, height);
+  s += svg_open(w, height, 11, false);
   if (d.contributions.empty()) {
     fmt::format_to(out,
                    "<text x=\"4\" y=\"{}\">no error source found above its detection "

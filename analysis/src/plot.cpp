@@ -10,6 +10,7 @@
 
 #include "circtest/analysis/report.hpp"
 #include "circtest/core/strings.hpp"
+#include "circtest/core/svg.hpp"
 
 namespace circtest {
 
@@ -226,11 +227,7 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
     height = std::max(height, h + 28.0);
   }
   const double width = options.diagnosis ? size + 20.0 + kPanelWidth : size;
-  fmt::format_to(out,
-                 "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-                 "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"12\">\n"
-                 "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
-                 width, height);
+  s += svg_open(width, height, 12, true);
   s += panel;
   fmt::format_to(out,
                  "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
@@ -270,8 +267,7 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
       for (const Polar& q : path) {
         // A fixed scale can put a large deviation past the centre: clamp, never fold over.
         const double rr = std::max(0.0, ring_px + q.dev_mm * px_per_mm);
-        fmt::format_to(std::back_inserter(pts), "{:.1f},{:.1f} ", c + rr * std::cos(q.theta),
-                       c - rr * std::sin(q.theta));
+        svg_add_point(pts, c + rr * std::cos(q.theta), c - rr * std::sin(q.theta));
       }
       fmt::format_to(out,
                      "<polyline points=\"{}\" class=\"run\" fill=\"none\" stroke=\"{}\" "
@@ -291,8 +287,7 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
       std::string arc;
       for (int k = 0; k <= 8; ++k) {
         const double t = t0 + (t1 - t0) * k / 8.0;
-        fmt::format_to(std::back_inserter(arc), "{:.1f},{:.1f} ", c + ra * std::cos(t),
-                       c - ra * std::sin(t));
+        svg_add_point(arc, c + ra * std::cos(t), c - ra * std::sin(t));
       }
       // Arrow head at t1, pointing along the tangent of the motion.
       const double hx = c + ra * std::cos(t1), hy = c - ra * std::sin(t1);

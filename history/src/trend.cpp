@@ -10,6 +10,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
+#include "circtest/core/svg.hpp"
 #include "circtest/history/history.hpp"
 
 namespace circtest::history {
@@ -206,14 +207,12 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
 
   std::string s;
   auto out = std::back_inserter(s);
+  s += svg_open(w, height, 11, true);
   fmt::format_to(
       out,
-      "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
-      "viewBox=\"0 0 {0} {1}\" font-family=\"sans-serif\" font-size=\"11\">\n"
-      "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
       "<text x=\"10\" y=\"20\" font-size=\"14\" font-weight=\"bold\">Trend of machine "
-      "{2}: {3} test(s){4}</text>\n",
-      w, height, xml_escape(machine), tests.size(),
+      "{}: {} test(s){}</text>\n",
+      xml_escape(machine), tests.size(),
       tests.empty() ? ""
                     : xml_escape(", " + tests.front().tested_at + " to " + tests.back().tested_at));
   double y0 = top;
@@ -248,7 +247,7 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
       const auto& v = tests[i].*(q.value);
       if (!v) continue;
       const double vx = px(xs[i]), vy = py(std::abs(*v) * q.scale);
-      fmt::format_to(std::back_inserter(pts), "{:.1f},{:.1f} ", vx, vy);
+      svg_add_point(pts, vx, vy);
       const bool bad = lim && std::abs(*v) > *lim;
       fmt::format_to(out,
                      "<circle class=\"point\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\">"
