@@ -18,6 +18,7 @@ extern "C" {
 #include "circlog_kernel.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/utc_time.hpp"
 #include "recorder.hpp"
 
 namespace {
@@ -52,15 +53,7 @@ class SystemEnvironment final : public circtest::circlog_record::Environment {
   }
   bool stop_requested() override { return g_stop != 0; }
   bool process_alive(std::int32_t pid) override { return kill(pid, 0) == 0 || errno == EPERM; }
-  std::string utc_now_iso8601() override {
-    timespec ts{};
-    clock_gettime(CLOCK_REALTIME, &ts);
-    tm utc{};
-    gmtime_r(&ts.tv_sec, &utc);
-    char text[32];
-    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S", &utc);
-    return fmt::format("{}.{:03d}Z", text, static_cast<int>(ts.tv_nsec / 1000000));
-  }
+  std::string utc_now_iso8601() override { return circtest::utc_now_iso8601(true); }
 };
 
 // The HAL component and the mapping of circlog's ring; both undone in the destructor.

@@ -9,11 +9,11 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <fstream>
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/utc_time.hpp"
 #include "circtest/history/history.hpp"
 #include "connection.hpp"
 
@@ -55,16 +55,6 @@ std::optional<double> number(const Value& v) {
   return parse_finite(*v);
 }
 
-std::string utc_now() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  tm utc{};
-  gmtime_r(&ts.tv_sec, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
-}
-
 // Rolls back unless committed: a store is all or nothing, whatever throws.
 class Transaction {
  public:
@@ -88,7 +78,7 @@ class SqlStore final : public Store {
 
   std::int64_t add(const TestRecord& r) override {
     Transaction tx(*c_);
-    const std::string now = utc_now();
+    const std::string now = utc_now_iso8601();
     const auto rows = c_->query(
         "INSERT INTO tests (machine, tested_at, stored_at, plane, channels, trace_path, "
         "trace_sha256, h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, "

@@ -1,0 +1,33 @@
+// ISO 8601 UTC timestamps against dates worked out by hand (1700000000 s after the epoch is
+// 2023-11-14 22:13:20 UTC), and the clock now against time().
+#include "circtest/core/utc_time.hpp"
+
+#include <gtest/gtest.h>
+
+#include <ctime>
+
+using circtest::utc_iso8601;
+using circtest::utc_now_iso8601;
+
+TEST(UtcTime, SecondsAndMilliseconds) {
+  EXPECT_EQ(utc_iso8601(std::timespec{0, 0}), "1970-01-01T00:00:00Z");
+  EXPECT_EQ(utc_iso8601(std::timespec{1700000000, 999999999}), "2023-11-14T22:13:20Z");
+  EXPECT_EQ(utc_iso8601(std::timespec{1700000000, 123456789}, true), "2023-11-14T22:13:20.123Z");
+  // Truncated: 999.9 ms is still second 20.
+  EXPECT_EQ(utc_iso8601(std::timespec{1700000000, 999999999}, true), "2023-11-14T22:13:20.999Z");
+  EXPECT_EQ(utc_iso8601(std::timespec{951782400, 0}), "2000-02-29T00:00:00Z");  // leap day
+}
+
+TEST(UtcTime, NowIsTheWallClock) {
+  const std::time_t before = std::time(nullptr);
+  const std::string now = utc_now_iso8601(true);
+  const std::time_t after = std::time(nullptr);
+  ASSERT_EQ(now.size(), 24u) << now;
+  EXPECT_EQ(now.back(), 'Z');
+  std::tm t{};
+  ASSERT_NE(strptime(now.c_str(), "%Y-%m-%dT%H:%M:%S", &t), nullptr) << now;
+  const std::time_t parsed = timegm(&t);
+  EXPECT_GE(parsed, before);
+  EXPECT_LE(parsed, after);
+  EXPECT_EQ(utc_now_iso8601().size(), 20u);
+}
