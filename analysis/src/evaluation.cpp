@@ -133,6 +133,22 @@ void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evalua
   ev.temperature_factor = ev.temperatures.radius_factor();
 }
 
+// FIT() (circle fits over rows [BEGIN, END) of the trace): the fits see bare points, so a
+// refusal of theirs gets the file and the rows' lines here, with WHAT the points are.
+template <typename Fit>
+auto with_rows_context(const Trace& trace, std::size_t begin, std::size_t end,
+                       const std::string& what, const Fit& fit) -> decltype(fit()) {
+  try {
+    return fit();
+  } catch (const DataError& e) {
+    if (!e.file().empty()) throw;
+    const std::size_t first = trace.line_of_row[begin];
+    const std::size_t last = trace.line_of_row[end - 1];
+    throw DataError(trace.source, first,
+                    fmt::format("{} (lines {}-{}): {}", what, first, last, e.detail()));
+  }
+}
+
 // The commanded columns of the first run give the nominal circle when nothing else did.
 void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluation& ev) {
   const std::vector<double>* cmd_a =
@@ -142,7 +158,9 @@ void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluat
   if ((!ev.nominal_radius_mm || !ev.centre) && cmd_a && cmd_b) {
     const Run& r0 = seg.runs.front();
     if (r0.size() >= 3) {
-      const Circle c = fit_lsc(slice(*cmd_a, r0), slice(*cmd_b, r0));
+      const Circle c = with_rows_context(trace, r0.begin, r0.end, "commanded circle of run 1", [&] {
+        return fit_lsc(slice(*cmd_a, r0), slice(*cmd_b, r0));
+      });
       if (!ev.nominal_radius_mm) {
         ev.nominal_radius_mm = c.radius_mm;
         ev.nominal_radius_source = ValueSource::commanded;
@@ -228,8 +246,13 @@ HysteresisResult hysteresis_of(const Trace& trace, const Evaluation& ev, std::si
   HysteresisResult h;
   h.run_ccw = r1.run.direction == Direction::CCW ? first : first + 1;
   h.run_cw = r1.run.direction == Direction::CCW ? first + 1 : first;
-  h.common_lsc = fit_lsc(slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run),
-                         slice(col_b, r2.run));
+  // Each run's own fit passed, so this one refuses only what a joint fit adds (none known).
+  h.common_lsc = with_rows_context(
+      trace, r1.run.begin, r2.run.end,
+      fmt::format("common circle of runs {} and {} (H)", first + 1, first + 2), [&] {
+        return fit_lsc(slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run),
+                       slice(col_b, r2.run));
+      });
   const PlanePoint centre{h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm};
   const RadialDifference d = detail::radial_difference(
       detail::radial_profile(slice(col_a, r1.run), slice(col_b, r1.run), centre),
@@ -280,17 +303,9 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
       ev.notes.push_back(*note);
     }
-    RunResult rr;
-    try {
-      rr = evaluate_run(trace, ev, run, options.f_centre, ev.notes);
-    } catch (const DataError& e) {
-      // The fits see bare points; the run's file and lines make their refusal findable.
-      if (!e.file().empty()) throw;
-      const std::size_t first = trace.line_of_row[run.begin];
-      const std::size_t last = trace.line_of_row[run.end - 1];
-      throw DataError(trace.source, first,
-                      fmt::format("run {} (lines {}-{}): {}", number, first, last, e.detail()));
-    }
+    RunResult rr = with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
+      return evaluate_run(trace, ev, run, options.f_centre, ev.notes);
+    });
     if (ev.nominal_radius_mm) {
       if (auto note = check_nominal_radius(
               trace, number, run, rr.lsc.radius_mm * ev.temperature_factor, *ev.nominal_radius_mm,

@@ -205,6 +205,30 @@ TEST(Evaluation, AFitsRefusalNamesTheFileAndTheRunsLines) {
   }
 }
 
+TEST(Evaluation, TheCommandedCircleFitsRefusalNamesTheFileAndTheLines) {
+  // No radius or centre in the metadata: the first run's commanded columns give them, and a
+  // bad commanded sample there is refused naming the run's lines (once a bare "circle fit").
+  Trace trace = sim::simulate({}, {});
+  trace.source = "cmd.csv";
+  trace.metadata = {};
+  const Evaluation good = evaluate(trace, {});
+  ASSERT_EQ(good.nominal_radius_source, ValueSource::commanded);
+  const circtest::Run first = good.runs[0].run;
+  trace.values[static_cast<std::size_t>(trace.column_index("y_cmd"))][first.begin + 5] =
+      std::numeric_limits<double>::infinity();
+  const std::string lines = std::to_string(trace.line_of_row[first.begin]) + "-" +
+                            std::to_string(trace.line_of_row[first.end - 1]);
+  try {
+    evaluate(trace, {});
+    FAIL() << "expected an error";
+  } catch (const DataError& e) {
+    EXPECT_EQ(e.file(), "cmd.csv");
+    EXPECT_EQ(e.line(), trace.line_of_row[first.begin]);
+    EXPECT_EQ(e.detail(), "commanded circle of run 1 (lines " + lines +
+                              "): circle fit: a coordinate is not a finite number");
+  }
+}
+
 TEST(Evaluation, PlanesAndLabels) {
   MachineModel m;
   m.squareness_rad = 100e-6;
