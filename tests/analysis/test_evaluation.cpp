@@ -182,6 +182,26 @@ TEST(Evaluation, ArcShorterThan90DegreesIsRefused) {
   }
 }
 
+namespace {
+
+// evaluate(TRACE) refuses a non-finite sample in ROWS with a DataError at the first row's line
+// of the trace's file: "WHAT (lines FIRST-LAST): circle fit: ...".
+void expect_fit_refusal(const Trace& trace, const circtest::Run& rows, const std::string& what) {
+  const std::string lines = std::to_string(trace.line_of_row[rows.begin]) + "-" +
+                            std::to_string(trace.line_of_row[rows.end - 1]);
+  try {
+    evaluate(trace, {});
+    FAIL() << "expected an error";
+  } catch (const DataError& e) {
+    EXPECT_EQ(e.file(), trace.source);
+    EXPECT_EQ(e.line(), trace.line_of_row[rows.begin]);
+    EXPECT_EQ(e.detail(),
+              what + " (lines " + lines + "): circle fit: a coordinate is not a finite number");
+  }
+}
+
+}  // namespace
+
 TEST(Evaluation, AFitsRefusalNamesTheFileAndTheRunsLines) {
   Trace trace = sim::simulate({}, {});
   trace.source = "t.csv";
@@ -192,17 +212,7 @@ TEST(Evaluation, AFitsRefusalNamesTheFileAndTheRunsLines) {
   const std::size_t row = (second.begin + second.end) / 2;
   trace.values[static_cast<std::size_t>(trace.column_index("x"))][row] =
       std::numeric_limits<double>::quiet_NaN();
-  const std::string lines = std::to_string(trace.line_of_row[second.begin]) + "-" +
-                            std::to_string(trace.line_of_row[second.end - 1]);
-  try {
-    evaluate(trace, {});
-    FAIL() << "expected an error";
-  } catch (const DataError& e) {
-    EXPECT_EQ(e.file(), "t.csv");
-    EXPECT_EQ(e.line(), trace.line_of_row[second.begin]);
-    EXPECT_EQ(e.detail(),
-              "run 2 (lines " + lines + "): circle fit: a coordinate is not a finite number");
-  }
+  expect_fit_refusal(trace, second, "run 2");
 }
 
 TEST(Evaluation, TheCommandedCircleFitsRefusalNamesTheFileAndTheLines) {
@@ -216,17 +226,7 @@ TEST(Evaluation, TheCommandedCircleFitsRefusalNamesTheFileAndTheLines) {
   const circtest::Run first = good.runs[0].run;
   trace.values[static_cast<std::size_t>(trace.column_index("y_cmd"))][first.begin + 5] =
       std::numeric_limits<double>::infinity();
-  const std::string lines = std::to_string(trace.line_of_row[first.begin]) + "-" +
-                            std::to_string(trace.line_of_row[first.end - 1]);
-  try {
-    evaluate(trace, {});
-    FAIL() << "expected an error";
-  } catch (const DataError& e) {
-    EXPECT_EQ(e.file(), "cmd.csv");
-    EXPECT_EQ(e.line(), trace.line_of_row[first.begin]);
-    EXPECT_EQ(e.detail(), "commanded circle of run 1 (lines " + lines +
-                              "): circle fit: a coordinate is not a finite number");
-  }
+  expect_fit_refusal(trace, first, "commanded circle of run 1");
 }
 
 TEST(Evaluation, PlanesAndLabels) {
