@@ -14,6 +14,7 @@
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/utc_time.hpp"
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/machine_limits.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
@@ -26,15 +27,11 @@ namespace {
 
 // SOURCE_DATE_EPOCH makes the output reproducible (reproducible-builds.org convention).
 std::string header_date() {
-  std::time_t now = std::time(nullptr);
   if (const char* epoch = std::getenv("SOURCE_DATE_EPOCH")) {
-    now = static_cast<std::time_t>(parse_option_number("SOURCE_DATE_EPOCH", epoch));
+    return utc_iso8601(
+        {static_cast<std::time_t>(parse_option_number("SOURCE_DATE_EPOCH", epoch)), 0});
   }
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
+  return utc_now_iso8601();
 }
 
 int run(int argc, char** argv) {
