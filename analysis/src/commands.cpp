@@ -13,6 +13,7 @@
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "circtest/history/history.hpp"
 
@@ -122,7 +123,7 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& g
   out.evaluation = evaluate(out.trace, options);
   if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
   if (units) out.evaluation.notes.insert(out.evaluation.notes.begin(), *units);
-  if (!out.trace.column("t")) {
+  if (!out.trace.column(column_name::t)) {
     out.evaluation.notes.push_back(
         "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
   }
@@ -246,11 +247,10 @@ int run_history(const HistoryRequest& request, std::ostream& out) {
   const auto store = history::open_store(request.db_url);
   const auto machines = store->machines();
   if (std::find(machines.begin(), machines.end(), request.machine) == machines.end()) {
-    std::string known;
-    for (const auto& m : machines) known += (known.empty() ? "" : ", ") + m;
-    throw Error(ExitCode::data,
-                fmt::format("{}: no tests of machine '{}' (machines in the history: {})",
-                            store->name(), request.machine, known.empty() ? "none" : known));
+    throw Error(
+        ExitCode::data,
+        fmt::format("{}: no tests of machine '{}' (machines in the history: {})", store->name(),
+                    request.machine, machines.empty() ? "none" : join(machines, ", ")));
   }
   const auto tests = store->tests(request.machine, request.since);
   if (tests.empty() && !limits.empty()) {

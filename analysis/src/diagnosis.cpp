@@ -11,6 +11,7 @@
 #include <numeric>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 
 namespace circtest {
@@ -526,7 +527,7 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
 }
 
 const std::vector<double>* cmd_column(const Trace& trace, char axis) {
-  return trace.column(fmt::format("{}_cmd", axis));
+  return trace.column(column_name::commanded(axis));
 }
 
 // The backlash at each end of an axis' travel on its own: at every reversal the model's step
@@ -609,9 +610,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   const char la = pa.first, lb = pa.second;
   D.axes = {static_cast<char>(la - 'a' + 'A'), static_cast<char>(lb - 'a' + 'A')};
   const std::string A(1, D.axes[0]), B(1, D.axes[1]);
-  if (const std::string* h = trace.metadata.find("ini_sha256")) D.ini_sha256 = *h;
+  if (const std::string* h = trace.metadata.find(meta_key::ini_sha256)) D.ini_sha256 = *h;
   D.absolute_channels = options.absolute_channels;
-  if (const std::string* ins = trace.metadata.find("instrument")) {
+  if (const std::string* ins = trace.metadata.find(meta_key::instrument)) {
     std::string low = *ins;
     std::transform(low.begin(), low.end(), low.begin(),
                    [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
@@ -621,8 +622,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   }
   if (ev.runs.empty()) throw DataError(trace.source, 0, "no run to diagnose");
 
-  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
-  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  const auto& col_a = trace.values[ev.columns.a];
+  const auto& col_b = trace.values[ev.columns.b];
   // The linearisation point: the nominal circle, else the least-squares circle of all runs.
   double ca = 0, cb = 0, R = 0;
   if (ev.centre && ev.nominal_radius_mm) {
@@ -650,7 +651,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   D.radius_mm = R;
 
   // Feed groups: runs within 2 % of each other's feed share a radius parameter.
-  std::optional<double> meta_feed = trace.metadata.number("feed_mm_per_min", trace.source);
+  std::optional<double> meta_feed = trace.metadata.number(meta_key::feed_mm_per_min, trace.source);
   std::vector<double> group_feed;
   Samples S;
   S.radius = R;
@@ -713,7 +714,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     reversal_a = reversal_a || crosses(0.0);
     reversal_b = reversal_b || crosses(kPi / 2);
     // One sample period in angle (the time column's mean step).
-    if (const std::vector<double>* t = trace.column("t");
+    if (const std::vector<double>* t = trace.column(column_name::t);
         t && rr.run.size() > 1 && info.speed_mm_s > 0) {
       const double dt =
           ((*t)[rr.run.end - 1] - (*t)[rr.run.begin]) / static_cast<double>(rr.run.size() - 1);
@@ -1154,7 +1155,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     }
     // The commanded value is sampled in the same period as the position it leads to: the
     // continuous loop's lag is half a sample longer than the delay seen between samples.
-    if (const std::vector<double>* t = trace.column("t")) {
+    if (const std::vector<double>* t = trace.column(column_name::t)) {
       const Run& r0 = ev.runs.front().run;
       if (r0.size() > 1)
         period = ((*t)[r0.end - 1] - (*t)[r0.begin]) / static_cast<double>(r0.size() - 1);

@@ -10,6 +10,7 @@
 #include "circtest/analysis/radial.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 
 namespace circtest {
@@ -58,7 +59,7 @@ std::optional<FCentreMethod> parse_f_centre_method(std::string_view name) {
 }
 
 std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
-  const std::string* v = trace.metadata.find("centre_mm");
+  const std::string* v = trace.metadata.find(meta_key::centre_mm);
   if (!v) return std::nullopt;
   std::vector<double> xyz;
   std::size_t pos = 0;
@@ -71,7 +72,7 @@ std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
   }
   if (xyz.size() != 3 || pos <= v->size()) {
     throw ParseError(
-        trace.source, trace.metadata.line_of("centre_mm"),
+        trace.source, trace.metadata.line_of(meta_key::centre_mm),
         fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *v));
   }
   const PlaneAxes axes = plane_axes(plane);
@@ -94,16 +95,16 @@ void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evalua
   ev.plane = trace_plane(trace, options.plane);
 
   ev.columns = plane_columns(trace, ev.plane, options.column_a, options.column_b);
-  ev.channel_a = trace.columns[static_cast<std::size_t>(ev.columns.a)];
-  ev.channel_b = trace.columns[static_cast<std::size_t>(ev.columns.b)];
+  ev.channel_a = trace.columns[ev.columns.a];
+  ev.channel_b = trace.columns[ev.columns.b];
 
   if (options.nominal_radius_mm) {
     ev.nominal_radius_mm = options.nominal_radius_mm;
     ev.nominal_radius_source = ValueSource::option;
-  } else if (auto r = trace.metadata.number("radius_mm", trace.source)) {
+  } else if (auto r = trace.metadata.number(meta_key::radius_mm, trace.source)) {
     ev.nominal_radius_mm = r;
     ev.nominal_radius_source = ValueSource::metadata;
-  } else if (auto d = trace.metadata.number("diameter_mm", trace.source)) {
+  } else if (auto d = trace.metadata.number(meta_key::diameter_mm, trace.source)) {
     ev.nominal_radius_mm = *d / 2.0;
     ev.nominal_radius_source = ValueSource::metadata;
   }
@@ -122,12 +123,12 @@ void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evalua
   auto meta_temp = [&](const char* key, std::optional<double>& dst) {
     if (!dst) dst = trace.metadata.number(key, trace.source);
   };
-  meta_temp("temperature_machine_C", ev.temperatures.machine_C);
-  meta_temp("temperature_instrument_C", ev.temperatures.instrument_C);
-  if (auto v = trace.metadata.number("expansion_machine_per_K", trace.source)) {
+  meta_temp(meta_key::temperature_machine_C, ev.temperatures.machine_C);
+  meta_temp(meta_key::temperature_instrument_C, ev.temperatures.instrument_C);
+  if (auto v = trace.metadata.number(meta_key::expansion_machine_per_K, trace.source)) {
     ev.temperatures.machine_expansion_per_K = *v;
   }
-  if (auto v = trace.metadata.number("expansion_instrument_per_K", trace.source)) {
+  if (auto v = trace.metadata.number(meta_key::expansion_instrument_per_K, trace.source)) {
     ev.temperatures.instrument_expansion_per_K = *v;
   }
   ev.temperature_factor = ev.temperatures.radius_factor();
@@ -152,9 +153,9 @@ auto with_rows_context(const Trace& trace, std::size_t begin, std::size_t end,
 // The commanded columns of the first run give the nominal circle when nothing else did.
 void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluation& ev) {
   const std::vector<double>* cmd_a =
-      trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).first));
+      trace.column(column_name::commanded(plane_axes(ev.plane).first));
   const std::vector<double>* cmd_b =
-      trace.column(fmt::format("{}_cmd", plane_axes(ev.plane).second));
+      trace.column(column_name::commanded(plane_axes(ev.plane).second));
   if ((!ev.nominal_radius_mm || !ev.centre) && cmd_a && cmd_b) {
     const Run& r0 = seg.runs.front();
     if (r0.size() >= 3) {
@@ -181,8 +182,8 @@ void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluat
 // Clause 3: G and F of one run (and its LSC, MZC and feed).
 RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run, FCentre f_centre,
                        std::vector<std::string>& notes) {
-  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
-  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  const auto& col_a = trace.values[ev.columns.a];
+  const auto& col_b = trace.values[ev.columns.b];
   RunResult rr;
   rr.run = run;
   rr.label = direction_label(ev.plane, run.direction);
@@ -197,7 +198,7 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run,
   rr.g_mzc_mm = rr.mzc.zone_width_mm;
   const RadialRange about_lsc = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm);
   rr.g_lsc_mm = about_lsc.width_mm();
-  if (const std::vector<double>* t = trace.column("t"); t && run.size() > 1) {
+  if (const std::vector<double>* t = trace.column(column_name::t); t && run.size() > 1) {
     const double dt = (*t)[run.end - 1] - (*t)[run.begin];
     if (dt > 0) rr.feed_mm_per_min = run.sweep_deg / kRadToDeg * rr.lsc.radius_mm / dt * 60.0;
   }
@@ -239,8 +240,8 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run,
 
 // Clause 5: H of two runs of opposite direction, about the LSC centre of both together.
 HysteresisResult hysteresis_of(const Trace& trace, const Evaluation& ev, std::size_t first) {
-  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
-  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  const auto& col_a = trace.values[ev.columns.a];
+  const auto& col_b = trace.values[ev.columns.b];
   const RunResult& r1 = ev.runs[first];
   const RunResult& r2 = ev.runs[first + 1];
   HysteresisResult h;

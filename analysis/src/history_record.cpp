@@ -5,6 +5,7 @@
 
 #include "circtest/analysis/result_json.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
@@ -24,19 +25,19 @@ history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagno
     const std::string* v = ev.conditions.find(key);
     return v ? *v : std::string();
   };
-  r.machine = machine.empty() ? condition("machine") : machine;
+  r.machine = machine.empty() ? condition(meta_key::machine) : machine;
   if (r.machine.empty()) {
     throw Error(ExitCode::data,
                 "no machine name: give --machine NAME or record it in the trace (# machine: NAME)");
   }
-  r.tested_at = condition("start_time");
-  if (r.tested_at.empty()) r.tested_at = condition("date");
+  r.tested_at = condition(meta_key::start_time);
+  if (r.tested_at.empty()) r.tested_at = condition(meta_key::date);
   r.plane = std::string(plane_name(ev.plane));
   r.channels = ev.channel_a + "," + ev.channel_b;
   r.trace_path = ev.source;
   r.result = plain(to_json(ev));
   r.conditions = r.result.value("conditions", nlohmann::json::object());
-  r.conditions["machine"] = r.machine;
+  r.conditions[meta_key::machine] = r.machine;
   r.result["conditions"] = r.conditions;
   for (const auto& h : ev.hysteresis) {
     const RunResult& ccw = ev.runs[h.run_ccw];

@@ -12,6 +12,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/svg.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "circtest/core/version.hpp"
 
 namespace circtest {
@@ -215,7 +216,7 @@ std::string diagnosis_svg(const DiagnosisChart& d) {
 }
 
 std::string machine_of(const Evaluation& ev) {
-  const std::string* m = ev.conditions.find("machine");
+  const std::string* m = ev.conditions.find(meta_key::machine);
   return m && !m->empty() ? *m : std::string();
 }
 

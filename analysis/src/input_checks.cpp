@@ -156,8 +156,8 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
 void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns) {
   if (trace.rows() < 3) return;  // segmentation says "too few points"
   const std::vector<std::size_t> rows = measured_rows(trace);
-  const std::vector<double>& a = trace.values[static_cast<std::size_t>(columns.a)];
-  const std::vector<double>& b = trace.values[static_cast<std::size_t>(columns.b)];
+  const std::vector<double>& a = trace.values[columns.a];
+  const std::vector<double>& b = trace.values[columns.b];
   const double wa = range_of(a, rows).width();
   const double wb = range_of(b, rows).width();
   const double small = std::min(wa, wb);
@@ -170,8 +170,8 @@ void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& col
     others +=
         fmt::format("{}{} {:.3f} mm", others.empty() ? "" : ", ", axis, range_of(*v, rows).width());
   }
-  const std::string& na = trace.columns[static_cast<std::size_t>(columns.a)];
-  const std::string& nb = trace.columns[static_cast<std::size_t>(columns.b)];
+  const std::string& na = trace.columns[columns.a];
+  const std::string& nb = trace.columns[columns.b];
   throw DataError(
       trace.source, 0,
       fmt::format("plane {}: {} moves {:.3f} mm and {} {:.3f} mm over lines {}-{}: no circle in "

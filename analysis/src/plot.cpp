@@ -41,8 +41,8 @@ struct Layer {
 Layer polar_paths(const PlotLayer& in, const PlotOptions& options, double& dmax) {
   const Evaluation& ev = *in.evaluation;
   const Trace& trace = *in.trace;
-  const auto& col_a = trace.values[static_cast<std::size_t>(ev.columns.a)];
-  const auto& col_b = trace.values[static_cast<std::size_t>(ev.columns.b)];
+  const auto& col_a = trace.values[ev.columns.a];
+  const auto& col_b = trace.values[ev.columns.b];
   Layer layer{&ev, in.label, {}, {}};
   // One centre and reference circle for all runs, so that both directions compare as in H.
   layer.ref = ev.hysteresis.empty() ? ev.runs.front().lsc : ev.hysteresis.front().common_lsc;

@@ -9,6 +9,7 @@
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
@@ -16,20 +17,14 @@ namespace {
 
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 
-std::string axis_column(char axis, std::string_view suffix) {
-  std::string name(1, axis);
-  name.append(suffix);
-  return name;
-}
-
 }  // namespace
 
 Plane trace_plane(const Trace& trace, const std::optional<Plane>& option) {
   if (option) return *option;
-  if (const std::string* p = trace.metadata.find("plane")) {
+  if (const std::string* p = trace.metadata.find(meta_key::plane)) {
     const auto parsed = parse_plane(*p);
     if (!parsed) {
-      throw ParseError(trace.source, trace.metadata.line_of("plane"),
+      throw ParseError(trace.source, trace.metadata.line_of(meta_key::plane),
                        fmt::format("metadata 'plane': expected XY, YZ or ZX, got '{}'", *p));
     }
     return *parsed;
@@ -39,16 +34,16 @@ Plane trace_plane(const Trace& trace, const std::optional<Plane>& option) {
 
 bool is_radial_trace(const Trace& trace, Plane plane) {
   const PlaneAxes axes = plane_axes(plane);
-  return trace.column(kRadialColumn) && !trace.column(std::string(1, axes.first)) &&
-         !trace.column(std::string(1, axes.second));
+  return trace.column(kRadialColumn) && !trace.column(column_name::actual(axes.first)) &&
+         !trace.column(column_name::actual(axes.second));
 }
 
 RadialPositions radial_positions(const Trace& trace, const RadialOptions& options) {
   const Plane plane = trace_plane(trace, options.plane);
   const PlaneAxes axes = plane_axes(plane);
   const std::vector<double>* r = trace.column(kRadialColumn);
-  const std::string name_a = axis_column(axes.first, "_cmd");
-  const std::string name_b = axis_column(axes.second, "_cmd");
+  const std::string name_a = column_name::commanded(axes.first);
+  const std::string name_b = column_name::commanded(axes.second);
   const std::vector<double>* cmd_a = trace.column(name_a);
   const std::vector<double>* cmd_b = trace.column(name_b);
   if (!r) {
@@ -74,7 +69,7 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
   } else {
     // The commanded circle of the measured arcs (marker rows, else all): feed-in moves and
     // approaches would pull a fit over every row.
-    const std::vector<double>* marker = trace.column("marker");
+    const std::vector<double>* marker = trace.column(column_name::marker);
     std::vector<double> a, b;
     for (std::size_t i = 0; i < trace.rows(); ++i) {
       if (marker && (*marker)[i] == 0.0) continue;
@@ -112,8 +107,8 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
   }
 
   out.trace = trace;
-  out.column_a = axis_column(axes.first, "_r");
-  out.column_b = axis_column(axes.second, "_r");
+  out.column_a = column_name::from_radial(axes.first);
+  out.column_b = column_name::from_radial(axes.second);
   if (trace.column(out.column_a) || trace.column(out.column_b)) {
     throw ParseError(trace.source, trace.header_line,
                      fmt::format("columns {} and {} are reserved for the positions computed "
@@ -206,13 +201,13 @@ Trace polar_to_trace(const std::vector<PolarPoint>& points, Plane plane, double 
   const PlaneAxes axes = plane_axes(plane);
   Trace trace;
   trace.source = source;
-  trace.metadata.set("plane", std::string(plane_name(plane)));
-  trace.metadata.set("radius_mm", fmt::format("{}", radius_mm));
-  trace.metadata.set("centre_mm", "0,0,0");
+  trace.metadata.set(meta_key::plane, std::string(plane_name(plane)));
+  trace.metadata.set(meta_key::radius_mm, fmt::format("{}", radius_mm));
+  trace.metadata.set(meta_key::centre_mm, "0,0,0");
   trace.metadata.set(std::string(kBarLengthKey), fmt::format("{}", radius_mm));
-  trace.metadata.set("imported_from", source);
-  trace.columns = {axis_column(axes.first, "_cmd"), axis_column(axes.second, "_cmd"),
-                   std::string(kRadialColumn), "marker", "segment"};
+  trace.metadata.set(meta_key::imported_from, source);
+  trace.columns = {column_name::commanded(axes.first), column_name::commanded(axes.second),
+                   std::string(kRadialColumn), column_name::marker, column_name::segment};
   trace.values.assign(trace.columns.size(), {});
   int segment = 1;
   int sense = 0;               // +1 rising angles, -1 falling, 0 not known yet

@@ -1,6 +1,7 @@
 #include "circtest/analysis/report.hpp"
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 #include <fmt/format.h>
 
@@ -30,7 +31,7 @@ std::string channels_text(const Evaluation& ev) {
   std::string s = fmt::format("{}, {}", ev.channel_a, ev.channel_b);
   std::string described;
   for (const std::string* name : {&ev.channel_a, &ev.channel_b}) {
-    if (const std::string* d = ev.conditions.find("channel." + *name)) {
+    if (const std::string* d = ev.conditions.find(meta_key::channel_prefix + *name)) {
       described += fmt::format("{}{}: {}", described.empty() ? "" : "; ", *name, *d);
     }
   }
@@ -56,17 +57,17 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
   // gave it, so a missing condition is visible instead of silently absent.
   sections.push_back({"Test (clause 6)", {}});
   {
-    std::string date = meta("date");
-    if (date == kNone) date = meta("start_time");
+    std::string date = meta(meta_key::date);
+    if (date == kNone) date = meta(meta_key::start_time);
     line("Date", date);
   }
-  line("Machine", meta("machine"));
-  line("Machine serial", meta("machine_serial"));
-  line("Location", meta("location"));
-  line("Operator", meta("operator"));
-  line("Instrument", meta("instrument"));
+  line("Machine", meta(meta_key::machine));
+  line("Machine serial", meta(meta_key::machine_serial));
+  line("Location", meta(meta_key::location));
+  line("Operator", meta(meta_key::operator_name));
+  line("Instrument", meta(meta_key::instrument));
   line("Channels evaluated", channels_text(ev));
-  line("Notes", meta("notes"));
+  line("Notes", meta(meta_key::notes));
   sections.push_back({"Conditions (clause 4.4)", {}});
   if (ev.nominal_radius_mm) {
     line("Diameter",
@@ -76,8 +77,8 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
     line("Diameter", kNone);
   }
   {
-    std::string feed = meta("feeds_mm_per_min");
-    if (feed == kNone) feed = meta("feed_mm_per_min");
+    std::string feed = meta(meta_key::feeds_mm_per_min);
+    if (feed == kNone) feed = meta(meta_key::feed_mm_per_min);
     line("Programmed feed (mm/min)", feed);
   }
   {
@@ -93,7 +94,7 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
     line("Axes", fmt::format("{}, {} (plane {})", static_cast<char>(std::toupper(axes.first)),
                              static_cast<char>(std::toupper(axes.second)), plane_name(ev.plane)));
   }
-  line("Circle centre (mm)", meta("centre_mm"));
+  line("Circle centre (mm)", meta(meta_key::centre_mm));
   if (ev.centre) {
     line("Nominal centre", fmt::format("{:.4f}, {:.4f} mm (from {})", ev.centre->a_mm,
                                        ev.centre->b_mm, value_source_name(ev.centre_source)));
@@ -105,55 +106,55 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
   };
   line("Machine temperature", temp(ev.temperatures.machine_C));
   line("Instrument temperature", temp(ev.temperatures.instrument_C));
-  line("Air temperature", meta("temperature_air_C") == kNone
+  line("Air temperature", meta(meta_key::temperature_air_C) == kNone
                               ? std::string(kNone)
-                              : meta("temperature_air_C") + " deg C");
+                              : meta(meta_key::temperature_air_C) + " deg C");
   if (ev.temperatures.available()) {
     line("F at 20 deg C", fmt::format("corrected, radius factor {:.8f}", ev.temperature_factor));
   } else {
     line("F at 20 deg C", "not corrected (no temperatures recorded; taken as 20 deg C)");
   }
-  line("Compensations in use", meta("compensation"));
-  line("Axes not under test", meta("other_axes"));
+  line("Compensations in use", meta(meta_key::compensation));
+  line("Axes not under test", meta(meta_key::other_axes));
   {
     std::string capture = fmt::format("{} runs by {} segmentation, no smoothing", ev.runs.size(),
                                       segmentation_method_name(ev.segmentation));
-    if (const std::string* p = ev.conditions.find("sample_period_s")) {
+    if (const std::string* p = ev.conditions.find(meta_key::sample_period_s)) {
       capture += ", sample period " + *p + " s";
     }
-    if (const std::string* l = ev.conditions.find("lost_samples")) {
+    if (const std::string* l = ev.conditions.find(meta_key::lost_samples)) {
       capture += ", lost samples " + *l;
     }
     line("Data capture", capture);
   }
   // Conditions the trace carries that have no line above: shown as they are.
-  static const std::set<std::string, std::less<>> kShown = {"date",
-                                                            "start_time",
-                                                            "machine",
-                                                            "machine_serial",
-                                                            "location",
-                                                            "operator",
-                                                            "instrument",
-                                                            "notes",
-                                                            "feeds_mm_per_min",
-                                                            "feed_mm_per_min",
-                                                            "centre_mm",
+  static const std::set<std::string, std::less<>> kShown = {meta_key::date,
+                                                            meta_key::start_time,
+                                                            meta_key::machine,
+                                                            meta_key::machine_serial,
+                                                            meta_key::location,
+                                                            meta_key::operator_name,
+                                                            meta_key::instrument,
+                                                            meta_key::notes,
+                                                            meta_key::feeds_mm_per_min,
+                                                            meta_key::feed_mm_per_min,
+                                                            meta_key::centre_mm,
                                                             "offset_tool_mm",
                                                             "offset_workpiece_mm",
-                                                            "temperature_machine_C",
-                                                            "temperature_instrument_C",
-                                                            "temperature_air_C",
-                                                            "compensation",
-                                                            "other_axes",
-                                                            "sample_period_s",
-                                                            "lost_samples",
-                                                            "plane",
-                                                            "radius_mm",
-                                                            "diameter_mm",
-                                                            "channels"};
+                                                            meta_key::temperature_machine_C,
+                                                            meta_key::temperature_instrument_C,
+                                                            meta_key::temperature_air_C,
+                                                            meta_key::compensation,
+                                                            meta_key::other_axes,
+                                                            meta_key::sample_period_s,
+                                                            meta_key::lost_samples,
+                                                            meta_key::plane,
+                                                            meta_key::radius_mm,
+                                                            meta_key::diameter_mm,
+                                                            meta_key::channels};
   std::set<std::string, std::less<>> seen;
   for (const auto& [key, value] : ev.conditions.entries()) {
-    if (kShown.count(key) || key.rfind("channel.", 0) == 0) continue;
+    if (kShown.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) continue;
     if (!seen.insert(key).second) continue;
     line(key, *ev.conditions.find(key));
   }

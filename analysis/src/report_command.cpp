@@ -8,6 +8,7 @@
 #include "circtest/analysis/html_report.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "circtest/history/history.hpp"
 
 namespace circtest {
@@ -30,7 +31,7 @@ std::size_t page_of(const std::vector<EvaluatedTrace>& tests, Plane plane, const
 }
 
 void trend(ReportPage& page, history::Store& store, const Evaluation& ev) {
-  const std::string* m = ev.conditions.find("machine");
+  const std::string* m = ev.conditions.find(meta_key::machine);
   if (!m || m->empty()) {
     page.trend_note = "no trend: the trace names no machine (--machine NAME or # machine:)";
     return;

@@ -8,6 +8,8 @@
 
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
@@ -15,16 +17,14 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
-int find_column(const Trace& trace, const std::string& name) {
-  const int i = trace.column_index(name);
-  if (i < 0) {
-    std::string have;
-    for (const auto& c : trace.columns) have += (have.empty() ? "" : ",") + c;
-    throw ParseError(
-        trace.source, trace.header_line,
-        fmt::format("missing column '{}': expected it in the header (found: {})", name, have));
+std::size_t find_column(const Trace& trace, const std::string& name) {
+  const auto i = trace.column_index(name);
+  if (!i) {
+    throw ParseError(trace.source, trace.header_line,
+                     fmt::format("missing column '{}': expected it in the header (found: {})", name,
+                                 join(trace.columns)));
   }
-  return i;
+  return *i;
 }
 
 struct Span {
@@ -255,8 +255,8 @@ PlaneColumns plane_columns(const Trace& trace, Plane plane, const std::string& a
                            const std::string& b_name) {
   const PlaneAxes axes = plane_axes(plane);
   PlaneColumns c;
-  c.a = find_column(trace, a_name.empty() ? std::string(1, axes.first) : a_name);
-  c.b = find_column(trace, b_name.empty() ? std::string(1, axes.second) : b_name);
+  c.a = find_column(trace, a_name.empty() ? column_name::actual(axes.first) : a_name);
+  c.b = find_column(trace, b_name.empty() ? column_name::actual(axes.second) : b_name);
   return c;
 }
 
@@ -264,10 +264,10 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
                            const SegmentationOptions& options) {
   Segmentation result;
   const std::size_t n = trace.rows();
-  const double* a = trace.values[static_cast<std::size_t>(columns.a)].data();
-  const double* b = trace.values[static_cast<std::size_t>(columns.b)].data();
-  const std::vector<double>* marker = trace.column("marker");
-  const std::vector<double>* segment = trace.column("segment");
+  const double* a = trace.values[columns.a].data();
+  const double* b = trace.values[columns.b].data();
+  const std::vector<double>* marker = trace.column(column_name::marker);
+  const std::vector<double>* segment = trace.column(column_name::segment);
   auto line = [&](std::size_t row) -> std::size_t {
     return row < trace.line_of_row.size() ? trace.line_of_row[row] : 0;
   };

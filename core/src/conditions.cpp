@@ -4,20 +4,22 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
 namespace {
 
 constexpr std::array<ConditionOption, 8> kOptions = {{
-    {"machine", "machine", "NAME", "machine name (the history is kept per machine)", false},
-    {"serial", "machine_serial", "TEXT", "machine serial number", false},
-    {"instrument", "instrument", "TEXT", "instrument (type and serial number)", false},
-    {"operator", "operator", "NAME", "who ran the test", false},
-    {"location", "location", "TEXT", "where the machine stands", false},
-    {"t-machine", "temperature_machine_C", "C", "machine temperature, deg C", true},
-    {"t-instrument", "temperature_instrument_C", "C", "instrument temperature, deg C", true},
-    {"notes", "notes", "TEXT", "free text for the report", false},
+    {"machine", meta_key::machine, "NAME", "machine name (the history is kept per machine)", false},
+    {"serial", meta_key::machine_serial, "TEXT", "machine serial number", false},
+    {"instrument", meta_key::instrument, "TEXT", "instrument (type and serial number)", false},
+    {"operator", meta_key::operator_name, "NAME", "who ran the test", false},
+    {"location", meta_key::location, "TEXT", "where the machine stands", false},
+    {"t-machine", meta_key::temperature_machine_C, "C", "machine temperature, deg C", true},
+    {"t-instrument", meta_key::temperature_instrument_C, "C", "instrument temperature, deg C",
+     true},
+    {"notes", meta_key::notes, "TEXT", "free text for the report", false},
 }};
 
 }  // namespace

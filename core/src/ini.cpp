@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
 
 namespace circtest {
 
@@ -20,14 +21,6 @@ constexpr std::size_t kMaxLineBytes = 1u << 20;
 
 bool is_blank(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\n';
-}
-
-std::string_view trim(std::string_view text) {
-  std::size_t a = 0;
-  while (a < text.size() && is_blank(text[a])) ++a;
-  std::size_t b = text.size();
-  while (b > a && is_blank(text[b - 1])) --b;
-  return text.substr(a, b - a);
 }
 
 // The line end of a physical line ("\r\n", "\n" or "" at the end of the file).

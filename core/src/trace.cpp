@@ -25,6 +25,8 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/strings.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "input_lines.hpp"
 
 namespace circtest {
@@ -56,13 +58,6 @@ std::size_t TraceMetadata::line_of(std::string_view key) const {
 
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
-    s.remove_suffix(1);
-  return s;
-}
-
 std::string shorten(std::string_view s) {
   if (s.size() > 40) return std::string(s.substr(0, 37)) + "...";
   return std::string(s);
@@ -84,16 +79,16 @@ std::optional<double> TraceMetadata::number(std::string_view key, const std::str
 
 // ---------------------------------------------------------------- trace
 
-int Trace::column_index(std::string_view name) const {
+std::optional<std::size_t> Trace::column_index(std::string_view name) const {
   for (std::size_t i = 0; i < columns.size(); ++i) {
-    if (columns[i] == name) return static_cast<int>(i);
+    if (columns[i] == name) return i;
   }
-  return -1;
+  return std::nullopt;
 }
 
 const std::vector<double>* Trace::column(std::string_view name) const {
-  const int i = column_index(name);
-  return i < 0 ? nullptr : &values[static_cast<std::size_t>(i)];
+  const auto i = column_index(name);
+  return i ? &values[*i] : nullptr;
 }
 
 // ---------------------------------------------------------------- reader
@@ -207,9 +202,9 @@ class TraceParser {
   // goes backwards across the seam (the caller re-reads to report it where it happens).
   bool append(TraceParser&& next) {
     const std::size_t offset = line_no_;
-    if (time_column_ >= 0 && next.rows() > 0 && rows() > 0) {
-      const auto& t = trace_.values[static_cast<std::size_t>(time_column_)];
-      if (next.trace_.values[static_cast<std::size_t>(time_column_)].front() < t.back()) {
+    if (time_column_ && next.rows() > 0 && rows() > 0) {
+      const auto& t = trace_.values[*time_column_];
+      if (next.trace_.values[*time_column_].front() < t.back()) {
         return false;
       }
     }
@@ -343,10 +338,11 @@ class TraceParser {
     trace_.header_line = line_no_;
     have_header_ = true;
     if (reserve_hint_ > 0) reserve_rows(reserve_hint_);
-    time_column_ = options_.check_time_monotonic ? trace_.column_index("t") : -1;
-    time_field_ = -1;
+    time_column_ =
+        options_.check_time_monotonic ? trace_.column_index(column_name::t) : std::nullopt;
+    time_field_.reset();
     for (std::size_t i = 0; i < n; ++i) {
-      if (time_column_ >= 0 && target_[i] == time_column_) time_field_ = static_cast<int>(i);
+      if (time_column_ && target_[i] == static_cast<int>(*time_column_)) time_field_ = i;
     }
     row_values_.assign(n, 0.0);
   }
@@ -383,9 +379,9 @@ class TraceParser {
       }
       row_values_[f] = v;
     }
-    if (time_field_ >= 0) {
-      const auto& t = trace_.values[static_cast<std::size_t>(time_column_)];
-      if (!t.empty() && row_values_[static_cast<std::size_t>(time_field_)] < t.back()) {
+    if (time_field_) {
+      const auto& t = trace_.values[*time_column_];
+      if (!t.empty() && row_values_[*time_field_] < t.back()) {
         return row_checked(text);
       }
     }
@@ -447,7 +443,7 @@ class TraceParser {
     }
     const int col = target_[field];
     auto& dst = trace_.values[static_cast<std::size_t>(col)];
-    if (col == time_column_ && !dst.empty() && v < dst.back()) {
+    if (static_cast<std::size_t>(col) == time_column_ && !dst.empty() && v < dst.back()) {
       throw DataError(trace_.source, binary_ ? 0 : line_no_,
                       fmt::format("{}time goes backwards: t = {} after t = {}; expected "
                                   "non-decreasing time",
@@ -472,7 +468,7 @@ class TraceParser {
   }
   Trace& trace() { return trace_; }
   const std::vector<int>& targets() const { return target_; }
-  int time_column() const { return time_column_; }
+  std::optional<std::size_t> time_column() const { return time_column_; }
   std::size_t field_count() const { return field_count_; }
   bool has_header() const { return have_header_; }
   void end_binary_rows() { binary_ = false; }
@@ -493,8 +489,8 @@ class TraceParser {
   std::vector<std::string> header_names_;
   std::vector<std::string> scratch_;
   std::vector<double> row_values_;
-  int time_column_ = -1;
-  int time_field_ = -1;
+  std::optional<std::size_t> time_column_;  // the `t` column when time must not go back
+  std::optional<std::size_t> time_field_;   // its field in the header
   std::size_t reserve_hint_ = 0;
   bool binary_ = false;
   std::size_t record_ = 0;
@@ -700,7 +696,7 @@ bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::s
     }
   });
   std::vector<char> ok(workers, 1);
-  const int time_column = parser.time_column();
+  const std::optional<std::size_t> time_column = parser.time_column();
   for_each_worker([&](unsigned w) {
     const std::size_t r0 = rows / workers * w;
     const std::size_t r1 = w + 1 == workers ? rows : rows / workers * (w + 1);
@@ -730,15 +726,15 @@ bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::s
       std::uint32_t* lines = trace.line_of_row.data() + r;
       for (std::size_t i = 0; i < n; ++i) lines[i] = static_cast<std::uint32_t>(r + i + 1);
     }
-    if (good && time_column >= 0) {
-      const double* t = trace.values[static_cast<std::size_t>(time_column)].data();
+    if (good && time_column) {
+      const double* t = trace.values[*time_column].data();
       for (std::size_t i = r0 + 1; i < r1; ++i) good = good && !(t[i] < t[i - 1]);
     }
     ok[w] = good;
   });
   if (!std::all_of(ok.begin(), ok.end(), [](char g) { return g != 0; })) return false;
-  if (time_column >= 0) {  // the seams between the stretches
-    const double* t = trace.values[static_cast<std::size_t>(time_column)].data();
+  if (time_column) {  // the seams between the stretches
+    const double* t = trace.values[*time_column].data();
     for (unsigned w = 1; w < workers; ++w) {
       const std::size_t r0 = rows / workers * w;
       if (r0 > 0 && r0 < rows && t[r0] < t[r0 - 1]) return false;
@@ -975,7 +971,7 @@ void write_trace(const std::string& path, const Trace& trace) {
   std::vector<TraceColumn> cols;
   for (const auto& name : trace.columns) {
     TraceColumn c{name};
-    if (name == "marker" || name == "segment" || name == "period") c.kind = ColumnKind::integer;
+    if (column_name::is_integer(name)) c.kind = ColumnKind::integer;
     cols.push_back(c);
   }
   TraceWriter w(path, trace.metadata, cols);

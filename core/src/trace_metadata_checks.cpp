@@ -44,11 +44,11 @@ constexpr std::array kRules{
             "a radius in mm above 0 and at most 100000"},
     KeyRule{meta_key::diameter_mm, Kind::number, 0.0, 2 * kMaxLength, true, 0,
             "a diameter in mm above 0 and at most 200000"},
-    KeyRule{"radius_in", Kind::number, 0.0, kMaxLength / 25.4, true, 0,
+    KeyRule{meta_key::radius_in, Kind::number, 0.0, kMaxLength / 25.4, true, 0,
             "a radius in inch above 0 and at most 3937"},
-    KeyRule{"diameter_in", Kind::number, 0.0, 2 * kMaxLength / 25.4, true, 0,
+    KeyRule{meta_key::diameter_in, Kind::number, 0.0, 2 * kMaxLength / 25.4, true, 0,
             "a diameter in inch above 0 and at most 7874"},
-    KeyRule{"bar_length_mm", Kind::number, 0.0, kMaxLength, true, 0,
+    KeyRule{meta_key::bar_length_mm, Kind::number, 0.0, kMaxLength, true, 0,
             "a bar length in mm above 0 and at most 100000"},
     KeyRule{meta_key::centre_mm, Kind::list, -kMaxLength, kMaxLength, false, 3,
             "three numbers x,y,z in mm within +-100000"},
@@ -81,9 +81,9 @@ constexpr std::array kRules{
     KeyRule{meta_key::units, Kind::length_unit, 0, 0, false, 0, "mm or inch"},
     KeyRule{meta_key::rows, Kind::count, 0, 0, false, 0, "a row count (an integer >= 0)"},
     KeyRule{meta_key::runs, Kind::count, 0, 0, false, 0, "a run count (an integer >= 0)"},
-    KeyRule{"overruns", Kind::count, 0, 0, false, 0, "a count (an integer >= 0)"},
-    KeyRule{"gaps", Kind::count, 0, 0, false, 0, "a count (an integer >= 0)"},
-    KeyRule{"lost_samples", Kind::count, 0, 0, false, 0, "a count (an integer >= 0)"},
+    KeyRule{meta_key::overruns, Kind::count, 0, 0, false, 0, "a count (an integer >= 0)"},
+    KeyRule{meta_key::gaps, Kind::count, 0, 0, false, 0, "a count (an integer >= 0)"},
+    KeyRule{meta_key::lost_samples, Kind::count, 0, 0, false, 0, "a count (an integer >= 0)"},
 };
 
 bool in_range(const KeyRule& r, double v) {

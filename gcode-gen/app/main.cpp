@@ -14,6 +14,8 @@
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/strings.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "circtest/core/utc_time.hpp"
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/machine_limits.hpp"
@@ -210,10 +212,8 @@ int run(int argc, char** argv) {
   if (vm.count("ini")) {
     const MachineLimits limits = read_machine_limits(text("ini"));
     const auto checks = check_against_machine(spec, limits, offset);
-    std::string list;
-    for (const auto& c : checks) list += (list.empty() ? "" : ",") + c;
-    spec.extra_header.emplace_back("ini", text("ini"));
-    spec.extra_header.emplace_back("ini_checked", list);
+    spec.extra_header.emplace_back(meta_key::ini, text(meta_key::ini));
+    spec.extra_header.emplace_back(meta_key::ini_checked, join(checks));
   }
 
   const TestProgram program = generate_test_program(spec);

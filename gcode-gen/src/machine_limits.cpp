@@ -14,17 +14,11 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/strings.hpp"
 
 namespace circtest {
 
 namespace {
-
-std::string trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t\r");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t\r");
-  return std::string(text.substr(first, last - first + 1));
-}
 
 std::string upper(std::string text) {
   for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
@@ -150,7 +144,7 @@ std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
     begin = end + 1;
     ++line_no;
     if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
-    line = trim(line);
+    line = std::string(trim(line));
     if (logical.empty()) logical_line = line_no;
     if (!line.empty() && line.back() == '\\') {
       line.pop_back();

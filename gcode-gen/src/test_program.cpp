@@ -5,8 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <ranges>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "circtest/core/version.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
 
@@ -46,12 +49,7 @@ std::string header_number(double value) {
 }
 
 std::string header_list(const std::vector<double>& values) {
-  std::string out;
-  for (double v : values) {
-    if (!out.empty()) out += ',';
-    out += header_number(v);
-  }
-  return out;
+  return join(values | std::views::transform(header_number));
 }
 
 double normalize_deg(double deg) {
@@ -188,14 +186,11 @@ double lead_in_start_deg(const CircleTestSpec& spec, Direction direction) {
 
 std::string segments_value(const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs,
                            const ProgramWriter& writer) {
-  std::string out;
-  for (const MeasuredRun& run : runs) {
-    if (!out.empty()) out += ',';
-    out += fmt::format("{}:{}:F{}", run.segment_id, direction_name(run.direction),
-                       writer.feed(run.feed_mm_per_min));
-  }
   (void)spec;
-  return out;
+  return join(runs | std::views::transform([&](const MeasuredRun& run) {
+                return fmt::format("{}:{}:F{}", run.segment_id, direction_name(run.direction),
+                                   writer.feed(run.feed_mm_per_min));
+              }));
 }
 
 }  // namespace
@@ -431,40 +426,34 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
   std::vector<double> feeds_units;
   for (double f : spec.feeds_mm_per_min) feeds_units.push_back(f * to_units);
 
-  add("generator", generator_version());
-  if (!spec.date.empty()) add("date", spec.date);
-  add("test", "ISO 230-4 circular test");
-  add("plane", std::string(plane_name(spec.plane)));
-  add("axes", fmt::format("{},{}", upper(axes.first), upper(axes.second)));
-  add("units", length_unit_name(spec.units));
-  add("diameter_mm", header_number(2.0 * spec.radius_mm));
-  add("radius_mm", header_number(spec.radius_mm));
-  add("centre_mm", header_list({spec.centre_mm.begin(), spec.centre_mm.end()}));
+  add(meta_key::generator, generator_version());
+  if (!spec.date.empty()) add(meta_key::date, spec.date);
+  add(meta_key::test, "ISO 230-4 circular test");
+  add(meta_key::plane, std::string(plane_name(spec.plane)));
+  add(meta_key::axes, fmt::format("{},{}", upper(axes.first), upper(axes.second)));
+  add(meta_key::units, length_unit_name(spec.units));
+  add(meta_key::diameter_mm, header_number(2.0 * spec.radius_mm));
+  add(meta_key::radius_mm, header_number(spec.radius_mm));
+  add(meta_key::centre_mm, header_list({spec.centre_mm.begin(), spec.centre_mm.end()}));
   if (spec.feeds_mm_per_min.size() == 1) {
-    add("feed_mm_per_min", header_number(spec.feeds_mm_per_min.front()));
+    add(meta_key::feed_mm_per_min, header_number(spec.feeds_mm_per_min.front()));
   }
-  add("feeds_mm_per_min", header_list(spec.feeds_mm_per_min));
+  add(meta_key::feeds_mm_per_min, header_list(spec.feeds_mm_per_min));
   if (inch) {
-    add("diameter_in", header_number(2.0 * spec.radius_mm * to_units));
-    add("radius_in", header_number(spec.radius_mm * to_units));
-    add("centre_in", header_list(centre_units));
-    if (feeds_units.size() == 1) add("feed_in_per_min", header_number(feeds_units.front()));
-    add("feeds_in_per_min", header_list(feeds_units));
+    add(meta_key::diameter_in, header_number(2.0 * spec.radius_mm * to_units));
+    add(meta_key::radius_in, header_number(spec.radius_mm * to_units));
+    add(meta_key::centre_in, header_list(centre_units));
+    if (feeds_units.size() == 1) add(meta_key::feed_in_per_min, header_number(feeds_units.front()));
+    add(meta_key::feeds_in_per_min, header_list(feeds_units));
   }
-  {
-    std::string names, labels;
-    for (Direction d : spec.directions) {
-      if (!names.empty()) names += ',', labels += ',';
-      names += direction_name(d);
-      labels += direction_label(spec.plane, d);
-    }
-    add("directions", names);
-    add("direction_labels", labels);
-  }
-  add("arc_deg", header_number(spec.arc_deg));
-  add("start_deg", header_number(normalize_deg(spec.start_deg)));
-  add("lead_deg", header_number(spec.lead_deg));
-  add("dwell_s", header_number(spec.dwell_s));
+  add(meta_key::directions, join(spec.directions | std::views::transform(direction_name)));
+  add(meta_key::direction_labels, join(spec.directions | std::views::transform([&](Direction d) {
+                                         return direction_label(spec.plane, d);
+                                       })));
+  add(meta_key::arc_deg, header_number(spec.arc_deg));
+  add(meta_key::start_deg, header_number(normalize_deg(spec.start_deg)));
+  add(meta_key::lead_deg, header_number(spec.lead_deg));
+  add(meta_key::dwell_s, header_number(spec.dwell_s));
   if (spec.safe_mm) {
     add("safe_axis", std::string(1, axes.normal));
     add("safe_mm", header_number(*spec.safe_mm));
@@ -498,9 +487,9 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
         header_list({spec.work_offset_mm->begin(), spec.work_offset_mm->end()}));
     add("centre_machine_mm", header_list(machine));
   }
-  add("marker_output", std::to_string(spec.marker_output));
-  add("segment_output", std::to_string(spec.segment_output));
-  add("segments", segments_value(spec, program.runs, w));
+  add(meta_key::marker_output, std::to_string(spec.marker_output));
+  add(meta_key::segment_output, std::to_string(spec.segment_output));
+  add(meta_key::segments, segments_value(spec, program.runs, w));
   if (spec.annex_c) {
     const AnnexCNote& a = *spec.annex_c;
     const char* u = inch ? "in" : "mm";

@@ -14,7 +14,9 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/sha256.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/core/trace.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "circtest/core/version.hpp"
 
 namespace circtest::circlog_record {
@@ -24,26 +26,27 @@ namespace po = boost::program_options;
 namespace {
 
 // Keys the recorder writes itself; a program header may not override them.
-const std::set<std::string, std::less<>> kReservedKeys = {"sample_period_s",
-                                                          "start_time",
-                                                          "start_period",
-                                                          "ini_sha256",
-                                                          "channels",
-                                                          "module",
-                                                          "module.channels",
-                                                          "module.depth",
-                                                          "overruns",
-                                                          "gaps",
-                                                          "lost_samples",
-                                                          "rows",
-                                                          "runs",
-                                                          "end_period",
-                                                          "program",
-                                                          "ring_high_water",
-                                                          "recorder",
-                                                          "stop_reason"};
+const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_period_s,
+                                                          meta_key::start_time,
+                                                          meta_key::start_period,
+                                                          meta_key::ini_sha256,
+                                                          meta_key::channels,
+                                                          meta_key::module,
+                                                          meta_key::module_channels,
+                                                          meta_key::module_depth,
+                                                          meta_key::overruns,
+                                                          meta_key::gaps,
+                                                          meta_key::lost_samples,
+                                                          meta_key::rows,
+                                                          meta_key::runs,
+                                                          meta_key::end_period,
+                                                          meta_key::program,
+                                                          meta_key::ring_high_water,
+                                                          meta_key::recorder,
+                                                          meta_key::stop_reason};
 
-const std::set<std::string, std::less<>> kFixedColumns = {"t", "period", "marker", "segment"};
+const std::set<std::string, std::less<>> kFixedColumns = {
+    column_name::t, column_name::period, column_name::marker, column_name::segment};
 
 std::vector<std::string> split_commas(const std::string& text) {
   std::vector<std::string> out;
@@ -69,13 +72,6 @@ bool valid_header_key(const std::string& key) {
     return std::islower(static_cast<unsigned char>(c)) ||
            std::isdigit(static_cast<unsigned char>(c)) || c == '_' || c == '.';
   });
-}
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
 }
 
 std::string format_seconds(double s) {
@@ -190,20 +186,20 @@ std::vector<std::pair<std::string, std::string>> read_program_header(const std::
   std::vector<std::pair<std::string, std::string>> out;
   std::string line;
   while (std::getline(in, line)) {
-    const std::string s = trim(line);
+    const std::string s(trim(line));
     if (s.empty() || s == "%") continue;
     if (s.front() != '(' || s.back() != ')') break;  // the first line of code ends the header
     const std::string inner = s.substr(1, s.size() - 2);
     const auto colon = inner.find(':');
     if (colon == std::string::npos) continue;
-    std::string key = trim(inner.substr(0, colon));
-    std::string value = trim(inner.substr(colon + 1));
+    std::string key(trim(inner.substr(0, colon)));
+    std::string value(trim(inner.substr(colon + 1)));
     // circgen writes "(circtest: key: value)": the prefix marks its lines, the key follows.
     if (key == "circtest") {
       const auto second = value.find(':');
       if (second == std::string::npos) continue;
-      key = trim(value.substr(0, second));
-      value = trim(value.substr(second + 1));
+      key = std::string(trim(value.substr(0, second)));
+      value = std::string(trim(value.substr(second + 1)));
     }
     if (!valid_header_key(key)) continue;
     out.emplace_back(std::move(key), std::move(value));
@@ -284,28 +280,27 @@ void Loop::claim(std::int32_t pid) {
 
 std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& names) {
   TraceMetadata meta;
-  meta.set("recorder", "circlog-record");
-  meta.set("source", "circlog.0");
-  meta.set("sample_period_s", format_seconds(period_s_));
-  meta.set("start_time", env_.utc_now_iso8601());
-  meta.set("start_period", std::to_string(start_period_));
-  std::string joined;
-  for (const auto& n : names) joined += (joined.empty() ? "" : ",") + n;
-  meta.set("channels", joined);
-  for (const auto& [name, text] : options_.descriptions) meta.set("channel." + name, text);
-  meta.set("module.channels", std::to_string(ring_.channels()));
-  meta.set("module.depth", std::to_string(ring_.depth()));
+  meta.set(meta_key::recorder, "circlog-record");
+  meta.set(meta_key::source, "circlog.0");
+  meta.set(meta_key::sample_period_s, format_seconds(period_s_));
+  meta.set(meta_key::start_time, env_.utc_now_iso8601());
+  meta.set(meta_key::start_period, std::to_string(start_period_));
+  meta.set(meta_key::channels, join(names));
+  for (const auto& [name, text] : options_.descriptions)
+    meta.set(meta_key::channel_prefix + name, text);
+  meta.set(meta_key::module_channels, std::to_string(ring_.channels()));
+  meta.set(meta_key::module_depth, std::to_string(ring_.depth()));
   if (!options_.ini.empty()) {
-    meta.set("ini", options_.ini);
-    meta.set("ini_sha256", sha256_of_file(options_.ini));
+    meta.set(meta_key::ini, options_.ini);
+    meta.set(meta_key::ini_sha256, sha256_of_file(options_.ini));
   }
   if (!options_.program.empty()) {
-    meta.set("program", options_.program);
+    meta.set(meta_key::program, options_.program);
     for (auto& [key, value] : read_program_header(options_.program)) {
       const bool given = std::any_of(options_.conditions.begin(), options_.conditions.end(),
                                      [&k = key](const auto& c) { return c.first == k; });
       if (given) continue;  // the command line states it
-      if (kReservedKeys.count(key) || key.rfind("channel.", 0) == 0) {
+      if (kReservedKeys.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) {
         std::fprintf(log_, "circlog-record: %s: header key '%s' is the recorder's own; skipped\n",
                      options_.program.c_str(), key.c_str());
         continue;
@@ -317,11 +312,11 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
   for (const auto& [key, value] : options_.conditions) meta.set(key, value);
 
   std::vector<TraceColumn> columns;
-  columns.push_back({"t", ColumnKind::real, 9});
-  columns.push_back({"period", ColumnKind::integer, 0});
+  columns.push_back({column_name::t, ColumnKind::real, 9});
+  columns.push_back({column_name::period, ColumnKind::integer, 0});
   for (const auto& n : names) columns.push_back({n, ColumnKind::real, options_.decimals});
-  columns.push_back({"marker", ColumnKind::integer, 0});
-  columns.push_back({"segment", ColumnKind::integer, 0});
+  columns.push_back({column_name::marker, ColumnKind::integer, 0});
+  columns.push_back({column_name::segment, ColumnKind::integer, 0});
   return std::make_unique<TraceWriter>(options_.output, meta, std::move(columns));
 }
 
@@ -463,15 +458,15 @@ Summary Loop::run(std::int32_t pid) {
   summary_.rows = writer->rows_written();
   summary_.stop_reason = reason;
 
-  writer->add_trailer("rows", std::to_string(summary_.rows));
-  writer->add_trailer("runs", std::to_string(summary_.runs));
-  writer->add_trailer("end_period", std::to_string(last_periods_));
-  writer->add_trailer("overruns", std::to_string(summary_.overruns));
-  writer->add_trailer("gaps", std::to_string(summary_.gaps));
-  writer->add_trailer("lost_samples", std::to_string(summary_.lost));
-  writer->add_trailer("ring_high_water",
+  writer->add_trailer(meta_key::rows, std::to_string(summary_.rows));
+  writer->add_trailer(meta_key::runs, std::to_string(summary_.runs));
+  writer->add_trailer(meta_key::end_period, std::to_string(last_periods_));
+  writer->add_trailer(meta_key::overruns, std::to_string(summary_.overruns));
+  writer->add_trailer(meta_key::gaps, std::to_string(summary_.gaps));
+  writer->add_trailer(meta_key::lost_samples, std::to_string(summary_.lost));
+  writer->add_trailer(meta_key::ring_high_water,
                       std::to_string(h_.high_water.load(std::memory_order_acquire)));
-  writer->add_trailer("stop_reason", summary_.stop_reason);
+  writer->add_trailer(meta_key::stop_reason, summary_.stop_reason);
   writer->commit();
   return summary_;
 }

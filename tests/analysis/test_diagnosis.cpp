@@ -268,7 +268,7 @@ TEST(DiagnoseReversals, TheTwoEndsOfAnAxisSeparately) {
   p.start_deg = 45.0;  // both ends of X inside the runs, not at their start
   Trace trace = simulate(t, p);
   const double e = 4 * kUm;
-  auto& x = trace.values[static_cast<std::size_t>(trace.column_index("x"))];
+  auto& x = trace.values[trace.column_index("x").value()];
   const auto& y = *trace.column("y");
   const auto& seg = *trace.column("segment");
   for (std::size_t i = 0; i < trace.rows(); ++i) {
@@ -411,7 +411,7 @@ TEST(DiagnoseBadInput, NoTimeColumn) {
   Truth t;
   t.backlash_a = 10 * kUm;
   Trace trace = simulate(t, program(Plane::XY, 360));
-  const int ti = trace.column_index("t");
+  const auto ti = static_cast<std::ptrdiff_t>(trace.column_index("t").value());
   trace.columns.erase(trace.columns.begin() + ti);
   trace.values.erase(trace.values.begin() + ti);
   const Diagnosis d = diagnose(trace);

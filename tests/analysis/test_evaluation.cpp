@@ -210,8 +210,7 @@ TEST(Evaluation, AFitsRefusalNamesTheFileAndTheRunsLines) {
   // A sample the reader would refuse, put straight into the second run: the circle fit sees it.
   const circtest::Run second = good.runs[1].run;
   const std::size_t row = (second.begin + second.end) / 2;
-  trace.values[static_cast<std::size_t>(trace.column_index("x"))][row] =
-      std::numeric_limits<double>::quiet_NaN();
+  trace.values[trace.column_index("x").value()][row] = std::numeric_limits<double>::quiet_NaN();
   expect_fit_refusal(trace, second, "run 2");
 }
 
@@ -224,7 +223,7 @@ TEST(Evaluation, TheCommandedCircleFitsRefusalNamesTheFileAndTheLines) {
   const Evaluation good = evaluate(trace, {});
   ASSERT_EQ(good.nominal_radius_source, ValueSource::commanded);
   const circtest::Run first = good.runs[0].run;
-  trace.values[static_cast<std::size_t>(trace.column_index("y_cmd"))][first.begin + 5] =
+  trace.values[trace.column_index("y_cmd").value()][first.begin + 5] =
       std::numeric_limits<double>::infinity();
   expect_fit_refusal(trace, first, "commanded circle of run 1");
 }
@@ -257,7 +256,7 @@ TEST(Evaluation, AutomaticSegmentationFindsTheMeasuredArcs) {
   Trace with = sim::simulate(m, p);
   Trace without = with;
   for (const char* name : {"marker", "segment"}) {
-    const int i = without.column_index(name);
+    const auto i = static_cast<std::ptrdiff_t>(without.column_index(name).value());
     without.columns.erase(without.columns.begin() + i);
     without.values.erase(without.values.begin() + i);
   }

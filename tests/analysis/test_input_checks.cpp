@@ -27,7 +27,7 @@ Trace simulated(Plane plane = Plane::XY) {
 }
 
 std::vector<double>& column(Trace& t, const char* name) {
-  return t.values[static_cast<std::size_t>(t.column_index(name))];
+  return t.values[t.column_index(name).value()];
 }
 
 Segmentation segments(const Trace& t, Plane plane = Plane::XY) {

@@ -91,7 +91,7 @@ TEST(Radial, TraceWithoutPositionColumnsIsRadial) {
   Trace trace = sim::simulate(machine_with_errors(), p);
   EXPECT_FALSE(is_radial_trace(trace, Plane::XY));
   for (const char* drop : {"x", "y", "z"}) {
-    const auto i = static_cast<std::size_t>(trace.column_index(drop));
+    const std::size_t i = trace.column_index(drop).value();
     trace.columns.erase(trace.columns.begin() + static_cast<std::ptrdiff_t>(i));
     trace.values.erase(trace.values.begin() + static_cast<std::ptrdiff_t>(i));
   }

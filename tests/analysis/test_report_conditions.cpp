@@ -28,13 +28,13 @@ Trace feed_sweep(double feed1, double feed2) {
   p.feed_mm_per_min = feed2;
   const Trace t2 = sim::simulate(m, p);
   const double t0 = t.column("t")->back() + 0.5;
-  const int ti = t.column_index("t"), si = t.column_index("segment");
+  const std::size_t ti = t.column_index("t").value(), si = t.column_index("segment").value();
   std::uint32_t line = t.line_of_row.back();
   for (std::size_t r = 0; r < t2.rows(); ++r) {
     for (std::size_t c = 0; c < t.columns.size(); ++c) {
       double v = t2.values[c][r];
-      if (static_cast<int>(c) == ti) v += t0;
-      if (static_cast<int>(c) == si && v != 0) v += 2;
+      if (c == ti) v += t0;
+      if (c == si && v != 0) v += 2;
       t.values[c].push_back(v);
     }
     t.line_of_row.push_back(++line);

@@ -8,6 +8,8 @@
 #include <numbers>
 #include <random>
 
+#include "circtest/core/trace_keys.hpp"
+
 namespace circtest::sim {
 
 namespace {
@@ -38,21 +40,29 @@ Trace simulate(const MachineModel& machine, const CircleProgram& program) {
 
   Trace trace;
   trace.source = "<simulated>";
-  trace.metadata.set("plane", std::string(plane_name(program.plane)));
-  trace.metadata.set("radius_mm", fmt::format("{}", R));
-  trace.metadata.set("centre_mm", fmt::format("{},{},{}", program.centre_mm[0],
-                                              program.centre_mm[1], program.centre_mm[2]));
+  trace.metadata.set(meta_key::plane, std::string(plane_name(program.plane)));
+  trace.metadata.set(meta_key::radius_mm, fmt::format("{}", R));
+  trace.metadata.set(meta_key::centre_mm, fmt::format("{},{},{}", program.centre_mm[0],
+                                                      program.centre_mm[1], program.centre_mm[2]));
   if (program.run_feeds_mm_per_min.empty()) {
-    trace.metadata.set("feed_mm_per_min", fmt::format("{}", program.feed_mm_per_min));
+    trace.metadata.set(meta_key::feed_mm_per_min, fmt::format("{}", program.feed_mm_per_min));
   } else {
-    trace.metadata.set("feeds_mm_per_min",
+    trace.metadata.set(meta_key::feeds_mm_per_min,
                        fmt::format("{}", fmt::join(program.run_feeds_mm_per_min, ",")));
   }
-  trace.metadata.set("sample_period_s", fmt::format("{}", T));
-  trace.columns = {"t", "x", "y", "z", "x_cmd", "y_cmd", "z_cmd", "marker", "segment"};
-  if (program.radial) trace.columns.push_back("r");
+  trace.metadata.set(meta_key::sample_period_s, fmt::format("{}", T));
+  trace.columns = {column_name::t,
+                   column_name::x,
+                   column_name::y,
+                   column_name::z,
+                   column_name::commanded('x'),
+                   column_name::commanded('y'),
+                   column_name::commanded('z'),
+                   column_name::marker,
+                   column_name::segment};
+  if (program.radial) trace.columns.push_back(column_name::r);
   if (program.radial && program.bar_length_mm) {
-    trace.metadata.set("bar_length_mm", fmt::format("{}", *program.bar_length_mm));
+    trace.metadata.set(meta_key::bar_length_mm, fmt::format("{}", *program.bar_length_mm));
   }
   trace.values.assign(trace.columns.size(), {});
 

@@ -7,6 +7,7 @@
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/plot.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
@@ -89,8 +90,8 @@ int run_report(const ReportRequest& request, std::ostream& out);
 
 struct FitRequest {
   std::string points_path;
-  std::string column_a = "x";
-  std::string column_b = "y";
+  std::string column_a = column_name::x;
+  std::string column_b = column_name::y;
   bool json = false;
 };
 int run_fit(const FitRequest& request, std::ostream& out);

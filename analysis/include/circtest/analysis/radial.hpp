@@ -11,11 +11,12 @@
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/core/plane.hpp"
 #include "circtest/core/trace.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
-inline constexpr std::string_view kRadialColumn = "r";
-inline constexpr std::string_view kBarLengthKey = "bar_length_mm";
+inline constexpr std::string_view kRadialColumn = column_name::r;
+inline constexpr std::string_view kBarLengthKey = meta_key::bar_length_mm;
 
 struct RadialOptions {
   std::optional<Plane> plane;  // default: the trace's `plane` metadata, else XY

@@ -11,10 +11,11 @@
 
 namespace circtest {
 
-// The two position columns of the plane under test, as indices into trace.values.
+// The two position columns of the plane under test, as indices into trace.values (found by
+// plane_columns(), which refuses a trace without them).
 struct PlaneColumns {
-  int a = -1;
-  int b = -1;
+  std::size_t a = 0;
+  std::size_t b = 0;
 };
 
 // Finds the columns for a plane (its two lowercase axis letters, or explicit names).

@@ -50,8 +50,8 @@ struct Trace {
   std::size_t header_line = 0;
 
   std::size_t rows() const { return line_of_row.size(); }
-  // Index into columns/values, or -1 when the trace has no such column.
-  int column_index(std::string_view name) const;
+  // Index into columns/values; none when the trace has no such column.
+  std::optional<std::size_t> column_index(std::string_view name) const;
   const std::vector<double>* column(std::string_view name) const;
 };
 

@@ -15,6 +15,7 @@ inline constexpr const char* segment = "segment";  // id of the run (M67), 0 = i
 inline constexpr const char* x = "x";              // actual positions, mm
 inline constexpr const char* y = "y";
 inline constexpr const char* z = "z";
+inline constexpr const char* r = "r";  // radial deviation (ballbar import), mm
 inline constexpr const char* commanded_suffix = "_cmd";
 // The actual-position column of an axis letter ('x' -> "x").
 inline std::string actual(char axis) {
@@ -23,6 +24,11 @@ inline std::string actual(char axis) {
 // The commanded-position column of an axis letter ('x' -> "x_cmd").
 inline std::string commanded(char axis) {
   return actual(axis) + commanded_suffix;
+}
+// The position column circana computes from a radial trace's `r` ('x' -> "x_r").
+inline constexpr const char* from_radial_suffix = "_r";
+inline std::string from_radial(char axis) {
+  return actual(axis) + from_radial_suffix;
 }
 // Columns the trace formats store as integers.
 inline bool is_integer(std::string_view name) {
@@ -43,6 +49,12 @@ inline constexpr const char* radius_mm = "radius_mm";
 inline constexpr const char* centre_mm = "centre_mm";
 inline constexpr const char* feed_mm_per_min = "feed_mm_per_min";
 inline constexpr const char* feeds_mm_per_min = "feeds_mm_per_min";
+// The same in inches, beside the mm keys when the program is in inches (G20).
+inline constexpr const char* diameter_in = "diameter_in";
+inline constexpr const char* radius_in = "radius_in";
+inline constexpr const char* centre_in = "centre_in";
+inline constexpr const char* feed_in_per_min = "feed_in_per_min";
+inline constexpr const char* feeds_in_per_min = "feeds_in_per_min";
 inline constexpr const char* directions = "directions";
 inline constexpr const char* direction_labels = "direction_labels";
 inline constexpr const char* arc_deg = "arc_deg";
@@ -52,9 +64,18 @@ inline constexpr const char* dwell_s = "dwell_s";
 inline constexpr const char* marker_output = "marker_output";
 inline constexpr const char* segment_output = "segment_output";
 inline constexpr const char* segments = "segments";
+inline constexpr const char* ini = "ini";                  // the machine's INI file
+inline constexpr const char* ini_checked = "ini_checked";  // the limits circgen checked
+// A ballbar's bar length (radial traces): the radius its deviations are about.
+inline constexpr const char* bar_length_mm = "bar_length_mm";
+inline constexpr const char* imported_from = "imported_from";  // the polar file of a ballbar
 // Conditions of clause 4.4 (given by the operator or the program).
 inline constexpr const char* machine = "machine";
+inline constexpr const char* machine_serial = "machine_serial";
 inline constexpr const char* instrument = "instrument";
+inline constexpr const char* operator_name = "operator";
+inline constexpr const char* location = "location";
+inline constexpr const char* notes = "notes";
 inline constexpr const char* temperature_air_C = "temperature_air_C";
 inline constexpr const char* temperature_machine_C = "temperature_machine_C";
 inline constexpr const char* temperature_instrument_C = "temperature_instrument_C";
@@ -74,6 +95,7 @@ inline constexpr const char* module = "module";
 inline constexpr const char* module_channels = "module.channels";
 inline constexpr const char* module_depth = "module.depth";
 inline constexpr const char* program = "program";
+inline constexpr const char* ini_sha256 = "ini_sha256";  // of the INI file at the start
 // The recorder's trailer, known only at the end of a recording.
 inline constexpr const char* rows = "rows";
 inline constexpr const char* runs = "runs";
