@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <ranges>
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
@@ -49,7 +48,9 @@ std::string header_number(double value) {
 }
 
 std::string header_list(const std::vector<double>& values) {
-  return join(values | std::views::transform(header_number));
+  std::vector<std::string> texts;
+  for (double v : values) texts.push_back(header_number(v));
+  return join(texts);
 }
 
 double normalize_deg(double deg) {
@@ -187,10 +188,12 @@ double lead_in_start_deg(const CircleTestSpec& spec, Direction direction) {
 std::string segments_value(const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs,
                            const ProgramWriter& writer) {
   (void)spec;
-  return join(runs | std::views::transform([&](const MeasuredRun& run) {
-                return fmt::format("{}:{}:F{}", run.segment_id, direction_name(run.direction),
-                                   writer.feed(run.feed_mm_per_min));
-              }));
+  std::vector<std::string> texts;
+  for (const MeasuredRun& run : runs) {
+    texts.push_back(fmt::format("{}:{}:F{}", run.segment_id, direction_name(run.direction),
+                                writer.feed(run.feed_mm_per_min)));
+  }
+  return join(texts);
 }
 
 }  // namespace
@@ -446,10 +449,16 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
     if (feeds_units.size() == 1) add(meta_key::feed_in_per_min, header_number(feeds_units.front()));
     add(meta_key::feeds_in_per_min, header_list(feeds_units));
   }
-  add(meta_key::directions, join(spec.directions | std::views::transform(direction_name)));
-  add(meta_key::direction_labels, join(spec.directions | std::views::transform([&](Direction d) {
-                                         return direction_label(spec.plane, d);
-                                       })));
+  {
+    std::vector<std::string_view> names;
+    std::vector<std::string> labels;
+    for (Direction d : spec.directions) {
+      names.push_back(direction_name(d));
+      labels.push_back(direction_label(spec.plane, d));
+    }
+    add(meta_key::directions, join(names));
+    add(meta_key::direction_labels, join(labels));
+  }
   add(meta_key::arc_deg, header_number(spec.arc_deg));
   add(meta_key::start_deg, header_number(normalize_deg(spec.start_deg)));
   add(meta_key::lead_deg, header_number(spec.lead_deg));
