@@ -5,10 +5,12 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <complex>
 #include <numbers>
 #include <numeric>
+#include <thread>
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -91,39 +93,94 @@ double sgn(double v) {
   return v > 0 ? 1.0 : (v < 0 ? -1.0 : 0.0);
 }
 
-double shift(const Samples& S, const State& st, std::size_t i, bool a) {
-  const RunInfo& r = S.runs[S.run[i]];
-  return (a ? 1.0 : -1.0) * r.dir * r.speed_mm_s / S.radius * st.servo_mismatch_s;
+// The passes over all samples run on up to this many threads, over fixed blocks of the sample
+// range whose partial results are combined in block order: the result does not depend on the
+// number of threads.
+constexpr std::size_t kBlockSamples = 16384;
+
+unsigned worker_count() {
+  static const unsigned n = std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
+  return n;
 }
-// Angle travelled since the last reversal at `rev` + k pi.
-double since(const RunInfo& r, double u, double rev) {
-  const double t = (u - rev) / kPi;
-  return r.dir > 0 ? (t - std::floor(t)) * kPi : (std::ceil(t) - t) * kPi;
+
+// fn(lo, hi, block) for every block [lo, hi) of [0, n); fn must not throw.
+template <class F>
+void for_blocks(std::size_t n, F&& fn) {
+  const std::size_t nblocks = (n + kBlockSamples - 1) / kBlockSamples;
+  const auto threads = static_cast<unsigned>(std::min<std::size_t>(worker_count(), nblocks));
+  std::atomic<std::size_t> next{0};
+  auto work = [&]() noexcept {
+    for (std::size_t b = next++; b < nblocks; b = next++)
+      fn(b * kBlockSamples, std::min(n, (b + 1) * kBlockSamples), b);
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
 }
-double travelled(const Samples& S, double since) {
-  return S.radius * (1.0 - std::cos(since));
-}
+
 // The reversal bookkeeping depends on the state only through the lag mismatch: cached, and
 // only at the samples a pass reads (every `stride`-th), since the mismatch changes with
 // every Gauss-Newton step and most passes read a subsample.
+//
+// No trig per sample: c, s are the cosine and sine of the measured angle u, and the reversal
+// angle `rev` is constant along a run, so cos(u - rev) and sin(u - rev) follow from c, s and
+// the run's cos(rev), sin(rev); cos(since) is cos(u - rev) times the parity of the half turns
+// passed. The refresh is split over the pool in fixed blocks (each entry is written once).
 void refresh(const Samples& S, const State& st, std::size_t stride) {
   auto& C = S.cache;
   if (C.valid && C.servo_mismatch_s == st.servo_mismatch_s && stride % C.stride == 0) return;
   const std::size_t n = S.size();
-  for (auto* v : {&C.since_a, &C.since_b, &C.trav_a, &C.trav_b}) v->resize(n);
-  C.dir_a.resize(n);
-  C.dir_b.resize(n);
-  for (std::size_t i = 0; i < n; i += stride) {
-    const RunInfo& r = S.runs[S.run[i]];
-    const double sa = shift(S, st, i, true), sb = shift(S, st, i, false);
-    C.since_a[i] = since(r, S.u[i], sa);
-    C.since_b[i] = since(r, S.u[i], kPi / 2 + sb);
-    C.trav_a[i] = travelled(S, C.since_a[i]);
-    C.trav_b[i] = travelled(S, C.since_b[i]);
-    // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos.
-    C.dir_a[i] = static_cast<std::int8_t>(-r.dir * sgn(std::sin(S.u[i] - sa)));
-    C.dir_b[i] = static_cast<std::int8_t>(r.dir * sgn(std::cos(S.u[i] - sb)));
+  if (C.since_a.size() != n) {
+    for (auto* v : {&C.since_a, &C.since_b, &C.trav_a, &C.trav_b}) v->resize(n);
+    C.dir_a.resize(n);
+    C.dir_b.resize(n);
   }
+  struct RunTrig {
+    double rev_a, rev_b;    // reversal angles (mod pi)
+    double ca, sa, cb, sb;  // their cosines and sines
+  };
+  std::vector<RunTrig> trig(S.runs.size());
+  for (std::size_t k = 0; k < S.runs.size(); ++k) {
+    const RunInfo& r = S.runs[k];
+    const double w = r.dir * r.speed_mm_s / S.radius * st.servo_mismatch_s;
+    RunTrig& t = trig[k];
+    t.rev_a = w;
+    t.rev_b = kPi / 2 - w;
+    t.ca = std::cos(t.rev_a);
+    t.sa = std::sin(t.rev_a);
+    t.cb = std::cos(t.rev_b);
+    t.sb = std::sin(t.rev_b);
+  }
+  const double R = S.radius;
+  for_blocks(n, [&](std::size_t lo, std::size_t hi, std::size_t) {
+    // The first multiple of the stride in the block.
+    for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) {
+      const RunInfo& r = S.runs[S.run[i]];
+      const RunTrig& t = trig[S.run[i]];
+      const double c = S.c[i], s = S.s[i], u = S.u[i];
+      // cos and sin of u - rev.
+      const double cos_a = c * t.ca + s * t.sa, sin_a = s * t.ca - c * t.sa;
+      const double cos_b = c * t.cb + s * t.sb, sin_b = s * t.cb - c * t.sb;
+      const double ka =
+          r.dir > 0 ? std::floor((u - t.rev_a) / kPi) : std::ceil((u - t.rev_a) / kPi);
+      const double kb =
+          r.dir > 0 ? std::floor((u - t.rev_b) / kPi) : std::ceil((u - t.rev_b) / kPi);
+      // As since(): the angle past the last reversal, ka (kb) half turns in.
+      C.since_a[i] =
+          r.dir > 0 ? ((u - t.rev_a) / kPi - ka) * kPi : (ka - (u - t.rev_a) / kPi) * kPi;
+      C.since_b[i] =
+          r.dir > 0 ? ((u - t.rev_b) / kPi - kb) * kPi : (kb - (u - t.rev_b) / kPi) * kPi;
+      const double pa = std::fmod(ka, 2.0) == 0.0 ? 1.0 : -1.0;
+      const double pb = std::fmod(kb, 2.0) == 0.0 ? 1.0 : -1.0;
+      C.trav_a[i] = R * (1.0 - pa * cos_a);
+      C.trav_b[i] = R * (1.0 - pb * cos_b);
+      // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos
+      // (cos(u + w) = -sin(u - rev_b)).
+      C.dir_a[i] = static_cast<std::int8_t>(-r.dir * sgn(sin_a));
+      C.dir_b[i] = static_cast<std::int8_t>(-r.dir * sgn(sin_b));
+    }
+  });
   C.servo_mismatch_s = st.servo_mismatch_s;
   C.stride = stride;
   C.valid = true;
@@ -238,19 +295,39 @@ Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& 
                   std::size_t stride) {
   refresh(S, st, stride);
   const auto p = static_cast<Eigen::Index>(cols.size());
+  const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
+  // Per block: its rows (transposed, one per column) build J^T J as one matrix product.
+  std::vector<Normal> part(nblocks);
+  for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
+    Normal& N = part[block];
+    N.M = Eigen::MatrixXd::Zero(p, p);
+    N.v = Eigen::VectorXd::Zero(p);
+    const std::size_t first = (lo + stride - 1) / stride * stride;
+    const auto rows =
+        static_cast<Eigen::Index>(hi > first ? (hi - first + stride - 1) / stride : 0);
+    Eigen::MatrixXd Xt(p, rows);
+    Eigen::VectorXd y(rows);
+    Eigen::Index m = 0;
+    for (std::size_t i = first; i < hi; i += stride) {
+      if (at_reversal(S, st, i)) continue;
+      for (Eigen::Index j = 0; j < p; ++j)
+        Xt(j, m) = value(S, st, cols[static_cast<std::size_t>(j)], i);
+      y[m] = S.dr[i] - offset(S, st, cols, i);
+      ++m;
+    }
+    N.M.selfadjointView<Eigen::Upper>().rankUpdate(Xt.leftCols(m));
+    N.v.noalias() += Xt.leftCols(m) * y.head(m);
+    N.yy = y.head(m).squaredNorm();
+    N.n = static_cast<std::size_t>(m);
+  });
   Normal N;
   N.M = Eigen::MatrixXd::Zero(p, p);
   N.v = Eigen::VectorXd::Zero(p);
-  Eigen::VectorXd row(p);
-  for (std::size_t i = 0; i < S.size(); i += stride) {
-    if (at_reversal(S, st, i)) continue;
-    for (Eigen::Index j = 0; j < p; ++j)
-      row[j] = value(S, st, cols[static_cast<std::size_t>(j)], i);
-    const double y = S.dr[i] - offset(S, st, cols, i);
-    N.M.selfadjointView<Eigen::Upper>().rankUpdate(row);
-    N.v += y * row;
-    N.yy += y * y;
-    ++N.n;
+  for (const Normal& b : part) {
+    N.M += b.M;
+    N.v += b.v;
+    N.yy += b.yy;
+    N.n += b.n;
   }
   N.M = N.M.selfadjointView<Eigen::Upper>();
   return N;
@@ -479,11 +556,13 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
     swy[b] += proj[i] * resid[i];
   }
   std::vector<double> x, y, w;
+  std::vector<std::size_t> bin;
   for (std::size_t b = 0; b < nbins; ++b) {
     if (sw[b] <= 0) continue;
     x.push_back(*mn + (static_cast<double>(b) + 0.5) * width);
     y.push_back(swy[b] / sw[b]);
     w.push_back(sw[b]);
+    bin.push_back(b);
   }
   if (x.size() < 16) return std::nullopt;
   // Remove the weighted mean so the zero frequency does not leak.
@@ -497,13 +576,32 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
   if (fmax <= fmin) return std::nullopt;
   std::vector<double> freq, power;
   for (double f = fmin; f <= fmax; f += df) {
-    std::complex<double> acc = 0.0;
-    const std::complex<double> step = std::polar(1.0, -2 * kPi * f * width);
-    (void)step;
+    // The bins are equally spaced: exp(-2 pi i f x) turns by a fixed step from bin to bin (taken
+    // exactly again every 64 bins, so that rounding does not build up).
+    double acc_re = 0.0, acc_im = 0.0;
+    const double a = -2 * kPi * f * width;
+    const double step_re = std::cos(a), step_im = std::sin(a);
+    double z_re = 0.0, z_im = 0.0;
+    std::size_t at = 0, seed = 0;
     for (std::size_t k = 0; k < x.size(); ++k) {
-      const double ph = -2 * kPi * f * x[k];
-      acc += w[k] * (y[k] - ym) * std::complex<double>(std::cos(ph), std::sin(ph));
+      if (k == 0 || bin[k] >= seed + 64) {
+        const double ph = -2 * kPi * f * x[k];
+        z_re = std::cos(ph);
+        z_im = std::sin(ph);
+        seed = bin[k];
+      } else {
+        for (; at < bin[k]; ++at) {
+          const double re = z_re * step_re - z_im * step_im;
+          z_im = z_re * step_im + z_im * step_re;
+          z_re = re;
+        }
+      }
+      at = bin[k];
+      const double wy = w[k] * (y[k] - ym);
+      acc_re += wy * z_re;
+      acc_im += wy * z_im;
     }
+    const std::complex<double> acc(acc_re, acc_im);
     freq.push_back(f);
     power.push_back(std::norm(acc));
   }
