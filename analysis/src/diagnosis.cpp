@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <complex>
+#include <memory>
 #include <numbers>
 #include <numeric>
 #include <thread>
@@ -66,13 +67,20 @@ struct Samples {
   std::vector<std::uint32_t> run;
   std::vector<RunInfo> runs;
   double radius = 0.0;
+  // The reversal bookkeeping of one sample.
+  struct Reversal {
+    double since_a, since_b;   // angle travelled since the last reversal, rad
+    double trav_a, trav_b;     // the motor's travel since then, mm
+    std::int8_t dir_a, dir_b;  // axis direction after it
+  };
   struct Cache {
     bool valid = false;
     double servo_mismatch_s = 0.0;
-    std::size_t stride = 0;                 // entries are set at the multiples of it
-    std::vector<double> since_a, since_b;   // angle travelled since the last reversal, rad
-    std::vector<double> trav_a, trav_b;     // the motor's travel since then, mm
-    std::vector<std::int8_t> dir_a, dir_b;  // axis direction after it
+    std::size_t stride = 0;  // entries are set at the multiples of it
+    std::size_t size = 0;
+    // Left uninitialised (each entry is written before it is read): zeroing 40 MB for a 1e6-row
+    // trace costs as much as a fit pass.
+    std::unique_ptr<Reversal[]> at;
   };
   mutable Cache cache;
   std::size_t size() const { return dr.size(); }
@@ -131,10 +139,9 @@ void refresh(const Samples& S, const State& st, std::size_t stride) {
   auto& C = S.cache;
   if (C.valid && C.servo_mismatch_s == st.servo_mismatch_s && stride % C.stride == 0) return;
   const std::size_t n = S.size();
-  if (C.since_a.size() != n) {
-    for (auto* v : {&C.since_a, &C.since_b, &C.trav_a, &C.trav_b}) v->resize(n);
-    C.dir_a.resize(n);
-    C.dir_b.resize(n);
+  if (C.size != n) {
+    C.at.reset(new Samples::Reversal[n]);
+    C.size = n;
   }
   struct RunTrig {
     double rev_a, rev_b;    // reversal angles (mod pi)
@@ -167,18 +174,18 @@ void refresh(const Samples& S, const State& st, std::size_t stride) {
       const double kb =
           r.dir > 0 ? std::floor((u - t.rev_b) / kPi) : std::ceil((u - t.rev_b) / kPi);
       // As since(): the angle past the last reversal, ka (kb) half turns in.
-      C.since_a[i] =
+      C.at[i].since_a =
           r.dir > 0 ? ((u - t.rev_a) / kPi - ka) * kPi : (ka - (u - t.rev_a) / kPi) * kPi;
-      C.since_b[i] =
+      C.at[i].since_b =
           r.dir > 0 ? ((u - t.rev_b) / kPi - kb) * kPi : (kb - (u - t.rev_b) / kPi) * kPi;
       const double pa = std::fmod(ka, 2.0) == 0.0 ? 1.0 : -1.0;
       const double pb = std::fmod(kb, 2.0) == 0.0 ? 1.0 : -1.0;
-      C.trav_a[i] = R * (1.0 - pa * cos_a);
-      C.trav_b[i] = R * (1.0 - pb * cos_b);
+      C.at[i].trav_a = R * (1.0 - pa * cos_a);
+      C.at[i].trav_b = R * (1.0 - pb * cos_b);
       // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos
       // (cos(u + w) = -sin(u - rev_b)).
-      C.dir_a[i] = static_cast<std::int8_t>(-r.dir * sgn(sin_a));
-      C.dir_b[i] = static_cast<std::int8_t>(-r.dir * sgn(sin_b));
+      C.at[i].dir_a = static_cast<std::int8_t>(-r.dir * sgn(sin_a));
+      C.at[i].dir_b = static_cast<std::int8_t>(-r.dir * sgn(sin_b));
     }
   });
   C.servo_mismatch_s = st.servo_mismatch_s;
@@ -186,16 +193,16 @@ void refresh(const Samples& S, const State& st, std::size_t stride) {
   C.valid = true;
 }
 double since_a(const Samples& S, const State&, std::size_t i) {
-  return S.cache.since_a[i];
+  return S.cache.at[i].since_a;
 }
 double since_b(const Samples& S, const State&, std::size_t i) {
-  return S.cache.since_b[i];
+  return S.cache.at[i].since_b;
 }
 double dir_a(const Samples& S, const State&, std::size_t i) {
-  return S.cache.dir_a[i];
+  return S.cache.at[i].dir_a;
 }
 double dir_b(const Samples& S, const State&, std::size_t i) {
-  return S.cache.dir_b[i];
+  return S.cache.at[i].dir_b;
 }
 bool at_reversal(const Samples& S, const State& st, std::size_t i) {
   const double eps = S.runs[S.run[i]].eps_rad;
@@ -230,9 +237,9 @@ double value(const Samples& S, const State& st, const Column& col, std::size_t i
     case Kind::servo:
       return r.dir * r.speed_mm_s * s * c;
     case Kind::backlash_a:
-      return backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).first * c;
+      return backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).first * c;
     case Kind::backlash_b:
-      return backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).first * s;
+      return backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).first * s;
     case Kind::spike_a:
       if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
       return -dir_a(S, st, i) * std::exp(-since_a(S, st, i) * R / r.speed_mm_s / st.tau_a) * c;
@@ -276,9 +283,9 @@ double offset(const Samples& S, const State& st, const std::vector<Column>& cols
   }
   for (const Column& col : cols) {
     if (col.kind == Kind::backlash_a && st.backlash_a > 0) {
-      o += backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).second * S.c[i];
+      o += backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).second * S.c[i];
     } else if (col.kind == Kind::backlash_b && st.backlash_b > 0) {
-      o += backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).second * S.s[i];
+      o += backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).second * S.s[i];
     }
   }
   return o;
@@ -641,14 +648,16 @@ void reversal_steps(const Samples& S, const std::vector<double>& resid, Diagnosi
     const double b = *D.backlash_mm[axs].value;
     // The angle in which the motor takes up the play (travelled R (1 - cos) = b), twice.
     const double takeup_rad = 2.0 * std::acos(std::max(-1.0, 1.0 - std::abs(b) / S.radius));
-    const auto& since = ax == 0 ? S.cache.since_a : S.cache.since_b;
-    const auto& dir = ax == 0 ? S.cache.dir_a : S.cache.dir_b;
+    auto since = [&](std::size_t i) {
+      return ax == 0 ? S.cache.at[i].since_a : S.cache.at[i].since_b;
+    };
+    auto dir = [&](std::size_t i) { return ax == 0 ? S.cache.at[i].dir_a : S.cache.at[i].dir_b; };
     std::array<double, 2> sum{0.0, 0.0};  // [0]: + end, [1]: - end
     std::array<int, 2> count{0, 0};
     for (const RunInfo& r : S.runs) {
       for (std::size_t i = r.begin + 1; i < r.end; ++i) {
-        if (!(since[i] < since[i - 1])) continue;
-        const double u_rev = S.u[i] - r.dir * since[i];
+        if (!(since(i) < since(i - 1))) continue;
+        const double u_rev = S.u[i] - r.dir * since(i);
         // Least-squares line of the residual against the signed angle on one side, at 0.
         auto intercept = [&](bool after, std::size_t& n) {
           double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
@@ -682,7 +691,7 @@ void reversal_steps(const Samples& S, const std::vector<double>& resid, Diagnosi
         std::size_t na = 0, nb = 0;
         const double after = intercept(true, na), before = intercept(false, nb);
         if (na < kMinSide || nb < kMinSide) continue;
-        const std::size_t end = dir[i] < 0 ? 0 : 1;  // moving - after it: the + end
+        const std::size_t end = dir(i) < 0 ? 0 : 1;  // moving - after it: the + end
         sum[end] += b + (after - before);
         ++count[end];
       }
@@ -1364,60 +1373,110 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     source_of[j] = static_cast<int>(at - sources.begin());
   }
   const std::size_t ns = sources.size();
-  std::vector<double> term_min(ns * S.runs.size(), std::numeric_limits<double>::infinity());
-  std::vector<double> term_max(ns * S.runs.size(), -std::numeric_limits<double>::infinity());
-  std::vector<double> term_at(ns);
-  std::vector<double> model(S.size(), 0.0), resid(S.size(), 0.0);
-  for (std::size_t i = 0; i < S.size(); ++i) {
-    double full = offset(S, st, cols, i);
-    double shape = full;  // without centring and radius
-    std::fill(term_at.begin(), term_at.end(), 0.0);
-    for (std::size_t j = 0; j < cols.size(); ++j) {
-      const double t = value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
-      full += t;
-      if (source_of[j] < 0) continue;
-      shape += t;
-      double& term = term_at[static_cast<std::size_t>(source_of[j])];
-      term += t;
-      if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
-        term += backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).second * S.c[i];
-      } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
-        term += backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).second * S.s[i];
+  // One pass over all samples on the threads. Per block: each run's term ranges, the model's
+  // extremes (first minimum, last maximum, as std::minmax_element) and the residual's range
+  // off the reversals; combined in block order, so the result is the sequential one.
+  const std::size_t nruns = S.runs.size();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  struct Extremes {
+    std::vector<double> term_min, term_max;  // [run * ns + source]
+    std::vector<double> model_min, model_max, resid_min, resid_max;
+    std::vector<std::size_t> model_imin, model_imax;
+    double ss = 0.0;
+  };
+  const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
+  std::vector<Extremes> ext(nblocks);
+  for (Extremes& e : ext) {
+    e.term_min.assign(ns * nruns, kInf);
+    e.term_max.assign(ns * nruns, -kInf);
+    for (auto* v : {&e.model_min, &e.resid_min}) v->assign(nruns, kInf);
+    for (auto* v : {&e.model_max, &e.resid_max}) v->assign(nruns, -kInf);
+    e.model_imin.assign(nruns, 0);
+    e.model_imax.assign(nruns, 0);
+  }
+  std::vector<double> resid(S.size());
+  for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
+    Extremes& e = ext[block];
+    std::vector<double> term_at(ns);
+    for (std::size_t i = lo; i < hi; ++i) {
+      double full = offset(S, st, cols, i);
+      double shape = full;  // without centring and radius
+      std::fill(term_at.begin(), term_at.end(), 0.0);
+      for (std::size_t j = 0; j < cols.size(); ++j) {
+        const double t = value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+        full += t;
+        if (source_of[j] < 0) continue;
+        shape += t;
+        double& term = term_at[static_cast<std::size_t>(source_of[j])];
+        term += t;
+        if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
+          term +=
+              backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).second * S.c[i];
+        } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
+          term +=
+              backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).second * S.s[i];
+        }
+      }
+      const std::size_t run = S.run[i];
+      const std::size_t base = run * ns;
+      for (std::size_t k = 0; k < ns; ++k) {
+        e.term_min[base + k] = std::min(e.term_min[base + k], term_at[k]);
+        e.term_max[base + k] = std::max(e.term_max[base + k], term_at[k]);
+      }
+      if (shape < e.model_min[run]) {
+        e.model_min[run] = shape;
+        e.model_imin[run] = i;
+      }
+      if (!(shape < e.model_max[run])) {
+        e.model_max[run] = shape;
+        e.model_imax[run] = i;
+      }
+      const double res = S.dr[i] - full;
+      resid[i] = res;
+      e.ss += res * res;
+      if (!at_reversal(S, st, i)) {
+        e.resid_min[run] = std::min(e.resid_min[run], res);
+        e.resid_max[run] = std::max(e.resid_max[run], res);
       }
     }
-    const std::size_t base = S.run[i] * ns;
-    for (std::size_t k = 0; k < ns; ++k) {
-      term_min[base + k] = std::min(term_min[base + k], term_at[k]);
-      term_max[base + k] = std::max(term_max[base + k], term_at[k]);
+  });
+  Extremes all = ext.empty() ? Extremes{} : ext.front();
+  for (std::size_t b = 1; b < ext.size(); ++b) {
+    const Extremes& e = ext[b];
+    for (std::size_t k = 0; k < ns * nruns; ++k) {
+      all.term_min[k] = std::min(all.term_min[k], e.term_min[k]);
+      all.term_max[k] = std::max(all.term_max[k], e.term_max[k]);
     }
-    model[i] = shape;
-    resid[i] = S.dr[i] - full;
+    for (std::size_t r = 0; r < nruns; ++r) {
+      if (e.model_min[r] < all.model_min[r]) {
+        all.model_min[r] = e.model_min[r];
+        all.model_imin[r] = e.model_imin[r];
+      }
+      if (e.model_max[r] != -kInf && !(e.model_max[r] < all.model_max[r])) {
+        all.model_max[r] = e.model_max[r];
+        all.model_imax[r] = e.model_imax[r];
+      }
+      all.resid_min[r] = std::min(all.resid_min[r], e.resid_min[r]);
+      all.resid_max[r] = std::max(all.resid_max[r], e.resid_max[r]);
+    }
+    all.ss += e.ss;
   }
+  const std::vector<double>& term_min = all.term_min;
+  const std::vector<double>& term_max = all.term_max;
   reversal_steps(S, resid, D);
-  double ss = 0.0;
-  for (double e : resid) ss += e * e;
-  D.residual_rms_mm = std::sqrt(ss / static_cast<double>(S.size()));
-  std::size_t g_run = 0, imax = 0, imin = 0;
-  for (std::size_t k = 0; k < S.runs.size(); ++k) {
+  D.residual_rms_mm = std::sqrt(all.ss / static_cast<double>(S.size()));
+  std::size_t imax = 0, imin = 0;
+  for (std::size_t k = 0; k < nruns; ++k) {
     const RunInfo& r = S.runs[k];
-    double rmn = std::numeric_limits<double>::infinity(), rmx = -rmn;
-    for (std::size_t i = r.begin; i < r.end; ++i) {
-      if (at_reversal(S, st, i)) continue;
-      rmn = std::min(rmn, resid[i]);
-      rmx = std::max(rmx, resid[i]);
-    }
-    if (rmx >= rmn) D.residual_g_mm = std::max(D.residual_g_mm, rmx - rmn);
-    const auto [mmn, mmx] =
-        std::minmax_element(model.begin() + static_cast<std::ptrdiff_t>(r.begin),
-                            model.begin() + static_cast<std::ptrdiff_t>(r.end));
-    if (*mmx - *mmn >= D.model_g_mm) {
-      D.model_g_mm = *mmx - *mmn;
-      g_run = k;
-      imax = static_cast<std::size_t>(mmx - model.begin());
-      imin = static_cast<std::size_t>(mmn - model.begin());
+    if (all.resid_max[k] >= all.resid_min[k])
+      D.residual_g_mm = std::max(D.residual_g_mm, all.resid_max[k] - all.resid_min[k]);
+    if (r.end == r.begin) continue;
+    if (all.model_max[k] - all.model_min[k] >= D.model_g_mm) {
+      D.model_g_mm = all.model_max[k] - all.model_min[k];
+      imax = all.model_imax[k];
+      imin = all.model_imin[k];
     }
   }
-  (void)g_run;
   // Contributions: each source's term alone (its G over the runs) and its part of the
   // modelled G at the model's extreme points (these parts add up to the modelled G).
   for (std::size_t k = 0; k < ns; ++k) {
@@ -1431,9 +1490,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       for (std::size_t j : mine) {
         t += value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
         if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
-          t += backlash_terms(dir_a(S, st, i), S.cache.trav_a[i], st.backlash_a).second * S.c[i];
+          t += backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).second * S.c[i];
         } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
-          t += backlash_terms(dir_b(S, st, i), S.cache.trav_b[i], st.backlash_b).second * S.s[i];
+          t += backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).second * S.s[i];
         }
       }
       return t;
