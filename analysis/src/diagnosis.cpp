@@ -50,6 +50,7 @@ struct Column {
 
 struct RunInfo {
   std::size_t begin = 0, end = 0;  // into the sample arrays
+  std::size_t trace_begin = 0;     // the trace row of sample `begin`
   double dir = 1.0;                // +1 CCW, -1 CW
   double speed_mm_s = 0.0;         // 0 when unknown
   // About a sample period in angle: samples this close to a reversal are left out of the fit
@@ -60,10 +61,13 @@ struct RunInfo {
 
 // All measured samples of all runs, in run order.
 struct Samples {
-  std::vector<double> c, s;          // cos, sin of the measured angle about the nominal centre
-  std::vector<double> dr;            // radius minus nominal radius
-  std::vector<double> pos_a, pos_b;  // measured axis positions
-  std::vector<double> u;             // the measured angle unwrapped along the run, rad
+  std::vector<double> c, s;  // cos, sin of the measured angle about the nominal centre
+  std::vector<double> dr;    // radius minus nominal radius
+  // The measured axis positions: the trace's columns, not copied (sample i of a run is row
+  // trace_begin + (i - begin)).
+  const double* col_a = nullptr;
+  const double* col_b = nullptr;
+  std::vector<double> u;  // the measured angle unwrapped along the run, rad
   std::vector<std::uint32_t> run;
   std::vector<RunInfo> runs;
   double radius = 0.0;
@@ -84,6 +88,22 @@ struct Samples {
   };
   mutable Cache cache;
   std::size_t size() const { return dr.size(); }
+  double pos(int ax, std::size_t i) const {
+    const RunInfo& r = runs[run[i]];
+    return (ax == 0 ? col_a : col_b)[r.trace_begin + (i - r.begin)];
+  }
+  // The range of an axis' positions over the samples: max - min.
+  double pos_span(int ax) const {
+    double mn = std::numeric_limits<double>::infinity(), mx = -mn;
+    for (const RunInfo& r : runs) {
+      const double* p = (ax == 0 ? col_a : col_b) + r.trace_begin;
+      for (std::size_t k = 0; k < r.end - r.begin; ++k) {
+        mn = std::min(mn, p[k]);
+        mx = std::max(mx, p[k]);
+      }
+    }
+    return mx - mn;
+  }
 };
 
 // The nonlinear parts, held fixed while the linear parameters are fitted.
@@ -259,13 +279,13 @@ double value(const Samples& S, const State& st, const Column& col, std::size_t i
              (st.tau_b * st.tau_b) * s;
     }
     case Kind::cyclic_a_sin:
-      return std::sin(2 * kPi * S.pos_a[i] / st.pitch_a) * c;
+      return std::sin(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
     case Kind::cyclic_a_cos:
-      return std::cos(2 * kPi * S.pos_a[i] / st.pitch_a) * c;
+      return std::cos(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
     case Kind::cyclic_b_sin:
-      return std::sin(2 * kPi * S.pos_b[i] / st.pitch_b) * s;
+      return std::sin(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
     case Kind::cyclic_b_cos:
-      return std::cos(2 * kPi * S.pos_b[i] / st.pitch_b) * s;
+      return std::cos(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
   }
   return 0.0;
 }
@@ -762,6 +782,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   std::vector<double> group_feed;
   Samples S;
   S.radius = R;
+  S.col_a = col_a.data();
+  S.col_b = col_b.data();
   State st;
   bool speed_known = true;
   bool have_ccw = false, have_cw = false;
@@ -770,7 +792,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   {
     std::size_t total = 0;
     for (const RunResult& rr : ev.runs) total += rr.run.size();
-    for (auto* v : {&S.c, &S.s, &S.dr, &S.pos_a, &S.pos_b, &S.u}) v->reserve(total);
+    for (auto* v : {&S.c, &S.s, &S.dr, &S.u}) v->reserve(total);
     S.run.reserve(total);
   }
   for (std::size_t k = 0; k < ev.runs.size(); ++k) {
@@ -792,6 +814,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       info.group = 0;
     }
     info.begin = S.size();
+    info.trace_begin = rr.run.begin;
     const detail::PathPolar polar = detail::path_polar(
         std::span(col_a).subspan(rr.run.begin, rr.run.size()),
         std::span(col_b).subspan(rr.run.begin, rr.run.size()), PlanePoint{ca, cb});
@@ -806,8 +829,6 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       S.c.push_back(da / r);
       S.s.push_back(db / r);
       S.dr.push_back(r - R);
-      S.pos_a.push_back(col_a[i]);
-      S.pos_b.push_back(col_b[i]);
       S.run.push_back(static_cast<std::uint32_t>(k));
       S.u.push_back(u);
     }
@@ -971,7 +992,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
           double e = S.dr[i] - offset(S, st, cols, i);
           for (std::size_t j = 0; j < cols.size(); ++j)
             e -= value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
-          pos.push_back(ax == 0 ? S.pos_a[i] : S.pos_b[i]);
+          pos.push_back(S.pos(ax, i));
           proj.push_back(ax == 0 ? S.c[i] : S.s[i]);
           res.push_back(e);
         }
@@ -992,11 +1013,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         // Refine the pitch on the profile residual.
         const double f0 = 1.0 / pitch;
         double span = 0.0;
-        {
-          const auto& pv = ax == 0 ? S.pos_a : S.pos_b;
-          const auto [mn, mx] = std::minmax_element(pv.begin(), pv.end());
-          span = *mx - *mn;
-        }
+        { span = S.pos_span(ax); }
         const double df = 1.0 / (4.0 * span);
         const Profile prof = make_profile(S, st, cols, sol, cstride);
         auto rss_at = [&](double f) {
@@ -1120,9 +1137,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, ks)));
     cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, kc)));
     fit();
-    const auto& pv = ax == 0 ? S.pos_a : S.pos_b;
-    const auto [mn, mx] = std::minmax_element(pv.begin(), pv.end());
-    const double df = 1.0 / (16.0 * (*mx - *mn));
+    const double df = 1.0 / (16.0 * S.pos_span(ax));
     const std::size_t cstride = std::max<std::size_t>(1, (S.size() + 199999) / 200000);
     const Profile prof = make_profile(S, st, cols, sol, cstride);
     auto rss_at = [&](double f) {
