@@ -1254,23 +1254,37 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     const double ba = D.backlash_mm[0].value.value_or(0.0);
     const double bb = D.backlash_mm[1].value.value_or(0.0);
     const double dtau = D.servo_mismatch_ms.value.value_or(0.0) * 1e-3;
-    double num = 0.0, den = 0.0;
-    for (std::size_t k = 0; k < ev.runs.size(); ++k) {
-      const RunResult& rr = ev.runs[k];
-      const RunInfo& info = S.runs[k];
-      double tsum = 0.0, gsum = 0.0;
-      for (std::size_t i = rr.run.begin; i < rr.run.end; ++i) {
+    // Per run, the sums of the tangential deviation and of the geometric terms' part of it; on
+    // the threads, per block, added in block order.
+    const std::size_t nruns = S.runs.size();
+    const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
+    std::vector<double> tsums(nblocks * nruns, 0.0), gsums(nblocks * nruns, 0.0);
+    for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
+      for (std::size_t j = lo; j < hi; ++j) {
+        const std::size_t k = S.run[j];
+        const RunInfo& info = S.runs[k];
+        const std::size_t i = info.trace_begin + (j - info.begin);
         const double ma = col_a[i] - ca - oa, mb = col_b[i] - cb - ob;
         const double qa = (*cmd_a)[i] - ca, qb = (*cmd_b)[i] - cb;
         const double dth = std::atan2(qa * mb - qb * ma, qa * ma + qb * mb);
-        tsum += info.dir * dth * R;
+        tsums[block * nruns + k] += info.dir * dth * R;
         const double r = std::hypot(ma, mb);
         const double c = ma / r, s = mb / r;
         // Tangential deviations the fitted geometric terms make (docs/diagnosis.md).
-        gsum += -info.dir * alpha * R * s * s - info.dir * R * ds * s * c - 0.5 * ba * std::abs(s) -
-                0.5 * bb * std::abs(c) - info.speed_mm_s * 0.5 * dtau * (s * s - c * c);
+        gsums[block * nruns + k] += -info.dir * alpha * R * s * s - info.dir * R * ds * s * c -
+                                    0.5 * ba * std::abs(s) - 0.5 * bb * std::abs(c) -
+                                    info.speed_mm_s * 0.5 * dtau * (s * s - c * c);
       }
-      const auto n = static_cast<double>(rr.run.size());
+    });
+    double num = 0.0, den = 0.0;
+    for (std::size_t k = 0; k < nruns; ++k) {
+      const RunInfo& info = S.runs[k];
+      double tsum = 0.0, gsum = 0.0;
+      for (std::size_t b = 0; b < nblocks; ++b) {
+        tsum += tsums[b * nruns + k];
+        gsum += gsums[b * nruns + k];
+      }
+      const auto n = static_cast<double>(info.end - info.begin);
       // T = -v lag + g  =>  lag = (g - T) / v
       num += (gsum - tsum) / info.speed_mm_s;
       den += n;
