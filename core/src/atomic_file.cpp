@@ -63,14 +63,16 @@ void write_all(int fd, std::string_view content, const std::string& path) {
 // `.NAME.circtest-tmp.PID` beside the target.
 std::string named_temporary(const std::string& target, long pid) {
   const std::string dir = std::filesystem::path(target).parent_path().string();
-  std::string name = "." + name_of(target) + std::string(kTmpMarker) + std::to_string(pid);
+  // Appended, not `"." + ...`: GCC 12 warns falsely (-Wrestrict) on prepending to a temporary.
+  std::string name = std::string(".").append(name_of(target)).append(kTmpMarker);
+  name += std::to_string(pid);
   return dir.empty() ? name : dir + "/" + name;
 }
 
 // Removes the named temporaries of `target` left by processes that no longer exist (killed
 // between creating and renaming one). A live PID's file is left alone: it may be writing.
 void sweep_stale_temporaries(const std::string& target) {
-  const std::string prefix = "." + name_of(target) + std::string(kTmpMarker);
+  const std::string prefix = std::string(".").append(name_of(target)).append(kTmpMarker);
   const std::string dir = directory_of(target);
   DIR* d = ::opendir(dir.c_str());
   if (!d) return;

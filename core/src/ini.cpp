@@ -401,7 +401,7 @@ void IniDocument::append(std::string_view section, std::string_view key, std::st
       insert_line({0, main.lines.size()}, std::move(blank));
     }
     Line header;
-    header.raw = "[" + std::string(section) + "]" + main.newline;
+    header.raw = std::string("[").append(section).append("]").append(main.newline);
     classify(header, true);
     insert_line({0, files_.front().lines.size()}, std::move(header));
     insert_line({0, files_.front().lines.size()}, make_entry(0, key, value));

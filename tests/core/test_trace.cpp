@@ -220,7 +220,8 @@ TEST(TraceFile, WriterRoundTripsThroughTheReaderBlockBoundaries) {
   {
     TraceWriter w(path, md, cols);
     for (std::size_t i = 0; i < n; ++i) {
-      const double row[4] = {i * 1e-3, 75.0 * std::cos(i * 1e-4), 75.0 * std::sin(i * 1e-4),
+      const double di = static_cast<double>(i);
+      const double row[4] = {di * 1e-3, 75.0 * std::cos(di * 1e-4), 75.0 * std::sin(di * 1e-4),
                              static_cast<double>(i / 1000)};
       w.write_row(row);
     }
@@ -233,7 +234,7 @@ TEST(TraceFile, WriterRoundTripsThroughTheReaderBlockBoundaries) {
   ASSERT_EQ(t.rows(), n);
   EXPECT_EQ(*t.metadata.find("rows"), std::to_string(n));
   for (std::size_t i = 0; i < n; i += 9973) {
-    EXPECT_NEAR((*t.column("x"))[i], 75.0 * std::cos(i * 1e-4), 5e-7);
+    EXPECT_NEAR((*t.column("x"))[i], 75.0 * std::cos(static_cast<double>(i) * 1e-4), 5e-7);
     EXPECT_EQ((*t.column("segment"))[i], static_cast<double>(i / 1000));
     EXPECT_EQ(t.line_of_row[i], i + 3);
   }
@@ -492,7 +493,8 @@ TEST(TraceReader, HeaderCheckIsLinearIn200000Names) {
   };
   const std::size_t n = 200000;
   for (std::size_t i = 0; i < n; ++i) {
-    header += (i ? "," : "") + name(i);
+    if (i) header += ',';
+    header += name(i);
     row += i ? ",1" : "1";
   }
   ASSERT_LT(header.size(), kMaxInputLineBytes);
