@@ -452,6 +452,15 @@ struct Profile {
   // signed projection (-direction * cos or sin) and the time since the reversal (negative when
   // the feed is unknown). The decay search evaluates the spike columns hundreds of times.
   std::array<Eigen::VectorXd, 2> spike_sign, spike_dt_s;
+  // The same per axis over only the rows past a reversal (time known), ordered by the time
+  // since it, with their base design rows and residual: a spike column at decay tau is zero
+  // past ~40 tau, so an evaluation reads only the leading rows.
+  struct SpikeRows {
+    std::vector<Eigen::Index> row;  // profile row of each ordered row
+    Eigen::VectorXd sign, dt_s, e;
+    Eigen::MatrixXd J;
+  };
+  std::array<SpikeRows, 2> spike_rows;
 };
 
 Profile make_profile(const Samples& S, const State& st, const std::vector<Column>& cols,
@@ -492,7 +501,78 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   const Eigen::VectorXd x = P.inv * (P.J.transpose() * P.e);
   P.e -= P.J * x;
   P.rss = P.e.squaredNorm();
+  for (std::size_t ax = 0; ax < 2; ++ax) {
+    Profile::SpikeRows& o = P.spike_rows[ax];
+    const Eigen::VectorXd& dt = P.spike_dt_s[ax];
+    for (Eigen::Index r = 0; r < n; ++r) {
+      if (dt[r] >= 0) o.row.push_back(r);
+    }
+    std::stable_sort(o.row.begin(), o.row.end(),
+                     [&](Eigen::Index a, Eigen::Index b) { return dt[a] < dt[b]; });
+    const auto m = static_cast<Eigen::Index>(o.row.size());
+    o.sign.resize(m);
+    o.dt_s.resize(m);
+    o.e.resize(m);
+    o.J.resize(m, p);
+    for (Eigen::Index k = 0; k < m; ++k) {
+      const Eigen::Index r = o.row[static_cast<std::size_t>(k)];
+      o.sign[k] = P.spike_sign[ax][r];
+      o.dt_s[k] = dt[r];
+      o.e[k] = P.e[r];
+      o.J.row(k) = P.J.row(r);
+    }
+  }
   return P;
+}
+
+// profile_rss for spike columns only (the decay search), on the ordered rows: each column is
+// evaluated on the rows with dt < 40 tau (exp(-40) = 4e-18 of the height; the rest add nothing
+// the sums could hold), so a short decay costs a small part of a full evaluation.
+double spike_profile_rss(const Profile& P, const State& st, const std::vector<Column>& extra) {
+  const auto q = static_cast<Eigen::Index>(extra.size());
+  std::vector<std::size_t> axis(extra.size());
+  std::vector<Eigen::VectorXd> x(extra.size());
+  Eigen::MatrixXd SS = Eigen::MatrixXd::Zero(q, q);
+  Eigen::MatrixXd SJ(q, P.J.cols());
+  Eigen::VectorXd g(q);
+  for (Eigen::Index j = 0; j < q; ++j) {
+    const auto ju = static_cast<std::size_t>(j);
+    const std::size_t ax = extra[ju].kind == Kind::spike_a ? 0 : 1;
+    axis[ju] = ax;
+    const double tau = ax == 0 ? st.tau_a : st.tau_b;
+    const Profile::SpikeRows& o = P.spike_rows[ax];
+    Eigen::Index m = 0;
+    if (tau > 0) {
+      const double cut = 40.0 * tau;
+      m = std::upper_bound(o.dt_s.data(), o.dt_s.data() + o.dt_s.size(), cut) - o.dt_s.data();
+    }
+    Eigen::VectorXd& v = x[ju];
+    v.resize(m);
+    for (Eigen::Index k = 0; k < m; ++k) v[k] = o.sign[k] * std::exp(-o.dt_s[k] / tau);
+    SS(j, j) = v.squaredNorm();
+    SJ.row(j) = v.transpose() * o.J.topRows(m);
+    g[j] = v.dot(o.e.head(m));
+  }
+  // Cross products of two columns: through their profile rows.
+  for (Eigen::Index j = 0; j < q; ++j) {
+    for (Eigen::Index k = j + 1; k < q; ++k) {
+      const Profile::SpikeRows& oj = P.spike_rows[axis[static_cast<std::size_t>(j)]];
+      const Profile::SpikeRows& ok = P.spike_rows[axis[static_cast<std::size_t>(k)]];
+      const Eigen::VectorXd& vj = x[static_cast<std::size_t>(j)];
+      const Eigen::VectorXd& vk = x[static_cast<std::size_t>(k)];
+      Eigen::VectorXd full = Eigen::VectorXd::Zero(P.J.rows());
+      for (Eigen::Index t = 0; t < vj.size(); ++t)
+        full[oj.row[static_cast<std::size_t>(t)]] = vj[t];
+      double sum = 0.0;
+      for (Eigen::Index t = 0; t < vk.size(); ++t)
+        sum += vk[t] * full[ok.row[static_cast<std::size_t>(t)]];
+      SS(j, k) = SS(k, j) = sum;
+    }
+  }
+  const Eigen::MatrixXd H = SS - SJ * P.inv * SJ.transpose();
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
+  if (ldlt.info() != Eigen::Success || H.diagonal().minCoeff() <= 0) return P.rss;
+  return P.rss - g.dot(ldlt.solve(g));
 }
 
 // One added column on the profile's rows. A spike term is exp(-dt / tau) times its sign, the
@@ -1048,7 +1128,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     }
   }
 
-  // Reversal spikes: the decay is profiled over a log grid, then refined.
+  // Reversal spikes: the decay is profiled over a log grid, then refined. The decays found
+  // are the next search's starting points.
+  std::array<double, 2> hints = {0.0, 0.0};
   auto search_spikes = [&]() {
     if (!speed_known || !(reversal_a || reversal_b)) return;
     for (Kind k : {Kind::spike_a, Kind::spike_b}) {
@@ -1078,25 +1160,46 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
             const bool mine = (c.kind == Kind::spike_a) == (ax == 0);
             if (mine || (c.kind == Kind::spike_a ? s2.tau_a : s2.tau_b) > 0) ex.push_back(c);
           }
-          return profile_rss(S, s2, prof, ex);
+          return spike_profile_rss(prof, s2, ex);
         };
+        // A 29-point log grid, or 7 points around a decay already found (round 2, or the
+        // search again after the pitch refinement), widened to the whole grid when the best
+        // point is at the edge of the short one.
         const int n = 28;
         const double l0 = std::log(tau_lo), l1 = std::log(tau_hi);
-        double best = std::numeric_limits<double>::infinity();
-        int kbest = 0;
-        for (int k = 0; k <= n; ++k) {
-          const double r = rss_at(l0 + (l1 - l0) * k / n);
-          if (r < best) {
-            best = r;
-            kbest = k;
-          }
-        }
         const double step = (l1 - l0) / n;
-        const double lt = golden(rss_at, l0 + (l1 - l0) * kbest / n - step,
-                                 l0 + (l1 - l0) * kbest / n + step, 14);
+        auto grid_best = [&](int k0, int k1) {
+          double best = std::numeric_limits<double>::infinity();
+          int kbest = k0;
+          for (int k = k0; k <= k1; ++k) {
+            const double r = rss_at(l0 + step * k);
+            if (r < best) {
+              best = r;
+              kbest = k;
+            }
+          }
+          return kbest;
+        };
+        const double hint = round == 0 ? hints[static_cast<std::size_t>(ax)]
+                                       : (ax == 0 ? trial.tau_a : trial.tau_b);
+        int kbest = -1;
+        if (hint > 0) {
+          const int kc =
+              std::clamp(static_cast<int>(std::lround((std::log(hint) - l0) / step)), 0, n);
+          const int k0 = std::max(0, kc - 3), k1 = std::min(n, kc + 3);
+          kbest = grid_best(k0, k1);
+          if ((kbest == k0 && k0 > 0) || (kbest == k1 && k1 < n)) kbest = -1;
+        }
+        if (kbest < 0) kbest = grid_best(0, n);
+        // Golden steps until the bracket (2 grid steps) is below 1 % in tau.
+        const int steps = static_cast<int>(
+            std::ceil(std::log(0.01 / (2 * step)) / std::log((std::sqrt(5.0) - 1.0) / 2.0)));
+        const double lt =
+            golden(rss_at, l0 + step * kbest - step, l0 + step * kbest + step, std::max(1, steps));
         (ax == 0 ? trial.tau_a : trial.tau_b) = std::exp(lt);
       }
     }
+    hints = {trial.tau_a, trial.tau_b};
     st.tau_a = trial.tau_a;
     st.tau_b = trial.tau_b;
     std::vector<Column> with = cols;
