@@ -652,95 +652,190 @@ std::size_t binary_block_rows(std::size_t width, std::size_t rows) {
   return std::max<std::size_t>(1, std::min(fit, rows));
 }
 
-// The rows of a binary trace straight into the columns, in stretches side by side. False if
-// a value is not finite or time goes back; nothing is reported here (see binary_rows()).
+// One field of consecutive binary rows, as a random-access range: vector::insert() then
+// copies it into reserved room without first zeroing the column (resize() wrote every column
+// twice). Values are read with memcpy: rows start at any byte offset of the file.
+class FieldIterator {
+ public:
+  using iterator_category = std::random_access_iterator_tag;
+  using value_type = double;
+  using difference_type = std::ptrdiff_t;
+  using pointer = const double*;
+  using reference = double;
+  FieldIterator() = default;
+  FieldIterator(const char* at, std::size_t stride) : at_(at), stride_(stride) {}
+  double operator*() const {
+    double v;
+    std::memcpy(&v, at_, sizeof v);
+    return v;
+  }
+  double operator[](difference_type i) const { return *(*this + i); }
+  FieldIterator& operator++() {
+    at_ += stride_;
+    return *this;
+  }
+  FieldIterator operator++(int) {
+    FieldIterator old = *this;
+    at_ += stride_;
+    return old;
+  }
+  FieldIterator& operator--() {
+    at_ -= stride_;
+    return *this;
+  }
+  FieldIterator operator--(int) {
+    FieldIterator old = *this;
+    at_ -= stride_;
+    return old;
+  }
+  FieldIterator& operator+=(difference_type n) {
+    at_ += n * static_cast<difference_type>(stride_);
+    return *this;
+  }
+  FieldIterator& operator-=(difference_type n) { return *this += -n; }
+  friend FieldIterator operator+(FieldIterator it, difference_type n) { return it += n; }
+  friend FieldIterator operator+(difference_type n, FieldIterator it) { return it += n; }
+  friend FieldIterator operator-(FieldIterator it, difference_type n) { return it -= n; }
+  friend difference_type operator-(const FieldIterator& a, const FieldIterator& b) {
+    return (a.at_ - b.at_) / static_cast<difference_type>(a.stride_);
+  }
+  friend bool operator==(const FieldIterator& a, const FieldIterator& b) { return a.at_ == b.at_; }
+  friend auto operator<=>(const FieldIterator& a, const FieldIterator& b) {
+    return a.at_ <=> b.at_;
+  }
+
+ private:
+  const char* at_ = nullptr;
+  std::size_t stride_ = 0;
+};
+
+// 1, 2, 3, ...: the record numbers, inserted the same way.
+class CountIterator {
+ public:
+  using iterator_category = std::random_access_iterator_tag;
+  using value_type = std::uint32_t;
+  using difference_type = std::ptrdiff_t;
+  using pointer = const std::uint32_t*;
+  using reference = std::uint32_t;
+  CountIterator() = default;
+  explicit CountIterator(std::uint32_t n) : n_(n) {}
+  std::uint32_t operator*() const { return n_; }
+  std::uint32_t operator[](difference_type i) const {
+    return static_cast<std::uint32_t>(n_ + static_cast<std::uint32_t>(i));
+  }
+  CountIterator& operator++() {
+    ++n_;
+    return *this;
+  }
+  CountIterator operator++(int) { return CountIterator(n_++); }
+  CountIterator& operator--() {
+    --n_;
+    return *this;
+  }
+  CountIterator operator--(int) { return CountIterator(n_--); }
+  CountIterator& operator+=(difference_type n) {
+    n_ = static_cast<std::uint32_t>(static_cast<difference_type>(n_) + n);
+    return *this;
+  }
+  CountIterator& operator-=(difference_type n) { return *this += -n; }
+  friend CountIterator operator+(CountIterator it, difference_type n) { return it += n; }
+  friend CountIterator operator+(difference_type n, CountIterator it) { return it += n; }
+  friend CountIterator operator-(CountIterator it, difference_type n) { return it -= n; }
+  friend difference_type operator-(const CountIterator& a, const CountIterator& b) {
+    return static_cast<difference_type>(a.n_) - static_cast<difference_type>(b.n_);
+  }
+  friend bool operator==(const CountIterator& a, const CountIterator& b) { return a.n_ == b.n_; }
+  friend auto operator<=>(const CountIterator& a, const CountIterator& b) { return a.n_ <=> b.n_; }
+
+ private:
+  std::uint32_t n_ = 0;
+};
+
+// The rows of a binary trace (mapped at `data`) straight into the columns, the columns shared
+// out among the workers; each worker walks the rows in blocks that stay in cache while it
+// copies its columns out of them. False if a value is not finite or time goes back; nothing
+// is reported here (see binary_rows()).
 bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::size_t rows,
                       const TraceReadOptions& options, const std::string& path) {
   Trace& trace = parser.trace();
   const std::size_t width = parser.field_count();
+  const std::size_t stride = width * sizeof(double);
   const auto& targets = parser.targets();
-  const unsigned workers = static_cast<unsigned>(std::min<std::size_t>(
-      worker_count(options, rows * width * 8), std::max<std::size_t>(rows, 1)));
-  // Columns sized side by side too: the first touch of fresh memory is most of the cost.
-  auto for_each_worker = [&](auto&& fn) {
-    std::vector<std::exception_ptr> errors(workers);
-    std::vector<std::thread> threads;
-    auto run = [&](unsigned w) {
-      try {
-        fn(w);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    };
-    try {
-      for (unsigned w = 1; w < workers; ++w) threads.emplace_back(run, w);
-    } catch (const std::system_error&) {
-      for (unsigned w = static_cast<unsigned>(threads.size()) + 1; w < workers; ++w) run(w);
-    }
-    run(0);
-    for (auto& t : threads) t.join();
-    for (const auto& e : errors) {
-      if (e) std::rethrow_exception(e);
-    }
-  };
-  const std::size_t columns = trace.values.size();
-  for_each_worker([&](unsigned w) {
-    for (std::size_t c = w; c <= columns; c += workers) {
-      if (c == columns) {
-        reserve_huge(trace.line_of_row, rows);
-        trace.line_of_row.resize(rows);
-      } else {
-        reserve_huge(trace.values[c], rows);
-        trace.values[c].resize(rows);
-      }
-    }
-  });
+  std::vector<std::size_t> kept;  // fields in column order, then the record numbers (width)
+  for (std::size_t f = 0; f < width; ++f) {
+    if (targets[f] >= 0) kept.push_back(f);
+  }
+  kept.push_back(width);
+  const unsigned workers = static_cast<unsigned>(
+      std::min<std::size_t>(worker_count(options, rows * stride), kept.size()));
   std::vector<char> ok(workers, 1);
   const std::optional<std::size_t> time_column = parser.time_column();
-  for_each_worker([&](unsigned w) {
-    const std::size_t r0 = rows / workers * w;
-    const std::size_t r1 = w + 1 == workers ? rows : rows / workers * (w + 1);
-    // A block of about 1 MiB, never more rows than the stretch has: a short trace with a
-    // wide header once zeroed 16384 rows of it (fuzz_trace_ctb ran at ~10 inputs/s on that).
-    const std::size_t block_rows = binary_block_rows(width, r1 - r0);
-    std::vector<double> block(block_rows * width);
-    bool good = true;
-    for (std::size_t r = r0; r < r1 && good; r += block_rows) {
-      const std::size_t n = std::min(block_rows, r1 - r);
-      if (read_exact(fd, block.data(), n * width * 8, rows_at + r * width * 8, path) !=
-          n * width * 8) {
+  auto work = [&](unsigned w) {
+    std::vector<std::size_t> mine;
+    for (std::size_t k = w; k < kept.size(); k += workers) {
+      const std::size_t f = kept[k];
+      if (f == width) {
+        reserve_huge(trace.line_of_row, rows);
+      } else {
+        reserve_huge(trace.values[static_cast<std::size_t>(targets[f])], rows);
+      }
+      mine.push_back(f);
+    }
+    const std::size_t block_rows = binary_block_rows(width, rows) / 4 + 1;  // ~256 KiB
+    std::vector<char> block(block_rows * stride);
+    for (std::size_t r = 0; r < rows; r += block_rows) {
+      const std::size_t n = std::min(block_rows, rows - r);
+      if (read_exact(fd, block.data(), n * stride, rows_at + r * stride, path) != n * stride) {
         throw IoError(path, "binary trace shrank while being read");
       }
-      for (std::size_t f = 0; f < width; ++f) {
-        if (targets[f] < 0) continue;
-        double* dst = trace.values[static_cast<std::size_t>(targets[f])].data() + r;
-        const double* src = block.data() + f;
-        bool finite = true;
-        for (std::size_t i = 0; i < n; ++i) {
-          const double v = src[i * width];
-          finite &= std::isfinite(v);
-          dst[i] = v;
+      const char* at = block.data();
+      for (const std::size_t f : mine) {
+        if (f == width) {
+          const auto first = static_cast<std::uint32_t>(r + 1);
+          trace.line_of_row.insert(trace.line_of_row.end(), CountIterator(first),
+                                   CountIterator(first) + static_cast<std::ptrdiff_t>(n));
+          continue;
         }
-        good = good && finite;
+        const FieldIterator from(at + f * sizeof(double), stride);
+        auto& dst = trace.values[static_cast<std::size_t>(targets[f])];
+        dst.insert(dst.end(), from, from + static_cast<std::ptrdiff_t>(n));
       }
-      std::uint32_t* lines = trace.line_of_row.data() + r;
-      for (std::size_t i = 0; i < n; ++i) lines[i] = static_cast<std::uint32_t>(r + i + 1);
     }
-    if (good && time_column) {
-      const double* t = trace.values[*time_column].data();
-      for (std::size_t i = r0 + 1; i < r1; ++i) good = good && !(t[i] < t[i - 1]);
+    bool good = true;
+    for (const std::size_t f : mine) {
+      if (f == width) continue;
+      const int c = targets[f];
+      const double* v = trace.values[static_cast<std::size_t>(c)].data();
+      bool finite = true;
+      for (std::size_t i = 0; i < rows; ++i) finite &= std::isfinite(v[i]);
+      bool forward = true;
+      if (time_column && static_cast<std::size_t>(c) == *time_column) {
+        for (std::size_t i = 1; i < rows; ++i) forward &= !(v[i] < v[i - 1]);
+      }
+      good = good && finite && forward;
     }
     ok[w] = good;
-  });
-  if (!std::all_of(ok.begin(), ok.end(), [](char g) { return g != 0; })) return false;
-  if (time_column) {  // the seams between the stretches
-    const double* t = trace.values[*time_column].data();
-    for (unsigned w = 1; w < workers; ++w) {
-      const std::size_t r0 = rows / workers * w;
-      if (r0 > 0 && r0 < rows && t[r0] < t[r0 - 1]) return false;
+  };
+  std::vector<std::exception_ptr> errors(workers);
+  auto run = [&](unsigned w) {
+    try {
+      work(w);
+    } catch (...) {
+      errors[w] = std::current_exception();
     }
+  };
+  std::vector<std::thread> threads;
+  try {
+    for (unsigned w = 1; w < workers; ++w) threads.emplace_back(run, w);
+  } catch (const std::system_error&) {
+    for (unsigned w = static_cast<unsigned>(threads.size()) + 1; w < workers; ++w) run(w);
   }
-  return true;
+  run(0);
+  for (auto& t : threads) t.join();
+  for (const auto& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
+  return std::all_of(ok.begin(), ok.end(), [](char g) { return g != 0; });
 }
 
 // Layout: magic, u32 header bytes, header text (metadata lines and the header row), rows of
