@@ -3,9 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <numbers>
 #include <numeric>
+#include <system_error>
+#include <thread>
 
 #include "circtest/analysis/radial.hpp"
 #include "circtest/core/error.hpp"
@@ -180,8 +185,8 @@ void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluat
 }
 
 // Clause 3: G and F of one run (and its LSC, MZC and feed).
-RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run, FCentre f_centre,
-                       std::vector<std::string>& notes) {
+RunResult evaluate_run(const Trace& trace, const Evaluation& ev, std::size_t number, const Run& run,
+                       FCentre f_centre, std::vector<std::string>& notes) {
   const auto& col_a = trace.values[ev.columns.a];
   const auto& col_b = trace.values[ev.columns.b];
   RunResult rr;
@@ -193,7 +198,7 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run,
   const auto b = slice(col_b, run);
   rr.lsc = fit_lsc(a, b);
   // One glitched row would set the minimum zone: named, not evaluated.
-  check_outliers(trace, ev.runs.size() + 1, run, a, b, rr.lsc);
+  check_outliers(trace, number, run, a, b, rr.lsc);
   rr.mzc = fit_mzc(a, b);
   rr.g_mzc_mm = rr.mzc.zone_width_mm;
   const RadialRange about_lsc = radial_range(a, b, rr.lsc.centre_a_mm, rr.lsc.centre_b_mm);
@@ -224,7 +229,7 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run,
     notes.push_back(fmt::format(
         "run {} sweeps {:.1f} deg: F about the LSC centre of a partial arc is not an ISO "
         "230-4 method (3.5 b needs a full circle); give the set-up centre with --centre",
-        ev.runs.size() + 1, run.sweep_deg));
+        number, run.sweep_deg));
   }
   rr.f_centre_method = use_lsc ? FCentreMethod::lsc : FCentreMethod::nominal;
   rr.f_centre = use_lsc ? PlanePoint{rr.lsc.centre_a_mm, rr.lsc.centre_b_mm} : *ev.centre;
@@ -238,44 +243,61 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, const Run& run,
   return rr;
 }
 
-// Clause 5: H of two runs of opposite direction, about the LSC centre of both together.
-HysteresisResult hysteresis_of(const Trace& trace, const Evaluation& ev, std::size_t first) {
-  const auto& col_a = trace.values[ev.columns.a];
-  const auto& col_b = trace.values[ev.columns.b];
-  const RunResult& r1 = ev.runs[first];
-  const RunResult& r2 = ev.runs[first + 1];
-  HysteresisResult h;
-  h.run_ccw = r1.run.direction == Direction::CCW ? first : first + 1;
-  h.run_cw = r1.run.direction == Direction::CCW ? first + 1 : first;
-  // Each run's own fit passed, so this one refuses only what a joint fit adds (none known).
-  h.common_lsc = with_rows_context(
-      trace, r1.run.begin, r2.run.end,
-      fmt::format("common circle of runs {} and {} (H)", first + 1, first + 2), [&] {
-        return fit_lsc(slice(col_a, r1.run), slice(col_b, r1.run), slice(col_a, r2.run),
-                       slice(col_b, r2.run));
-      });
-  const PlanePoint centre{h.common_lsc.centre_a_mm, h.common_lsc.centre_b_mm};
-  const RadialDifference d = detail::radial_difference(
-      detail::radial_profile(slice(col_a, r1.run), slice(col_b, r1.run), centre),
-      detail::radial_profile(slice(col_a, r2.run), slice(col_b, r2.run), centre));
-  h.h_mm = d.max_mm;
-  h.at_angle_deg = d.at_angle_deg;
-  h.overlap_deg = d.overlap_deg;
-  return h;
-}
-
-// H pairing: adjacent runs of opposite direction, measured one right after the other.
-void pair_hysteresis(const Trace& trace, Evaluation& ev) {
-  for (std::size_t i = 0; i + 1 < ev.runs.size();) {
-    if (ev.runs[i].run.direction == ev.runs[i + 1].run.direction) {
+// H pairing (clause 5): adjacent runs of opposite direction, measured one right after the
+// other; the index of each pair's first run.
+std::vector<std::size_t> hysteresis_pairs(const std::vector<Run>& runs) {
+  std::vector<std::size_t> firsts;
+  for (std::size_t i = 0; i + 1 < runs.size();) {
+    if (runs[i].direction == runs[i + 1].direction) {
       ++i;
       continue;
     }
-    ev.hysteresis.push_back(hysteresis_of(trace, ev, i));
+    firsts.push_back(i);
     i += 2;
   }
-  if (ev.hysteresis.empty()) {
-    ev.notes.push_back("H not computed: no CCW run followed by a CW run (or the reverse)");
+  return firsts;
+}
+
+// Below this many samples in all, the runs are evaluated on the calling thread alone: a
+// thread costs more than it saves (and the fuzzers stay single-threaded).
+constexpr std::size_t kParallelMinSamples = std::size_t{1} << 16;
+
+unsigned thread_count(unsigned asked, std::size_t samples) {
+  if (asked == 1 || samples < kParallelMinSamples) return 1;
+  const unsigned cores = std::clamp(std::thread::hardware_concurrency(), 1u, 64u);
+  return asked == 0 ? cores : std::min(asked, cores);
+}
+
+// Calls task(0) .. task(n - 1), each once, on up to `threads` threads (this one included).
+// Each task's exception is kept in errors[i], so the caller reports the first in task order,
+// as one thread would have.
+void run_tasks(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& task,
+               std::vector<std::exception_ptr>& errors) {
+  errors.assign(n, nullptr);
+  std::atomic<std::size_t> next{0};
+  auto drain = [&] {
+    for (std::size_t i; (i = next.fetch_add(1)) < n;) {
+      try {
+        task(i);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  const std::size_t extra = std::min<std::size_t>(threads, n) - std::min<std::size_t>(threads, 1);
+  try {
+    for (std::size_t k = 0; k < extra; ++k) pool.emplace_back(drain);
+  } catch (const std::system_error&) {
+    // No more threads to be had: the ones started and this one share the rest.
+  }
+  drain();
+  for (auto& t : pool) t.join();
+}
+
+void rethrow_first(const std::vector<std::exception_ptr>& errors) {
+  for (const auto& e : errors) {
+    if (e) std::rethrow_exception(e);
   }
 }
 
@@ -299,24 +321,90 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   ev.notes.insert(ev.notes.end(), seg.notes.begin(), seg.notes.end());
   resolve_from_commanded(trace, seg, ev);
 
-  for (const Run& run : seg.runs) {
-    const std::size_t number = ev.runs.size() + 1;
-    if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
-      ev.notes.push_back(*note);
-    }
-    RunResult rr = with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
-      return evaluate_run(trace, ev, run, options.f_centre, ev.notes);
-    });
-    if (ev.nominal_radius_mm) {
-      if (auto note = check_nominal_radius(
-              trace, number, run, rr.lsc.radius_mm * ev.temperature_factor, *ev.nominal_radius_mm,
-              std::string(value_source_name(ev.nominal_radius_source)), options.input_checks)) {
-        ev.notes.push_back(*note);
-      }
-    }
-    ev.runs.push_back(std::move(rr));
+  // Each run's results, and each H pair's common circle and profiles, depend on no other
+  // run's: they are worked out side by side, then gathered in run order.
+  const std::vector<Run>& runs = seg.runs;
+  const std::vector<std::size_t> pairs = hysteresis_pairs(runs);
+  std::size_t samples = 0;
+  for (const Run& run : runs) samples += run.size();
+  const unsigned threads = thread_count(options.threads, samples);
+  const auto& col_a = trace.values[ev.columns.a];
+  const auto& col_b = trace.values[ev.columns.b];
+
+  std::vector<RunResult> results(runs.size());
+  std::vector<std::vector<std::string>> run_notes(runs.size());
+  std::vector<Circle> common(pairs.size());
+  std::vector<std::exception_ptr> errors;
+  run_tasks(
+      runs.size() + pairs.size(), threads,
+      [&](std::size_t k) {
+        if (k >= runs.size()) {  // H's circle: the LSC of both runs together
+          const Run& r1 = runs[pairs[k - runs.size()]];
+          const Run& r2 = runs[pairs[k - runs.size()] + 1];
+          const std::size_t first = pairs[k - runs.size()];
+          // Each run's own fit passed, so this one refuses only what a joint fit adds (none known).
+          common[k - runs.size()] = with_rows_context(
+              trace, r1.begin, r2.end,
+              fmt::format("common circle of runs {} and {} (H)", first + 1, first + 2), [&] {
+                return fit_lsc(slice(col_a, r1), slice(col_b, r1), slice(col_a, r2),
+                               slice(col_b, r2));
+              });
+          return;
+        }
+        const Run& run = runs[k];
+        const std::size_t number = k + 1;
+        std::vector<std::string>& notes = run_notes[k];
+        if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
+          notes.push_back(*note);
+        }
+        RunResult rr = with_rows_context(
+            trace, run.begin, run.end, fmt::format("run {}", number),
+            [&] { return evaluate_run(trace, ev, number, run, options.f_centre, notes); });
+        if (ev.nominal_radius_mm) {
+          if (auto note = check_nominal_radius(
+                  trace, number, run, rr.lsc.radius_mm * ev.temperature_factor,
+                  *ev.nominal_radius_mm, std::string(value_source_name(ev.nominal_radius_source)),
+                  options.input_checks)) {
+            notes.push_back(*note);
+          }
+        }
+        results[k] = std::move(rr);
+      },
+      errors);
+  rethrow_first(errors);
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    ev.notes.insert(ev.notes.end(), run_notes[k].begin(), run_notes[k].end());
+    ev.runs.push_back(std::move(results[k]));
   }
-  pair_hysteresis(trace, ev);
+
+  // Clause 5: H of each pair, both runs' radii about their common centre.
+  std::vector<detail::RadialProfile> profiles(2 * pairs.size());
+  run_tasks(
+      profiles.size(), threads,
+      [&](std::size_t k) {
+        const Run& run = runs[pairs[k / 2] + k % 2];
+        const Circle& c = common[k / 2];
+        profiles[k] = detail::radial_profile(slice(col_a, run), slice(col_b, run),
+                                             PlanePoint{c.centre_a_mm, c.centre_b_mm});
+      },
+      errors);
+  rethrow_first(errors);
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    const std::size_t first = pairs[p];
+    HysteresisResult h;
+    const bool ccw_first = runs[first].direction == Direction::CCW;
+    h.run_ccw = ccw_first ? first : first + 1;
+    h.run_cw = ccw_first ? first + 1 : first;
+    h.common_lsc = common[p];
+    const RadialDifference d = detail::radial_difference(profiles[2 * p], profiles[2 * p + 1]);
+    h.h_mm = d.max_mm;
+    h.at_angle_deg = d.at_angle_deg;
+    h.overlap_deg = d.overlap_deg;
+    ev.hysteresis.push_back(h);
+  }
+  if (ev.hysteresis.empty()) {
+    ev.notes.push_back("H not computed: no CCW run followed by a CW run (or the reverse)");
+  }
   return ev;
 }
 

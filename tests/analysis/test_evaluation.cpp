@@ -8,6 +8,7 @@
 
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "machine_sim.hpp"
 
 using namespace circtest;
@@ -330,4 +331,78 @@ TEST(Evaluation, RadialDifferenceOfKnownProfiles) {
   EXPECT_NEAR(d.max_mm, bump, 1e-8);
   EXPECT_NEAR(d.at_angle_deg, peak * 180.0 / kPi, 0.2);
   EXPECT_NEAR(d.overlap_deg, 360.0, 0.2);
+}
+
+namespace {
+
+// A feed sweep long enough (4 runs, ~113,000 samples) for evaluate() to use threads.
+Trace sweep_trace() {
+  MachineModel m;
+  m.x.backlash_mm = 0.01;
+  m.squareness_rad = 50e-6;
+  m.noise_mm = 0.0002;
+  CircleProgram p;
+  p.runs = {Direction::CCW, Direction::CW, Direction::CCW, Direction::CW};
+  p.run_feeds_mm_per_min = {1000.0, 1000.0, 1200.0, 1200.0};
+  return sim::simulate(m, p);
+}
+
+EvaluationOptions with_threads(unsigned n) {
+  EvaluationOptions o;
+  o.threads = n;
+  return o;
+}
+
+}  // namespace
+
+TEST(EvaluationThreads, RunsSideBySideGiveWhatOneThreadGives) {
+  const Trace trace = sweep_trace();
+  ASSERT_GT(trace.rows(), std::size_t{1} << 16);
+  const Evaluation one = evaluate(trace, with_threads(1));
+  ASSERT_EQ(one.runs.size(), 4u);
+  ASSERT_EQ(one.hysteresis.size(), 2u);
+  for (unsigned n : {2u, 3u, 0u}) {
+    const Evaluation ev = evaluate(trace, with_threads(n));
+    ASSERT_EQ(ev.runs.size(), one.runs.size());
+    for (std::size_t i = 0; i < ev.runs.size(); ++i) {
+      EXPECT_EQ(ev.runs[i].run.begin, one.runs[i].run.begin);
+      EXPECT_EQ(ev.runs[i].lsc.radius_mm, one.runs[i].lsc.radius_mm);
+      EXPECT_EQ(ev.runs[i].g_mzc_mm, one.runs[i].g_mzc_mm);
+      EXPECT_EQ(ev.runs[i].f_max_mm, one.runs[i].f_max_mm);
+      EXPECT_EQ(ev.runs[i].feed_mm_per_min, one.runs[i].feed_mm_per_min);
+    }
+    ASSERT_EQ(ev.hysteresis.size(), one.hysteresis.size());
+    for (std::size_t i = 0; i < ev.hysteresis.size(); ++i) {
+      EXPECT_EQ(ev.hysteresis[i].run_ccw, one.hysteresis[i].run_ccw);
+      EXPECT_EQ(ev.hysteresis[i].h_mm, one.hysteresis[i].h_mm);
+      EXPECT_EQ(ev.hysteresis[i].at_angle_deg, one.hysteresis[i].at_angle_deg);
+      EXPECT_EQ(ev.hysteresis[i].common_lsc.centre_a_mm, one.hysteresis[i].common_lsc.centre_a_mm);
+    }
+    EXPECT_EQ(ev.notes, one.notes);
+  }
+  // The backlash shows in H (the sweep's truth): the pairs are the runs 1-2 and 3-4.
+  EXPECT_EQ(one.hysteresis[1].run_ccw, 2u);
+  EXPECT_NEAR(one.hysteresis[0].h_mm, 0.01, 0.004);
+}
+
+TEST(EvaluationThreads, TheFirstRunInOrderNamesTheRefusal) {
+  // Outliers in runs 3 and 2: whichever thread finishes first, run 2 is the one reported,
+  // as one thread reports it.
+  Trace trace = sweep_trace();
+  const Evaluation clean = evaluate(trace, with_threads(1));
+  auto& x = trace.values[*trace.column_index(column_name::x)];
+  for (const std::size_t r : {2u, 1u}) {
+    const circtest::Run& seg = clean.runs[r].run;
+    x[seg.begin + seg.size() / 3] += 3.0;
+  }
+  const std::size_t line2 = trace.line_of_row[clean.runs[1].run.begin];
+  for (unsigned n : {1u, 2u, 4u}) {
+    try {
+      evaluate(trace, with_threads(n));
+      ADD_FAILURE() << "no refusal with " << n << " threads";
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find("run 2: an outlier"), std::string::npos) << e.what();
+      EXPECT_GT(e.line(), line2);
+    }
+  }
 }

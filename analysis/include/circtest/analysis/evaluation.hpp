@@ -53,6 +53,9 @@ struct EvaluationOptions {
   std::vector<std::pair<std::string, std::string>> conditions;
   // Refusals of inconsistent inputs and their overrides (docs/input-checks.md).
   InputCheckOptions input_checks;
+  // Threads for the runs of a large trace (each run, each H pair's profiles): 0 one per
+  // core, 1 the calling thread only. The results are the same either way.
+  unsigned threads = 0;
 };
 
 struct RunResult {
