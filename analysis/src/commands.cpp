@@ -9,6 +9,7 @@
 #include "circtest/analysis/history_record.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/radial.hpp"
+#include "circtest/analysis/remedy.hpp"
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/atomic_file.hpp"
@@ -24,6 +25,30 @@
 namespace circtest {
 
 namespace {
+// circana's words for what the library asks the user to give: its options. The messages'
+// tests (tests/analysis/test_circana_cli.cpp) hold the text users see.
+std::string_view circana_option_words(Remedy remedy) noexcept {
+  switch (remedy) {
+    case Remedy::give_radius:
+      return "--radius";
+    case Remedy::give_centre:
+      return "--centre";
+    case Remedy::f_about_nominal:
+      return "--f-centre nominal";
+    case Remedy::units_inch:
+      return "--units inch";
+    case Remedy::units_mm:
+      return "--units mm";
+    case Remedy::give_plane:
+      return "--plane";
+    case Remedy::evaluate_anyway:
+      return "--warn-inconsistent";
+    case Remedy::radius_tolerance:
+      return "--radius-tolerance";
+  }
+  return library_remedy_words(remedy);
+}
+
 // The columns the evaluation reads: time, marker, segment, the plane's actual and commanded
 // positions, the radial channel, and any named with --columns. The plane is known only at the
 // header (option, else metadata), so the reader asks then; an XY trace's z and z_cmd are
@@ -102,8 +127,10 @@ std::optional<RadialPositions> radial_set_up(const Trace& read, bool forced,
 }
 }  // namespace
 
-EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& given,
+EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& asked,
                              bool radial_forced) {
+  EvaluationOptions given = asked;
+  given.input_checks.remedy_words = circana_option_words;
   TraceReadOptions ro;
   ro.keep_for = analysis_columns(given);
   // Columns asked for by name must exist; the reader's message lists every column found.
@@ -127,7 +154,7 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& g
     out.evaluation.notes.push_back(
         "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
   }
-  require_finite_results(out.evaluation);
+  require_finite_results(out.evaluation, circana_option_words);
   return out;
 }
 

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "circtest/analysis/radial.hpp"
+#include "circtest/analysis/remedy.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -156,7 +157,8 @@ auto with_rows_context(const Trace& trace, std::size_t begin, std::size_t end,
 }
 
 // The commanded columns of the first run give the nominal circle when nothing else did.
-void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluation& ev) {
+void resolve_from_commanded(const Trace& trace, const Segmentation& seg, RemedyWords words,
+                            Evaluation& ev) {
   const std::vector<double>* cmd_a =
       trace.column(column_name::commanded(plane_axes(ev.plane).first));
   const std::vector<double>* cmd_b =
@@ -179,14 +181,15 @@ void resolve_from_commanded(const Trace& trace, const Segmentation& seg, Evaluat
   }
   if (!ev.nominal_radius_mm) {
     ev.notes.push_back(
-        "F not computed: no nominal radius (give --radius, a radius_mm metadata line, or "
-        "commanded columns)");
+        fmt::format("F not computed: no nominal radius (give {}, a radius_mm metadata line, or "
+                    "commanded columns)",
+                    words(Remedy::give_radius)));
   }
 }
 
 // Clause 3: G and F of one run (and its LSC, MZC and feed).
 RunResult evaluate_run(const Trace& trace, const Evaluation& ev, std::size_t number, const Run& run,
-                       FCentre f_centre, std::vector<std::string>& notes) {
+                       FCentre f_centre, RemedyWords words, std::vector<std::string>& notes) {
   const auto& col_a = trace.values[ev.columns.a];
   const auto& col_b = trace.values[ev.columns.b];
   RunResult rr;
@@ -220,16 +223,16 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, std::size_t num
     case FCentre::nominal:
       if (!ev.centre) {
         throw UsageError(
-            "--f-centre nominal needs the set-up centre: give --centre A,B or a centre_mm "
-            "metadata line");
+            fmt::format("{} needs the set-up centre: give {} A,B or a centre_mm metadata line",
+                        words(Remedy::f_about_nominal), words(Remedy::give_centre)));
       }
       break;
   }
   if (use_lsc && !full) {
     notes.push_back(fmt::format(
         "run {} sweeps {:.1f} deg: F about the LSC centre of a partial arc is not an ISO "
-        "230-4 method (3.5 b needs a full circle); give the set-up centre with --centre",
-        number, run.sweep_deg));
+        "230-4 method (3.5 b needs a full circle); give the set-up centre with {}",
+        number, run.sweep_deg, words(Remedy::give_centre)));
   }
   rr.f_centre_method = use_lsc ? FCentreMethod::lsc : FCentreMethod::nominal;
   rr.f_centre = use_lsc ? PlanePoint{rr.lsc.centre_a_mm, rr.lsc.centre_b_mm} : *ev.centre;
@@ -310,7 +313,7 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
   ev.g_method = options.g_method;
   resolve_set_up(trace, options, ev);
-  check_plane_motion(trace, ev.plane, ev.columns);
+  check_plane_motion(trace, ev.plane, ev.columns, options.input_checks.remedy_words);
 
   SegmentationOptions so;
   so.centre = ev.centre;
@@ -319,7 +322,7 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   const Segmentation seg = segment_trace(trace, ev.columns, so);
   ev.segmentation = seg.method;
   ev.notes.insert(ev.notes.end(), seg.notes.begin(), seg.notes.end());
-  resolve_from_commanded(trace, seg, ev);
+  resolve_from_commanded(trace, seg, options.input_checks.remedy_words, ev);
 
   // Each run's results, and each H pair's common circle and profiles, depend on no other
   // run's: they are worked out side by side, then gathered in run order.
@@ -357,9 +360,11 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
         if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
           notes.push_back(*note);
         }
-        RunResult rr = with_rows_context(
-            trace, run.begin, run.end, fmt::format("run {}", number),
-            [&] { return evaluate_run(trace, ev, number, run, options.f_centre, notes); });
+        RunResult rr =
+            with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
+              return evaluate_run(trace, ev, number, run, options.f_centre,
+                                  options.input_checks.remedy_words, notes);
+            });
         if (ev.nominal_radius_mm) {
           if (auto note = check_nominal_radius(
                   trace, number, run, rr.lsc.radius_mm * ev.temperature_factor,

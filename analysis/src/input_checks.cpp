@@ -63,7 +63,9 @@ std::optional<std::string> refuse_or_note(const Trace& trace, std::size_t line,
                                           const std::string& message,
                                           const InputCheckOptions& options) {
   if (!options.warn_only) {
-    throw DataError(trace.source, line, message + " (--warn-inconsistent to evaluate anyway)");
+    throw DataError(trace.source, line,
+                    fmt::format("{} ({} to evaluate anyway)", message,
+                                options.remedy_words(Remedy::evaluate_anyway)));
   }
   return "warning: " + message;
 }
@@ -82,11 +84,14 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
     }
   }
   const std::size_t units_line = trace.metadata.line_of(meta_key::units);
+  const std::string give_units =
+      fmt::format("give {} or {}", options.remedy_words(Remedy::units_inch),
+                  options.remedy_words(Remedy::units_mm));
   bool inch = false;
   std::string why;
   if (options.position_units) {
     inch = *options.position_units == PositionUnits::inch;
-    why = fmt::format("--units {}", inch ? "inch" : "mm");
+    why = options.remedy_words(inch ? Remedy::units_inch : Remedy::units_mm);
   } else {
     if (!nominal_radius_mm) {
       if (auto r = trace.metadata.number(meta_key::radius_mm, trace.source)) {
@@ -97,9 +102,10 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
     }
     if (!nominal_radius_mm) {
       throw DataError(trace.source, units_line,
-                      "metadata 'units: inch': the program ran in inch, but the positions may be "
-                      "in inch or in mm (LinuxCNC logs the machine's units) and there is no "
-                      "radius_mm to tell which: give --units inch or --units mm");
+                      fmt::format("metadata 'units: inch': the program ran in inch, but the "
+                                  "positions may be in inch or in mm (LinuxCNC logs the machine's "
+                                  "units) and there is no radius_mm to tell which: {}",
+                                  give_units));
     }
     // The plane's columns, else its commanded ones (a ball bar's trace).
     const Plane p = plane.value_or(Plane::XY);
@@ -111,11 +117,10 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
       b = trace.column(column_name::commanded(axes.second));
     }
     if (!a || !b) {
-      throw DataError(
-          trace.source, units_line,
-          fmt::format("metadata 'units: inch': no {} position columns to tell whether "
-                      "the positions are in inch or mm: give --units inch or --units mm",
-                      plane_name(p)));
+      throw DataError(trace.source, units_line,
+                      fmt::format("metadata 'units: inch': no {} position columns to tell whether "
+                                  "the positions are in inch or mm: {}",
+                                  plane_name(p), give_units));
     }
     const std::vector<std::size_t> rows = measured_rows(trace);
     std::vector<double> va, vb;
@@ -133,9 +138,8 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
       throw DataError(
           trace.source, units_line,
           fmt::format("metadata 'units: inch': the positions' circle (radius {:.4f}) is "
-                      "within 10 % of neither the nominal radius {:.4f} mm nor {:.4f} in: "
-                      "give --units inch or --units mm",
-                      r, nominal, nominal / kMmPerInch));
+                      "within 10 % of neither the nominal radius {:.4f} mm nor {:.4f} in: {}",
+                      r, nominal, nominal / kMmPerInch, give_units));
     }
     inch = as_inch;
     why = fmt::format("their circle (radius {:.4f}) matches the nominal radius {:.4f} {}", r,
@@ -153,7 +157,8 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
   return fmt::format("units: the positions are in inch ({}); converted to mm (x 25.4)", why);
 }
 
-void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns) {
+void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns,
+                        RemedyWords words) {
   if (trace.rows() < 3) return;  // segmentation says "too few points"
   const std::vector<std::size_t> rows = measured_rows(trace);
   const std::vector<double>& a = trace.values[columns.a];
@@ -175,9 +180,10 @@ void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& col
   throw DataError(
       trace.source, 0,
       fmt::format("plane {}: {} moves {:.3f} mm and {} {:.3f} mm over lines {}-{}: no circle in "
-                  "that plane (position ranges: {}); give the plane of the test with --plane",
+                  "that plane (position ranges: {}); give the plane of the test with {}",
                   plane_name(plane), na, wa, nb, wb, line_of(trace, rows.front()),
-                  line_of(trace, rows.back()), others.empty() ? "none" : others));
+                  line_of(trace, rows.back()), others.empty() ? "none" : others,
+                  words(Remedy::give_plane)));
 }
 
 std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,
@@ -193,9 +199,10 @@ std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t 
       trace, line_of(trace, run.begin),
       fmt::format("run {} (lines {}-{}): its least-squares radius {:.4f} mm differs from the "
                   "nominal radius {:.4f} mm ({}) by {:+.4f} mm, more than the tolerance {:.4f} "
-                  "mm (--radius-tolerance): F would measure that difference",
+                  "mm ({}): F would measure that difference",
                   run_number, line_of(trace, run.begin), line_of(trace, run.end - 1), fitted_mm,
-                  nominal_mm, nominal_source, diff, tol),
+                  nominal_mm, nominal_source, diff, tol,
+                  options.remedy_words(Remedy::radius_tolerance)),
       options);
 }
 

@@ -33,15 +33,15 @@ std::optional<std::pair<std::string, double>> first_bad(const nlohmann::ordered_
 }
 }  // namespace
 
-void require_finite_results(const Evaluation& evaluation) {
+void require_finite_results(const Evaluation& evaluation, RemedyWords words) {
   const auto bad = first_bad(to_json(evaluation), "");
   if (!bad) return;
   throw DataError(
       evaluation.source, 0,
       fmt::format("the result {} = {} is not a usable number (finite, at most {:g} in size); "
                   "check what it is computed from: the nominal radius (radius_mm, diameter_mm, "
-                  "--radius), the temperatures and expansion coefficients, the positions",
-                  bad->first, bad->second, kMaxReportedMagnitude));
+                  "{}), the temperatures and expansion coefficients, the positions",
+                  bad->first, bad->second, kMaxReportedMagnitude, words(Remedy::give_radius)));
 }
 
 }  // namespace circtest

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <string>
 
+#include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/segmentation.hpp"
 #include "circtest/core/error.hpp"
 #include "expect_error.hpp"
@@ -178,4 +179,74 @@ TEST(Segmentation, OneMarkedSpanHoldingBothDirectionsIsSplitAtTheReversal) {
             std::string::npos)
       << s.notes[0];
   EXPECT_TRUE(two.notes.empty());
+}
+
+// Library text names no command-line option (issue 8): a remedy is named by the words the
+// caller gives (circana: its options, tested with the CLI), else by the library's own.
+TEST(Remedies, TheLibrarysOwnWordsNameNoOption) {
+  const Trace t = simulated();
+  const Segmentation s = segments(t);
+  const circtest::Run& r = s.runs.front();
+  const double fitted = fit_lsc(slice(t, "x", r), slice(t, "y", r)).radius_mm;
+  try {
+    (void)check_nominal_radius(t, 1, r, fitted, 50.0, "option", {});
+    FAIL() << "expected a refusal";
+  } catch (const DataError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("mm (the radius tolerance setting): F would"), std::string::npos) << m;
+    EXPECT_NE(m.find("(the warn-only setting to evaluate anyway)"), std::string::npos) << m;
+    EXPECT_EQ(m.find("--"), std::string::npos) << m;
+  }
+  Trace inch = simulated();
+  inch.metadata = {};
+  inch.metadata.set("units", "inch");
+  try {
+    (void)resolve_units(inch, Plane::XY, std::nullopt, {});
+    FAIL() << "expected a refusal";
+  } catch (const DataError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(": give the position unit inch or the position unit mm"), std::string::npos)
+        << m;
+    EXPECT_EQ(m.find("--"), std::string::npos) << m;
+  }
+}
+
+TEST(Remedies, TheCallersWordsNameTheRemedy) {
+  Trace t = simulated();
+  InputCheckOptions options;
+  options.remedy_words = [](Remedy remedy) -> std::string_view {
+    return remedy == Remedy::units_inch ? "<inch>" : remedy == Remedy::units_mm ? "<mm>" : "<?>";
+  };
+  t.metadata = {};
+  t.metadata.set("units", "inch");
+  EXPECT_ERROR(resolve_units(t, Plane::XY, std::nullopt, options), ExitCode::data,
+               "radius_mm to tell which: give <inch> or <mm>");
+  const Trace flat = simulated();
+  EXPECT_ERROR(check_plane_motion(flat, Plane::ZX, plane_columns(flat, Plane::ZX, "", ""),
+                                  options.remedy_words),
+               ExitCode::data, "give the plane of the test with <?>");
+}
+
+TEST(Remedies, TheEvaluationsNotesAndRefusalsUseTheLibrarysWords) {
+  // No radius, no centre: neither metadata nor commanded columns give them.
+  Trace t = simulated();
+  t.metadata = {};
+  for (const char* name : {"x_cmd", "y_cmd", "z_cmd"}) {
+    const auto i = static_cast<std::ptrdiff_t>(t.column_index(name).value());
+    t.columns.erase(t.columns.begin() + i);
+    t.values.erase(t.values.begin() + i);
+  }
+  const Evaluation ev = evaluate(t, {});
+  bool noted = false;
+  for (const std::string& n : ev.notes) {
+    EXPECT_EQ(n.find("--"), std::string::npos) << n;
+    noted = noted || n == "F not computed: no nominal radius (give the nominal radius setting, a "
+                          "radius_mm metadata line, or commanded columns)";
+  }
+  EXPECT_TRUE(noted);
+  EvaluationOptions nominal;
+  nominal.f_centre = FCentre::nominal;
+  EXPECT_ERROR(evaluate(t, nominal), ExitCode::usage,
+               "F about the nominal centre needs the set-up centre: give the set-up centre "
+               "setting A,B or a centre_mm metadata line");
 }

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "circtest/analysis/circle_fit.hpp"
+#include "circtest/analysis/remedy.hpp"
 #include "circtest/analysis/segmentation.hpp"
 #include "circtest/core/plane.hpp"
 #include "circtest/core/trace.hpp"
@@ -19,14 +20,18 @@ namespace circtest {
 enum class PositionUnits { mm, inch };
 
 struct InputCheckOptions {
-  // --warn-inconsistent: a nominal radius far from the measured one, or a run shorter than
-  // the program's arc, gives a note instead of a refusal.
+  // A nominal radius far from the measured one, or a run shorter than the program's arc,
+  // gives a note instead of a refusal (circana: --warn-inconsistent).
   bool warn_only = false;
-  // --radius-tolerance: how far the least-squares radius may be from the nominal one;
-  // default max(1 % of the nominal radius, 0.05 mm).
+  // How far the least-squares radius may be from the nominal one; default max(1 % of the
+  // nominal radius, 0.05 mm) (circana: --radius-tolerance).
   std::optional<double> radius_tolerance_mm;
-  // --units: the unit of the trace's position columns, when `units: inch` leaves it open.
+  // The unit of the trace's position columns, when `units: inch` leaves it open (circana:
+  // --units).
   std::optional<PositionUnits> position_units;
+  // How the refusals and notes of the evaluation name what the user can give (circana names
+  // its options); the library's own words by default.
+  RemedyWords remedy_words = library_remedy_words;
 };
 
 // A trace whose metadata says `units: inch` ran an inch program; its positions are in inch
@@ -44,7 +49,8 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
 // diameter. Refuses (DataError) when the smaller range is below max(1 um, 2 % of the larger)
 // over the measured rows (marker rows, else all), naming the plane and the ranges of every
 // position column.
-void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns);
+void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns,
+                        RemedyWords words = library_remedy_words);
 
 // The run's least-squares radius (`fitted_mm`, at 20 deg C) against the nominal radius.
 std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,

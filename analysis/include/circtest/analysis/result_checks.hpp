@@ -2,6 +2,7 @@
 // The last gate before a result is printed: every number of the report finite and of a size
 // a circular test can have, or a DataError instead of "F = -inf um" (issue 12).
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/remedy.hpp"
 
 namespace circtest {
 
@@ -9,7 +10,8 @@ namespace circtest {
 // diameter of 1e308 or an expansion coefficient of 1e308 ends up beyond it or non-finite.
 inline constexpr double kMaxReportedMagnitude = 1e9;
 
-// Throws DataError naming the trace and the first offending value (its JSON path).
-void require_finite_results(const Evaluation& evaluation);
+// Throws DataError naming the trace and the first offending value (its JSON path); `words`
+// names the nominal radius setting among the inputs to check.
+void require_finite_results(const Evaluation& evaluation, RemedyWords words = library_remedy_words);
 
 }  // namespace circtest
