@@ -1,24 +1,21 @@
 // circgen: writes the ISO 230-4 circular test program for LinuxCNC. Only option parsing
-// lives here; the program itself comes from circtest::gcode.
+// lives here; the command (circtest/gcode/commands.hpp) writes the program.
 #include <fmt/format.h>
 #include <boost/program_options.hpp>
 
 #include <cctype>
-#include <cstdio>
 #include <cstdlib>
 #include <ctime>
 #include <iostream>
 #include <string>
+#include <utility>
 
-#include "circtest/core/atomic_file.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
-#include "circtest/core/strings.hpp"
-#include "circtest/core/trace_keys.hpp"
 #include "circtest/core/utc_time.hpp"
 #include "circtest/gcode/annex_c.hpp"
-#include "circtest/gcode/machine_limits.hpp"
+#include "circtest/gcode/commands.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
 #include "circtest/gcode/test_program.hpp"
 
@@ -207,26 +204,12 @@ int run(int argc, char** argv) {
     for (double v : offset) check_plausible(plausible::offset, v);
     spec.work_offset_mm = offset;
   }
-  validate(spec);
-
-  if (vm.count("ini")) {
-    const MachineLimits limits = read_machine_limits(text("ini"));
-    const auto checks = check_against_machine(spec, limits, offset);
-    spec.extra_header.emplace_back(meta_key::ini, text(meta_key::ini));
-    spec.extra_header.emplace_back(meta_key::ini_checked, join(checks));
-  }
-
-  const TestProgram program = generate_test_program(spec);
-  for (const std::string& warning : program_warnings(spec)) {
-    std::cerr << "circgen: warning: " << warning << '\n';
-  }
-  if (vm.count("output")) {
-    write_file_atomic(text("output"), program.text);
-  } else {
-    std::fwrite(program.text.data(), 1, program.text.size(), stdout);
-    if (std::fflush(stdout) != 0) throw IoError("<stdout>", "write failed");
-  }
-  return 0;
+  GenerateRequest request;
+  request.spec = std::move(spec);
+  if (vm.count("ini")) request.ini_path = text("ini");
+  request.work_offset_origin_mm = offset;
+  if (vm.count("output")) request.output_path = text("output");
+  return run_generate(std::move(request), std::cout, std::cerr);
 }
 
 }  // namespace

@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "circtest/core/error.hpp"
 #include "circtest/gcode/annex_c.hpp"
+#include "circtest/gcode/commands.hpp"
 #include "circtest/gcode/machine_limits.hpp"
 #include "circtest/gcode/test_program.hpp"
 
@@ -149,6 +151,31 @@ TEST(MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
               std::string::npos)
         << e.what();
   }
+}
+
+// circgen's command on its own: what it writes is exactly the generated program, the
+// warnings go to the error stream, and a refused specification writes nothing.
+TEST(Commands, RunGenerateWritesTheProgramAndItsWarnings) {
+  GenerateRequest request;
+  request.spec.radius_mm = 75.0;
+  request.spec.feeds_mm_per_min = {500.0};
+  request.spec.plane = Plane::ZX;
+  request.spec.instrument = Instrument::ballbar;
+  request.spec.arc_deg = 360.0;
+  const std::vector<std::string> warnings = program_warnings(request.spec);
+  ASSERT_FALSE(warnings.empty());  // a ballbar's full circle in ZX passes below the centre
+  const std::string program = generate_test_program(request.spec).text;
+  std::ostringstream out, err;
+  EXPECT_EQ(run_generate(request, out, err), 0);
+  EXPECT_EQ(out.str(), program);
+  std::string expected_err;
+  for (const std::string& w : warnings) expected_err += "circgen: warning: " + w + "\n";
+  EXPECT_EQ(err.str(), expected_err);
+
+  request.spec.radius_mm = 0.0;
+  std::ostringstream none;
+  EXPECT_THROW(run_generate(request, none, err), UsageError);
+  EXPECT_EQ(none.str(), "");
 }
 
 }  // namespace

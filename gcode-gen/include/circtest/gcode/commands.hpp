@@ -1,0 +1,27 @@
+#pragma once
+// circgen's command, as circana's commands are: from a parsed test specification to the
+// program on disk or on stdout, after the machine's limits. gcode-gen/app/main.cpp only turns
+// options into a GenerateRequest.
+#include <array>
+#include <ostream>
+#include <string>
+
+#include "circtest/gcode/test_program.hpp"
+
+namespace circtest {
+
+struct GenerateRequest {
+  CircleTestSpec spec;
+  // A LinuxCNC INI file whose limits the test must keep (empty: no check); what was checked
+  // goes into the program's header.
+  std::string ini_path;
+  // Machine coordinates of the work offset's origin, for the INI's soft limits.
+  std::array<double, 3> work_offset_origin_mm{0.0, 0.0, 0.0};
+  std::string output_path;  // written atomically (empty: to `out`)
+};
+
+// Validates the specification (UsageError), checks it against the INI (LimitError), writes
+// the program and its warnings (to `err`, one "circgen: warning: " line each). Returns 0.
+int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err);
+
+}  // namespace circtest
