@@ -25,6 +25,15 @@ namespace po = boost::program_options;
 
 namespace {
 
+// How long the recorder waits before it gives up or moves on, in seconds of monotonic time.
+// A loaded circlog whose function is not added never counts a period: refuse after this.
+constexpr double kServoStartTimeout_s = 5.0;
+// A running servo thread counts a period every millisecond or so: this long without one means
+// it stopped (LinuxCNC shut down), and the trace ends with that reason.
+constexpr double kServoStallTimeout_s = 2.0;
+// After release(), at most this long for the two periods that let the writer finish a record.
+constexpr double kReleaseSettle_s = 0.5;
+
 // Keys the recorder writes itself; a program header may not override them.
 const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_period_s,
                                                           meta_key::start_time,
@@ -254,7 +263,7 @@ void Loop::wait_for_servo() {
   while (h_.periods.load(std::memory_order_acquire) == p0 ||
          h_.period_ns.load(std::memory_order_acquire) == 0) {
     if (env_.stop_requested()) throw HalError("interrupted while waiting for the servo thread");
-    if (env_.monotonic_s() - t0 > 5.0) {
+    if (env_.monotonic_s() - t0 > kServoStartTimeout_s) {
       throw HalError(
           "circlog.0 is loaded but its function does not run: 'addf circlog.0 servo-thread' "
           "(after the functions that compute its inputs) and start the threads");
@@ -377,7 +386,7 @@ const char* Loop::should_stop() {
   if (periods != last_periods_) {
     last_periods_ = periods;
     last_progress_s_ = now;
-  } else if (now - last_progress_s_ > 2.0) {
+  } else if (now - last_progress_s_ > kServoStallTimeout_s) {
     return "servo thread stopped";
   }
   if (h_.enabled.load(std::memory_order_acquire) != 0) last_active_period_ = periods;
@@ -399,7 +408,7 @@ void Loop::wait_for_producer_to_see_release() {
   const std::uint64_t p = h_.periods.load(std::memory_order_acquire);
   const double t0 = env_.monotonic_s();
   while (!reloaded_ && h_.periods.load(std::memory_order_acquire) < p + 2 &&
-         env_.monotonic_s() - t0 < 0.5) {
+         env_.monotonic_s() - t0 < kReleaseSettle_s) {
     env_.sleep(std::min(options_.poll_s, 0.001));
   }
 }
