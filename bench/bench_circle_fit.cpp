@@ -70,7 +70,7 @@ void BM_fit_mcc(benchmark::State& state) {
 void BM_fit_mic(benchmark::State& state) {
   const Trace& t = trace(static_cast<std::size_t>(state.range(0)));
   for (auto _ : state) {
-    circtest::ContactCircle c = circtest::fit_mic(t.a, t.b);
+    circtest::MicFit c = circtest::fit_mic(t.a, t.b);
     benchmark::DoNotOptimize(c);
   }
   state.SetItemsProcessed(state.iterations() * state.range(0));

@@ -708,7 +708,7 @@ ContactCircle fit_mcc(std::span<const double> a, std::span<const double> b) {
 // the first-order condition of max_c min_i |p_i - c|. For points along a closed path
 // around the centre that local maximum is the largest empty circle inside the path.
 
-ContactCircle fit_mic(std::span<const double> a, std::span<const double> b) {
+MicFit fit_mic(std::span<const double> a, std::span<const double> b) {
   fit_detail::check_points(a, b, "fit_mic");
   const std::size_t n = a.size();
   const Circle start = fit_lsc_algebraic(a, b);
@@ -730,7 +730,7 @@ ContactCircle fit_mic(std::span<const double> a, std::span<const double> b) {
       rho2 = std::min(rho2, d2[i]);
     }
     if (!(rho2 > 0.0)) {
-      throw DataError("", 0, "fit_mic: a point lies on the start centre; no inscribed circle");
+      return {std::nullopt, "a point lies on the start centre; no inscribed circle"};
     }
     // d within 1e-12 of rho: d^2 within 2e-12 of rho^2.
     const double act2 = rho2 * (1.0 + 2.0 * kCertTol);
@@ -756,7 +756,7 @@ ContactCircle fit_mic(std::span<const double> a, std::span<const double> b) {
       out.circle = {z.x + c.x, z.y + c.y, std::sqrt(rho2)};
       out.contacts = active;
       std::sort(out.contacts.begin(), out.contacts.end());
-      return out;
+      return {std::move(out), {}};
     }
     // Move into the middle of the largest gap: away from every touching point, and along
     // the bisector of the two that bound the gap, so they stay equidistant.
@@ -772,7 +772,7 @@ ContactCircle fit_mic(std::span<const double> a, std::span<const double> b) {
       best = std::min(best, t);
     }
     if (!std::isfinite(best)) {
-      throw DataError("", 0, "fit_mic: the points do not enclose the centre; no inscribed circle");
+      return {std::nullopt, "the points do not enclose the centre; no inscribed circle"};
     }
     c = {c.x + best * v.x, c.y + best * v.y};
   }

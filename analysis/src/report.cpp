@@ -232,12 +232,10 @@ FitReport fit_all(const std::string& source, std::span<const double> a, std::spa
   r.lsc = fit_lsc(a, b);
   r.mzc = fit_mzc(a, b);
   r.mcc = fit_mcc(a, b);
-  try {
-    r.mic = fit_mic(a, b);
-  } catch (const DataError& e) {
-    // An arc of 180 deg or less encloses no inscribed circle; the other fits still stand.
-    r.mic_note = e.detail();
-  }
+  // An arc of 180 deg or less encloses no inscribed circle; the other fits still stand.
+  MicFit mic = fit_mic(a, b);
+  r.mic = std::move(mic.mic);
+  r.mic_note = std::move(mic.why_none);
   return r;
 }
 

@@ -420,7 +420,7 @@ TEST(CircleFitMccMic, Ellipse) {
   // Sampled, the ellipse admits a circle slightly larger than b: the centre can slide along
   // the major axis by s = (a^2 - b^2) sin(dt) / 2a before the neighbours of the minor
   // vertices touch, gaining about s^2 / 2b.
-  const ContactCircle mic = fit_mic(p.a, p.b);
+  const ContactCircle mic = fit_mic(p.a, p.b).mic.value();
   const double s = (a * a - b * b) * std::sin(2 * kPi / n) / (2 * a);
   EXPECT_GE(mic.circle.radius_mm, b - 1e-12);
   EXPECT_LE(mic.circle.radius_mm, b + s * s / (2 * b) * 1.01);
@@ -433,12 +433,32 @@ TEST(CircleFitMccMic, Ellipse) {
   }
 }
 
+TEST(CircleFitMccMic, AnArcOfHalfACircleOrLessHasNoMicAndSaysWhy) {
+  // 150 deg of a circle: no centre is surrounded, so there is no inscribed circle; a normal
+  // partial-arc test, answered as "none" with the reason, not as an error.
+  Points arc;
+  for (int i = 0; i <= 150; ++i) {
+    const double t = i * kPi / 180.0;
+    arc.a.push_back(3.0 + 50.0 * std::cos(t));
+    arc.b.push_back(-1.0 + 50.0 * std::sin(t));
+  }
+  const MicFit none = fit_mic(arc.a, arc.b);
+  EXPECT_FALSE(none.mic.has_value());
+  EXPECT_NE(none.why_none.find("do not enclose the centre"), std::string::npos) << none.why_none;
+  // The same radius over 360 deg: the circle itself, no reason.
+  const Points full = lobed(3.0, -1.0, 50.0, 0.0, 0, 360);
+  const MicFit some = fit_mic(full.a, full.b);
+  ASSERT_TRUE(some.mic.has_value());
+  EXPECT_NEAR(some.mic->circle.radius_mm, 50.0, 1e-9);
+  EXPECT_TRUE(some.why_none.empty());
+}
+
 TEST(CircleFitMccMic, RegularPolygon) {
   for (int k : {3, 4, 5, 7, 12}) {
     SCOPED_TRACE(k);
     const Points p = lobed(7.0, -3.0, 20.0, 0.0, 0, static_cast<std::size_t>(k));
     const ContactCircle mcc = fit_mcc(p.a, p.b);
-    const ContactCircle mic = fit_mic(p.a, p.b);
+    const ContactCircle mic = fit_mic(p.a, p.b).mic.value();
     for (const ContactCircle* c : {&mcc, &mic}) {
       EXPECT_NEAR(c->circle.radius_mm, 20.0, 1e-12);
       EXPECT_NEAR(c->circle.centre_a_mm, 7.0, 1e-12);
@@ -475,7 +495,7 @@ TEST(CircleFitMccMic, BoundedByTheMinimumZoneCircles) {
   // has its defining property: MCC radius = farthest point, MIC radius = nearest point.
   const Points p = harmonic_trace(20000, 21);
   const ContactCircle mcc = fit_mcc(p.a, p.b);
-  const ContactCircle mic = fit_mic(p.a, p.b);
+  const ContactCircle mic = fit_mic(p.a, p.b).mic.value();
   const RadialRange rc = radial_range(p.a, p.b, mcc.circle.centre_a_mm, mcc.circle.centre_b_mm);
   const RadialRange ri = radial_range(p.a, p.b, mic.circle.centre_a_mm, mic.circle.centre_b_mm);
   EXPECT_NEAR(rc.max_mm, mcc.circle.radius_mm, 1e-12);

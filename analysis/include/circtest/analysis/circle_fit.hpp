@@ -4,7 +4,9 @@
 // plane axes in clause 3.7 order. Numerically robust for small relative deviations
 // (1e-7 of the radius) and centres far from the origin.
 #include <cstddef>
+#include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace circtest {
@@ -69,6 +71,13 @@ struct ContactCircle {
   std::vector<std::size_t> contacts;
 };
 ContactCircle fit_mcc(std::span<const double> a, std::span<const double> b);
-ContactCircle fit_mic(std::span<const double> a, std::span<const double> b);
+// The MIC, or none when the points do not surround a centre: an arc of 180 deg or less is a
+// normal test, not an error, so the answer is an optional with the reason beside it. Unusable
+// input (fewer than 3 points, collinear) still throws DataError, as for the other fits.
+struct MicFit {
+  std::optional<ContactCircle> mic;
+  std::string why_none;  // set when `mic` is empty
+};
+MicFit fit_mic(std::span<const double> a, std::span<const double> b);
 
 }  // namespace circtest
