@@ -443,8 +443,8 @@ bool general_certificate(const double* pa, const double* pb, std::size_t n, Vec2
   std::vector<Vec2> uo, ui;
   for (const auto& o : outer) uo.push_back(unit(o.second));
   for (const auto& o : inner) ui.push_back(unit(o.second));
-  auto accept = [&](std::vector<std::size_t> os, std::vector<double> ow,
-                    std::vector<std::size_t> is, std::vector<double> iw) {
+  auto accept = [&](const std::vector<std::size_t>& os, const std::vector<double>& ow,
+                    const std::vector<std::size_t>& is, const std::vector<double>& iw) {
     z.outer_contacts.clear();
     z.inner_contacts.clear();
     z.multipliers.clear();
