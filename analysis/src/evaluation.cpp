@@ -277,6 +277,9 @@ unsigned thread_count(unsigned asked, std::size_t samples) {
 void run_tasks(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& task,
                std::vector<std::exception_ptr>& errors) {
   errors.assign(n, nullptr);
+  // No task, no thread: with n = 0 the count of extra threads below would wrap around (a trace
+  // without an H pair started threads until the system refused; fuzz_analyze found it).
+  if (n == 0) return;
   std::atomic<std::size_t> next{0};
   auto drain = [&] {
     for (std::size_t i; (i = next.fetch_add(1)) < n;) {
@@ -288,7 +291,7 @@ void run_tasks(std::size_t n, unsigned threads, const std::function<void(std::si
     }
   };
   std::vector<std::thread> pool;
-  const std::size_t extra = std::min<std::size_t>(threads, n) - std::min<std::size_t>(threads, 1);
+  const std::size_t extra = std::min<std::size_t>(std::max(threads, 1u), n) - 1;
   try {
     for (std::size_t k = 0; k < extra; ++k) pool.emplace_back(drain);
   } catch (const std::system_error&) {
