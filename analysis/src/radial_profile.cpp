@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/core/memory.hpp"
 
 namespace circtest::detail {
 
@@ -78,8 +79,8 @@ bool insertion_sort(std::vector<AngleRadius>& p, std::size_t budget) {
 PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre) {
   PathPolar p;
   const std::size_t n = a.size();
-  p.angle_rad.reserve(n);
-  p.radius_mm.reserve(n);
+  reserve_huge(p.angle_rad, n);
+  reserve_huge(p.radius_mm, n);
   Unwrapper unwrap;
   for (std::size_t i = 0; i < n; ++i) {
     const double da = a[i] - centre.a_mm, db = b[i] - centre.b_mm;
@@ -93,7 +94,7 @@ RadialProfile radial_profile(std::span<const double> a, std::span<const double> 
                              PlanePoint centre) {
   RadialProfile p;
   const std::size_t n = a.size();
-  p.points.reserve(n);
+  reserve_huge(p.points, n);
   Unwrapper unwrap;
   for (std::size_t i = 0; i < n; ++i) {
     const double da = a[i] - centre.a_mm, db = b[i] - centre.b_mm;
@@ -114,15 +115,24 @@ ProfileDifference compare_profiles(const RadialProfile& ref_profile,
   const std::vector<AngleRadius>& from = from_profile.points;
   ProfileDifference w;
   const std::size_t n = ref.size();
-  if (n < 2) return w;
+  if (n < 2 || from.empty()) return w;
   const double a0 = ref.front().angle_rad;
   const double a1 = ref.back().angle_rad;
   // `from` is sorted by angle, so its angles taken into ref's arc increase except where they
   // wrap by 2 pi: one forward merge per piece instead of a binary search per sample.
   std::size_t j = 0;  // first ref angle above phi
   double prev_phi = std::numeric_limits<double>::infinity();
+  // phi = a0 + (f - a0) mod 2 pi. `from` ascends, so the count of turns taken off only grows:
+  // kept here instead of two fmod per sample (the costliest part of this loop).
+  double turns = std::floor((from.front().angle_rad - a0) / (2 * kPi));
   for (const AngleRadius& f : from) {
-    const double phi = a0 + std::fmod(std::fmod(f.angle_rad - a0, 2 * kPi) + 2 * kPi, 2 * kPi);
+    double rel = f.angle_rad - a0 - turns * (2 * kPi);
+    while (rel >= 2 * kPi) {
+      turns += 1.0;
+      rel = f.angle_rad - a0 - turns * (2 * kPi);
+    }
+    // Rounding can leave rel a hair below 0 where the turns just changed.
+    const double phi = a0 + std::max(rel, 0.0);
     if (phi > a1) continue;  // outside the reference arc
     if (phi < prev_phi) {
       j = static_cast<std::size_t>(

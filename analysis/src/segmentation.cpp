@@ -31,6 +31,18 @@ struct Span {
   std::size_t begin, end;
 };
 
+// The signed angle (rad) from p to q about the centre: atan2 of their cross and dot products.
+// Between successive samples it is tiny, where atan's series to the fifth power is exact in
+// double precision (the next term is below 1.5e-19 of the angle) and several times cheaper.
+double turn_angle(double pa, double pb, double qa, double qb) {
+  const double cross = pa * qb - pb * qa, dot = pa * qa + pb * qb;
+  if (dot > 0.0 && std::abs(cross) < 1e-3 * dot) {
+    const double t = cross / dot, t2 = t * t;
+    return t * (1.0 - t2 * (1.0 / 3.0 - t2 * 0.2));
+  }
+  return std::atan2(cross, dot);
+}
+
 // Signed swept angle (rad) of rows [begin, end) about a centre.
 double swept_angle(const double* a, const double* b, std::size_t begin, std::size_t end, double ca,
                    double cb) {
@@ -38,7 +50,7 @@ double swept_angle(const double* a, const double* b, std::size_t begin, std::siz
   double pa = a[begin] - ca, pb = b[begin] - cb;
   for (std::size_t i = begin + 1; i < end; ++i) {
     const double qa = a[i] - ca, qb = b[i] - cb;
-    total += std::atan2(pa * qb - pb * qa, pa * qa + pb * qb);
+    total += turn_angle(pa, pb, qa, qb);
     pa = qa;
     pb = qb;
   }
@@ -78,7 +90,7 @@ std::vector<Span> split_at_reversals(const double* a, const double* b, Span s, c
   double pa = a[s.begin] - c.centre_a_mm, pb = b[s.begin] - c.centre_b_mm;
   for (std::size_t i = s.begin + 1; i < s.end; ++i) {
     const double qa = a[i] - c.centre_a_mm, qb = b[i] - c.centre_b_mm;
-    theta += std::atan2(pa * qb - pb * qa, pa * qa + pb * qb);
+    theta += turn_angle(pa, pb, qa, qb);
     pa = qa;
     pb = qb;
     if (dir == 0) {

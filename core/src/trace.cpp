@@ -24,6 +24,7 @@
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
+#include "circtest/core/memory.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -96,30 +97,6 @@ const std::vector<double>* Trace::column(std::string_view name) const {
 namespace {
 
 constexpr char kBom[] = "\xEF\xBB\xBF";
-
-// Large column buffers are asked for huge pages and populated in one call: a 1e6-row trace
-// otherwise takes tens of thousands of page faults, which on a virtual machine cost more than
-// parsing its numbers. Both are hints; an older kernel ignores them.
-void advise_huge_pages(const void* data, std::size_t bytes) {
-  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
-  if (bytes < 2 * kHuge) return;
-  const auto a = reinterpret_cast<std::uintptr_t>(data);
-  std::uintptr_t lo = (a + kHuge - 1) & ~(kHuge - 1);
-  std::uintptr_t hi = (a + bytes) & ~(kHuge - 1);
-  if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
-#ifdef MADV_POPULATE_WRITE
-  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
-  lo = (a + page - 1) & ~(page - 1);
-  hi = (a + bytes) & ~(page - 1);
-  if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_POPULATE_WRITE);
-#endif
-}
-
-template <class T>
-void reserve_huge(std::vector<T>& v, std::size_t n) {
-  v.reserve(n);
-  advise_huge_pages(v.data(), v.capacity() * sizeof(T));
-}
 
 bool blank(char c) {
   return c == ' ' || c == '\t';
