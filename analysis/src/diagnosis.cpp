@@ -71,22 +71,6 @@ struct Samples {
   std::vector<std::uint32_t> run;
   std::vector<RunInfo> runs;
   double radius = 0.0;
-  // The reversal bookkeeping of one sample.
-  struct Reversal {
-    double since_a, since_b;   // angle travelled since the last reversal, rad
-    double trav_a, trav_b;     // the motor's travel since then, mm
-    std::int8_t dir_a, dir_b;  // axis direction after it
-  };
-  struct Cache {
-    bool valid = false;
-    double servo_mismatch_s = 0.0;
-    std::size_t stride = 0;  // entries are set at the multiples of it
-    std::size_t size = 0;
-    // Left uninitialised (each entry is written before it is read): zeroing 40 MB for a 1e6-row
-    // trace costs as much as a fit pass.
-    std::unique_ptr<Reversal[]> at;
-  };
-  mutable Cache cache;
   std::size_t size() const { return dr.size(); }
   double pos(int ax, std::size_t i) const {
     const RunInfo& r = runs[run[i]];
@@ -147,86 +131,73 @@ void for_blocks(std::size_t n, F&& fn) {
   for (auto& t : pool) t.join();
 }
 
-// The reversal bookkeeping depends on the state only through the lag mismatch: cached, and
-// only at the samples a pass reads (every `stride`-th), since the mismatch changes with
-// every Gauss-Newton step and most passes read a subsample.
+// The reversal bookkeeping depends on the state only through the lag mismatch. It is worked
+// out where a pass reads it, not cached: a cache of 1e6 entries cost more in fresh pages and
+// memory traffic than the few operations it saves, since the mismatch changes with every
+// Gauss-Newton step anyway.
 //
 // No trig per sample: c, s are the cosine and sine of the measured angle u, and the reversal
 // angle `rev` is constant along a run, so cos(u - rev) and sin(u - rev) follow from c, s and
 // the run's cos(rev), sin(rev); cos(since) is cos(u - rev) times the parity of the half turns
-// passed. The refresh is split over the pool in fixed blocks (each entry is written once).
-void refresh(const Samples& S, const State& st, std::size_t stride) {
-  auto& C = S.cache;
-  if (C.valid && C.servo_mismatch_s == st.servo_mismatch_s && stride % C.stride == 0) return;
-  const std::size_t n = S.size();
-  if (C.size != n) {
-    C.at.reset(new Samples::Reversal[n]);
-    C.size = n;
+// passed.
+struct Reversal {
+  double since_a, since_b;   // angle travelled since the last reversal, rad
+  double trav_a, trav_b;     // the motor's travel since then, mm
+  std::int8_t dir_a, dir_b;  // axis direction after it
+};
+
+class Reversals {
+ public:
+  Reversals(const Samples& S, double servo_mismatch_s) : S_(&S), trig_(S.runs.size()) {
+    for (std::size_t k = 0; k < S.runs.size(); ++k) {
+      const RunInfo& r = S.runs[k];
+      const double w = r.dir * r.speed_mm_s / S.radius * servo_mismatch_s;
+      RunTrig& t = trig_[k];
+      t.rev_a = w;
+      t.rev_b = kPi / 2 - w;
+      t.ca = std::cos(t.rev_a);
+      t.sa = std::sin(t.rev_a);
+      t.cb = std::cos(t.rev_b);
+      t.sb = std::sin(t.rev_b);
+    }
   }
+  Reversal at(std::size_t i) const {
+    const Samples& S = *S_;
+    const RunInfo& r = S.runs[S.run[i]];
+    const RunTrig& t = trig_[S.run[i]];
+    const double c = S.c[i], s = S.s[i], u = S.u[i];
+    // cos and sin of u - rev.
+    const double cos_a = c * t.ca + s * t.sa, sin_a = s * t.ca - c * t.sa;
+    const double cos_b = c * t.cb + s * t.sb, sin_b = s * t.cb - c * t.sb;
+    const double ka = r.dir > 0 ? std::floor((u - t.rev_a) / kPi) : std::ceil((u - t.rev_a) / kPi);
+    const double kb = r.dir > 0 ? std::floor((u - t.rev_b) / kPi) : std::ceil((u - t.rev_b) / kPi);
+    Reversal v;
+    // As since(): the angle past the last reversal, ka (kb) half turns in.
+    v.since_a = r.dir > 0 ? ((u - t.rev_a) / kPi - ka) * kPi : (ka - (u - t.rev_a) / kPi) * kPi;
+    v.since_b = r.dir > 0 ? ((u - t.rev_b) / kPi - kb) * kPi : (kb - (u - t.rev_b) / kPi) * kPi;
+    const double pa = std::fmod(ka, 2.0) == 0.0 ? 1.0 : -1.0;
+    const double pb = std::fmod(kb, 2.0) == 0.0 ? 1.0 : -1.0;
+    v.trav_a = S.radius * (1.0 - pa * cos_a);
+    v.trav_b = S.radius * (1.0 - pb * cos_b);
+    // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos
+    // (cos(u + w) = -sin(u - rev_b)).
+    v.dir_a = static_cast<std::int8_t>(-r.dir * sgn(sin_a));
+    v.dir_b = static_cast<std::int8_t>(-r.dir * sgn(sin_b));
+    return v;
+  }
+
+ private:
   struct RunTrig {
     double rev_a, rev_b;    // reversal angles (mod pi)
     double ca, sa, cb, sb;  // their cosines and sines
   };
-  std::vector<RunTrig> trig(S.runs.size());
-  for (std::size_t k = 0; k < S.runs.size(); ++k) {
-    const RunInfo& r = S.runs[k];
-    const double w = r.dir * r.speed_mm_s / S.radius * st.servo_mismatch_s;
-    RunTrig& t = trig[k];
-    t.rev_a = w;
-    t.rev_b = kPi / 2 - w;
-    t.ca = std::cos(t.rev_a);
-    t.sa = std::sin(t.rev_a);
-    t.cb = std::cos(t.rev_b);
-    t.sb = std::sin(t.rev_b);
-  }
-  const double R = S.radius;
-  for_blocks(n, [&](std::size_t lo, std::size_t hi, std::size_t) {
-    // The first multiple of the stride in the block.
-    for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) {
-      const RunInfo& r = S.runs[S.run[i]];
-      const RunTrig& t = trig[S.run[i]];
-      const double c = S.c[i], s = S.s[i], u = S.u[i];
-      // cos and sin of u - rev.
-      const double cos_a = c * t.ca + s * t.sa, sin_a = s * t.ca - c * t.sa;
-      const double cos_b = c * t.cb + s * t.sb, sin_b = s * t.cb - c * t.sb;
-      const double ka =
-          r.dir > 0 ? std::floor((u - t.rev_a) / kPi) : std::ceil((u - t.rev_a) / kPi);
-      const double kb =
-          r.dir > 0 ? std::floor((u - t.rev_b) / kPi) : std::ceil((u - t.rev_b) / kPi);
-      // As since(): the angle past the last reversal, ka (kb) half turns in.
-      C.at[i].since_a =
-          r.dir > 0 ? ((u - t.rev_a) / kPi - ka) * kPi : (ka - (u - t.rev_a) / kPi) * kPi;
-      C.at[i].since_b =
-          r.dir > 0 ? ((u - t.rev_b) / kPi - kb) * kPi : (kb - (u - t.rev_b) / kPi) * kPi;
-      const double pa = std::fmod(ka, 2.0) == 0.0 ? 1.0 : -1.0;
-      const double pb = std::fmod(kb, 2.0) == 0.0 ? 1.0 : -1.0;
-      C.at[i].trav_a = R * (1.0 - pa * cos_a);
-      C.at[i].trav_b = R * (1.0 - pb * cos_b);
-      // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos
-      // (cos(u + w) = -sin(u - rev_b)).
-      C.at[i].dir_a = static_cast<std::int8_t>(-r.dir * sgn(sin_a));
-      C.at[i].dir_b = static_cast<std::int8_t>(-r.dir * sgn(sin_b));
-    }
-  });
-  C.servo_mismatch_s = st.servo_mismatch_s;
-  C.stride = stride;
-  C.valid = true;
-}
-double since_a(const Samples& S, const State&, std::size_t i) {
-  return S.cache.at[i].since_a;
-}
-double since_b(const Samples& S, const State&, std::size_t i) {
-  return S.cache.at[i].since_b;
-}
-double dir_a(const Samples& S, const State&, std::size_t i) {
-  return S.cache.at[i].dir_a;
-}
-double dir_b(const Samples& S, const State&, std::size_t i) {
-  return S.cache.at[i].dir_b;
-}
-bool at_reversal(const Samples& S, const State& st, std::size_t i) {
+  const Samples* S_;
+  std::vector<RunTrig> trig_;
+};
+
+bool at_reversal(const Samples& S, std::size_t i, const Reversal& rv) {
   const double eps = S.runs[S.run[i]].eps_rad;
-  return eps > 0 && (since_a(S, st, i) < eps || since_b(S, st, i) < eps);
+  return eps > 0 && (rv.since_a < eps || rv.since_b < eps);
 }
 
 // Backlash of one axis: the table keeps its place after a reversal until the motor has
@@ -239,7 +210,8 @@ std::pair<double, double> backlash_terms(double new_dir, double travelled_mm, do
   return {old_dir / 2.0, 0.0};
 }
 
-double value(const Samples& S, const State& st, const Column& col, std::size_t i) {
+// The columns that do not depend on the reversals.
+double plain_value(const Samples& S, const State& st, const Column& col, std::size_t i) {
   const double c = S.c[i], s = S.s[i];
   const RunInfo& r = S.runs[S.run[i]];
   const double R = S.radius;
@@ -256,28 +228,6 @@ double value(const Samples& S, const State& st, const Column& col, std::size_t i
       return R * s * c;
     case Kind::servo:
       return r.dir * r.speed_mm_s * s * c;
-    case Kind::backlash_a:
-      return backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).first * c;
-    case Kind::backlash_b:
-      return backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).first * s;
-    case Kind::spike_a:
-      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
-      return -dir_a(S, st, i) * std::exp(-since_a(S, st, i) * R / r.speed_mm_s / st.tau_a) * c;
-    case Kind::spike_b:
-      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
-      return -dir_b(S, st, i) * std::exp(-since_b(S, st, i) * R / r.speed_mm_s / st.tau_b) * s;
-    case Kind::spike_tau_a: {
-      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
-      const double dt = since_a(S, st, i) * R / r.speed_mm_s;
-      return st.spike_h_a * -dir_a(S, st, i) * std::exp(-dt / st.tau_a) * dt /
-             (st.tau_a * st.tau_a) * c;
-    }
-    case Kind::spike_tau_b: {
-      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
-      const double dt = since_b(S, st, i) * R / r.speed_mm_s;
-      return st.spike_h_b * -dir_b(S, st, i) * std::exp(-dt / st.tau_b) * dt /
-             (st.tau_b * st.tau_b) * s;
-    }
     case Kind::cyclic_a_sin:
       return std::sin(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
     case Kind::cyclic_a_cos:
@@ -286,12 +236,49 @@ double value(const Samples& S, const State& st, const Column& col, std::size_t i
       return std::sin(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
     case Kind::cyclic_b_cos:
       return std::cos(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
+    default:
+      return 0.0;
   }
-  return 0.0;
+}
+
+double value(const Samples& S, const State& st, const Column& col, std::size_t i,
+             const Reversal& rv) {
+  const double c = S.c[i], s = S.s[i];
+  const RunInfo& r = S.runs[S.run[i]];
+  const double R = S.radius;
+  switch (col.kind) {
+    case Kind::backlash_a:
+      return backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).first * c;
+    case Kind::backlash_b:
+      return backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).first * s;
+    case Kind::spike_a:
+      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
+      return -static_cast<double>(rv.dir_a) * std::exp(-rv.since_a * R / r.speed_mm_s / st.tau_a) *
+             c;
+    case Kind::spike_b:
+      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
+      return -static_cast<double>(rv.dir_b) * std::exp(-rv.since_b * R / r.speed_mm_s / st.tau_b) *
+             s;
+    case Kind::spike_tau_a: {
+      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
+      const double dt = rv.since_a * R / r.speed_mm_s;
+      return st.spike_h_a * -static_cast<double>(rv.dir_a) * std::exp(-dt / st.tau_a) * dt /
+             (st.tau_a * st.tau_a) * c;
+    }
+    case Kind::spike_tau_b: {
+      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
+      const double dt = rv.since_b * R / r.speed_mm_s;
+      return st.spike_h_b * -static_cast<double>(rv.dir_b) * std::exp(-dt / st.tau_b) * dt /
+             (st.tau_b * st.tau_b) * s;
+    }
+    default:
+      return plain_value(S, st, col, i);
+  }
 }
 
 // The part of the model that is not linear in the parameters (backlash transitions).
-double offset(const Samples& S, const State& st, const std::vector<Column>& cols, std::size_t i) {
+double offset(const Samples& S, const State& st, const std::vector<Column>& cols, std::size_t i,
+              const Reversal& rv) {
   double o = 0.0;
   if (st.servo_mismatch_s != 0.0) {
     // Second order of unequal lags (phase difference d = w dtau) at the measured angle:
@@ -303,9 +290,9 @@ double offset(const Samples& S, const State& st, const std::vector<Column>& cols
   }
   for (const Column& col : cols) {
     if (col.kind == Kind::backlash_a && st.backlash_a > 0) {
-      o += backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).second * S.c[i];
+      o += backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).second * S.c[i];
     } else if (col.kind == Kind::backlash_b && st.backlash_b > 0) {
-      o += backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).second * S.s[i];
+      o += backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).second * S.s[i];
     }
   }
   return o;
@@ -320,7 +307,7 @@ struct Normal {
 
 Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& cols,
                   std::size_t stride) {
-  refresh(S, st, stride);
+  const Reversals rev(S, st.servo_mismatch_s);
   const auto p = static_cast<Eigen::Index>(cols.size());
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
   // Per block: its rows (transposed, one per column) build J^T J as one matrix product.
@@ -336,10 +323,11 @@ Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& 
     Eigen::VectorXd y(rows);
     Eigen::Index m = 0;
     for (std::size_t i = first; i < hi; i += stride) {
-      if (at_reversal(S, st, i)) continue;
+      const Reversal rv = rev.at(i);
+      if (at_reversal(S, i, rv)) continue;
       for (Eigen::Index j = 0; j < p; ++j)
-        Xt(j, m) = value(S, st, cols[static_cast<std::size_t>(j)], i);
-      y[m] = S.dr[i] - offset(S, st, cols, i);
+        Xt(j, m) = value(S, st, cols[static_cast<std::size_t>(j)], i, rv);
+      y[m] = S.dr[i] - offset(S, st, cols, i, rv);
       ++m;
     }
     N.M.selfadjointView<Eigen::Upper>().rankUpdate(Xt.leftCols(m));
@@ -465,10 +453,14 @@ struct Profile {
 
 Profile make_profile(const Samples& S, const State& st, const std::vector<Column>& cols,
                      const Solution& base, std::size_t stride) {
-  refresh(S, st, stride);
+  const Reversals rev(S, st.servo_mismatch_s);
   Profile P;
+  std::vector<Reversal> rvs;
   for (std::size_t i = 0; i < S.size(); i += stride) {
-    if (!at_reversal(S, st, i)) P.index.push_back(i);
+    const Reversal rv = rev.at(i);
+    if (at_reversal(S, i, rv)) continue;
+    P.index.push_back(i);
+    rvs.push_back(rv);
   }
   const auto n = static_cast<Eigen::Index>(P.index.size());
   const auto p = static_cast<Eigen::Index>(cols.size());
@@ -476,9 +468,10 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   P.e.resize(n);
   for (Eigen::Index r = 0; r < n; ++r) {
     const std::size_t i = P.index[static_cast<std::size_t>(r)];
+    const Reversal& rv = rvs[static_cast<std::size_t>(r)];
     for (Eigen::Index j = 0; j < p; ++j)
-      P.J(r, j) = value(S, st, cols[static_cast<std::size_t>(j)], i);
-    P.e[r] = S.dr[i] - offset(S, st, cols, i) - P.J.row(r).dot(base.x);
+      P.J(r, j) = value(S, st, cols[static_cast<std::size_t>(j)], i, rv);
+    P.e[r] = S.dr[i] - offset(S, st, cols, i, rv) - P.J.row(r).dot(base.x);
   }
   for (std::size_t ax = 0; ax < 2; ++ax) {
     P.spike_sign[ax].resize(n);
@@ -486,11 +479,12 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   }
   for (Eigen::Index r = 0; r < n; ++r) {
     const std::size_t i = P.index[static_cast<std::size_t>(r)];
+    const Reversal& rv = rvs[static_cast<std::size_t>(r)];
     const double v = S.runs[S.run[i]].speed_mm_s;
-    P.spike_sign[0][r] = -dir_a(S, st, i) * S.c[i];
-    P.spike_sign[1][r] = -dir_b(S, st, i) * S.s[i];
-    P.spike_dt_s[0][r] = v > 0 ? since_a(S, st, i) * S.radius / v : -1.0;
-    P.spike_dt_s[1][r] = v > 0 ? since_b(S, st, i) * S.radius / v : -1.0;
+    P.spike_sign[0][r] = -static_cast<double>(rv.dir_a) * S.c[i];
+    P.spike_sign[1][r] = -static_cast<double>(rv.dir_b) * S.s[i];
+    P.spike_dt_s[0][r] = v > 0 ? rv.since_a * S.radius / v : -1.0;
+    P.spike_dt_s[1][r] = v > 0 ? rv.since_b * S.radius / v : -1.0;
   }
   // (J^T J)^-1 of this subsample, so that the profile is consistent within itself.
   const Eigen::MatrixXd M = P.J.transpose() * P.J;
@@ -596,8 +590,9 @@ void profile_column(const Samples& S, const State& st, const Profile& P, const C
     }
     return;
   }
+  // The other added columns (cyclic) do not depend on the reversals.
   for (Eigen::Index r = 0; r < n; ++r)
-    out[r] = value(S, st, col, P.index[static_cast<std::size_t>(r)]);
+    out[r] = plain_value(S, st, col, P.index[static_cast<std::size_t>(r)]);
 }
 
 // Residual sum of squares when the columns `extra` join the base fit:
@@ -735,11 +730,21 @@ const std::vector<double>* cmd_column(const Trace& trace, char axis) {
   return trace.column(column_name::commanded(axis));
 }
 
+// A reversal of one axis inside a run: the first sample past it (not the first of its run),
+// the angle since the reversal there and the axis direction after it.
+struct ReversalEvent {
+  std::size_t sample;
+  double since;
+  std::int8_t dir;
+};
+
 // The backlash at each end of an axis' travel on its own: at every reversal the model's step
 // is b in the radius (at both ends, both directions); what the residual still steps there,
 // from a straight line on each side extrapolated to the reversal, is added to it. The ends
 // are averaged over the runs. Both ends must be covered.
-void reversal_steps(const Samples& S, const std::vector<double>& resid, Diagnosis& D) {
+
+void reversal_steps(const Samples& S, const std::vector<double>& resid,
+                    const std::array<std::vector<ReversalEvent>, 2>& events, Diagnosis& D) {
   constexpr double kWindowRad = 4.0 * kPi / 180.0;
   constexpr std::size_t kMinSide = 5;
   for (int ax = 0; ax < 2; ++ax) {
@@ -748,53 +753,48 @@ void reversal_steps(const Samples& S, const std::vector<double>& resid, Diagnosi
     const double b = *D.backlash_mm[axs].value;
     // The angle in which the motor takes up the play (travelled R (1 - cos) = b), twice.
     const double takeup_rad = 2.0 * std::acos(std::max(-1.0, 1.0 - std::abs(b) / S.radius));
-    auto since = [&](std::size_t i) {
-      return ax == 0 ? S.cache.at[i].since_a : S.cache.at[i].since_b;
-    };
-    auto dir = [&](std::size_t i) { return ax == 0 ? S.cache.at[i].dir_a : S.cache.at[i].dir_b; };
     std::array<double, 2> sum{0.0, 0.0};  // [0]: + end, [1]: - end
     std::array<int, 2> count{0, 0};
-    for (const RunInfo& r : S.runs) {
-      for (std::size_t i = r.begin + 1; i < r.end; ++i) {
-        if (!(since(i) < since(i - 1))) continue;
-        const double u_rev = S.u[i] - r.dir * since(i);
-        // Least-squares line of the residual against the signed angle on one side, at 0.
-        auto intercept = [&](bool after, std::size_t& n) {
-          double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
-          n = 0;
-          // After the reversal, past twice the take-up of the play: where the true play differs
-          // from the fitted one, the residual has a bump there.
-          const double from = after ? std::max(r.eps_rad, takeup_rad) : r.eps_rad;
-          auto take = [&](std::size_t j) {
-            const double d = r.dir * (S.u[j] - u_rev);
-            if (std::abs(d) > from + kWindowRad) return false;
-            if (std::abs(d) > from) {
-              s0 += 1;
-              s1 += d;
-              s2 += d * d;
-              t0 += resid[j];
-              t1 += resid[j] * d;
-              ++n;
-            }
-            return true;
-          };
-          if (after) {
-            for (std::size_t j = i; j < r.end && take(j); ++j) {
-            }
-          } else {
-            for (std::size_t j = i; j-- > r.begin && take(j);) {
-            }
+    for (const ReversalEvent& ev : events[axs]) {
+      const std::size_t i = ev.sample;
+      const RunInfo& r = S.runs[S.run[i]];
+      const double u_rev = S.u[i] - r.dir * ev.since;
+      // Least-squares line of the residual against the signed angle on one side, at 0.
+      auto intercept = [&](bool after, std::size_t& n) {
+        double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
+        n = 0;
+        // After the reversal, past twice the take-up of the play: where the true play differs
+        // from the fitted one, the residual has a bump there.
+        const double from = after ? std::max(r.eps_rad, takeup_rad) : r.eps_rad;
+        auto take = [&](std::size_t j) {
+          const double d = r.dir * (S.u[j] - u_rev);
+          if (std::abs(d) > from + kWindowRad) return false;
+          if (std::abs(d) > from) {
+            s0 += 1;
+            s1 += d;
+            s2 += d * d;
+            t0 += resid[j];
+            t1 += resid[j] * d;
+            ++n;
           }
-          const double det = s0 * s2 - s1 * s1;
-          return det > 0 ? (s2 * t0 - s1 * t1) / det : 0.0;
+          return true;
         };
-        std::size_t na = 0, nb = 0;
-        const double after = intercept(true, na), before = intercept(false, nb);
-        if (na < kMinSide || nb < kMinSide) continue;
-        const std::size_t end = dir(i) < 0 ? 0 : 1;  // moving - after it: the + end
-        sum[end] += b + (after - before);
-        ++count[end];
-      }
+        if (after) {
+          for (std::size_t j = i; j < r.end && take(j); ++j) {
+          }
+        } else {
+          for (std::size_t j = i; j-- > r.begin && take(j);) {
+          }
+        }
+        const double det = s0 * s2 - s1 * s1;
+        return det > 0 ? (s2 * t0 - s1 * t1) / det : 0.0;
+      };
+      std::size_t na = 0, nb = 0;
+      const double after = intercept(true, na), before = intercept(false, nb);
+      if (na < kMinSide || nb < kMinSide) continue;
+      const std::size_t end = ev.dir < 0 ? 0 : 1;  // moving - after it: the + end
+      sum[end] += b + (after - before);
+      ++count[end];
     }
     if (count[0] > 0 && count[1] > 0) {
       D.backlash_reversals_mm[axs] = std::array<double, 2>{sum[0] / count[0], sum[1] / count[1]};
@@ -1067,11 +1067,12 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         ce.pitch_source = "option";
       } else {
         std::vector<double> pos, proj, res;
-        refresh(S, st, cstride);
+        const Reversals rev(S, st.servo_mismatch_s);
         for (std::size_t i = 0; i < S.size(); i += cstride) {
-          double e = S.dr[i] - offset(S, st, cols, i);
+          const Reversal rv = rev.at(i);
+          double e = S.dr[i] - offset(S, st, cols, i, rv);
           for (std::size_t j = 0; j < cols.size(); ++j)
-            e -= value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+            e -= value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
           pos.push_back(S.pos(ax, i));
           proj.push_back(ax == 0 ? S.c[i] : S.s[i]);
           res.push_back(e);
@@ -1491,7 +1492,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   }
 
   // Residual over every sample, and the model's terms for the contributions.
-  refresh(S, st, 1);
+  const Reversals rev(S, st.servo_mismatch_s);
   // The sources of the contributions (below), and each column's: their terms' ranges per run
   // are taken in the same pass as the residual.
   std::vector<std::string> sources;
@@ -1515,6 +1516,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     std::vector<double> model_min, model_max, resid_min, resid_max;
     std::vector<std::size_t> model_imin, model_imax;
     double ss = 0.0;
+    std::array<std::vector<ReversalEvent>, 2> events;  // per axis, in sample order
   };
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
   std::vector<Extremes> ext(nblocks);
@@ -1530,23 +1532,30 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
     Extremes& e = ext[block];
     std::vector<double> term_at(ns);
+    // The reversals inside a run, where the angle since one drops from a sample to the next.
+    Reversal prev{};
+    if (lo > 0) prev = rev.at(lo - 1);
     for (std::size_t i = lo; i < hi; ++i) {
-      double full = offset(S, st, cols, i);
+      const Reversal rv = rev.at(i);
+      if (i > 0 && S.run[i - 1] == S.run[i]) {
+        if (rv.since_a < prev.since_a) e.events[0].push_back({i, rv.since_a, rv.dir_a});
+        if (rv.since_b < prev.since_b) e.events[1].push_back({i, rv.since_b, rv.dir_b});
+      }
+      prev = rv;
+      double full = offset(S, st, cols, i, rv);
       double shape = full;  // without centring and radius
       std::fill(term_at.begin(), term_at.end(), 0.0);
       for (std::size_t j = 0; j < cols.size(); ++j) {
-        const double t = value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+        const double t = value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
         full += t;
         if (source_of[j] < 0) continue;
         shape += t;
         double& term = term_at[static_cast<std::size_t>(source_of[j])];
         term += t;
         if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
-          term +=
-              backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).second * S.c[i];
+          term += backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).second * S.c[i];
         } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
-          term +=
-              backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).second * S.s[i];
+          term += backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).second * S.s[i];
         }
       }
       const std::size_t run = S.run[i];
@@ -1566,7 +1575,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       const double res = S.dr[i] - full;
       resid[i] = res;
       e.ss += res * res;
-      if (!at_reversal(S, st, i)) {
+      if (!at_reversal(S, i, rv)) {
         e.resid_min[run] = std::min(e.resid_min[run], res);
         e.resid_max[run] = std::max(e.resid_max[run], res);
       }
@@ -1592,10 +1601,12 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       all.resid_max[r] = std::max(all.resid_max[r], e.resid_max[r]);
     }
     all.ss += e.ss;
+    for (std::size_t ax = 0; ax < 2; ++ax)
+      all.events[ax].insert(all.events[ax].end(), e.events[ax].begin(), e.events[ax].end());
   }
   const std::vector<double>& term_min = all.term_min;
   const std::vector<double>& term_max = all.term_max;
-  reversal_steps(S, resid, D);
+  reversal_steps(S, resid, all.events, D);
   D.residual_rms_mm = std::sqrt(all.ss / static_cast<double>(S.size()));
   std::size_t imax = 0, imin = 0;
   for (std::size_t k = 0; k < nruns; ++k) {
@@ -1618,13 +1629,14 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       if (kind_name(cols[j].kind, D.axes) == name) mine.push_back(j);
     }
     auto term = [&](std::size_t i) {
+      const Reversal rv = rev.at(i);
       double t = 0.0;
       for (std::size_t j : mine) {
-        t += value(S, st, cols[j], i) * sol.x[static_cast<Eigen::Index>(j)];
+        t += value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
         if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
-          t += backlash_terms(dir_a(S, st, i), S.cache.at[i].trav_a, st.backlash_a).second * S.c[i];
+          t += backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).second * S.c[i];
         } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
-          t += backlash_terms(dir_b(S, st, i), S.cache.at[i].trav_b, st.backlash_b).second * S.s[i];
+          t += backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).second * S.s[i];
         }
       }
       return t;
