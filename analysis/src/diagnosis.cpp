@@ -12,8 +12,10 @@
 #include <numbers>
 #include <numeric>
 #include <thread>
+#include <type_traits>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/huge_pages.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 
@@ -210,70 +212,117 @@ std::pair<double, double> backlash_terms(double new_dir, double travelled_mm, do
   return {old_dir / 2.0, 0.0};
 }
 
-// The columns that do not depend on the reversals.
-double plain_value(const Samples& S, const State& st, const Column& col, std::size_t i) {
+// The value of a column of kind K at sample i (rv: its reversal bookkeeping; the cyclic and
+// geometric columns do not read it).
+template <Kind K>
+double term(const Samples& S, const State& st, const Column& col, std::size_t i,
+            const Reversal& rv) {
   const double c = S.c[i], s = S.s[i];
   const RunInfo& r = S.runs[S.run[i]];
   const double R = S.radius;
-  switch (col.kind) {
-    case Kind::centre_a:
-      return c;
-    case Kind::centre_b:
-      return s;
-    case Kind::radius:
-      return r.group == col.group ? 1.0 : 0.0;
-    case Kind::scale_mismatch:
-      return 0.5 * R * (c * c - s * s);
-    case Kind::squareness:
-      return R * s * c;
-    case Kind::servo:
-      return r.dir * r.speed_mm_s * s * c;
-    case Kind::cyclic_a_sin:
-      return std::sin(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
-    case Kind::cyclic_a_cos:
-      return std::cos(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
-    case Kind::cyclic_b_sin:
-      return std::sin(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
-    case Kind::cyclic_b_cos:
-      return std::cos(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
-    default:
-      return 0.0;
+  if constexpr (K == Kind::centre_a) {
+    return c;
+  } else if constexpr (K == Kind::centre_b) {
+    return s;
+  } else if constexpr (K == Kind::radius) {
+    return r.group == col.group ? 1.0 : 0.0;
+  } else if constexpr (K == Kind::scale_mismatch) {
+    return 0.5 * R * (c * c - s * s);
+  } else if constexpr (K == Kind::squareness) {
+    return R * s * c;
+  } else if constexpr (K == Kind::servo) {
+    return r.dir * r.speed_mm_s * s * c;
+  } else if constexpr (K == Kind::backlash_a) {
+    return backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).first * c;
+  } else if constexpr (K == Kind::backlash_b) {
+    return backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).first * s;
+  } else if constexpr (K == Kind::spike_a) {
+    if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
+    return -static_cast<double>(rv.dir_a) * std::exp(-rv.since_a * R / r.speed_mm_s / st.tau_a) * c;
+  } else if constexpr (K == Kind::spike_b) {
+    if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
+    return -static_cast<double>(rv.dir_b) * std::exp(-rv.since_b * R / r.speed_mm_s / st.tau_b) * s;
+  } else if constexpr (K == Kind::spike_tau_a) {
+    if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
+    const double dt = rv.since_a * R / r.speed_mm_s;
+    return st.spike_h_a * -static_cast<double>(rv.dir_a) * std::exp(-dt / st.tau_a) * dt /
+           (st.tau_a * st.tau_a) * c;
+  } else if constexpr (K == Kind::spike_tau_b) {
+    if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
+    const double dt = rv.since_b * R / r.speed_mm_s;
+    return st.spike_h_b * -static_cast<double>(rv.dir_b) * std::exp(-dt / st.tau_b) * dt /
+           (st.tau_b * st.tau_b) * s;
+  } else if constexpr (K == Kind::cyclic_a_sin) {
+    return std::sin(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
+  } else if constexpr (K == Kind::cyclic_a_cos) {
+    return std::cos(2 * kPi * S.pos(0, i) / st.pitch_a) * c;
+  } else if constexpr (K == Kind::cyclic_b_sin) {
+    return std::sin(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
+  } else {
+    static_assert(K == Kind::cyclic_b_cos);
+    return std::cos(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
   }
+}
+
+// f(std::integral_constant<Kind, k>{}): the kind as a compile-time constant, so that a loop
+// over the samples inside f has no switch per sample.
+template <class F>
+decltype(auto) with_kind(Kind k, F&& f) {
+  switch (k) {
+    case Kind::centre_a:
+      return f(std::integral_constant<Kind, Kind::centre_a>{});
+    case Kind::centre_b:
+      return f(std::integral_constant<Kind, Kind::centre_b>{});
+    case Kind::radius:
+      return f(std::integral_constant<Kind, Kind::radius>{});
+    case Kind::scale_mismatch:
+      return f(std::integral_constant<Kind, Kind::scale_mismatch>{});
+    case Kind::squareness:
+      return f(std::integral_constant<Kind, Kind::squareness>{});
+    case Kind::servo:
+      return f(std::integral_constant<Kind, Kind::servo>{});
+    case Kind::backlash_a:
+      return f(std::integral_constant<Kind, Kind::backlash_a>{});
+    case Kind::backlash_b:
+      return f(std::integral_constant<Kind, Kind::backlash_b>{});
+    case Kind::spike_a:
+      return f(std::integral_constant<Kind, Kind::spike_a>{});
+    case Kind::spike_b:
+      return f(std::integral_constant<Kind, Kind::spike_b>{});
+    case Kind::cyclic_a_sin:
+      return f(std::integral_constant<Kind, Kind::cyclic_a_sin>{});
+    case Kind::cyclic_a_cos:
+      return f(std::integral_constant<Kind, Kind::cyclic_a_cos>{});
+    case Kind::cyclic_b_sin:
+      return f(std::integral_constant<Kind, Kind::cyclic_b_sin>{});
+    case Kind::cyclic_b_cos:
+      return f(std::integral_constant<Kind, Kind::cyclic_b_cos>{});
+    case Kind::spike_tau_a:
+      return f(std::integral_constant<Kind, Kind::spike_tau_a>{});
+    case Kind::spike_tau_b:
+      return f(std::integral_constant<Kind, Kind::spike_tau_b>{});
+  }
+  return f(std::integral_constant<Kind, Kind::centre_a>{});
 }
 
 double value(const Samples& S, const State& st, const Column& col, std::size_t i,
              const Reversal& rv) {
-  const double c = S.c[i], s = S.s[i];
-  const RunInfo& r = S.runs[S.run[i]];
-  const double R = S.radius;
-  switch (col.kind) {
-    case Kind::backlash_a:
-      return backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).first * c;
-    case Kind::backlash_b:
-      return backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).first * s;
-    case Kind::spike_a:
-      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
-      return -static_cast<double>(rv.dir_a) * std::exp(-rv.since_a * R / r.speed_mm_s / st.tau_a) *
-             c;
-    case Kind::spike_b:
-      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
-      return -static_cast<double>(rv.dir_b) * std::exp(-rv.since_b * R / r.speed_mm_s / st.tau_b) *
-             s;
-    case Kind::spike_tau_a: {
-      if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
-      const double dt = rv.since_a * R / r.speed_mm_s;
-      return st.spike_h_a * -static_cast<double>(rv.dir_a) * std::exp(-dt / st.tau_a) * dt /
-             (st.tau_a * st.tau_a) * c;
-    }
-    case Kind::spike_tau_b: {
-      if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
-      const double dt = rv.since_b * R / r.speed_mm_s;
-      return st.spike_h_b * -static_cast<double>(rv.dir_b) * std::exp(-dt / st.tau_b) * dt /
-             (st.tau_b * st.tau_b) * s;
-    }
-    default:
-      return plain_value(S, st, col, i);
-  }
+  return with_kind(col.kind, [&](auto k) { return term<decltype(k)::value>(S, st, col, i, rv); });
+}
+
+// A column that does not read the reversal bookkeeping (geometric or cyclic).
+double plain_value(const Samples& S, const State& st, const Column& col, std::size_t i) {
+  return value(S, st, col, i, Reversal{});
+}
+
+// Column `col` at the samples idx[0..m) into out[0], out[step], ... (the kind dispatched once
+// per column, not per sample).
+void fill_column(const Samples& S, const State& st, const Column& col, const std::size_t* idx,
+                 const Reversal* rvs, std::size_t m, double* out, std::size_t step) {
+  with_kind(col.kind, [&](auto k) {
+    for (std::size_t q = 0; q < m; ++q)
+      out[q * step] = term<decltype(k)::value>(S, st, col, idx[q], rvs[q]);
+  });
 }
 
 // The part of the model that is not linear in the parameters (backlash transitions).
@@ -319,16 +368,27 @@ Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& 
     const std::size_t first = (lo + stride - 1) / stride * stride;
     const auto rows =
         static_cast<Eigen::Index>(hi > first ? (hi - first + stride - 1) / stride : 0);
-    Eigen::MatrixXd Xt(p, rows);
-    Eigen::VectorXd y(rows);
-    Eigen::Index m = 0;
+    // The rows off the reversals first, then the block's columns one by one.
+    std::vector<std::size_t> idx;
+    std::vector<Reversal> rvs;
+    idx.reserve(static_cast<std::size_t>(rows));
+    rvs.reserve(static_cast<std::size_t>(rows));
     for (std::size_t i = first; i < hi; i += stride) {
       const Reversal rv = rev.at(i);
       if (at_reversal(S, i, rv)) continue;
-      for (Eigen::Index j = 0; j < p; ++j)
-        Xt(j, m) = value(S, st, cols[static_cast<std::size_t>(j)], i, rv);
-      y[m] = S.dr[i] - offset(S, st, cols, i, rv);
-      ++m;
+      idx.push_back(i);
+      rvs.push_back(rv);
+    }
+    const auto m = static_cast<Eigen::Index>(idx.size());
+    Eigen::MatrixXd Xt(p, m);
+    Eigen::VectorXd y(m);
+    for (Eigen::Index j = 0; j < p; ++j) {
+      fill_column(S, st, cols[static_cast<std::size_t>(j)], idx.data(), rvs.data(), idx.size(),
+                  Xt.data() + j, static_cast<std::size_t>(p));
+    }
+    for (Eigen::Index q = 0; q < m; ++q) {
+      const std::size_t i = idx[static_cast<std::size_t>(q)];
+      y[q] = S.dr[i] - offset(S, st, cols, i, rvs[static_cast<std::size_t>(q)]);
     }
     N.M.selfadjointView<Eigen::Upper>().rankUpdate(Xt.leftCols(m));
     N.v.noalias() += Xt.leftCols(m) * y.head(m);
@@ -456,6 +516,9 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   const Reversals rev(S, st.servo_mismatch_s);
   Profile P;
   std::vector<Reversal> rvs;
+  // Fresh buffers of several MB each: huge pages (core/huge_pages.hpp).
+  reserve_huge(P.index, S.size() / stride + 1);
+  reserve_huge(rvs, S.size() / stride + 1);
   for (std::size_t i = 0; i < S.size(); i += stride) {
     const Reversal rv = rev.at(i);
     if (at_reversal(S, i, rv)) continue;
@@ -465,6 +528,7 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   const auto n = static_cast<Eigen::Index>(P.index.size());
   const auto p = static_cast<Eigen::Index>(cols.size());
   P.J.resize(n, p);
+  advise_huge_pages(P.J.data(), static_cast<std::size_t>(P.J.size()) * sizeof(double));
   P.e.resize(n);
   for (Eigen::Index r = 0; r < n; ++r) {
     const std::size_t i = P.index[static_cast<std::size_t>(r)];
@@ -508,6 +572,7 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
     o.dt_s.resize(m);
     o.e.resize(m);
     o.J.resize(m, p);
+    advise_huge_pages(o.J.data(), static_cast<std::size_t>(o.J.size()) * sizeof(double));
     for (Eigen::Index k = 0; k < m; ++k) {
       const Eigen::Index r = o.row[static_cast<std::size_t>(k)];
       o.sign[k] = P.spike_sign[ax][r];
@@ -872,8 +937,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   {
     std::size_t total = 0;
     for (const RunResult& rr : ev.runs) total += rr.run.size();
-    for (auto* v : {&S.c, &S.s, &S.dr, &S.u}) v->reserve(total);
-    S.run.reserve(total);
+    for (auto* v : {&S.c, &S.s, &S.dr, &S.u}) reserve_huge(*v, total);
+    reserve_huge(S.run, total);
   }
   for (std::size_t k = 0; k < ev.runs.size(); ++k) {
     const RunResult& rr = ev.runs[k];
@@ -1067,6 +1132,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         ce.pitch_source = "option";
       } else {
         std::vector<double> pos, proj, res;
+        for (auto* v : {&pos, &proj, &res}) reserve_huge(*v, S.size() / cstride + 1);
         const Reversals rev(S, st.servo_mismatch_s);
         for (std::size_t i = 0; i < S.size(); i += cstride) {
           const Reversal rv = rev.at(i);
@@ -1528,7 +1594,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     e.model_imin.assign(nruns, 0);
     e.model_imax.assign(nruns, 0);
   }
-  std::vector<double> resid(S.size());
+  std::vector<double> resid;
+  reserve_huge(resid, S.size());
+  resid.resize(S.size());
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
     Extremes& e = ext[block];
     std::vector<double> term_at(ns);
