@@ -489,24 +489,36 @@ std::optional<std::size_t> find(const std::vector<Column>& cols, Kind k, int gro
   return std::nullopt;
 }
 
-// The base fit's design rows and residual on a subsample, for profiling added columns.
+// The base fit's design rows and residual on a subsample, for profiling added columns. Its
+// arrays (about 17 MB for 60,000 rows) live in one block asked for huge pages: allocated one
+// by one they cost thousands of page faults, more than the arithmetic on them.
+using MatMap = Eigen::Map<Eigen::MatrixXd, Eigen::AlignedMax>;
+using VecMap = Eigen::Map<Eigen::VectorXd, Eigen::AlignedMax>;
+
 struct Profile {
-  std::vector<std::size_t> index;  // sample indices
-  Eigen::MatrixXd J;               // rows of the base columns
-  Eigen::VectorXd e;               // base residual
-  Eigen::MatrixXd inv;             // (J^T J)^-1 of the base fit (full-data scaling)
+  Profile() = default;
+  Profile(const Profile&) = delete;
+  Profile& operator=(const Profile&) = delete;
+  Profile(Profile&&) = default;  // the block moves with its buffer: the maps stay valid
+
+  std::unique_ptr<double[]> store;  // the block the maps below point into
+  std::vector<std::size_t> index;   // sample indices
+  MatMap J{nullptr, 0, 0};          // rows of the base columns
+  VecMap e{nullptr, 0};             // base residual
+  Eigen::MatrixXd inv;              // (J^T J)^-1 of the base fit (full-data scaling)
   double rss = 0.0;
   // The spike terms' parts that do not depend on the decay, per axis and profile row: the
   // signed projection (-direction * cos or sin) and the time since the reversal (negative when
   // the feed is unknown). The decay search evaluates the spike columns hundreds of times.
-  std::array<Eigen::VectorXd, 2> spike_sign, spike_dt_s;
+  std::array<VecMap, 2> spike_sign{VecMap{nullptr, 0}, VecMap{nullptr, 0}};
+  std::array<VecMap, 2> spike_dt_s{VecMap{nullptr, 0}, VecMap{nullptr, 0}};
   // The same per axis over only the rows past a reversal (time known), ordered by the time
   // since it, with their base design rows and residual: a spike column at decay tau is zero
   // past ~40 tau, so an evaluation reads only the leading rows.
   struct SpikeRows {
     std::vector<Eigen::Index> row;  // profile row of each ordered row
-    Eigen::VectorXd sign, dt_s, e;
-    Eigen::MatrixXd J;
+    VecMap sign{nullptr, 0}, dt_s{nullptr, 0}, e{nullptr, 0};
+    MatMap J{nullptr, 0, 0};
   };
   std::array<SpikeRows, 2> spike_rows;
 };
@@ -515,35 +527,53 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
                      const Solution& base, std::size_t stride) {
   const Reversals rev(S, st.servo_mismatch_s);
   Profile P;
-  std::vector<Reversal> rvs;
-  // Fresh buffers of several MB each: huge pages (core/huge_pages.hpp).
   reserve_huge(P.index, S.size() / stride + 1);
-  reserve_huge(rvs, S.size() / stride + 1);
   for (std::size_t i = 0; i < S.size(); i += stride) {
-    const Reversal rv = rev.at(i);
-    if (at_reversal(S, i, rv)) continue;
-    P.index.push_back(i);
-    rvs.push_back(rv);
+    if (!at_reversal(S, i, rev.at(i))) P.index.push_back(i);
   }
   const auto n = static_cast<Eigen::Index>(P.index.size());
   const auto p = static_cast<Eigen::Index>(cols.size());
-  P.J.resize(n, p);
-  advise_huge_pages(P.J.data(), static_cast<std::size_t>(P.J.size()) * sizeof(double));
-  P.e.resize(n);
-  for (Eigen::Index r = 0; r < n; ++r) {
-    const std::size_t i = P.index[static_cast<std::size_t>(r)];
-    const Reversal& rv = rvs[static_cast<std::size_t>(r)];
-    for (Eigen::Index j = 0; j < p; ++j)
-      P.J(r, j) = value(S, st, cols[static_cast<std::size_t>(j)], i, rv);
-    P.e[r] = S.dr[i] - offset(S, st, cols, i, rv) - P.J.row(r).dot(base.x);
+  const auto nu = static_cast<std::size_t>(n), pu = static_cast<std::size_t>(p);
+  // The block: J, e, 2 x (sign, dt), 2 x (ordered sign, dt, e, J); each array starts on a
+  // 64-byte boundary (Eigen's alignment, so the maps compute as the matrices did).
+  constexpr std::size_t kAlign = 8;  // doubles
+  const std::size_t padded = (nu + kAlign - 1) / kAlign * kAlign;
+  const std::size_t total = padded * (3 * pu + 11) + kAlign;
+  // Not zeroed: every element is written before it is read.
+  P.store.reset(new double[total]);
+  advise_huge_pages(P.store.get(), total * sizeof(double));
+  double* next = P.store.get();
+  next += (kAlign - reinterpret_cast<std::uintptr_t>(next) / sizeof(double) % kAlign) % kAlign;
+  auto take = [&](std::size_t count) {
+    double* at = next;
+    next += (count + kAlign - 1) / kAlign * kAlign;
+    return at;
+  };
+  new (&P.J) MatMap(take(nu * pu), n, p);
+  new (&P.e) VecMap(take(nu), n);
+  // The rows in chunks: their reversal bookkeeping is worked out again rather than stored.
+  constexpr std::size_t kChunk = 4096;
+  std::vector<Reversal> rvs(std::min(nu, kChunk));
+  for (std::size_t lo = 0; lo < nu; lo += kChunk) {
+    const std::size_t hi = std::min(nu, lo + kChunk);
+    for (std::size_t r = lo; r < hi; ++r) rvs[r - lo] = rev.at(P.index[r]);
+    for (std::size_t j = 0; j < pu; ++j) {
+      fill_column(S, st, cols[j], P.index.data() + lo, rvs.data(), hi - lo,
+                  P.J.data() + j * nu + lo, 1);
+    }
+    for (std::size_t r = lo; r < hi; ++r) {
+      const std::size_t i = P.index[r];
+      const auto ri = static_cast<Eigen::Index>(r);
+      P.e[ri] = S.dr[i] - offset(S, st, cols, i, rvs[r - lo]) - P.J.row(ri).dot(base.x);
+    }
   }
   for (std::size_t ax = 0; ax < 2; ++ax) {
-    P.spike_sign[ax].resize(n);
-    P.spike_dt_s[ax].resize(n);
+    new (&P.spike_sign[ax]) VecMap(take(nu), n);
+    new (&P.spike_dt_s[ax]) VecMap(take(nu), n);
   }
   for (Eigen::Index r = 0; r < n; ++r) {
     const std::size_t i = P.index[static_cast<std::size_t>(r)];
-    const Reversal& rv = rvs[static_cast<std::size_t>(r)];
+    const Reversal rv = rev.at(i);
     const double v = S.runs[S.run[i]].speed_mm_s;
     P.spike_sign[0][r] = -static_cast<double>(rv.dir_a) * S.c[i];
     P.spike_sign[1][r] = -static_cast<double>(rv.dir_b) * S.s[i];
@@ -561,18 +591,19 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   P.rss = P.e.squaredNorm();
   for (std::size_t ax = 0; ax < 2; ++ax) {
     Profile::SpikeRows& o = P.spike_rows[ax];
-    const Eigen::VectorXd& dt = P.spike_dt_s[ax];
+    const VecMap& dt = P.spike_dt_s[ax];
+    o.row.reserve(nu);
     for (Eigen::Index r = 0; r < n; ++r) {
       if (dt[r] >= 0) o.row.push_back(r);
     }
     std::stable_sort(o.row.begin(), o.row.end(),
                      [&](Eigen::Index a, Eigen::Index b) { return dt[a] < dt[b]; });
     const auto m = static_cast<Eigen::Index>(o.row.size());
-    o.sign.resize(m);
-    o.dt_s.resize(m);
-    o.e.resize(m);
-    o.J.resize(m, p);
-    advise_huge_pages(o.J.data(), static_cast<std::size_t>(o.J.size()) * sizeof(double));
+    const auto mu = static_cast<std::size_t>(m);
+    new (&o.sign) VecMap(take(mu), m);
+    new (&o.dt_s) VecMap(take(mu), m);
+    new (&o.e) VecMap(take(mu), m);
+    new (&o.J) MatMap(take(mu * pu), m, p);
     for (Eigen::Index k = 0; k < m; ++k) {
       const Eigen::Index r = o.row[static_cast<std::size_t>(k)];
       o.sign[k] = P.spike_sign[ax][r];
@@ -648,8 +679,8 @@ void profile_column(const Samples& S, const State& st, const Profile& P, const C
       return;
     }
     const double cut = 700.0 * tau;
-    const Eigen::VectorXd& sign = P.spike_sign[ax];
-    const Eigen::VectorXd& dt = P.spike_dt_s[ax];
+    const VecMap& sign = P.spike_sign[ax];
+    const VecMap& dt = P.spike_dt_s[ax];
     for (Eigen::Index r = 0; r < n; ++r) {
       out[r] = dt[r] < 0 || dt[r] > cut ? 0.0 : sign[r] * std::exp(-dt[r] / tau);
     }
