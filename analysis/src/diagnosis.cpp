@@ -48,6 +48,7 @@ enum class Kind {
 struct Column {
   Kind kind;
   int group = 0;  // feed group of a radius column
+  bool operator==(const Column&) const = default;
 };
 
 struct RunInfo {
@@ -101,6 +102,7 @@ struct State {
   // instrument sees it (its angle follows the other axis there), B at pi/2 + k pi - dir w dtau.
   double servo_mismatch_s = 0.0;
   double spike_h_a = 0.0, spike_h_b = 0.0;  // heights, for the decay derivatives
+  bool operator==(const State&) const = default;
 };
 
 double sgn(double v) {
@@ -148,6 +150,12 @@ struct Reversal {
   std::int8_t dir_a, dir_b;  // axis direction after it
 };
 
+// +1 for an even whole number, -1 for an odd one, as fmod(k, 2) == 0 tells (k / 2 is exact).
+double parity(double k) {
+  const double h = k * 0.5;
+  return std::floor(h) == h ? 1.0 : -1.0;
+}
+
 class Reversals {
  public:
   Reversals(const Samples& S, double servo_mismatch_s) : S_(&S), trig_(S.runs.size()) {
@@ -177,8 +185,7 @@ class Reversals {
     // As since(): the angle past the last reversal, ka (kb) half turns in.
     v.since_a = r.dir > 0 ? ((u - t.rev_a) / kPi - ka) * kPi : (ka - (u - t.rev_a) / kPi) * kPi;
     v.since_b = r.dir > 0 ? ((u - t.rev_b) / kPi - kb) * kPi : (kb - (u - t.rev_b) / kPi) * kPi;
-    const double pa = std::fmod(ka, 2.0) == 0.0 ? 1.0 : -1.0;
-    const double pb = std::fmod(kb, 2.0) == 0.0 ? 1.0 : -1.0;
+    const double pa = parity(ka), pb = parity(kb);
     v.trav_a = S.radius * (1.0 - pa * cos_a);
     v.trav_b = S.radius * (1.0 - pb * cos_b);
     // Axis direction after its last reversal: vA = -dir R w sin(theta), vB = dir R w cos
@@ -354,8 +361,27 @@ struct Normal {
   std::size_t n = 0;
 };
 
+// The last normal equations and what they were built for: the first step of a fit often asks
+// again for the ones the identifiability check just built.
+struct NormalMemo {
+  std::vector<Column> cols;
+  State st;
+  std::size_t stride = 0;
+  Normal N;
+};
+
+Normal accumulate_pass(const Samples& S, const State& st, const std::vector<Column>& cols,
+                       std::size_t stride);
+
 Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& cols,
-                  std::size_t stride) {
+                  std::size_t stride, std::optional<NormalMemo>& memo) {
+  if (memo && memo->stride == stride && memo->st == st && memo->cols == cols) return memo->N;
+  memo = NormalMemo{cols, st, stride, accumulate_pass(S, st, cols, stride)};
+  return memo->N;
+}
+
+Normal accumulate_pass(const Samples& S, const State& st, const std::vector<Column>& cols,
+                       std::size_t stride) {
   const Reversals rev(S, st.servo_mismatch_s);
   const auto p = static_cast<Eigen::Index>(cols.size());
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
@@ -1079,10 +1105,11 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       std::max<std::size_t>(1, (S.size() + options.max_fit_samples - 1) / options.max_fit_samples);
   const double vif_floor = 1.0 / options.max_variance_inflation;
 
+  std::optional<NormalMemo> memo;
   // Identifiability: forward selection on the normalised normal matrix.
   auto select = [&](const std::vector<Column>& in, std::vector<Column>& out,
                     std::vector<std::pair<Column, double>>& rejected) {
-    const Normal N = accumulate(S, st, in, stride);
+    const Normal N = accumulate(S, st, in, stride, memo);
     Eigen::VectorXd d = N.M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
     const Eigen::MatrixXd C = d.asDiagonal() * N.M * d.asDiagonal();
     std::vector<Eigen::Index> kept;
@@ -1127,7 +1154,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   Solution sol;
   auto fit = [&]() {
     for (int it = 0; it < 4; ++it) {
-      sol = solve(accumulate(S, st, cols, stride));
+      sol = solve(accumulate(S, st, cols, stride, memo));
       bool changed = false;
       if (auto j = find(cols, Kind::backlash_a)) {
         const double b = sol.x[static_cast<Eigen::Index>(*j)];
@@ -1416,7 +1443,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       s2.spike_h_b = D.spike_mm[1].value.value_or(0.0);
       std::vector<Column> aug = cols;
       aug.push_back({ax == 0 ? Kind::spike_tau_a : Kind::spike_tau_b});
-      const Normal N = accumulate(S, s2, aug, stride);
+      const Normal N = accumulate(S, s2, aug, stride, memo);
       const auto last = static_cast<Eigen::Index>(aug.size() - 1);
       const Solution a = solve(N);
       D.spike_ms[axs].standard_error =
