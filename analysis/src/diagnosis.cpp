@@ -15,7 +15,7 @@
 #include <type_traits>
 
 #include "circtest/core/error.hpp"
-#include "circtest/core/huge_pages.hpp"
+#include "circtest/core/memory.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 
