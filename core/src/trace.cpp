@@ -21,6 +21,9 @@
 #include <thread>
 #include <unordered_set>
 
+#include <boost/iterator/counting_iterator.hpp>
+#include <boost/iterator/transform_iterator.hpp>
+
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
@@ -108,9 +111,18 @@ class TraceParser {
     trace_.source = std::move(source);
   }
 
-  // A parser for a later stretch of the rows: the same header, no rows, line numbers counted
-  // from the stretch's start (append() shifts them).
-  TraceParser fork() const {
+  // Where a stretch's rows go when stretches are parsed side by side: rows [0, capacity) of
+  // pointers into columns made for the whole file (column k of the trace at columns[k]), and
+  // its lines numbered from line_base (the lines before the stretch).
+  struct Slots {
+    std::vector<double*> columns;
+    std::uint32_t* lines = nullptr;
+    std::size_t capacity = 0;
+    std::size_t line_base = 0;
+  };
+
+  // A parser for a stretch of the rows: the same header, rows written into `slots`.
+  TraceParser fork(Slots slots) const {
     TraceParser p(trace_.source, options_);
     p.trace_.columns = trace_.columns;
     p.trace_.values.assign(trace_.values.size(), {});
@@ -123,6 +135,8 @@ class TraceParser {
     p.time_field_ = time_field_;
     p.row_values_.assign(field_count_, 0.0);
     p.first_line_ = false;
+    p.slots_ = std::move(slots);
+    p.in_slots_ = true;
     return p;
   }
 
@@ -175,35 +189,17 @@ class TraceParser {
     line_no_ = 0;  // each text counts its own lines
   }
 
-  // Appends the rows and metadata of the next stretch, parsed by a fork(). False when time
-  // goes backwards across the seam (the caller re-reads to report it where it happens).
-  bool append(TraceParser&& next) {
+  // Takes the metadata lines and the line count of a stretch parsed by a fork(); its rows are
+  // already in the columns (the caller sizes them).
+  void absorb(const TraceParser& stretch) {
     const std::size_t offset = line_no_;
-    if (time_column_ && next.rows() > 0 && rows() > 0) {
-      const auto& t = trace_.values[*time_column_];
-      if (next.trace_.values[*time_column_].front() < t.back()) {
-        return false;
-      }
-    }
-    for (std::size_t c = 0; c < trace_.values.size(); ++c) {
-      auto& dst = trace_.values[c];
-      const auto& src = next.trace_.values[c];
-      dst.insert(dst.end(), src.begin(), src.end());
-    }
-    auto& lines = trace_.line_of_row;
-    const std::size_t at = lines.size();
-    lines.insert(lines.end(), next.trace_.line_of_row.begin(), next.trace_.line_of_row.end());
-    for (std::size_t i = at; i < lines.size(); ++i) {
-      lines[i] += static_cast<std::uint32_t>(offset);
-    }
-    const auto& entries = next.trace_.metadata.entries();
+    const auto& entries = stretch.trace_.metadata.entries();
     for (std::size_t i = 0; i < entries.size(); ++i) {
       trace_.metadata.set(entries[i].first, entries[i].second);
       trace_.metadata.set_line(trace_.metadata.entries().size() - 1,
-                               next.trace_.metadata.line_at(i) + offset);
+                               stretch.trace_.metadata.line_at(i) + offset);
     }
-    line_no_ += next.line_no_;
-    return true;
+    line_no_ += stretch.line_no_;
   }
 
   Trace finish() {
@@ -216,7 +212,7 @@ class TraceParser {
     return std::move(trace_);
   }
 
-  std::size_t rows() const { return trace_.line_of_row.size(); }
+  std::size_t rows() const { return in_slots_ ? slot_rows_ : trace_.line_of_row.size(); }
 
  private:
   [[noreturn]] void fail(const std::string& message) const {
@@ -357,19 +353,46 @@ class TraceParser {
       row_values_[f] = v;
     }
     if (time_field_) {
-      const auto& t = trace_.values[*time_column_];
-      if (!t.empty() && row_values_[*time_field_] < t.back()) {
-        return row_checked(text);
-      }
+      const double* t = last_value(*time_column_);
+      if (t && row_values_[*time_field_] < *t) return row_checked(text);
     }
+    begin_row();
     for (std::size_t f = 0; f <= last; ++f) {
-      if (target_[f] >= 0)
-        trace_.values[static_cast<std::size_t>(target_[f])].push_back(row_values_[f]);
+      if (target_[f] >= 0) put(static_cast<std::size_t>(target_[f]), row_values_[f]);
     }
-    trace_.line_of_row.push_back(static_cast<std::uint32_t>(line_no_));
+    end_row(line_no_);
+  }
+
+  // A row's values go to the trace's columns, or to the slots of a stretch parsed in place.
+  void begin_row() const {
+    // Rows never outnumber the stretch's lines, which set its capacity.
+    if (in_slots_ && slot_rows_ >= slots_.capacity) {
+      throw Error(ExitCode::internal, trace_.source + ": more rows than lines in a stretch");
+    }
+  }
+  void put(std::size_t column, double v) {
+    if (in_slots_) {
+      slots_.columns[column][slot_rows_] = v;
+    } else {
+      trace_.values[column].push_back(v);
+    }
+  }
+  void end_row(std::size_t line) {
+    if (in_slots_) {
+      slots_.lines[slot_rows_++] = static_cast<std::uint32_t>(line + slots_.line_base);
+    } else {
+      trace_.line_of_row.push_back(static_cast<std::uint32_t>(line));
+    }
+  }
+  // The column's value in the last complete row; none before the first.
+  const double* last_value(std::size_t column) const {
+    if (in_slots_) return slot_rows_ ? &slots_.columns[column][slot_rows_ - 1] : nullptr;
+    const auto& v = trace_.values[column];
+    return v.empty() ? nullptr : &v.back();
   }
 
   void row_checked(std::string_view text) {
+    begin_row();
     const char* p = text.data();
     const char* end = p + text.size();
     std::size_t field = 0;
@@ -392,7 +415,7 @@ class TraceParser {
       }
       if (field != field_count_) wrong_count(field);
     }
-    trace_.line_of_row.push_back(static_cast<std::uint32_t>(line_no_));
+    end_row(line_no_);
   }
 
   static std::size_t count_fields(std::string_view text) {
@@ -418,15 +441,17 @@ class TraceParser {
       fail(fmt::format("column '{}': expected a finite number, got '{}'", header_names_[field],
                        text.empty() ? fmt::format("{}", v) : shorten(trim(text))));
     }
-    const int col = target_[field];
-    auto& dst = trace_.values[static_cast<std::size_t>(col)];
-    if (static_cast<std::size_t>(col) == time_column_ && !dst.empty() && v < dst.back()) {
-      throw DataError(trace_.source, binary_ ? 0 : line_no_,
-                      fmt::format("{}time goes backwards: t = {} after t = {}; expected "
-                                  "non-decreasing time",
-                                  record_prefix(), v, dst.back()));
+    const auto col = static_cast<std::size_t>(target_[field]);
+    if (col == time_column_) {
+      const double* before = last_value(col);
+      if (before && v < *before) {
+        throw DataError(trace_.source, binary_ ? 0 : line_no_,
+                        fmt::format("{}time goes backwards: t = {} after t = {}; expected "
+                                    "non-decreasing time",
+                                    record_prefix(), v, *before));
+      }
     }
-    dst.push_back(v);
+    put(col, v);
   }
 
  public:
@@ -440,7 +465,7 @@ class TraceParser {
       for (std::size_t i = 0; i < field_count_; ++i) {
         if (target_[i] >= 0) store_value(i, row[i], {});
       }
-      trace_.line_of_row.push_back(static_cast<std::uint32_t>(record_));
+      end_row(record_);
     }
   }
   Trace& trace() { return trace_; }
@@ -471,6 +496,9 @@ class TraceParser {
   std::size_t reserve_hint_ = 0;
   bool binary_ = false;
   std::size_t record_ = 0;
+  Slots slots_;  // with in_slots_: a stretch parsed in place (fork())
+  bool in_slots_ = false;
+  std::size_t slot_rows_ = 0;
 };
 
 constexpr char kBinaryMagic[8] = {'C', 'T', 'R', 'A', 'C', 'E', 'B', '1'};
@@ -572,36 +600,95 @@ Trace parse_text(std::string_view text, const std::string& source, const TraceRe
   }
   bounds.push_back(rows.size());
   const std::size_t parts = bounds.size() - 1;
-  std::vector<TraceParser> rest;
-  rest.reserve(parts - 1);
-  for (std::size_t k = 1; k < parts; ++k) rest.push_back(parser.fork());
-  std::vector<std::exception_ptr> errors(parts);
-  auto work = [&](std::size_t k) {
+  auto stretch = [&](std::size_t k) { return rows.substr(bounds[k], bounds[k + 1] - bounds[k]); };
+  // Runs fn(0) .. fn(parts - 1) side by side; false when no thread could be had.
+  auto side_by_side = [&](const auto& fn) {
+    std::vector<std::thread> threads;
     try {
-      TraceParser& p = k == 0 ? parser : rest[k - 1];
-      const std::string_view part = rows.substr(bounds[k], bounds[k + 1] - bounds[k]);
-      // The first stretch keeps its rows and the others are appended to it: room for all.
-      p.reserve_rows(k == 0 ? estimate : estimate_rows(part));
-      feed_text(p, part, mapped);
-    } catch (...) {
-      errors[k] = std::current_exception();
+      for (std::size_t k = 1; k < parts; ++k) threads.emplace_back(fn, k);
+    } catch (const std::system_error&) {
+      for (auto& t : threads) t.join();
+      return false;
     }
-  };
-  std::vector<std::thread> threads;
-  try {
-    for (std::size_t k = 1; k < parts; ++k) threads.emplace_back(work, k);
-  } catch (const std::system_error&) {
+    fn(0);
     for (auto& t : threads) t.join();
+    return true;
+  };
+
+  // Each stretch's rows are written in place into columns sized for the whole file: at most a
+  // row per line, so the lines are counted first. No copy of the rows afterwards but to close
+  // the gaps comment and blank lines leave (round 4's stretches parsed into their own columns
+  // and appended them, which made two threads slower than one).
+  std::vector<std::size_t> lines(parts);
+  if (!side_by_side([&](std::size_t k) {
+        const std::string_view part = stretch(k);
+        lines[k] = static_cast<std::size_t>(std::count(part.begin(), part.end(), '\n')) +
+                   (!part.empty() && part.back() != '\n' ? 1 : 0);
+      })) {
     return sequential();  // no threads to be had: read it alone
   }
-  work(0);
-  for (auto& t : threads) t.join();
+  std::vector<std::size_t> first_row(parts + 1, 0);
+  for (std::size_t k = 0; k < parts; ++k) first_row[k + 1] = first_row[k] + lines[k];
+  const std::size_t room = first_row[parts];
+  Trace& trace = parser.trace();
+  // The zero fill of each column is its first touch: shared out among the threads too.
+  const std::size_t ncols = trace.values.size();
+  if (!side_by_side([&](std::size_t k) {
+        for (std::size_t c = k; c <= ncols; c += parts) {
+          if (c == ncols) {
+            trace.line_of_row.resize(room);
+          } else {
+            trace.values[c].resize(room);
+          }
+        }
+      })) {
+    return sequential();
+  }
+  std::vector<TraceParser> parsers;
+  parsers.reserve(parts);
+  for (std::size_t k = 0; k < parts; ++k) {
+    TraceParser::Slots slots;
+    for (auto& column : trace.values) slots.columns.push_back(column.data() + first_row[k]);
+    slots.lines = trace.line_of_row.data() + first_row[k];
+    slots.capacity = lines[k];
+    slots.line_base = parser.lines() + first_row[k];
+    parsers.push_back(parser.fork(std::move(slots)));
+  }
+  std::vector<std::exception_ptr> errors(parts);
+  if (!side_by_side([&](std::size_t k) {
+        try {
+          feed_text(parsers[k], stretch(k), mapped);
+        } catch (...) {
+          errors[k] = std::current_exception();
+        }
+      })) {
+    return sequential();
+  }
+  // Any error, or time going back across a seam: again in one pass, which reports the first
+  // problem in file order with its line, exactly as one thread does.
   for (const auto& e : errors) {
     if (e) return sequential();
   }
-  for (auto& p : rest) {
-    if (!parser.append(std::move(p))) return sequential();
+  std::size_t kept = 0;
+  const std::optional<std::size_t> time_column = parser.time_column();
+  for (std::size_t k = 0; k < parts; ++k) {
+    const std::size_t n = parsers[k].rows();
+    if (n > 0 && kept > 0 && time_column) {
+      const auto& t = trace.values[*time_column];
+      if (t[first_row[k]] < t[kept - 1]) return sequential();
+    }
+    if (kept != first_row[k] && n > 0) {
+      for (auto& column : trace.values) {
+        std::memmove(column.data() + kept, column.data() + first_row[k], n * sizeof(double));
+      }
+      std::memmove(trace.line_of_row.data() + kept, trace.line_of_row.data() + first_row[k],
+                   n * sizeof(std::uint32_t));
+    }
+    kept += n;
+    parser.absorb(parsers[k]);
   }
+  for (auto& column : trace.values) column.resize(kept);
+  trace.line_of_row.resize(kept);
   return parser.finish();
 }
 
@@ -629,104 +716,20 @@ std::size_t binary_block_rows(std::size_t width, std::size_t rows) {
   return std::max<std::size_t>(1, std::min(fit, rows));
 }
 
-// One field of consecutive binary rows, as a random-access range: vector::insert() then
-// copies it into reserved room without first zeroing the column (resize() wrote every column
-// twice). Values are read with memcpy: rows start at any byte offset of the file.
-class FieldIterator {
- public:
-  using iterator_category = std::random_access_iterator_tag;
-  using value_type = double;
-  using difference_type = std::ptrdiff_t;
-  using pointer = const double*;
-  using reference = double;
-  FieldIterator() = default;
-  FieldIterator(const char* at, std::size_t stride) : at_(at), stride_(stride) {}
-  double operator*() const {
+// Field `field` of rows [0, n) of a block of binary rows `stride` bytes apart, as a
+// random-access range: vector::insert() then copies it into reserved room without first
+// zeroing the column (resize() wrote every column twice). Values are read with memcpy: rows
+// start at any byte offset of the file.
+auto field_range(const char* block, std::size_t field, std::size_t stride, std::size_t n) {
+  const auto read = [at = block + field * sizeof(double), stride](std::size_t row) {
     double v;
-    std::memcpy(&v, at_, sizeof v);
+    std::memcpy(&v, at + row * stride, sizeof v);
     return v;
-  }
-  double operator[](difference_type i) const { return *(*this + i); }
-  FieldIterator& operator++() {
-    at_ += stride_;
-    return *this;
-  }
-  FieldIterator operator++(int) {
-    FieldIterator old = *this;
-    at_ += stride_;
-    return old;
-  }
-  FieldIterator& operator--() {
-    at_ -= stride_;
-    return *this;
-  }
-  FieldIterator operator--(int) {
-    FieldIterator old = *this;
-    at_ -= stride_;
-    return old;
-  }
-  FieldIterator& operator+=(difference_type n) {
-    at_ += n * static_cast<difference_type>(stride_);
-    return *this;
-  }
-  FieldIterator& operator-=(difference_type n) { return *this += -n; }
-  friend FieldIterator operator+(FieldIterator it, difference_type n) { return it += n; }
-  friend FieldIterator operator+(difference_type n, FieldIterator it) { return it += n; }
-  friend FieldIterator operator-(FieldIterator it, difference_type n) { return it -= n; }
-  friend difference_type operator-(const FieldIterator& a, const FieldIterator& b) {
-    return (a.at_ - b.at_) / static_cast<difference_type>(a.stride_);
-  }
-  friend bool operator==(const FieldIterator& a, const FieldIterator& b) { return a.at_ == b.at_; }
-  friend auto operator<=>(const FieldIterator& a, const FieldIterator& b) {
-    return a.at_ <=> b.at_;
-  }
-
- private:
-  const char* at_ = nullptr;
-  std::size_t stride_ = 0;
-};
-
-// 1, 2, 3, ...: the record numbers, inserted the same way.
-class CountIterator {
- public:
-  using iterator_category = std::random_access_iterator_tag;
-  using value_type = std::uint32_t;
-  using difference_type = std::ptrdiff_t;
-  using pointer = const std::uint32_t*;
-  using reference = std::uint32_t;
-  CountIterator() = default;
-  explicit CountIterator(std::uint32_t n) : n_(n) {}
-  std::uint32_t operator*() const { return n_; }
-  std::uint32_t operator[](difference_type i) const {
-    return static_cast<std::uint32_t>(n_ + static_cast<std::uint32_t>(i));
-  }
-  CountIterator& operator++() {
-    ++n_;
-    return *this;
-  }
-  CountIterator operator++(int) { return CountIterator(n_++); }
-  CountIterator& operator--() {
-    --n_;
-    return *this;
-  }
-  CountIterator operator--(int) { return CountIterator(n_--); }
-  CountIterator& operator+=(difference_type n) {
-    n_ = static_cast<std::uint32_t>(static_cast<difference_type>(n_) + n);
-    return *this;
-  }
-  CountIterator& operator-=(difference_type n) { return *this += -n; }
-  friend CountIterator operator+(CountIterator it, difference_type n) { return it += n; }
-  friend CountIterator operator+(difference_type n, CountIterator it) { return it += n; }
-  friend CountIterator operator-(CountIterator it, difference_type n) { return it -= n; }
-  friend difference_type operator-(const CountIterator& a, const CountIterator& b) {
-    return static_cast<difference_type>(a.n_) - static_cast<difference_type>(b.n_);
-  }
-  friend bool operator==(const CountIterator& a, const CountIterator& b) { return a.n_ == b.n_; }
-  friend auto operator<=>(const CountIterator& a, const CountIterator& b) { return a.n_ <=> b.n_; }
-
- private:
-  std::uint32_t n_ = 0;
-};
+  };
+  const boost::counting_iterator<std::size_t> first(0), last(n);
+  return std::pair(boost::make_transform_iterator(first, read),
+                   boost::make_transform_iterator(last, read));
+}
 
 // The rows of a binary trace (mapped at `data`) straight into the columns, the columns shared
 // out among the workers; each worker walks the rows in blocks that stay in cache while it
@@ -768,14 +771,15 @@ bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::s
       const char* at = block.data();
       for (const std::size_t f : mine) {
         if (f == width) {
-          const auto first = static_cast<std::uint32_t>(r + 1);
-          trace.line_of_row.insert(trace.line_of_row.end(), CountIterator(first),
-                                   CountIterator(first) + static_cast<std::ptrdiff_t>(n));
+          // The record numbers r + 1, r + 2, ...
+          const boost::counting_iterator<std::uint32_t> first(static_cast<std::uint32_t>(r + 1));
+          trace.line_of_row.insert(trace.line_of_row.end(), first,
+                                   first + static_cast<std::ptrdiff_t>(n));
           continue;
         }
-        const FieldIterator from(at + f * sizeof(double), stride);
+        const auto [from, to] = field_range(at, f, stride, n);
         auto& dst = trace.values[static_cast<std::size_t>(targets[f])];
-        dst.insert(dst.end(), from, from + static_cast<std::ptrdiff_t>(n));
+        dst.insert(dst.end(), from, to);
       }
     }
     bool good = true;

@@ -65,10 +65,9 @@ struct TraceReadOptions {
   // When the trace has a `t` column: reject time going backwards (DataError at that row).
   bool check_time_monotonic = true;
   // A text trace of at least this many bytes is parsed in stretches on `threads` threads
-  // (0: one per idle core); results and errors are the same as with one thread. One by
-  // default: on the project's 2-core VM, idle, two stretches took 0.43-0.51 s wall against
-  // 0.25 s for one thread (1e6-row CSV; the page faults of two threads' fresh columns).
-  unsigned threads = 1;
+  // (0: one per idle core), each writing its rows in place into the columns; results and
+  // errors are the same as with one thread.
+  unsigned threads = 0;
   std::size_t parallel_min_bytes = std::size_t{4} << 20;
 };
 
