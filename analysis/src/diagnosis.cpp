@@ -5,17 +5,16 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <complex>
 #include <memory>
 #include <numbers>
 #include <numeric>
-#include <thread>
 #include <type_traits>
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/memory.hpp"
+#include "circtest/core/parallel.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 
@@ -114,25 +113,12 @@ double sgn(double v) {
 // number of threads.
 constexpr std::size_t kBlockSamples = 16384;
 
-unsigned worker_count() {
-  static const unsigned n = std::clamp(std::thread::hardware_concurrency(), 1u, 8u);
-  return n;
-}
-
-// fn(lo, hi, block) for every block [lo, hi) of [0, n); fn must not throw.
+// fn(lo, hi, block) for every block [lo, hi) of [0, n), on up to 8 threads. A block's
+// exception (an allocation that failed) reaches the caller, the first in block order.
 template <class F>
 void for_blocks(std::size_t n, F&& fn) {
-  const std::size_t nblocks = (n + kBlockSamples - 1) / kBlockSamples;
-  const auto threads = static_cast<unsigned>(std::min<std::size_t>(worker_count(), nblocks));
-  std::atomic<std::size_t> next{0};
-  auto work = [&]() noexcept {
-    for (std::size_t b = next++; b < nblocks; b = next++)
-      fn(b * kBlockSamples, std::min(n, (b + 1) * kBlockSamples), b);
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
+  static const unsigned threads = thread_count(ThreadCountRequest{.max_threads = 8});
+  circtest::for_blocks(n, kBlockSamples, threads, std::forward<F>(fn));
 }
 
 // The reversal bookkeeping depends on the state only through the lag mismatch. It is worked

@@ -3,19 +3,15 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
-#include <functional>
 #include <numbers>
 #include <numeric>
-#include <system_error>
-#include <thread>
 
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/remedy.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/parallel.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 
@@ -265,48 +261,6 @@ std::vector<std::size_t> hysteresis_pairs(const std::vector<Run>& runs) {
 // thread costs more than it saves (and the fuzzers stay single-threaded).
 constexpr std::size_t kParallelMinSamples = std::size_t{1} << 16;
 
-unsigned thread_count(unsigned asked, std::size_t samples) {
-  if (asked == 1 || samples < kParallelMinSamples) return 1;
-  const unsigned cores = std::clamp(std::thread::hardware_concurrency(), 1u, 64u);
-  return asked == 0 ? cores : std::min(asked, cores);
-}
-
-// Calls task(0) .. task(n - 1), each once, on up to `threads` threads (this one included).
-// Each task's exception is kept in errors[i], so the caller reports the first in task order,
-// as one thread would have.
-void run_tasks(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& task,
-               std::vector<std::exception_ptr>& errors) {
-  errors.assign(n, nullptr);
-  // No task, no thread: with n = 0 the count of extra threads below would wrap around (a trace
-  // without an H pair started threads until the system refused; fuzz_analyze found it).
-  if (n == 0) return;
-  std::atomic<std::size_t> next{0};
-  auto drain = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < n;) {
-      try {
-        task(i);
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  const std::size_t extra = std::min<std::size_t>(std::max(threads, 1u), n) - 1;
-  try {
-    for (std::size_t k = 0; k < extra; ++k) pool.emplace_back(drain);
-  } catch (const std::system_error&) {
-    // No more threads to be had: the ones started and this one share the rest.
-  }
-  drain();
-  for (auto& t : pool) t.join();
-}
-
-void rethrow_first(const std::vector<std::exception_ptr>& errors) {
-  for (const auto& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
-}
-
 }  // namespace
 
 Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
@@ -333,53 +287,46 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   const std::vector<std::size_t> pairs = hysteresis_pairs(runs);
   std::size_t samples = 0;
   for (const Run& run : runs) samples += run.size();
-  const unsigned threads = thread_count(options.threads, samples);
+  const unsigned threads = thread_count(ThreadCountRequest{
+      .asked = options.threads, .work = samples, .min_work = kParallelMinSamples});
   const auto& col_a = trace.values[ev.columns.a];
   const auto& col_b = trace.values[ev.columns.b];
 
   std::vector<RunResult> results(runs.size());
   std::vector<std::vector<std::string>> run_notes(runs.size());
   std::vector<Circle> common(pairs.size());
-  std::vector<std::exception_ptr> errors;
-  run_tasks(
-      runs.size() + pairs.size(), threads,
-      [&](std::size_t k) {
-        if (k >= runs.size()) {  // H's circle: the LSC of both runs together
-          const Run& r1 = runs[pairs[k - runs.size()]];
-          const Run& r2 = runs[pairs[k - runs.size()] + 1];
-          const std::size_t first = pairs[k - runs.size()];
-          // Each run's own fit passed, so this one refuses only what a joint fit adds (none known).
-          common[k - runs.size()] = with_rows_context(
-              trace, r1.begin, r2.end,
-              fmt::format("common circle of runs {} and {} (H)", first + 1, first + 2), [&] {
-                return fit_lsc(slice(col_a, r1), slice(col_b, r1), slice(col_a, r2),
-                               slice(col_b, r2));
-              });
-          return;
-        }
-        const Run& run = runs[k];
-        const std::size_t number = k + 1;
-        std::vector<std::string>& notes = run_notes[k];
-        if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
-          notes.push_back(*note);
-        }
-        RunResult rr =
-            with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
-              return evaluate_run(trace, ev, number, run, options.f_centre,
-                                  options.input_checks.remedy_words, notes);
-            });
-        if (ev.nominal_radius_mm) {
-          if (auto note = check_nominal_radius(
-                  trace, number, run, rr.lsc.radius_mm * ev.temperature_factor,
-                  *ev.nominal_radius_mm, std::string(value_source_name(ev.nominal_radius_source)),
-                  options.input_checks)) {
-            notes.push_back(*note);
-          }
-        }
-        results[k] = std::move(rr);
-      },
-      errors);
-  rethrow_first(errors);
+  run_tasks(runs.size() + pairs.size(), threads, [&](std::size_t k) {
+    if (k >= runs.size()) {  // H's circle: the LSC of both runs together
+      const Run& r1 = runs[pairs[k - runs.size()]];
+      const Run& r2 = runs[pairs[k - runs.size()] + 1];
+      const std::size_t first = pairs[k - runs.size()];
+      // Each run's own fit passed, so this one refuses only what a joint fit adds (none known).
+      common[k - runs.size()] = with_rows_context(
+          trace, r1.begin, r2.end,
+          fmt::format("common circle of runs {} and {} (H)", first + 1, first + 2), [&] {
+            return fit_lsc(slice(col_a, r1), slice(col_b, r1), slice(col_a, r2), slice(col_b, r2));
+          });
+      return;
+    }
+    const Run& run = runs[k];
+    const std::size_t number = k + 1;
+    std::vector<std::string>& notes = run_notes[k];
+    if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
+      notes.push_back(*note);
+    }
+    RunResult rr = with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
+      return evaluate_run(trace, ev, number, run, options.f_centre,
+                          options.input_checks.remedy_words, notes);
+    });
+    if (ev.nominal_radius_mm) {
+      if (auto note = check_nominal_radius(
+              trace, number, run, rr.lsc.radius_mm * ev.temperature_factor, *ev.nominal_radius_mm,
+              std::string(value_source_name(ev.nominal_radius_source)), options.input_checks)) {
+        notes.push_back(*note);
+      }
+    }
+    results[k] = std::move(rr);
+  });
   for (std::size_t k = 0; k < runs.size(); ++k) {
     ev.notes.insert(ev.notes.end(), run_notes[k].begin(), run_notes[k].end());
     ev.runs.push_back(std::move(results[k]));
@@ -387,16 +334,12 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
 
   // Clause 5: H of each pair, both runs' radii about their common centre.
   std::vector<detail::RadialProfile> profiles(2 * pairs.size());
-  run_tasks(
-      profiles.size(), threads,
-      [&](std::size_t k) {
-        const Run& run = runs[pairs[k / 2] + k % 2];
-        const Circle& c = common[k / 2];
-        profiles[k] = detail::radial_profile(slice(col_a, run), slice(col_b, run),
-                                             PlanePoint{c.centre_a_mm, c.centre_b_mm});
-      },
-      errors);
-  rethrow_first(errors);
+  run_tasks(profiles.size(), threads, [&](std::size_t k) {
+    const Run& run = runs[pairs[k / 2] + k % 2];
+    const Circle& c = common[k / 2];
+    profiles[k] = detail::radial_profile(slice(col_a, run), slice(col_b, run),
+                                         PlanePoint{c.centre_a_mm, c.centre_b_mm});
+  });
   for (std::size_t p = 0; p < pairs.size(); ++p) {
     const std::size_t first = pairs[p];
     HysteresisResult h;
