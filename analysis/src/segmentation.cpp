@@ -309,7 +309,8 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
         continue;
       }
       std::size_t j = i + 1;
-      while (j < n && (*marker)[j] >= 0.5 && seg_id(j) == seg_id(i)) ++j;
+      const long id = seg_id(i);
+      while (j < n && (*marker)[j] >= 0.5 && seg_id(j) == id) ++j;
       spans.push_back({i, j});
       i = j;
     }
@@ -322,7 +323,8 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
         continue;
       }
       std::size_t j = i + 1;
-      while (j < n && seg_id(j) == seg_id(i)) ++j;
+      const long id = seg_id(i);
+      while (j < n && seg_id(j) == id) ++j;
       spans.push_back({i, j});
       i = j;
     }

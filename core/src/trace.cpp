@@ -731,90 +731,94 @@ auto field_range(const char* block, std::size_t field, std::size_t stride, std::
                    boost::make_transform_iterator(last, read));
 }
 
-// The rows of a binary trace (mapped at `data`) straight into the columns, the columns shared
-// out among the workers; each worker walks the rows in blocks that stay in cache while it
-// copies its columns out of them. False if a value is not finite or time goes back; nothing
-// is reported here (see binary_rows()).
+// The rows of a binary trace straight into the columns. The rows are shared out among the
+// workers, each reading its own part of the file once in blocks that stay in cache while it
+// copies every column out of them (sharing out columns instead made every worker read the
+// whole file). False if a value is not finite or time goes back; nothing is reported here
+// (see binary_rows()).
 bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::size_t rows,
                       const TraceReadOptions& options, const std::string& path) {
   Trace& trace = parser.trace();
   const std::size_t width = parser.field_count();
   const std::size_t stride = width * sizeof(double);
   const auto& targets = parser.targets();
-  std::vector<std::size_t> kept;  // fields in column order, then the record numbers (width)
+  std::vector<std::pair<std::size_t, std::size_t>> kept;  // (field, column)
   for (std::size_t f = 0; f < width; ++f) {
-    if (targets[f] >= 0) kept.push_back(f);
+    if (targets[f] >= 0) kept.emplace_back(f, static_cast<std::size_t>(targets[f]));
   }
-  kept.push_back(width);
-  const unsigned workers = static_cast<unsigned>(
-      std::min<std::size_t>(worker_count(options, rows * stride), kept.size()));
-  std::vector<char> ok(workers, 1);
+  const std::size_t columns = trace.values.size();
+  const auto workers = static_cast<unsigned>(std::clamp<std::size_t>(
+      std::min<std::size_t>(worker_count(options, rows * stride), rows / 4096), 1, 64));
   const std::optional<std::size_t> time_column = parser.time_column();
-  auto work = [&](unsigned w) {
-    std::vector<std::size_t> mine;
-    for (std::size_t k = w; k < kept.size(); k += workers) {
-      const std::size_t f = kept[k];
-      if (f == width) {
-        reserve_huge(trace.line_of_row, rows);
-      } else {
-        reserve_huge(trace.values[static_cast<std::size_t>(targets[f])], rows);
+  auto first_row = [&](unsigned w) { return rows / workers * w; };
+  std::vector<char> ok(workers, 1);
+  std::vector<std::exception_ptr> errors(workers);
+  auto side_by_side = [&](const auto& fn) {
+    auto run = [&](unsigned w) {
+      try {
+        fn(w);
+      } catch (...) {
+        errors[w] = std::current_exception();
       }
-      mine.push_back(f);
+    };
+    std::vector<std::thread> threads;
+    try {
+      for (unsigned w = 1; w < workers; ++w) threads.emplace_back(run, w);
+    } catch (const std::system_error&) {
+      for (unsigned w = static_cast<unsigned>(threads.size()) + 1; w < workers; ++w) run(w);
     }
+    run(0);
+    for (auto& t : threads) t.join();
+    for (const auto& e : errors) {
+      if (e) std::rethrow_exception(e);
+    }
+  };
+  // Each column's zero fill is its first touch: shared out too.
+  side_by_side([&](unsigned w) {
+    for (std::size_t c = w; c <= columns; c += workers) {
+      if (c == columns) {
+        trace.line_of_row.resize(rows);
+      } else {
+        trace.values[c].resize(rows);
+      }
+    }
+  });
+  side_by_side([&](unsigned w) {
+    const std::size_t lo = first_row(w), hi = w + 1 == workers ? rows : first_row(w + 1);
     const std::size_t block_rows = binary_block_rows(width, rows) / 4 + 1;  // ~256 KiB
     std::vector<char> block(block_rows * stride);
-    for (std::size_t r = 0; r < rows; r += block_rows) {
-      const std::size_t n = std::min(block_rows, rows - r);
+    bool good = true;
+    for (std::size_t r = lo; r < hi; r += block_rows) {
+      const std::size_t n = std::min(block_rows, hi - r);
       if (read_exact(fd, block.data(), n * stride, rows_at + r * stride, path) != n * stride) {
         throw IoError(path, "binary trace shrank while being read");
       }
-      const char* at = block.data();
-      for (const std::size_t f : mine) {
-        if (f == width) {
-          // The record numbers r + 1, r + 2, ...
-          const boost::counting_iterator<std::uint32_t> first(static_cast<std::uint32_t>(r + 1));
-          trace.line_of_row.insert(trace.line_of_row.end(), first,
-                                   first + static_cast<std::ptrdiff_t>(n));
-          continue;
-        }
-        const auto [from, to] = field_range(at, f, stride, n);
-        auto& dst = trace.values[static_cast<std::size_t>(targets[f])];
-        dst.insert(dst.end(), from, to);
+      for (const auto& [f, c] : kept) {
+        const auto [from, to] = field_range(block.data(), f, stride, n);
+        double* dst = trace.values[c].data() + r;
+        std::copy(from, to, dst);
+        bool finite = true;
+        for (std::size_t i = 0; i < n; ++i) finite &= std::isfinite(dst[i]);
+        good &= finite;
       }
+      // The record numbers r + 1, r + 2, ...
+      const boost::counting_iterator<std::uint32_t> one(static_cast<std::uint32_t>(r + 1));
+      std::copy(one, one + static_cast<std::ptrdiff_t>(n), trace.line_of_row.data() + r);
     }
-    bool good = true;
-    for (const std::size_t f : mine) {
-      if (f == width) continue;
-      const int c = targets[f];
-      const double* v = trace.values[static_cast<std::size_t>(c)].data();
-      bool finite = true;
-      for (std::size_t i = 0; i < rows; ++i) finite &= std::isfinite(v[i]);
+    if (time_column) {
+      const double* t = trace.values[*time_column].data();
       bool forward = true;
-      if (time_column && static_cast<std::size_t>(c) == *time_column) {
-        for (std::size_t i = 1; i < rows; ++i) forward &= !(v[i] < v[i - 1]);
-      }
-      good = good && finite && forward;
+      for (std::size_t i = lo + 1; i < hi; ++i) forward &= !(t[i] < t[i - 1]);
+      good &= forward;
     }
     ok[w] = good;
-  };
-  std::vector<std::exception_ptr> errors(workers);
-  auto run = [&](unsigned w) {
-    try {
-      work(w);
-    } catch (...) {
-      errors[w] = std::current_exception();
+  });
+  // Time across the seams between the workers' rows.
+  for (unsigned w = 1; w < workers && time_column; ++w) {
+    const double* t = trace.values[*time_column].data();
+    if (first_row(w) > 0 && first_row(w) < rows && t[first_row(w)] < t[first_row(w) - 1]) {
+      return false;
     }
-  };
-  std::vector<std::thread> threads;
-  try {
-    for (unsigned w = 1; w < workers; ++w) threads.emplace_back(run, w);
-  } catch (const std::system_error&) {
-    for (unsigned w = static_cast<unsigned>(threads.size()) + 1; w < workers; ++w) run(w);
-  }
-  run(0);
-  for (auto& t : threads) t.join();
-  for (const auto& e : errors) {
-    if (e) std::rethrow_exception(e);
   }
   return std::all_of(ok.begin(), ok.end(), [](char g) { return g != 0; });
 }

@@ -653,6 +653,23 @@ TEST(BinaryTrace, BulkAndRecordByRecordReadsAgree) {
     }
   }
   rows[41000].first = 41.0;
+  // Time back exactly where the rows are shared out (2 workers: row 25000; 3: 16666, 33332).
+  for (const int seam : {16666, 25000, 33332}) {
+    auto back = rows;
+    back[static_cast<std::size_t>(seam)].first = 0.0;
+    const std::string p3 = write_binary(dir, back);
+    for (unsigned n : {1u, 2u, 3u}) {
+      try {
+        read_trace(p3, threads(n));
+        FAIL() << seam << " " << n;
+      } catch (const DataError& e) {
+        EXPECT_EQ(std::string(e.what()),
+                  fmt::format("{}: record {}: time goes backwards: t = 0 after t = {}; expected "
+                              "non-decreasing time",
+                              p3, seam + 1, (seam - 1) * 1e-3));
+      }
+    }
+  }
   const Trace t = read_trace(write_binary(dir, rows), threads(3));
   ASSERT_EQ(t.rows(), 50000u);
   EXPECT_EQ((*t.column("t"))[49999], 49999 * 1e-3);
