@@ -18,7 +18,6 @@
 #include <iterator>
 #include <string>
 #include <system_error>
-#include <thread>
 #include <unordered_set>
 
 #include <boost/iterator/counting_iterator.hpp>
@@ -29,6 +28,7 @@
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/memory.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/parallel.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "input_lines.hpp"
@@ -552,15 +552,15 @@ std::size_t estimate_rows(std::string_view data) {
 }
 
 unsigned worker_count(const TraceReadOptions& options, std::size_t bytes) {
-  if (bytes < options.parallel_min_bytes) return 1;
-  if (options.threads) return std::clamp(options.threads, 1u, 64u);
+  ThreadCountRequest request;
+  request.asked = options.threads;
+  request.work = bytes;
+  request.min_work = options.parallel_min_bytes;
+  request.asked_within_cores = false;  // tests ask for more stretches than cores
   // One per idle core: on a machine already busy, threads only fight over the cores (measured:
   // twice the CPU time for no gain at a load of 4 per core).
-  const unsigned cores = std::clamp(std::thread::hardware_concurrency(), 1u, 64u);
-  double load = 0.0;
-  if (::getloadavg(&load, 1) != 1) return cores;
-  const double idle = static_cast<double>(cores) - load + 1.0;  // this process counts itself
-  return static_cast<unsigned>(std::clamp(idle, 1.0, static_cast<double>(cores)));
+  request.idle_cores_only = true;
+  return thread_count(request);
 }
 
 // Text after the metadata and header, in stretches parsed side by side when the file is
@@ -601,49 +601,29 @@ Trace parse_text(std::string_view text, const std::string& source, const TraceRe
   bounds.push_back(rows.size());
   const std::size_t parts = bounds.size() - 1;
   auto stretch = [&](std::size_t k) { return rows.substr(bounds[k], bounds[k + 1] - bounds[k]); };
-  // Runs fn(0) .. fn(parts - 1) side by side; false when no thread could be had.
-  auto side_by_side = [&](const auto& fn) {
-    std::vector<std::thread> threads;
-    try {
-      for (std::size_t k = 1; k < parts; ++k) threads.emplace_back(fn, k);
-    } catch (const std::system_error&) {
-      for (auto& t : threads) t.join();
-      return false;
-    }
-    fn(0);
-    for (auto& t : threads) t.join();
-    return true;
-  };
-
   // Each stretch's rows are written in place into columns sized for the whole file: at most a
   // row per line, so the lines are counted first. No copy of the rows afterwards but to close
   // the gaps comment and blank lines leave (round 4's stretches parsed into their own columns
   // and appended them, which made two threads slower than one).
   std::vector<std::size_t> lines(parts);
-  if (!side_by_side([&](std::size_t k) {
-        const std::string_view part = stretch(k);
-        lines[k] = static_cast<std::size_t>(std::count(part.begin(), part.end(), '\n')) +
-                   (!part.empty() && part.back() != '\n' ? 1 : 0);
-      })) {
-    return sequential();  // no threads to be had: read it alone
-  }
+  run_tasks(parts, workers, [&](std::size_t k) {
+    const std::string_view part = stretch(k);
+    lines[k] = static_cast<std::size_t>(std::count(part.begin(), part.end(), '\n')) +
+               (!part.empty() && part.back() != '\n' ? 1 : 0);
+  });
   std::vector<std::size_t> first_row(parts + 1, 0);
   for (std::size_t k = 0; k < parts; ++k) first_row[k + 1] = first_row[k] + lines[k];
   const std::size_t room = first_row[parts];
   Trace& trace = parser.trace();
   // The zero fill of each column is its first touch: shared out among the threads too.
   const std::size_t ncols = trace.values.size();
-  if (!side_by_side([&](std::size_t k) {
-        for (std::size_t c = k; c <= ncols; c += parts) {
-          if (c == ncols) {
-            trace.line_of_row.resize(room);
-          } else {
-            trace.values[c].resize(room);
-          }
-        }
-      })) {
-    return sequential();
-  }
+  run_tasks(ncols + 1, workers, [&](std::size_t c) {
+    if (c == ncols) {
+      trace.line_of_row.resize(room);
+    } else {
+      trace.values[c].resize(room);
+    }
+  });
   std::vector<TraceParser> parsers;
   parsers.reserve(parts);
   for (std::size_t k = 0; k < parts; ++k) {
@@ -655,15 +635,13 @@ Trace parse_text(std::string_view text, const std::string& source, const TraceRe
     parsers.push_back(parser.fork(std::move(slots)));
   }
   std::vector<std::exception_ptr> errors(parts);
-  if (!side_by_side([&](std::size_t k) {
-        try {
-          feed_text(parsers[k], stretch(k), mapped);
-        } catch (...) {
-          errors[k] = std::current_exception();
-        }
-      })) {
-    return sequential();
-  }
+  run_tasks(parts, workers, [&](std::size_t k) {
+    try {
+      feed_text(parsers[k], stretch(k), mapped);
+    } catch (...) {
+      errors[k] = std::current_exception();  // reported by the sequential pass below
+    }
+  });
   // Any error, or time going back across a seam: again in one pass, which reports the first
   // problem in file order with its line, exactly as one thread does.
   for (const auto& e : errors) {
@@ -752,38 +730,16 @@ bool read_binary_rows(TraceParser& parser, int fd, std::uint64_t rows_at, std::s
   const std::optional<std::size_t> time_column = parser.time_column();
   auto first_row = [&](unsigned w) { return rows / workers * w; };
   std::vector<char> ok(workers, 1);
-  std::vector<std::exception_ptr> errors(workers);
-  auto side_by_side = [&](const auto& fn) {
-    auto run = [&](unsigned w) {
-      try {
-        fn(w);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    };
-    std::vector<std::thread> threads;
-    try {
-      for (unsigned w = 1; w < workers; ++w) threads.emplace_back(run, w);
-    } catch (const std::system_error&) {
-      for (unsigned w = static_cast<unsigned>(threads.size()) + 1; w < workers; ++w) run(w);
-    }
-    run(0);
-    for (auto& t : threads) t.join();
-    for (const auto& e : errors) {
-      if (e) std::rethrow_exception(e);
-    }
-  };
   // Each column's zero fill is its first touch: shared out too.
-  side_by_side([&](unsigned w) {
-    for (std::size_t c = w; c <= columns; c += workers) {
-      if (c == columns) {
-        trace.line_of_row.resize(rows);
-      } else {
-        trace.values[c].resize(rows);
-      }
+  run_tasks(columns + 1, workers, [&](std::size_t c) {
+    if (c == columns) {
+      trace.line_of_row.resize(rows);
+    } else {
+      trace.values[c].resize(rows);
     }
   });
-  side_by_side([&](unsigned w) {
+  run_tasks(workers, workers, [&](std::size_t task) {
+    const auto w = static_cast<unsigned>(task);
     const std::size_t lo = first_row(w), hi = w + 1 == workers ? rows : first_row(w + 1);
     const std::size_t block_rows = binary_block_rows(width, rows) / 4 + 1;  // ~256 KiB
     std::vector<char> block(block_rows * stride);
