@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <exception>
 #include <limits>
@@ -25,7 +26,9 @@ unsigned thread_count(const ThreadCountRequest& request) {
   double load = 0.0;
   if (::getloadavg(&load, 1) != 1) return cores;
   const double idle = static_cast<double>(cores) - load + 1.0;  // this process counts itself
-  return static_cast<unsigned>(std::clamp(idle, 1.0, static_cast<double>(cores)));
+  // Rounded, not truncated: a run of this program alone keeps the load near 1, which must still
+  // leave both cores of two (1.9 idle is two, 1.4 is one).
+  return static_cast<unsigned>(std::clamp(std::round(idle), 1.0, static_cast<double>(cores)));
 }
 
 namespace {
