@@ -45,6 +45,8 @@ std::string_view circana_option_words(Remedy remedy) noexcept {
       return "--warn-inconsistent";
     case Remedy::radius_tolerance:
       return "--radius-tolerance";
+    case Remedy::give_machine:
+      return "--machine NAME";
   }
   return library_remedy_words(remedy);
 }
@@ -92,7 +94,7 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
 // Stores a test (its diagnosis too, when given); returns the line that says so.
 std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
                          const std::string& trace_path, const std::string& db_url) {
-  history::TestRecord record = history_record(ev, diagnosis);
+  history::TestRecord record = history_record(ev, diagnosis, {}, circana_option_words);
   std::error_code ec;
   if (!trace_path.empty() && std::filesystem::is_regular_file(trace_path, ec)) {
     record.trace_sha256 = history::sha256_file(trace_path);

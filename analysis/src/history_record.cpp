@@ -1,5 +1,7 @@
 #include "circtest/analysis/history_record.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -19,7 +21,7 @@ void keep_max(std::optional<double>& slot, double v) {
 }  // namespace
 
 history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagnosis,
-                                   const std::string& machine) {
+                                   const std::string& machine, RemedyWords words) {
   history::TestRecord r;
   auto condition = [&ev](const char* key) {
     const std::string* v = ev.conditions.find(key);
@@ -28,7 +30,8 @@ history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagno
   r.machine = machine.empty() ? condition(meta_key::machine) : machine;
   if (r.machine.empty()) {
     throw Error(ExitCode::data,
-                "no machine name: give --machine NAME or record it in the trace (# machine: NAME)");
+                fmt::format("no machine name: give {} or record it in the trace (# machine: NAME)",
+                            words(Remedy::give_machine)));
   }
   r.tested_at = condition(meta_key::start_time);
   if (r.tested_at.empty()) r.tested_at = condition(meta_key::date);

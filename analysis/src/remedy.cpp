@@ -20,6 +20,8 @@ std::string_view library_remedy_words(Remedy remedy) noexcept {
       return "the warn-only setting";
     case Remedy::radius_tolerance:
       return "the radius tolerance setting";
+    case Remedy::give_machine:
+      return "the machine name argument";
   }
   return "a setting";
 }

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <string_view>
 
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/compensation/plan.hpp"
@@ -26,6 +27,20 @@ constexpr const char* kUsage =
     "                       [--gain F] [--force]\n"
     "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
     "       circcomp revert --ini MACHINE.ini\n";
+
+// circcomp's words for what the library asks the user to give: its options (the library's
+// text names none).
+std::string_view circcomp_option_words(PlanSetting setting) noexcept {
+  switch (setting) {
+    case PlanSetting::force:
+      return "--force";
+    case PlanSetting::gain:
+      return "--gain";
+    case PlanSetting::record_with_ini:
+      return "with circtest-run or circlog-record --ini";
+  }
+  return library_setting_words(setting);
+}
 
 void print_summary(const Plan& plan, std::ostream& out) {
   for (const auto& c : plan.changes) out << "# change: " << c << "\n";
@@ -99,6 +114,7 @@ int run(int argc, char** argv) {
   if (diagnosis.empty()) throw UsageError("expected DIAGNOSIS.json (circana diagnose --json)");
   PlanOptions options;
   options.force = force;
+  options.setting_words = circcomp_option_words;
   options.gain = parse_option_number("--gain", gain_text);
   if (!only.empty()) {
     options.only.clear();
@@ -111,7 +127,7 @@ int run(int argc, char** argv) {
     }
   }
   const DiagnosisInput d = read_diagnosis(diagnosis);
-  if (command == "apply") require_fresh(ini, d, force);
+  if (command == "apply") require_fresh(ini, d, force, circcomp_option_words);
   const Plan plan = make_plan(ini, d, options);
   if (command == "plan") {
     std::cout << unified_diff(plan);

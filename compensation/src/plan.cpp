@@ -101,8 +101,9 @@ struct Correction {
 
 // Checks one measured value; returns it when it is to be applied.
 std::optional<double> accepted(const Measured& m, const std::string& what, double min_abs,
-                               double max_abs, const char* unit, bool force,
+                               double max_abs, const char* unit, const PlanOptions& o,
                                std::vector<std::string>& notes) {
+  const bool force = o.force;
   if (!m.value) {
     notes.push_back(what + ": not in the diagnosis (null), not changed");
     return std::nullopt;
@@ -116,14 +117,16 @@ std::optional<double> accepted(const Measured& m, const std::string& what, doubl
   if (!force && std::fabs(v) > max_abs) {
     throw DataError("", 0,
                     fmt::format("{} = {} {} is implausible (more than {} {}); check the "
-                                "measurement, or --force",
-                                what, number_text(v), unit, number_text(max_abs), unit));
+                                "measurement, or {}",
+                                what, number_text(v), unit, number_text(max_abs), unit,
+                                o.setting_words(PlanSetting::force)));
   }
   if (!force && m.standard_error && *m.standard_error > std::fabs(v)) {
     throw DataError("", 0,
                     fmt::format("{} = {} {} has a standard error of {} {}, larger than the "
-                                "value: measure again, or --force",
-                                what, number_text(v), unit, number_text(*m.standard_error), unit));
+                                "value: measure again, or {}",
+                                what, number_text(v), unit, number_text(*m.standard_error), unit,
+                                o.setting_words(PlanSetting::force)));
   }
   return v;
 }
@@ -290,25 +293,42 @@ void plan_squareness(IniDocument& ini, const DiagnosisInput& d, double alpha_ura
 
 }  // namespace
 
-void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force) {
+std::string_view library_setting_words(PlanSetting setting) noexcept {
+  switch (setting) {
+    case PlanSetting::force:
+      return "the force setting";
+    case PlanSetting::gain:
+      return "the gain setting";
+    case PlanSetting::record_with_ini:
+      return "with circtest-run, or with circlog-record given the INI";
+  }
+  return "a setting";
+}
+
+void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force,
+                   PlanSettingWords words) {
   if (force) return;
   if (!diagnosis.ini_sha256) {
-    throw StaleError(fmt::format(
-        "{}: has no ini_sha256, so nothing shows it measured {} as it is now; record with "
-        "circtest-run or circlog-record --ini, or --force",
-        diagnosis.source, ini_path));
+    throw StaleError(
+        fmt::format("{}: has no ini_sha256, so nothing shows it measured {} as it is now; record "
+                    "{}, or {}",
+                    diagnosis.source, ini_path, words(PlanSetting::record_with_ini),
+                    words(PlanSetting::force)));
   }
   const std::string now = sha256_hex(read_file(ini_path));
   if (*diagnosis.ini_sha256 != now) {
     throw StaleError(fmt::format(
         "{} changed since the measurement of {} (SHA-256 {} then, {} now): a correction "
-        "applied twice doubles; measure again, or --force",
-        ini_path, diagnosis.source, diagnosis.ini_sha256->substr(0, 12), now.substr(0, 12)));
+        "applied twice doubles; measure again, or {}",
+        ini_path, diagnosis.source, diagnosis.ini_sha256->substr(0, 12), now.substr(0, 12),
+        words(PlanSetting::force)));
   }
 }
 
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanOptions& o) {
-  if (!(o.gain > 0.0 && o.gain <= 1.0)) throw UsageError("--gain: expected 0 < F <= 1");
+  if (!(o.gain > 0.0 && o.gain <= 1.0)) {
+    throw UsageError(fmt::format("{}: expected 0 < F <= 1", o.setting_words(PlanSetting::gain)));
+  }
   Plan plan;
   plan.ini_path = ini_path;
   IniDocument ini = IniDocument::load(ini_path);
@@ -327,7 +347,7 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     try {
       if (wants("backlash")) {
         c.backlash_mm = accepted(d.backlash_mm[k], fmt::format("{} backlash", letter),
-                                 kMinBacklashMm, kMaxBacklashMm, "mm", o.force, plan.notes);
+                                 kMinBacklashMm, kMaxBacklashMm, "mm", o, plan.notes);
       }
       if (wants("scale")) {
         if (!d.scale_ppm[k].value && d.scale_mismatch_ppm.value) {
@@ -337,13 +357,13 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
               letter));
         } else {
           c.scale_ppm = accepted(d.scale_ppm[k], fmt::format("{} scale", letter), kMinScalePpm,
-                                 kMaxScalePpm, "ppm", o.force, plan.notes);
+                                 kMaxScalePpm, "ppm", o, plan.notes);
         }
       }
       if (wants("cyclic") && d.cyclic[k]) {
         const Cyclic& cy = *d.cyclic[k];
         if (accepted({cy.amplitude_mm, cy.amplitude_se_mm}, fmt::format("{} cyclic", letter),
-                     kMinCyclicMm, kMaxCyclicMm, "mm", o.force, plan.notes)) {
+                     kMinCyclicMm, kMaxCyclicMm, "mm", o, plan.notes)) {
           c.cyclic = cy;
         }
       }
@@ -524,7 +544,7 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     std::optional<double> v;
     try {
       v = accepted(d.squareness_urad, fmt::format("{}/{} squareness", d.axes[0], d.axes[1]),
-                   kMinSquarenessUrad, kMaxSquarenessUrad, "urad", o.force, plan.notes);
+                   kMinSquarenessUrad, kMaxSquarenessUrad, "urad", o, plan.notes);
     } catch (const DataError& e) {
       throw DataError(d.source, 0, e.detail());
     }

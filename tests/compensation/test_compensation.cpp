@@ -345,6 +345,44 @@ TEST(Compensation, Refusals) {
   EXPECT_NO_THROW(require_fresh(ini, no_hash, true));
 }
 
+// Library text names no command-line option (issue 8): used as a library, the refusals name
+// the PlanOptions settings in plain words; circcomp words them as its options (CliExitCodes).
+TEST(Compensation, LibraryRefusalsNameNoOption) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", machine());
+  auto message = [&](auto&& call) -> std::string {
+    try {
+      call();
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  DiagnosisInput uncertain = diag(0.002);
+  uncertain.backlash_mm[0].standard_error = 0.003;
+  PlanOptions half;
+  half.gain = 1.5;
+  DiagnosisInput stale = diag(0.002);
+  stale.ini_sha256 = std::string(64, '0');
+  const std::string texts[] = {
+      message([&] { make_plan(ini, diag(0.3), PlanOptions{}); }),
+      message([&] { make_plan(ini, uncertain, PlanOptions{}); }),
+      message([&] { make_plan(ini, diag(0.002), half); }),
+      message([&] { require_fresh(ini, diag(0.002), false); }),
+      message([&] { require_fresh(ini, stale, false); }),
+  };
+  EXPECT_NE(texts[0].find("check the measurement, or the force setting"), std::string::npos)
+      << texts[0];
+  EXPECT_NE(texts[1].find("measure again, or the force setting"), std::string::npos) << texts[1];
+  EXPECT_NE(texts[2].find("the gain setting: expected 0 < F <= 1"), std::string::npos) << texts[2];
+  EXPECT_NE(texts[3].find("record with circtest-run, or with circlog-record given the INI, or "
+                          "the force setting"),
+            std::string::npos)
+      << texts[3];
+  EXPECT_NE(texts[4].find("measure again, or the force setting"), std::string::npos) << texts[4];
+  for (const auto& t : texts) EXPECT_EQ(t.find("--"), std::string::npos) << t;
+}
+
 TEST(Compensation, CliExitCodes) {
   Scratch s;
   const std::string ini = s.write("m.ini", machine());
@@ -362,6 +400,10 @@ TEST(Compensation, CliExitCodes) {
   EXPECT_EQ(run("apply " + base), 0);
   EXPECT_EQ(run("apply " + base, &err), 10);
   EXPECT_NE(err.find("changed since the measurement"), std::string::npos) << err;
+  // circcomp words the library's settings as its options.
+  EXPECT_NE(err.find("measure again, or --force"), std::string::npos) << err;
+  EXPECT_EQ(run("plan " + base + " --gain 2", &err), 2);
+  EXPECT_NE(err.find("--gain: expected 0 < F <= 1"), std::string::npos) << err;
   EXPECT_EQ(run("revert --ini " + ini), 0);
   EXPECT_EQ(read_file(ini), machine());
   EXPECT_EQ(run("plan --ini " + ini + " " + s.write("bad.json", "{\"schema\": \"other\"}"), &err),

@@ -515,6 +515,27 @@ TEST(HistoryPostgres, AStoreWhileTheServerIsStoppedFailsAndWritesNothing) {
   fs::remove_all(dir);
 }
 
+// Library text names no command-line option (issue 8): history_record used as a library says
+// what to give in its own words; circana store words it as --machine (BadRequestsGiveClearErrors).
+TEST(HistoryRecord, NoMachineNameNamesNoOption) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("circtest-record-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  auto doc = simulated_result(0.01, "2026-01-06", dir);
+  doc["conditions"].erase("machine");
+  try {
+    record_from_result(doc, nullptr);
+    ADD_FAILURE() << "no error without a machine name";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::data);
+    EXPECT_EQ(std::string(e.what()),
+              "no machine name: give the machine name argument or record it in the trace "
+              "(# machine: NAME)");
+  }
+  EXPECT_EQ(record_from_result(doc, nullptr, "VMC-4").machine, "VMC-4");
+  fs::remove_all(dir);
+}
+
 TEST(HistorySha256, KnownDigests) {
   const fs::path p = fs::temp_directory_path() / fmt::format("circtest-sha-{}", getpid());
   std::ofstream(p) << "abc";

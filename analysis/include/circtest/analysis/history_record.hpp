@@ -6,6 +6,7 @@
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/remedy.hpp"
 #include "circtest/history/history.hpp"
 
 namespace circtest {
@@ -13,10 +14,11 @@ namespace circtest {
 // H per pair, G (the evaluation's headline method), F_max and F_min per run, the trend's
 // largest H, G and |F|; from the diagnosis the larger backlash of the plane's two axes and
 // the squareness. The machine is `machine` when given, else the evaluation's `machine`
-// condition; DataError when there is none. tested_at is the trace's start_time or date, else
-// empty (the store then takes the time of storing).
+// condition; DataError when there is none (its text names the remedy in `words`). tested_at is the
+// trace's start_time or date, else empty (the store then takes the time of storing).
 history::TestRecord history_record(const Evaluation& evaluation,
                                    const Diagnosis* diagnosis = nullptr,
-                                   const std::string& machine = {});
+                                   const std::string& machine = {},
+                                   RemedyWords words = library_remedy_words);
 
 }  // namespace circtest

@@ -15,6 +15,7 @@ enum class Remedy {
   give_plane,        // the plane of the test
   evaluate_anyway,   // evaluate inputs that disagree, with a warning
   radius_tolerance,  // how far the fitted radius may be from the nominal one
+  give_machine,      // the name of the machine tested (the history is per machine)
 };
 
 // The words for a remedy inside a message.

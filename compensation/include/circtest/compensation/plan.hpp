@@ -7,16 +7,30 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "circtest/compensation/diagnosis_input.hpp"
 
 namespace circtest::compensation {
 
+// A setting a refusal asks the user to give. The library names it in plain words; a front end
+// words it as its own (circcomp: its options, in compensation/app/main.cpp), so library text
+// names no command-line option.
+enum class PlanSetting {
+  force,            // apply what is implausible, uncertain or of a changed INI
+  gain,             // the share of the residual to apply
+  record_with_ini,  // how to record a trace whose diagnosis carries the INI's SHA-256
+};
+using PlanSettingWords = std::string_view (*)(PlanSetting setting);
+// The library's words: "the force setting", "the gain setting", ...
+std::string_view library_setting_words(PlanSetting setting) noexcept;
+
 struct PlanOptions {
   std::set<std::string> only{"backlash", "scale", "squareness", "cyclic"};
   double gain = 1.0;   // share of the measured residual to apply, (0, 1]
   bool force = false;  // apply implausible or uncertain corrections, or to a changed INI
+  PlanSettingWords setting_words = library_setting_words;  // for the refusals' text
 };
 
 struct FileChange {
@@ -42,7 +56,8 @@ struct Plan {
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& diagnosis,
                const PlanOptions& options);
 // Throws StaleError unless the diagnosis's ini_sha256 is the INI's SHA-256 now (or force).
-void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force);
+void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force,
+                   PlanSettingWords words = library_setting_words);
 
 // "--- a/FILE\n+++ b/FILE\n@@ ..." for every file of the plan (new files against /dev/null).
 std::string unified_diff(const Plan& plan);
