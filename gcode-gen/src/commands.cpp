@@ -8,9 +8,53 @@
 
 namespace circtest {
 
+namespace {
+// circgen's words for the spec settings the library's refusals name: its options. The
+// messages' tests (tests/gcode-gen) hold the text users see.
+std::string_view circgen_option_words(SpecSetting setting) noexcept {
+  switch (setting) {
+    case SpecSetting::radius:
+      return "--d/--r";
+    case SpecSetting::any_feed:
+      return "--f, --feeds or --ref-f";
+    case SpecSetting::feeds:
+      return "--f/--feeds";
+    case SpecSetting::directions:
+      return "--dir";
+    case SpecSetting::arc:
+      return "--arc";
+    case SpecSetting::start:
+      return "--start";
+    case SpecSetting::lead:
+      return "--lead";
+    case SpecSetting::centre:
+      return "--centre";
+    case SpecSetting::safe:
+      return "--safe-z";
+    case SpecSetting::dwell:
+      return "--dwell";
+    case SpecSetting::marker:
+      return "--marker";
+    case SpecSetting::segment_out:
+      return "--segment-out";
+    case SpecSetting::approach_feed:
+      return "--approach-feed";
+    case SpecSetting::work_offset:
+      return "--work-offset";
+    case SpecSetting::tool:
+      return "--tool";
+    case SpecSetting::feed_in:
+      return "--feed-in";
+    case SpecSetting::ballbar:
+      return "--instrument ballbar";
+  }
+  return library_spec_words(setting);
+}
+}  // namespace
+
 int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err) {
   CircleTestSpec& spec = request.spec;
-  validate(spec);
+  validate(spec, circgen_option_words);
   if (!request.ini_path.empty()) {
     const MachineLimits limits = read_machine_limits(request.ini_path);
     const auto checks = check_against_machine(spec, limits, request.work_offset_origin_mm);
@@ -19,7 +63,7 @@ int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err) 
   }
 
   const TestProgram program = generate_test_program(spec);
-  for (const std::string& warning : program_warnings(spec)) {
+  for (const std::string& warning : program_warnings(spec, circgen_option_words)) {
     err << "circgen: warning: " << warning << '\n';
   }
   if (!request.output_path.empty()) {

@@ -240,7 +240,7 @@ double default_start_deg(Plane plane, double arc_deg) {
   return normalize_deg(*top - arc_deg / 2.0);
 }
 
-std::vector<std::string> program_warnings(const CircleTestSpec& spec) {
+std::vector<std::string> program_warnings(const CircleTestSpec& spec, SpecWords words) {
   std::vector<std::string> warnings;
   const auto top = top_deg(spec.plane);
   if (!top) return warnings;
@@ -253,9 +253,9 @@ std::vector<std::string> program_warnings(const CircleTestSpec& spec) {
   if (to - from >= 360.0 || rel <= to - from) {
     warnings.push_back(fmt::format(
         "the {} deg arc [{} to {} deg with the leads] passes below the centre in {}, towards the "
-        "table; check the set-up clears it, or drop --start to keep the arc on top",
-        header_number(spec.arc_deg), header_number(from), header_number(to),
-        plane_name(spec.plane)));
+        "table; check the set-up clears it, or drop {} to keep the arc on top",
+        header_number(spec.arc_deg), header_number(from), header_number(to), plane_name(spec.plane),
+        words(SpecSetting::start)));
   }
   return warnings;
 }
@@ -264,81 +264,129 @@ const char* length_unit_name(LengthUnit units) noexcept {
   return units == LengthUnit::mm ? "mm" : "inch";
 }
 
+std::string_view library_spec_words(SpecSetting setting) noexcept {
+  switch (setting) {
+    case SpecSetting::radius:
+      return "radius_mm";
+    case SpecSetting::any_feed:
+      return "feeds_mm_per_min";
+    case SpecSetting::feeds:
+      return "feeds_mm_per_min";
+    case SpecSetting::directions:
+      return "directions";
+    case SpecSetting::arc:
+      return "arc_deg";
+    case SpecSetting::start:
+      return "start_deg";
+    case SpecSetting::lead:
+      return "lead_deg";
+    case SpecSetting::centre:
+      return "centre_mm";
+    case SpecSetting::safe:
+      return "safe_mm";
+    case SpecSetting::dwell:
+      return "dwell_s";
+    case SpecSetting::marker:
+      return "marker_output";
+    case SpecSetting::segment_out:
+      return "segment_output";
+    case SpecSetting::approach_feed:
+      return "approach_feed_mm_per_min";
+    case SpecSetting::work_offset:
+      return "work_offset_code";
+    case SpecSetting::tool:
+      return "tool_length_offset";
+    case SpecSetting::feed_in:
+      return "feed_in_mm";
+    case SpecSetting::ballbar:
+      return "instrument ballbar";
+  }
+  return "a setting";
+}
+
 std::string generator_version() {
   return version_line("circgen");
 }
 
-void validate(const CircleTestSpec& spec) {
+void validate(const CircleTestSpec& spec, SpecWords words) {
+  auto w = [words](SpecSetting setting) { return words(setting); };
   auto finite = [](double v) { return std::isfinite(v); };
   if (!finite(spec.radius_mm) || spec.radius_mm <= 0.0) {
-    throw UsageError(fmt::format("--d/--r: the circle must have a positive size, got radius {}",
-                                 header_number(spec.radius_mm)));
+    throw UsageError(fmt::format("{}: the circle must have a positive size, got radius {}",
+                                 w(SpecSetting::radius), header_number(spec.radius_mm)));
   }
-  if (spec.feeds_mm_per_min.empty()) throw UsageError("no feed: give --f, --feeds or --ref-f");
+  if (spec.feeds_mm_per_min.empty())
+    throw UsageError(fmt::format("no feed: give {}", w(SpecSetting::any_feed)));
   for (double f : spec.feeds_mm_per_min) {
     if (!finite(f) || f <= 0.0) {
-      throw UsageError(
-          fmt::format("--f/--feeds: a feed must be positive, got {}", header_number(f)));
+      throw UsageError(fmt::format("{}: a feed must be positive, got {}", w(SpecSetting::feeds),
+                                   header_number(f)));
     }
   }
-  if (spec.directions.empty()) throw UsageError("--dir: no direction");
+  if (spec.directions.empty())
+    throw UsageError(fmt::format("{}: no direction", w(SpecSetting::directions)));
   if (spec.directions.size() == 2 && spec.directions[0] == spec.directions[1]) {
-    throw UsageError("--dir: a direction is given twice");
+    throw UsageError(fmt::format("{}: a direction is given twice", w(SpecSetting::directions)));
   }
   if (!finite(spec.arc_deg) || spec.arc_deg < 90.0 || spec.arc_deg > 360.0) {
     throw UsageError(
-        fmt::format("--arc: the measured arc must be 90..360 deg (ISO 230-4 clause 3.1), got {}",
-                    header_number(spec.arc_deg)));
+        fmt::format("{}: the measured arc must be 90..360 deg (ISO 230-4 clause 3.1), got {}",
+                    w(SpecSetting::arc), header_number(spec.arc_deg)));
   }
-  if (!finite(spec.start_deg)) throw UsageError("--start: not a finite angle");
+  if (!finite(spec.start_deg))
+    throw UsageError(fmt::format("{}: not a finite angle", w(SpecSetting::start)));
   if (!finite(spec.lead_deg) || spec.lead_deg <= 0.0) {
-    throw UsageError(fmt::format(
-        "--lead: the lead arcs must be longer than 0 deg, got {}: the measured arc needs a "
-        "run-up to reach the feed, and M63 only takes effect with the next move",
-        header_number(spec.lead_deg)));
+    throw UsageError(
+        fmt::format("{}: the lead arcs must be longer than 0 deg, got {}: the measured arc needs a "
+                    "run-up to reach the feed, and M63 only takes effect with the next move",
+                    w(SpecSetting::lead), header_number(spec.lead_deg)));
   }
   const bool full = spec.arc_deg >= 360.0;
   if (full && spec.lead_deg > 180.0) {
     throw UsageError(fmt::format(
-        "--lead: {} deg lead-in and lead-out arcs would overlap each other on a full circle "
+        "{}: {} deg lead-in and lead-out arcs would overlap each other on a full circle "
         "(at most 180 deg)",
-        header_number(spec.lead_deg)));
+        w(SpecSetting::lead), header_number(spec.lead_deg)));
   }
   if (!full && spec.arc_deg + 2.0 * spec.lead_deg > 360.0 + kAngleEpsilonDeg) {
     throw UsageError(
-        fmt::format("--lead: {} deg lead arcs around a {} deg arc would overlap each other "
-                    "(arc + 2 * lead = {} > 360 deg); use --lead {} or less",
-                    header_number(spec.lead_deg), header_number(spec.arc_deg),
-                    header_number(spec.arc_deg + 2.0 * spec.lead_deg),
+        fmt::format("{}: {} deg lead arcs around a {} deg arc would overlap each other "
+                    "(arc + 2 * lead = {} > 360 deg); use {} {} or less",
+                    w(SpecSetting::lead), header_number(spec.lead_deg), header_number(spec.arc_deg),
+                    header_number(spec.arc_deg + 2.0 * spec.lead_deg), w(SpecSetting::lead),
                     header_number(std::floor((360.0 - spec.arc_deg) / 2.0 * 1000.0) / 1000.0)));
   }
   for (double c : spec.centre_mm) {
-    if (!finite(c)) throw UsageError("--centre: not a finite position");
+    if (!finite(c))
+      throw UsageError(fmt::format("{}: not a finite position", w(SpecSetting::centre)));
   }
-  if (spec.safe_mm && !finite(*spec.safe_mm)) throw UsageError("--safe-z: not a finite position");
+  if (spec.safe_mm && !finite(*spec.safe_mm))
+    throw UsageError(fmt::format("{}: not a finite position", w(SpecSetting::safe)));
   if (!finite(spec.dwell_s) || spec.dwell_s < 0.0 || spec.dwell_s > kMaxDwellS) {
-    throw UsageError(fmt::format("--dwell: must be 0..{} s, got {}", header_number(kMaxDwellS),
-                                 header_number(spec.dwell_s)));
+    throw UsageError(fmt::format("{}: must be 0..{} s, got {}", w(SpecSetting::dwell),
+                                 header_number(kMaxDwellS), header_number(spec.dwell_s)));
   }
   if (spec.marker_output < 0 || spec.marker_output > kMaxOutputIndex) {
-    throw UsageError(fmt::format("--marker: digital output must be 0..{}, got {}", kMaxOutputIndex,
-                                 spec.marker_output));
+    throw UsageError(fmt::format("{}: digital output must be 0..{}, got {}", w(SpecSetting::marker),
+                                 kMaxOutputIndex, spec.marker_output));
   }
   if (spec.segment_output < 0 || spec.segment_output > kMaxOutputIndex) {
-    throw UsageError(fmt::format("--segment-out: analog output must be 0..{}, got {}",
-                                 kMaxOutputIndex, spec.segment_output));
+    throw UsageError(fmt::format("{}: analog output must be 0..{}, got {}",
+                                 w(SpecSetting::segment_out), kMaxOutputIndex,
+                                 spec.segment_output));
   }
   if (spec.approach_feed_mm_per_min) {
     const double a = *spec.approach_feed_mm_per_min;
     const double lowest =
         *std::min_element(spec.feeds_mm_per_min.begin(), spec.feeds_mm_per_min.end());
     if (!finite(a) || a <= 0.0) {
-      throw UsageError(fmt::format("--approach-feed: must be positive, got {}", header_number(a)));
+      throw UsageError(fmt::format("{}: must be positive, got {}", w(SpecSetting::approach_feed),
+                                   header_number(a)));
     }
     if (a > lowest) {
-      throw UsageError(
-          fmt::format("--approach-feed: {} is above the test feed {}; the approach must be slower",
-                      header_number(a), header_number(lowest)));
+      throw UsageError(fmt::format("{}: {} is above the test feed {}; the approach must be slower",
+                                   w(SpecSetting::approach_feed), header_number(a),
+                                   header_number(lowest)));
     }
   }
   if (spec.work_offset_code) {
@@ -346,34 +394,35 @@ void validate(const CircleTestSpec& spec) {
                                          "G59", "G59.1", "G59.2", "G59.3"};
     if (std::find(std::begin(kCodes), std::end(kCodes), *spec.work_offset_code) ==
         std::end(kCodes)) {
-      throw UsageError(fmt::format("--work-offset: '{}' is not G54..G59, G59.1, G59.2 or G59.3",
-                                   *spec.work_offset_code));
+      throw UsageError(fmt::format("{}: '{}' is not G54..G59, G59.1, G59.2 or G59.3",
+                                   w(SpecSetting::work_offset), *spec.work_offset_code));
     }
   }
   if (spec.tool_length_offset && *spec.tool_length_offset <= 0) {
-    throw UsageError("--tool: the tool number for G43 H must be 1 or more");
+    throw UsageError(
+        fmt::format("{}: the tool number for G43 H must be 1 or more", w(SpecSetting::tool)));
   }
   if (spec.instrument == Instrument::ballbar) {
     if (!finite(spec.feed_in_mm) || spec.feed_in_mm < kBallbarMinFeedInMm ||
         spec.feed_in_mm > kBallbarMaxFeedInMm) {
-      throw UsageError(fmt::format("--feed-in: the ballbar feed-in must be {}..{} mm, got {}",
-                                   header_number(kBallbarMinFeedInMm),
+      throw UsageError(fmt::format("{}: the ballbar feed-in must be {}..{} mm, got {}",
+                                   w(SpecSetting::feed_in), header_number(kBallbarMinFeedInMm),
                                    header_number(kBallbarMaxFeedInMm),
                                    header_number(spec.feed_in_mm)));
     }
     if (spec.radius_mm < kBallbarMinRadiusMm || spec.radius_mm > kBallbarMaxRadiusMm) {
-      throw UsageError(fmt::format(
-          "--instrument ballbar: radius {} mm is outside the {}..{} mm a telescoping ball bar "
-          "with its extensions spans",
-          header_number(spec.radius_mm), header_number(kBallbarMinRadiusMm),
-          header_number(kBallbarMaxRadiusMm)));
+      throw UsageError(
+          fmt::format("{}: radius {} mm is outside the {}..{} mm a telescoping ball bar "
+                      "with its extensions spans",
+                      w(SpecSetting::ballbar), header_number(spec.radius_mm),
+                      header_number(kBallbarMinRadiusMm), header_number(kBallbarMaxRadiusMm)));
     }
     for (double f : spec.feeds_mm_per_min) {
       if (f > kBallbarMaxFeedMmPerMin) {
         throw UsageError(fmt::format(
-            "--instrument ballbar: feed {} mm/min is above the {} mm/min circgen allows a ball "
+            "{}: feed {} mm/min is above the {} mm/min circgen allows a ball "
             "bar [see docs/circgen.md]",
-            header_number(f), header_number(kBallbarMaxFeedMmPerMin)));
+            w(SpecSetting::ballbar), header_number(f), header_number(kBallbarMaxFeedMmPerMin)));
       }
     }
   }

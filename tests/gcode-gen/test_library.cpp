@@ -168,14 +168,55 @@ TEST(Commands, RunGenerateWritesTheProgramAndItsWarnings) {
   std::ostringstream out, err;
   EXPECT_EQ(run_generate(request, out, err), 0);
   EXPECT_EQ(out.str(), program);
+  // The same warnings, circgen naming its option where the library names the spec's field.
   std::string expected_err;
-  for (const std::string& w : warnings) expected_err += "circgen: warning: " + w + "\n";
+  for (std::string w : warnings) {
+    const auto at = w.find("drop start_deg");
+    ASSERT_NE(at, std::string::npos) << w;
+    expected_err += "circgen: warning: " + w.replace(at, 14, "drop --start") + "\n";
+  }
   EXPECT_EQ(err.str(), expected_err);
 
   request.spec.radius_mm = 0.0;
   std::ostringstream none;
   EXPECT_THROW(run_generate(request, none, err), UsageError);
   EXPECT_EQ(none.str(), "");
+}
+
+// Library text names no command-line option (issue 8): validate() and program_warnings()
+// used as a library name the spec's fields; circgen words them as its options (test_cli.cpp
+// holds those messages).
+TEST(Commands, LibraryRefusalsNameTheSpecFieldsNotOptions) {
+  auto refusal = [](auto change) -> std::string {
+    CircleTestSpec spec;
+    spec.radius_mm = 50.0;
+    spec.feeds_mm_per_min = {500.0};
+    change(spec);
+    try {
+      validate(spec);
+    } catch (const UsageError& e) {
+      return e.what();
+    }
+    return "no refusal";
+  };
+  const std::string texts[] = {
+      refusal([](CircleTestSpec& s) { s.radius_mm = 0.0; }),
+      refusal([](CircleTestSpec& s) { s.feeds_mm_per_min.clear(); }),
+      refusal([](CircleTestSpec& s) { s.arc_deg = 270.0, s.lead_deg = 50.0; }),
+      refusal([](CircleTestSpec& s) { s.directions.clear(); }),
+      refusal([](CircleTestSpec& s) { s.dwell_s = -1.0; }),
+      refusal([](CircleTestSpec& s) { s.instrument = Instrument::ballbar, s.radius_mm = 5000.0; }),
+  };
+  EXPECT_EQ(texts[0], "radius_mm: the circle must have a positive size, got radius 0");
+  EXPECT_EQ(texts[1], "no feed: give feeds_mm_per_min");
+  EXPECT_NE(texts[2].find("lead_deg: 50 deg lead arcs around a 270 deg arc would overlap each "
+                          "other (arc + 2 * lead = 370 > 360 deg); use lead_deg 45 or less"),
+            std::string::npos)
+      << texts[2];
+  EXPECT_EQ(texts[3], "directions: no direction");
+  EXPECT_NE(texts[4].find("dwell_s: must be 0.."), std::string::npos) << texts[4];
+  EXPECT_NE(texts[5].find("instrument ballbar: radius 5000 mm"), std::string::npos) << texts[5];
+  for (const auto& t : texts) EXPECT_EQ(t.find("--"), std::string::npos) << t;
 }
 
 }  // namespace

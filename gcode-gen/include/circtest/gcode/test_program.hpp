@@ -94,9 +94,35 @@ struct TestProgram {
   std::string text;  // the whole program, ready to load
 };
 
-// Throws UsageError naming the option when the spec cannot give a valid test (non-positive
-// radius or feed, arc outside 90..360, overlapping leads, bad output numbers, ...).
-void validate(const CircleTestSpec& spec);
+// The spec setting a refusal or warning is about. The library names it by its field of
+// CircleTestSpec ("lead_deg"); a front end words it as its own (circgen: its options, in
+// gcode-gen/src/commands.cpp), so library text names no command-line option.
+enum class SpecSetting {
+  radius,
+  any_feed,  // no feed at all: what could give one
+  feeds,
+  directions,
+  arc,
+  start,
+  lead,
+  centre,
+  safe,
+  dwell,
+  marker,
+  segment_out,
+  approach_feed,
+  work_offset,
+  tool,
+  feed_in,
+  ballbar,  // the ball bar instrument
+};
+using SpecWords = std::string_view (*)(SpecSetting setting);
+std::string_view library_spec_words(SpecSetting setting) noexcept;
+
+// Throws UsageError naming the setting (in `words`) when the spec cannot give a valid test
+// (non-positive radius or feed, arc outside 90..360, overlapping leads, bad output numbers,
+// ...). The plausible ranges' text (plausible_ranges.hpp) still names circgen's options.
+void validate(const CircleTestSpec& spec, SpecWords words = library_spec_words);
 
 // The runs in program order (CCW then CW for each feed when both directions are asked).
 std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec);
@@ -113,7 +139,8 @@ double default_start_deg(Plane plane, double arc_deg);
 
 // Non-fatal concerns about a valid spec, one line each (e.g. a vertical-plane arc that
 // passes below the centre, towards the table).
-std::vector<std::string> program_warnings(const CircleTestSpec& spec);
+std::vector<std::string> program_warnings(const CircleTestSpec& spec,
+                                          SpecWords words = library_spec_words);
 
 // The angular range every motion of the test stays in, [first, last] degrees (CCW sense);
 // a range of 360 deg or more means the whole circle.
