@@ -269,7 +269,6 @@ std::string_view library_spec_words(SpecSetting setting) noexcept {
     case SpecSetting::radius:
       return "radius_mm";
     case SpecSetting::any_feed:
-      return "feeds_mm_per_min";
     case SpecSetting::feeds:
       return "feeds_mm_per_min";
     case SpecSetting::directions:
