@@ -1,0 +1,20 @@
+# A part's library, set up one way for every part:
+#   circtest_add_library(<part> SOURCES src/a.cpp ... [PIC])
+# makes circtest_<part> with the alias circtest::<part>, <part folder>/include as its public
+# include folder (headers under include/circtest/<part>/), and fails the configure step when
+# a src/*.cpp of the folder is missing from SOURCES (circtest_check_listed). PIC: position-
+# independent code (for libraries that end up in a shared object). The libraries are not
+# installed: the package installs only the programs, man pages and realtime modules.
+function(circtest_add_library part)
+  cmake_parse_arguments(ARG "PIC" "" "SOURCES" ${ARGN})
+  if(NOT ARG_SOURCES)
+    message(FATAL_ERROR "circtest_add_library(${part}): no SOURCES")
+  endif()
+  circtest_check_listed("src/*.cpp" ${ARG_SOURCES})
+  add_library(circtest_${part} ${ARG_SOURCES})
+  add_library(circtest::${part} ALIAS circtest_${part})
+  target_include_directories(circtest_${part} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  if(ARG_PIC)
+    set_target_properties(circtest_${part} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+  endif()
+endfunction()
