@@ -427,6 +427,38 @@ TEST(TraceParallel, StretchesGiveTheSameTraceAsOneThread) {
   EXPECT_EQ(*one.metadata.find("rows"), "5000");
 }
 
+TEST(TraceParallel, AFileReadInBlocksWholeOrMappedGivesTheSameTrace) {
+  // One thread reads the file in blocks; stretches read it whole into memory, or map it when it
+  // is larger than read_whole_max_bytes. The same trace from all three, and the same error.
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const std::string path = (scratch.dir() / "mixed.csv").string();
+  circtest::testing::spit(path, mixed_trace(20000));
+  TraceReadOptions stream = threads(1);
+  TraceReadOptions whole = threads(2);
+  TraceReadOptions mapped = threads(3);
+  mapped.read_whole_max_bytes = 0;
+  const Trace one = read_trace(path, stream);
+  ASSERT_EQ(one.rows(), 20000u);
+  for (const TraceReadOptions& o : {whole, mapped}) {
+    const Trace t = read_trace(path, o);
+    EXPECT_EQ(t.values, one.values);
+    EXPECT_EQ(t.line_of_row, one.line_of_row);
+    EXPECT_EQ(t.metadata.entries(), one.metadata.entries());
+  }
+  circtest::testing::spit(path, mixed_trace(20000) + "\n99,2,x,4\n");
+  std::string expected;
+  for (const TraceReadOptions& o : {stream, whole, mapped}) {
+    try {
+      read_trace(path, o);
+      ADD_FAILURE() << "read a bad row";
+    } catch (const ParseError& e) {
+      if (expected.empty()) expected = e.what();
+      EXPECT_EQ(e.what(), expected);
+    }
+  }
+  EXPECT_NE(expected.find("column 'y': expected a number, got 'x'"), std::string::npos) << expected;
+}
+
 TEST(TraceParallel, TheFirstErrorInFileOrderWinsWithItsLine) {
   const std::string good = mixed_trace(3000);
   std::vector<std::string> bad;

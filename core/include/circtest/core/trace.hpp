@@ -69,6 +69,9 @@ struct TraceReadOptions {
   // errors are the same as with one thread.
   unsigned threads = 0;
   std::size_t parallel_min_bytes = std::size_t{4} << 20;
+  // A text file parsed in stretches is read whole into memory up to this size (faster than
+  // mapping it on a virtual machine), and mapped beyond it.
+  std::size_t read_whole_max_bytes = std::size_t{512} << 20;
 };
 
 // Reads a text trace (or a binary one, see docs/trace-format.md; detected by its magic) from
