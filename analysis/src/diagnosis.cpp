@@ -121,6 +121,12 @@ void for_blocks(std::size_t n, F&& fn) {
   circtest::for_blocks(n, kBlockSamples, threads, std::forward<F>(fn));
 }
 
+// fn(k) for k in [0, n), side by side (as blocks of for_blocks).
+template <class F>
+void for_each_task(std::size_t n, F&& fn) {
+  for_blocks(n * kBlockSamples, [&](std::size_t, std::size_t, std::size_t k) { fn(k); });
+}
+
 // The reversal bookkeeping depends on the state only through the lag mismatch. It is worked
 // out where a pass reads it, not cached: a cache of 1e6 entries cost more in fresh pages and
 // memory traffic than the few operations it saves, since the mismatch changes with every
@@ -784,37 +790,42 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
   const double fmax = 1.0 / min_pitch;
   const double df = 1.0 / (4.0 * span);
   if (fmax <= fmin) return std::nullopt;
-  std::vector<double> freq, power;
-  for (double f = fmin; f <= fmax; f += df) {
-    // The bins are equally spaced: exp(-2 pi i f x) turns by a fixed step from bin to bin (taken
-    // exactly again every 64 bins, so that rounding does not build up).
-    double acc_re = 0.0, acc_im = 0.0;
-    const double a = -2 * kPi * f * width;
-    const double step_re = std::cos(a), step_im = std::sin(a);
-    double z_re = 0.0, z_im = 0.0;
-    std::size_t at = 0, seed = 0;
-    for (std::size_t k = 0; k < x.size(); ++k) {
-      if (k == 0 || bin[k] >= seed + 64) {
-        const double ph = -2 * kPi * f * x[k];
-        z_re = std::cos(ph);
-        z_im = std::sin(ph);
-        seed = bin[k];
-      } else {
-        for (; at < bin[k]; ++at) {
-          const double re = z_re * step_re - z_im * step_im;
-          z_im = z_re * step_im + z_im * step_re;
-          z_re = re;
+  std::vector<double> freq;
+  for (double f = fmin; f <= fmax; f += df) freq.push_back(f);
+  std::vector<double> power(freq.size());
+  // The frequencies in chunks side by side: each power is worked out alone.
+  constexpr std::size_t kChunk = 64;
+  for_each_task((freq.size() + kChunk - 1) / kChunk, [&](std::size_t chunk) {
+    for (std::size_t fk = chunk * kChunk; fk < std::min(freq.size(), (chunk + 1) * kChunk); ++fk) {
+      const double f = freq[fk];
+      // The bins are equally spaced: exp(-2 pi i f x) turns by a fixed step from bin to bin
+      // (taken exactly again every 64 bins, so that rounding does not build up).
+      double acc_re = 0.0, acc_im = 0.0;
+      const double a = -2 * kPi * f * width;
+      const double step_re = std::cos(a), step_im = std::sin(a);
+      double z_re = 0.0, z_im = 0.0;
+      std::size_t at = 0, seed = 0;
+      for (std::size_t k = 0; k < x.size(); ++k) {
+        if (k == 0 || bin[k] >= seed + 64) {
+          const double ph = -2 * kPi * f * x[k];
+          z_re = std::cos(ph);
+          z_im = std::sin(ph);
+          seed = bin[k];
+        } else {
+          for (; at < bin[k]; ++at) {
+            const double re = z_re * step_re - z_im * step_im;
+            z_im = z_re * step_im + z_im * step_re;
+            z_re = re;
+          }
         }
+        at = bin[k];
+        const double wy = w[k] * (y[k] - ym);
+        acc_re += wy * z_re;
+        acc_im += wy * z_im;
       }
-      at = bin[k];
-      const double wy = w[k] * (y[k] - ym);
-      acc_re += wy * z_re;
-      acc_im += wy * z_im;
+      power[fk] = std::norm(std::complex<double>(acc_re, acc_im));
     }
-    const std::complex<double> acc(acc_re, acc_im);
-    freq.push_back(f);
-    power.push_back(std::norm(acc));
-  }
+  });
   if (power.size() < 8) return std::nullopt;
   std::vector<double> sorted = power;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
@@ -983,6 +994,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     for (auto* v : {&S.c, &S.s, &S.dr, &S.u}) reserve_huge(*v, total);
     reserve_huge(S.run, total);
   }
+  // The runs' bookkeeping in order, then their samples side by side (each run's into its own
+  // range of the arrays).
   for (std::size_t k = 0; k < ev.runs.size(); ++k) {
     const RunResult& rr = ev.runs[k];
     RunInfo info;
@@ -1001,34 +1014,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       if (group_feed.empty()) group_feed.push_back(0.0);
       info.group = 0;
     }
-    info.begin = S.size();
+    info.begin = S.runs.empty() ? 0 : S.runs.back().end;
+    info.end = info.begin + rr.run.size();
     info.trace_begin = rr.run.begin;
-    const detail::PathPolar polar = detail::path_polar(
-        std::span(col_a).subspan(rr.run.begin, rr.run.size()),
-        std::span(col_b).subspan(rr.run.begin, rr.run.size()), PlanePoint{ca, cb});
-    double lo = 0, hi = 0;
-    for (std::size_t i = rr.run.begin; i < rr.run.end; ++i) {
-      const double da = col_a[i] - ca, db = col_b[i] - cb;
-      const double r = polar.radius_mm[i - rr.run.begin];
-      const double u = polar.angle_rad[i - rr.run.begin];
-      if (i == rr.run.begin) lo = hi = u;
-      lo = std::min(lo, u);
-      hi = std::max(hi, u);
-      S.c.push_back(da / r);
-      S.s.push_back(db / r);
-      S.dr.push_back(r - R);
-      S.run.push_back(static_cast<std::uint32_t>(k));
-      S.u.push_back(u);
-    }
-    info.end = S.size();
-    // An axis reverses inside the run when the arc crosses its reversal angle (with a margin
-    // so the step itself is inside the data).
-    const double margin = 2.0 * kPi / 180.0;
-    auto crosses = [&](double shift) {
-      return std::floor((hi - margin - shift) / kPi) >= std::ceil((lo + margin - shift) / kPi);
-    };
-    reversal_a = reversal_a || crosses(0.0);
-    reversal_b = reversal_b || crosses(kPi / 2);
     // One sample period in angle (the time column's mean step).
     if (const std::vector<double>* t = trace.column(column_name::t);
         t && rr.run.size() > 1 && info.speed_mm_s > 0) {
@@ -1037,6 +1025,45 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       info.eps_rad = 1.5 * dt * info.speed_mm_s / R;
     }
     S.runs.push_back(info);
+  }
+  {
+    const std::size_t total = S.runs.empty() ? 0 : S.runs.back().end;
+    for (auto* v : {&S.c, &S.s, &S.dr, &S.u}) v->resize(total);
+    S.run.resize(total);
+  }
+  std::vector<std::array<double, 2>> angle_range(ev.runs.size());  // lowest, highest
+  for_each_task(ev.runs.size(), [&](std::size_t k) {
+    const Run& run = ev.runs[k].run;
+    const RunInfo& info = S.runs[k];
+    const detail::PathPolar polar =
+        detail::path_polar(std::span(col_a).subspan(run.begin, run.size()),
+                           std::span(col_b).subspan(run.begin, run.size()), PlanePoint{ca, cb});
+    double lo = 0, hi = 0;
+    for (std::size_t q = 0; q < run.size(); ++q) {
+      const std::size_t i = run.begin + q, j = info.begin + q;
+      const double da = col_a[i] - ca, db = col_b[i] - cb;
+      const double r = polar.radius_mm[q];
+      const double u = polar.angle_rad[q];
+      if (q == 0) lo = hi = u;
+      lo = std::min(lo, u);
+      hi = std::max(hi, u);
+      S.c[j] = da / r;
+      S.s[j] = db / r;
+      S.dr[j] = r - R;
+      S.run[j] = static_cast<std::uint32_t>(k);
+      S.u[j] = u;
+    }
+    angle_range[k] = {lo, hi};
+  });
+  for (const auto& [lo, hi] : angle_range) {
+    // An axis reverses inside the run when the arc crosses its reversal angle (with a margin
+    // so the step itself is inside the data).
+    const double margin = 2.0 * kPi / 180.0;
+    auto crosses = [&](double shift) {
+      return std::floor((hi - margin - shift) / kPi) >= std::ceil((lo + margin - shift) / kPi);
+    };
+    reversal_a = reversal_a || crosses(0.0);
+    reversal_b = reversal_b || crosses(kPi / 2);
   }
   D.runs = ev.runs.size();
   D.samples = S.size();
@@ -1280,10 +1307,15 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         const double l0 = std::log(tau_lo), l1 = std::log(tau_hi);
         const double step = (l1 - l0) / n;
         auto grid_best = [&](int k0, int k1) {
+          // The grid's points side by side, then the first lowest in grid order.
+          std::vector<double> rss(static_cast<std::size_t>(k1 - k0 + 1));
+          for_each_task(rss.size(), [&](std::size_t t) {
+            rss[t] = rss_at(l0 + step * (k0 + static_cast<int>(t)));
+          });
           double best = std::numeric_limits<double>::infinity();
           int kbest = k0;
           for (int k = k0; k <= k1; ++k) {
-            const double r = rss_at(l0 + step * k);
+            const double r = rss[static_cast<std::size_t>(k - k0)];
             if (r < best) {
               best = r;
               kbest = k;
