@@ -113,18 +113,23 @@ double sgn(double v) {
 // number of threads.
 constexpr std::size_t kBlockSamples = 16384;
 
+unsigned diagnosis_threads() {
+  static const unsigned threads = thread_count(ThreadCountRequest{.max_threads = 8});
+  return threads;
+}
+
 // fn(lo, hi, block) for every block [lo, hi) of [0, n), on up to 8 threads. A block's
 // exception (an allocation that failed) reaches the caller, the first in block order.
 template <class F>
 void for_blocks(std::size_t n, F&& fn) {
-  static const unsigned threads = thread_count(ThreadCountRequest{.max_threads = 8});
-  circtest::for_blocks(n, kBlockSamples, threads, std::forward<F>(fn));
+  circtest::for_blocks(n, kBlockSamples, diagnosis_threads(), std::forward<F>(fn));
 }
 
-// fn(k) for k in [0, n), side by side (as blocks of for_blocks).
+// fn(k) for k in [0, n) as independent tasks on the same threads (each writes only its own
+// results), errors reported as for_blocks.
 template <class F>
 void for_each_task(std::size_t n, F&& fn) {
-  for_blocks(n * kBlockSamples, [&](std::size_t, std::size_t, std::size_t k) { fn(k); });
+  run_tasks(n, diagnosis_threads(), [&](std::size_t k) { fn(k); });
 }
 
 // The reversal bookkeeping depends on the state only through the lag mismatch. It is worked
