@@ -1207,18 +1207,25 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         pitch = it->second;
         ce.pitch_source = "option";
       } else {
+        // Every cstride-th sample, entry i / cstride, on the threads.
+        const std::size_t count = (S.size() + cstride - 1) / cstride;
         std::vector<double> pos, proj, res;
-        for (auto* v : {&pos, &proj, &res}) reserve_huge(*v, S.size() / cstride + 1);
-        const Reversals rev(S, st.servo_mismatch_s);
-        for (std::size_t i = 0; i < S.size(); i += cstride) {
-          const Reversal rv = rev.at(i);
-          double e = S.dr[i] - offset(S, st, cols, i, rv);
-          for (std::size_t j = 0; j < cols.size(); ++j)
-            e -= value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
-          pos.push_back(S.pos(ax, i));
-          proj.push_back(ax == 0 ? S.c[i] : S.s[i]);
-          res.push_back(e);
+        for (auto* v : {&pos, &proj, &res}) {
+          reserve_huge(*v, count);
+          v->resize(count);
         }
+        const Reversals rev(S, st.servo_mismatch_s);
+        for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t) {
+          for (std::size_t i = (lo + cstride - 1) / cstride * cstride; i < hi; i += cstride) {
+            const Reversal rv = rev.at(i);
+            double e = S.dr[i] - offset(S, st, cols, i, rv);
+            for (std::size_t j = 0; j < cols.size(); ++j)
+              e -= value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
+            pos[i / cstride] = S.pos(ax, i);
+            proj[i / cstride] = ax == 0 ? S.c[i] : S.s[i];
+            res[i / cstride] = e;
+          }
+        });
         const auto peak = periodogram(pos, proj, res, R, std::max(0.5, R / 400.0));
         if (peak && peak->ratio >= options.cyclic_detection_factor) {
           pitch = peak->pitch_mm;
