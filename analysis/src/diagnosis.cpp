@@ -1060,7 +1060,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     }
     angle_range[k] = {lo, hi};
   });
-  for (const auto& [lo, hi] : angle_range) {
+  for (const std::array<double, 2>& range : angle_range) {
+    const double lo = range[0], hi = range[1];
     // An axis reverses inside the run when the arc crosses its reversal angle (with a margin
     // so the step itself is inside the data).
     const double margin = 2.0 * kPi / 180.0;
