@@ -64,9 +64,11 @@ struct TraceReadOptions {
   std::vector<std::string> required;  // columns that must exist (else ParseError at the header)
   // When the trace has a `t` column: reject time going backwards (DataError at that row).
   bool check_time_monotonic = true;
-  // A text trace of at least this many bytes is parsed in stretches on `threads` threads
-  // (0: one per idle core), each writing its rows in place into the columns; results and
-  // errors are the same as with one thread.
+  // Threads for a large trace (0: one per idle core). A binary trace's rows are shared out
+  // among them. A text trace of at least parallel_min_bytes is parsed in stretches only when
+  // two or more are asked for (a regular file is otherwise read in blocks on one thread, which
+  // measured faster: docs/performance.md), each writing its rows in place into the columns;
+  // results and errors are the same as with one thread.
   unsigned threads = 0;
   std::size_t parallel_min_bytes = std::size_t{4} << 20;
   // A text file parsed in stretches is read whole into memory up to this size (faster than
