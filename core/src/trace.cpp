@@ -564,11 +564,19 @@ unsigned worker_count(const TraceReadOptions& options, std::size_t bytes) {
   return thread_count(request);
 }
 
+// Threads for a text trace of `bytes`: stretches only when two or more are asked for. Read
+// whole and parsed on both cores of this VM, idle, a 1e6-row CSV took 0.146 s against 0.122 s
+// for one thread reading in blocks (the floor of parsing every number is 0.116 s): the work is
+// the first touch of memory, not the parse.
+unsigned text_workers(const TraceReadOptions& options, std::size_t bytes) {
+  return options.threads >= 2 ? worker_count(options, bytes) : 1;
+}
+
 // Text after the metadata and header, in stretches parsed side by side when the file is
 // large. Any error sends the whole text back through one parser, so the message and line are
 // the ones a sequential read gives (the first problem in file order).
 Trace parse_text(std::string_view text, const std::string& source, const TraceReadOptions& options,
-                 bool mapped) {
+                 bool mapped, unsigned workers) {
   auto sequential = [&] {
     TraceParser p(source, options);
     p.reserve_rows(estimate_rows(text));
@@ -585,7 +593,6 @@ Trace parse_text(std::string_view text, const std::string& source, const TraceRe
   }
   const std::string_view rows = pos < text.size() ? text.substr(pos) : std::string_view();
   const std::size_t estimate = estimate_rows(rows);
-  const unsigned workers = worker_count(options, rows.size());
   if (workers < 2 || !parser.has_header()) {
     parser.reserve_rows(estimate);
     feed_text(parser, rows, mapped);
@@ -844,7 +851,7 @@ Trace read_binary_trace(const InputFile& in, const TraceReadOptions& options) {
 }
 
 // A regular text file is mapped and parsed in place; the mapping goes when the parse ends.
-Trace read_mapped_text(const InputFile& in, const TraceReadOptions& options) {
+Trace read_mapped_text(const InputFile& in, const TraceReadOptions& options, unsigned workers) {
   const std::size_t size = static_cast<std::size_t>(in.size());
   void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, in.fd(), 0);
   if (map == MAP_FAILED)
@@ -855,8 +862,8 @@ Trace read_mapped_text(const InputFile& in, const TraceReadOptions& options) {
     ~Unmap() { ::munmap(p, n); }
   } unmap{map, size};
   ::madvise(map, size, MADV_SEQUENTIAL);
-  return parse_text(std::string_view(static_cast<const char*>(map), size), in.path(), options,
-                    true);
+  return parse_text(std::string_view(static_cast<const char*>(map), size), in.path(), options, true,
+                    workers);
 }
 
 // A file read whole on the stretches' threads (pread, each its share), then parsed in
@@ -872,7 +879,7 @@ Trace read_whole_text(const InputFile& in, const TraceReadOptions& options, unsi
       throw IoError(in.path(), "file shrank while being read");
     }
   });
-  return parse_text(std::string_view(text.get(), size), in.path(), options, false);
+  return parse_text(std::string_view(text.get(), size), in.path(), options, false, workers);
 }
 
 // A pipe is read in blocks; a line longer than the cap is refused before it fills memory.
@@ -929,7 +936,7 @@ Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
 
 Trace parse_trace(std::string_view text, const std::string& source,
                   const TraceReadOptions& options) {
-  return parse_text(text, source, options, false);
+  return parse_text(text, source, options, false, text_workers(options, text.size()));
 }
 
 Trace read_trace(const std::string& path, const TraceReadOptions& options) {
@@ -941,18 +948,15 @@ Trace read_trace(const std::string& path, const TraceReadOptions& options) {
       std::memcmp(magic, kBinaryMagic, sizeof magic) == 0) {
     return read_binary_trace(in, options);
   }
-  if (in.size() == 0) return parse_text({}, path, options, false);
+  if (in.size() == 0) return parse_text({}, path, options, false, 1);
   // Read, not mapped, up to a size: on a virtual machine with shadow paging, touching a
   // mapping's pages costs about twice what read() takes to copy them (71 MB: ~55 against
   // ~25 ms). One thread reads in blocks into one buffer; stretches on several threads need the
   // whole text, read into memory when it fits the budget and mapped beyond it.
-  // Stretches only when asked for: read whole and parsed on both cores of this VM, idle, a
-  // 1e6-row CSV took 0.146 s against 0.122 s for one thread reading in blocks (the floor of
-  // parsing every number is 0.116 s): the work is the first touch of memory, not the parse.
-  const unsigned workers = options.threads >= 2 ? worker_count(options, in.size()) : 1;
+  const unsigned workers = text_workers(options, in.size());
   if (workers < 2) return read_stream_text(in, options, in.size());
   if (in.size() <= options.read_whole_max_bytes) return read_whole_text(in, options, workers);
-  return read_mapped_text(in, options);
+  return read_mapped_text(in, options, workers);
 }
 
 // ---------------------------------------------------------------- writer
