@@ -358,23 +358,220 @@ struct Normal {
   std::size_t n = 0;
 };
 
-// The last normal equations and what they were built for: the first step of a fit often asks
-// again for the ones the identifiability check just built.
-struct NormalMemo {
-  std::vector<Column> cols;
-  State st;
-  std::size_t stride = 0;
-  Normal N;
+// Sums of a set of rows: J^T J (upper triangle), J^T Y and Y^T Y for the right-hand sides
+// in Y's columns.
+struct Sums {
+  Eigen::MatrixXd M, V, YY;
+  std::size_t n = 0;
+  Sums(Eigen::Index p, Eigen::Index k)
+      : M(Eigen::MatrixXd::Zero(p, p)),
+        V(Eigen::MatrixXd::Zero(p, k)),
+        YY(Eigen::MatrixXd::Zero(k, k)) {}
+  Sums& operator+=(const Sums& o) {
+    M += o.M;
+    V += o.V;
+    YY += o.YY;
+    n += o.n;
+    return *this;
+  }
 };
 
-Normal accumulate_pass(const Samples& S, const State& st, const std::vector<Column>& cols,
-                       std::size_t stride);
+// The servo part of offset() divided by the square of the lag mismatch: the rows away from
+// the reversals keep their sums against dr and against this, so a new mismatch needs no pass.
+double servo_offset_per_s2(const Samples& S, std::size_t i) {
+  const RunInfo& r = S.runs[S.run[i]];
+  const double w = r.speed_mm_s / S.radius;
+  const double c2 = S.c[i] * S.c[i] - S.s[i] * S.s[i], s2 = 2.0 * S.c[i] * S.s[i];
+  return -S.radius * w * w * (3.0 / 16.0) * (c2 * c2 - s2 * s2);
+}
 
-Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& cols,
-                  std::size_t stride, std::optional<NormalMemo>& memo) {
-  if (memo && memo->stride == stride && memo->st == st && memo->cols == cols) return memo->N;
-  memo = NormalMemo{cols, st, stride, accumulate_pass(S, st, cols, stride)};
-  return memo->N;
+// Adds the rows idx[0..m) (rvs: their reversal bookkeeping at st) to `out`: the design rows
+// transposed (one per column), so J^T J is one matrix product. Y is dr - offset, or with
+// `split_servo` (rows off every transition) the two columns dr and servo_offset_per_s2.
+void add_rows(const Samples& S, const State& st, const std::vector<Column>& cols,
+              const std::size_t* idx, const Reversal* rvs, std::size_t m, bool split_servo,
+              Sums& out) {
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  const auto mi = static_cast<Eigen::Index>(m);
+  Eigen::MatrixXd Xt(p, mi);
+  Eigen::MatrixXd Y(mi, split_servo ? 2 : 1);
+  for (Eigen::Index j = 0; j < p; ++j) {
+    fill_column(S, st, cols[static_cast<std::size_t>(j)], idx, rvs, m, Xt.data() + j,
+                static_cast<std::size_t>(p));
+  }
+  for (std::size_t q = 0; q < m; ++q) {
+    const auto qi = static_cast<Eigen::Index>(q);
+    if (split_servo) {
+      Y(qi, 0) = S.dr[idx[q]];
+      Y(qi, 1) = servo_offset_per_s2(S, idx[q]);
+    } else {
+      Y(qi, 0) = S.dr[idx[q]] - offset(S, st, cols, idx[q], rvs[q]);
+    }
+  }
+  out.M.selfadjointView<Eigen::Upper>().rankUpdate(Xt);
+  out.V.noalias() += Xt * Y;
+  out.YY.noalias() += Y.transpose() * Y;
+  out.n += m;
+}
+
+Normal to_normal(const Sums& s, double servo_mismatch_s) {
+  Normal N;
+  N.M = s.M.selfadjointView<Eigen::Upper>();
+  if (s.V.cols() == 1) {
+    N.v = s.V.col(0);
+    N.yy = s.YY(0, 0);
+  } else {
+    const double m2 = servo_mismatch_s * servo_mismatch_s;
+    N.v = s.V.col(0) - m2 * s.V.col(1);
+    N.yy = s.YY(0, 0) - 2.0 * m2 * s.YY(0, 1) + m2 * m2 * s.YY(1, 1);
+  }
+  N.n = s.n;
+  return N;
+}
+
+// The angle after a reversal within which the motor takes up the play b (its travel
+// R (1 - cos) is below b): the backlash columns change shape there.
+double takeup_rad(double b, double radius) {
+  if (!(b > 0.0)) return 0.0;
+  return b >= 2.0 * radius ? kPi : std::acos(1.0 - b / radius);
+}
+
+// The sums of the rows away from every reversal, for one set of columns. There a row's columns
+// do not depend on the play or (within the window) on the lag mismatch: the backlash columns
+// are +-1/2 cos or sin, a spike has decayed below exp(-40), and the servo offset is the lag
+// mismatch squared times a fixed function. A Gauss-Newton step then works out only the rows
+// near a reversal (a few percent) and adds these sums. The windows are angles before and
+// after the reversals as they were when the sums were taken; a state that moves a reversal or
+// a take-up of the play out of them makes the sums be taken again.
+struct SteadySums {
+  std::vector<Column> cols;
+  std::size_t stride = 0;
+  State ref;                           // the state they were taken at
+  std::vector<double> before_rad;      // per run: window before a reversal
+  std::vector<double> free_after_rad;  // per run: after one, less the spike's decay
+  std::vector<std::size_t> near;       // the stride rows inside a window, in order
+  std::unique_ptr<Sums> sums;          // of the others, Y = (dr, servo_offset_per_s2)
+};
+
+// Whether `cols` can use steady sums at all: a column of a decay derivative is needed once,
+// and a slow spike decay reaches every row.
+bool steady_applies(const Samples& S, const State& st, const std::vector<Column>& cols) {
+  double wmax = 0.0;
+  for (const RunInfo& r : S.runs) wmax = std::max(wmax, r.speed_mm_s / S.radius);
+  for (const Column& c : cols) {
+    if (c.kind == Kind::spike_tau_a || c.kind == Kind::spike_tau_b) return false;
+    if ((c.kind == Kind::spike_a && 40.0 * st.tau_a * wmax > kPi / 4) ||
+        (c.kind == Kind::spike_b && 40.0 * st.tau_b * wmax > kPi / 4))
+      return false;
+  }
+  return true;
+}
+
+bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
+                  const std::vector<Column>& cols, std::size_t stride) {
+  if (ss.stride != stride || ss.cols != cols || st.pitch_a != ss.ref.pitch_a ||
+      st.pitch_b != ss.ref.pitch_b || st.tau_a != ss.ref.tau_a || st.tau_b != ss.ref.tau_b)
+    return false;
+  const double need_b =
+      std::max(takeup_rad(st.backlash_a, S.radius), takeup_rad(st.backlash_b, S.radius));
+  for (std::size_t k = 0; k < S.runs.size(); ++k) {
+    const RunInfo& r = S.runs[k];
+    const double shift =
+        std::abs(r.speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
+    if (!(shift + r.eps_rad < ss.before_rad[k]) ||
+        !(shift + std::max(r.eps_rad, need_b) < ss.free_after_rad[k]))
+      return false;
+  }
+  return true;
+}
+
+SteadySums take_steady(const Samples& S, const State& st, const std::vector<Column>& cols,
+                       std::size_t stride) {
+  SteadySums ss;
+  ss.cols = cols;
+  ss.stride = stride;
+  ss.ref = st;
+  auto has = [&](Kind k) {
+    return std::any_of(cols.begin(), cols.end(), [k](const Column& c) { return c.kind == k; });
+  };
+  const bool spike_a = has(Kind::spike_a), spike_b = has(Kind::spike_b);
+  const double play =
+      std::max({2.0 * std::abs(st.backlash_a), 2.0 * std::abs(st.backlash_b), 1e-3 * S.radius});
+  std::vector<double> after_a(S.runs.size()), after_b(S.runs.size());
+  for (const RunInfo& r : S.runs) {
+    const double w = r.speed_mm_s / S.radius;
+    // Room for the reversals to move with the lag mismatch, and for the excluded samples.
+    const double room = std::max(
+        {2.0 * r.eps_rad, kPi / 180.0, 2.0 * w * std::max(std::abs(st.servo_mismatch_s), 2e-3)});
+    ss.before_rad.push_back(room);
+    ss.free_after_rad.push_back(room + takeup_rad(play, S.radius));
+  }
+  for (std::size_t k = 0; k < S.runs.size(); ++k) {
+    const double w = S.runs[k].speed_mm_s / S.radius;
+    after_a[k] = ss.free_after_rad[k] + (spike_a ? 40.0 * st.tau_a * w : 0.0);
+    after_b[k] = ss.free_after_rad[k] + (spike_b ? 40.0 * st.tau_b * w : 0.0);
+  }
+  const Reversals rev(S, st.servo_mismatch_s);
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
+  std::vector<Sums> part(nblocks, Sums(p, 2));
+  std::vector<std::vector<std::size_t>> near(nblocks);
+  for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
+    std::vector<std::size_t> idx;
+    std::vector<Reversal> rvs;
+    for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) {
+      const Reversal rv = rev.at(i);
+      const std::size_t k = S.run[i];
+      const double before = ss.before_rad[k];
+      if (rv.since_a < after_a[k] || kPi - rv.since_a < before || rv.since_b < after_b[k] ||
+          kPi - rv.since_b < before) {
+        near[block].push_back(i);
+      } else {
+        idx.push_back(i);
+        rvs.push_back(rv);
+      }
+    }
+    add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), true, part[block]);
+  });
+  ss.sums = std::make_unique<Sums>(p, 2);
+  for (std::size_t b = 0; b < nblocks; ++b) {
+    *ss.sums += part[b];
+    ss.near.insert(ss.near.end(), near[b].begin(), near[b].end());
+  }
+  return ss;
+}
+
+// The normal equations at st from steady sums valid for it: the rows near the reversals
+// worked out now, in chunks.
+Normal steady_normal(const Samples& S, const SteadySums& ss, const State& st,
+                     const std::vector<Column>& cols) {
+  const Reversals rev(S, st.servo_mismatch_s);
+  const auto p = static_cast<Eigen::Index>(cols.size());
+  // Chunks side by side, added in chunk order.
+  constexpr std::size_t kChunk = 4096;
+  const std::size_t nchunks = (ss.near.size() + kChunk - 1) / kChunk;
+  std::vector<Sums> part(nchunks, Sums(p, 1));
+  for_each_task(nchunks, [&](std::size_t c) {
+    std::vector<std::size_t> idx;
+    std::vector<Reversal> rvs;
+    for (std::size_t t = c * kChunk; t < std::min(ss.near.size(), (c + 1) * kChunk); ++t) {
+      const std::size_t i = ss.near[t];
+      const Reversal rv = rev.at(i);
+      if (at_reversal(S, i, rv)) continue;
+      idx.push_back(i);
+      rvs.push_back(rv);
+    }
+    add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), false, part[c]);
+  });
+  Sums near(p, 1);
+  for (const Sums& c : part) near += c;
+  Normal N = to_normal(*ss.sums, st.servo_mismatch_s);
+  const Normal Nn = to_normal(near, 0.0);
+  N.M += Nn.M;
+  N.v += Nn.v;
+  N.yy += Nn.yy;
+  N.n += Nn.n;
+  return N;
 }
 
 Normal accumulate_pass(const Samples& S, const State& st, const std::vector<Column>& cols,
@@ -382,52 +579,49 @@ Normal accumulate_pass(const Samples& S, const State& st, const std::vector<Colu
   const Reversals rev(S, st.servo_mismatch_s);
   const auto p = static_cast<Eigen::Index>(cols.size());
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
-  // Per block: its rows (transposed, one per column) build J^T J as one matrix product.
-  std::vector<Normal> part(nblocks);
+  std::vector<Sums> part(nblocks, Sums(p, 1));
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
-    Normal& N = part[block];
-    N.M = Eigen::MatrixXd::Zero(p, p);
-    N.v = Eigen::VectorXd::Zero(p);
-    const std::size_t first = (lo + stride - 1) / stride * stride;
-    const auto rows =
-        static_cast<Eigen::Index>(hi > first ? (hi - first + stride - 1) / stride : 0);
-    // The rows off the reversals first, then the block's columns one by one.
+    // The rows off the reversals.
     std::vector<std::size_t> idx;
     std::vector<Reversal> rvs;
-    idx.reserve(static_cast<std::size_t>(rows));
-    rvs.reserve(static_cast<std::size_t>(rows));
-    for (std::size_t i = first; i < hi; i += stride) {
+    for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) {
       const Reversal rv = rev.at(i);
       if (at_reversal(S, i, rv)) continue;
       idx.push_back(i);
       rvs.push_back(rv);
     }
-    const auto m = static_cast<Eigen::Index>(idx.size());
-    Eigen::MatrixXd Xt(p, m);
-    Eigen::VectorXd y(m);
-    for (Eigen::Index j = 0; j < p; ++j) {
-      fill_column(S, st, cols[static_cast<std::size_t>(j)], idx.data(), rvs.data(), idx.size(),
-                  Xt.data() + j, static_cast<std::size_t>(p));
-    }
-    for (Eigen::Index q = 0; q < m; ++q) {
-      const std::size_t i = idx[static_cast<std::size_t>(q)];
-      y[q] = S.dr[i] - offset(S, st, cols, i, rvs[static_cast<std::size_t>(q)]);
-    }
-    N.M.selfadjointView<Eigen::Upper>().rankUpdate(Xt.leftCols(m));
-    N.v.noalias() += Xt.leftCols(m) * y.head(m);
-    N.yy = y.head(m).squaredNorm();
-    N.n = static_cast<std::size_t>(m);
+    add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), false, part[block]);
   });
+  Sums all(p, 1);
+  for (const Sums& b : part) all += b;
+  return to_normal(all, 0.0);
+}
+
+// The normal equations already built: the last ones (the first step of a fit often asks again
+// for those the identifiability check just built), and the steady sums of the last columns.
+struct NormalMemo {
+  std::vector<Column> cols;
+  State st;
+  std::size_t stride = 0;
   Normal N;
-  N.M = Eigen::MatrixXd::Zero(p, p);
-  N.v = Eigen::VectorXd::Zero(p);
-  for (const Normal& b : part) {
-    N.M += b.M;
-    N.v += b.v;
-    N.yy += b.yy;
-    N.n += b.n;
+  std::optional<SteadySums> steady;
+};
+
+Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& cols,
+                  std::size_t stride, NormalMemo& memo) {
+  if (memo.stride == stride && memo.st == st && memo.cols == cols) return memo.N;
+  Normal N;
+  if (!steady_applies(S, st, cols)) {
+    N = accumulate_pass(S, st, cols, stride);
+  } else {
+    if (!memo.steady || !steady_valid(S, *memo.steady, st, cols, stride))
+      memo.steady = take_steady(S, st, cols, stride);
+    N = steady_normal(S, *memo.steady, st, cols);
   }
-  N.M = N.M.selfadjointView<Eigen::Upper>();
+  memo.cols = cols;
+  memo.st = st;
+  memo.stride = stride;
+  memo.N = N;
   return N;
 }
 
@@ -756,6 +950,33 @@ double golden(F f, double lo, double hi, int iterations) {
   return f1 < f2 ? x1 : x2;
 }
 
+// The residual dr - model at every stride-th sample into res[i / stride], on the threads, the
+// columns filled in chunks (each kind dispatched once per chunk).
+void residual_every(const Samples& S, const State& st, const std::vector<Column>& cols,
+                    const Eigen::VectorXd& x, std::size_t stride, std::vector<double>& res) {
+  const std::size_t count = (S.size() + stride - 1) / stride;
+  if (res.capacity() < count) reserve_huge(res, count);
+  res.resize(count);
+  const Reversals rev(S, st.servo_mismatch_s);
+  for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t) {
+    std::vector<std::size_t> idx;
+    std::vector<Reversal> rvs;
+    for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) {
+      idx.push_back(i);
+      rvs.push_back(rev.at(i));
+    }
+    const std::size_t m = idx.size();
+    std::vector<double> col(m);
+    for (std::size_t q = 0; q < m; ++q)
+      res[idx[q] / stride] = S.dr[idx[q]] - offset(S, st, cols, idx[q], rvs[q]);
+    for (std::size_t j = 0; j < cols.size(); ++j) {
+      fill_column(S, st, cols[j], idx.data(), rvs.data(), m, col.data(), 1);
+      const double xj = x[static_cast<Eigen::Index>(j)];
+      for (std::size_t q = 0; q < m; ++q) res[idx[q] / stride] -= col[q] * xj;
+    }
+  });
+}
+
 struct Peak {
   double pitch_mm = 0.0;
   double ratio = 0.0;  // peak power / median power
@@ -848,6 +1069,20 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
   peak.pitch_mm = 1.0 / f;
   peak.ratio = median > 0 ? *it / median : std::numeric_limits<double>::infinity();
   return peak;
+}
+
+// atan2(cross, dot) for the angle between a commanded and a measured position: the following
+// lag keeps it below a few degrees, where atan's series to the 11th power is exact in double
+// precision (for |t| < 0.05 the next term is below 2e-17 of the angle) and several times
+// cheaper than atan2.
+double lag_angle(double cross, double dot) {
+  if (dot > 0.0 && std::abs(cross) < 0.05 * dot) {
+    const double t = cross / dot, t2 = t * t;
+    return t * (1.0 -
+                t2 * (1.0 / 3.0 -
+                      t2 * (1.0 / 5.0 - t2 * (1.0 / 7.0 - t2 * (1.0 / 9.0 - t2 * (1.0 / 11.0))))));
+  }
+  return std::atan2(cross, dot);
 }
 
 const std::vector<double>* cmd_column(const Trace& trace, char axis) {
@@ -1124,7 +1359,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       std::max<std::size_t>(1, (S.size() + options.max_fit_samples - 1) / options.max_fit_samples);
   const double vif_floor = 1.0 / options.max_variance_inflation;
 
-  std::optional<NormalMemo> memo;
+  NormalMemo memo;
   // Identifiability: forward selection on the normalised normal matrix.
   auto select = [&](const std::vector<Column>& in, std::vector<Column>& out,
                     std::vector<std::pair<Column, double>>& rejected) {
@@ -1197,6 +1432,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
 
   // Cyclic errors: a given pitch, else a periodogram of the residual over axis position.
   {
+    std::vector<double> res;
+    std::vector<Column> res_cols;
+    State res_st;
     const std::size_t cstride = std::max<std::size_t>(1, (S.size() + 199999) / 200000);
     for (int ax = 0; ax < 2; ++ax) {
       const char letter = ax == 0 ? la : lb;
@@ -1208,23 +1446,23 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         pitch = it->second;
         ce.pitch_source = "option";
       } else {
-        // Every cstride-th sample, entry i / cstride, on the threads.
+        // Every cstride-th sample, entry i / cstride, on the threads. The residual is the
+        // same for both axes unless the first one added a cyclic term.
         const std::size_t count = (S.size() + cstride - 1) / cstride;
-        std::vector<double> pos, proj, res;
-        for (auto* v : {&pos, &proj, &res}) {
+        std::vector<double> pos, proj;
+        for (auto* v : {&pos, &proj}) {
           reserve_huge(*v, count);
           v->resize(count);
         }
-        const Reversals rev(S, st.servo_mismatch_s);
+        if (!(res_cols == cols && res_st == st)) {
+          residual_every(S, st, cols, sol.x, cstride, res);
+          res_cols = cols;
+          res_st = st;
+        }
         for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t) {
           for (std::size_t i = (lo + cstride - 1) / cstride * cstride; i < hi; i += cstride) {
-            const Reversal rv = rev.at(i);
-            double e = S.dr[i] - offset(S, st, cols, i, rv);
-            for (std::size_t j = 0; j < cols.size(); ++j)
-              e -= value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
             pos[i / cstride] = S.pos(ax, i);
             proj[i / cstride] = ax == 0 ? S.c[i] : S.s[i];
-            res[i / cstride] = e;
           }
         });
         const auto peak = periodogram(pos, proj, res, R, std::max(0.5, R / 400.0));
@@ -1355,6 +1593,10 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         (ax == 0 ? trial.tau_a : trial.tau_b) = std::exp(lt);
       }
     }
+    // The fit without spikes (decays zero), taken back unchanged when every spike found is
+    // dropped below.
+    const State st_without = st;
+    const Solution sol_without = sol;
     hints = {trial.tau_a, trial.tau_b};
     st.tau_a = trial.tau_a;
     st.tau_b = trial.tau_b;
@@ -1380,8 +1622,12 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*find(cols, k)));
       (k == Kind::spike_a ? st.tau_a : st.tau_b) = 0.0;
     }
-    const bool dropped = !drop.empty();
-    if (dropped) fit();
+    if (drop.size() == static_cast<std::size_t>(on[0]) + static_cast<std::size_t>(on[1])) {
+      st = st_without;
+      sol = sol_without;
+    } else if (!drop.empty()) {
+      fit();
+    }
   };
   search_spikes();
 
@@ -1525,9 +1771,10 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         const std::size_t i = info.trace_begin + (j - info.begin);
         const double ma = col_a[i] - ca - oa, mb = col_b[i] - cb - ob;
         const double qa = (*cmd_a)[i] - ca, qb = (*cmd_b)[i] - cb;
-        const double dth = std::atan2(qa * mb - qb * ma, qa * ma + qb * mb);
+        const double dth = lag_angle(qa * mb - qb * ma, qa * ma + qb * mb);
         tsums[block * nruns + k] += info.dir * dth * R;
-        const double r = std::hypot(ma, mb);
+        // No overflow or underflow at machine coordinates: hypot's care is not needed.
+        const double r = std::sqrt(ma * ma + mb * mb);
         const double c = ma / r, s = mb / r;
         // Tangential deviations the fitted geometric terms make (docs/diagnosis.md).
         gsums[block * nruns + k] += -info.dir * alpha * R * s * s - info.dir * R * ds * s * c -
@@ -1689,11 +1936,27 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
     Extremes& e = ext[block];
     std::vector<double> term_at(ns);
+    // The columns in chunks of samples, each filled with its kind dispatched once.
+    constexpr std::size_t kChunk = 512;
+    const std::size_t p = cols.size();
+    std::vector<std::size_t> idx(kChunk);
+    std::vector<Reversal> rvs(kChunk);
+    std::vector<double> colv(kChunk * p);
     // The reversals inside a run, where the angle since one drops from a sample to the next.
     Reversal prev{};
     if (lo > 0) prev = rev.at(lo - 1);
     for (std::size_t i = lo; i < hi; ++i) {
-      const Reversal rv = rev.at(i);
+      const std::size_t q = (i - lo) % kChunk;
+      if (q == 0) {
+        const std::size_t m = std::min(kChunk, hi - i);
+        for (std::size_t t = 0; t < m; ++t) {
+          idx[t] = i + t;
+          rvs[t] = rev.at(i + t);
+        }
+        for (std::size_t j = 0; j < p; ++j)
+          fill_column(S, st, cols[j], idx.data(), rvs.data(), m, colv.data() + j * kChunk, 1);
+      }
+      const Reversal& rv = rvs[q];
       if (i > 0 && S.run[i - 1] == S.run[i]) {
         if (rv.since_a < prev.since_a) e.events[0].push_back({i, rv.since_a, rv.dir_a});
         if (rv.since_b < prev.since_b) e.events[1].push_back({i, rv.since_b, rv.dir_b});
@@ -1702,8 +1965,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       double full = offset(S, st, cols, i, rv);
       double shape = full;  // without centring and radius
       std::fill(term_at.begin(), term_at.end(), 0.0);
-      for (std::size_t j = 0; j < cols.size(); ++j) {
-        const double t = value(S, st, cols[j], i, rv) * sol.x[static_cast<Eigen::Index>(j)];
+      for (std::size_t j = 0; j < p; ++j) {
+        const double t = colv[j * kChunk + q] * sol.x[static_cast<Eigen::Index>(j)];
         full += t;
         if (source_of[j] < 0) continue;
         shape += t;
