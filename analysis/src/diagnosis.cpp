@@ -1075,13 +1075,17 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
 // lag keeps it below a few degrees, where atan's series to the 11th power is exact in double
 // precision (for |t| < 0.05 the next term is below 2e-17 of the angle) and several times
 // cheaper than atan2.
-double lag_angle(double cross, double dot) {
-  if (dot > 0.0 && std::abs(cross) < 0.05 * dot) {
-    const double t = cross / dot, t2 = t * t;
-    return t * (1.0 -
-                t2 * (1.0 / 3.0 -
+constexpr double kSeriesMax = 0.05;
+
+double atan_series(double t) {
+  const double t2 = t * t;
+  return t *
+         (1.0 - t2 * (1.0 / 3.0 -
                       t2 * (1.0 / 5.0 - t2 * (1.0 / 7.0 - t2 * (1.0 / 9.0 - t2 * (1.0 / 11.0))))));
-  }
+}
+
+double lag_angle(double cross, double dot) {
+  if (dot > 0.0 && std::abs(cross) < kSeriesMax * dot) return atan_series(cross / dot);
   return std::atan2(cross, dot);
 }
 
@@ -1765,21 +1769,46 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
     const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
     std::vector<double> tsums(nblocks * nruns, 0.0), gsums(nblocks * nruns, 0.0);
     for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
-      for (std::size_t j = lo; j < hi; ++j) {
-        const std::size_t k = S.run[j];
+      // The block's part of each run: contiguous rows of the trace, summed without branches
+      // (so the loop is vectorised); a row whose lag angle is too large for the series sends
+      // the part through atan2 again.
+      for (std::size_t j0 = lo; j0 < hi;) {
+        const std::size_t k = S.run[j0];
         const RunInfo& info = S.runs[k];
-        const std::size_t i = info.trace_begin + (j - info.begin);
-        const double ma = col_a[i] - ca - oa, mb = col_b[i] - cb - ob;
-        const double qa = (*cmd_a)[i] - ca, qb = (*cmd_b)[i] - cb;
-        const double dth = lag_angle(qa * mb - qb * ma, qa * ma + qb * mb);
-        tsums[block * nruns + k] += info.dir * dth * R;
-        // No overflow or underflow at machine coordinates: hypot's care is not needed.
-        const double r = std::sqrt(ma * ma + mb * mb);
-        const double c = ma / r, s = mb / r;
-        // Tangential deviations the fitted geometric terms make (docs/diagnosis.md).
-        gsums[block * nruns + k] += -info.dir * alpha * R * s * s - info.dir * R * ds * s * c -
-                                    0.5 * ba * std::abs(s) - 0.5 * bb * std::abs(c) -
-                                    info.speed_mm_s * 0.5 * dtau * (s * s - c * c);
+        const std::size_t j1 = std::min(hi, info.end);
+        const std::size_t i0 = info.trace_begin + (j0 - info.begin), n = j1 - j0;
+        const double* ra = col_a.data() + i0;
+        const double* rb = col_b.data() + i0;
+        const double* qa_ = cmd_a->data() + i0;
+        const double* qb_ = cmd_b->data() + i0;
+        double tsum = 0.0, gsum = 0.0;
+        int far = 0;
+#pragma omp simd reduction(+ : tsum, gsum) reduction(| : far)
+        for (std::size_t q = 0; q < n; ++q) {
+          const double ma = ra[q] - ca - oa, mb = rb[q] - cb - ob;
+          const double qa = qa_[q] - ca, qb = qb_[q] - cb;
+          const double cross = qa * mb - qb * ma, dot = qa * ma + qb * mb;
+          far |= static_cast<int>(!(dot > 0.0 && std::abs(cross) < kSeriesMax * dot));
+          tsum += atan_series(cross / dot);
+          // No overflow or underflow at machine coordinates: hypot's care is not needed.
+          const double r = std::sqrt(ma * ma + mb * mb);
+          const double c = ma / r, s = mb / r;
+          // Tangential deviations the fitted geometric terms make (docs/diagnosis.md).
+          gsum += -info.dir * alpha * R * s * s - info.dir * R * ds * s * c -
+                  0.5 * ba * std::abs(s) - 0.5 * bb * std::abs(c) -
+                  info.speed_mm_s * 0.5 * dtau * (s * s - c * c);
+        }
+        if (far != 0) {
+          tsum = 0.0;
+          for (std::size_t q = 0; q < n; ++q) {
+            const double ma = ra[q] - ca - oa, mb = rb[q] - cb - ob;
+            const double qa = qa_[q] - ca, qb = qb_[q] - cb;
+            tsum += lag_angle(qa * mb - qb * ma, qa * ma + qb * mb);
+          }
+        }
+        tsums[block * nruns + k] += info.dir * tsum * R;
+        gsums[block * nruns + k] += gsum;
+        j0 = j1;
       }
     });
     double num = 0.0, den = 0.0;
@@ -1935,70 +1964,100 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   resid.resize(S.size());
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
     Extremes& e = ext[block];
-    std::vector<double> term_at(ns);
-    // The columns in chunks of samples, each filled with its kind dispatched once.
+    // The samples in chunks inside one run: the columns filled with each kind dispatched
+    // once, then every sum and extreme a column at a time (loops the compiler vectorises; each
+    // sample's sums still add the columns in their order).
     constexpr std::size_t kChunk = 512;
     const std::size_t p = cols.size();
     std::vector<std::size_t> idx(kChunk);
     std::vector<Reversal> rvs(kChunk);
-    std::vector<double> colv(kChunk * p);
+    std::vector<double> colv(kChunk * p), full(kChunk), shape(kChunk), term(kChunk * ns);
+    std::vector<double> xs(p);
+    for (std::size_t j = 0; j < p; ++j) xs[j] = sol.x[static_cast<Eigen::Index>(j)];
+    // The sources that take a backlash column's transition (offset) part too.
+    int src_ba = -1, src_bb = -1;
+    for (std::size_t j = 0; j < p; ++j) {
+      if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) src_ba = source_of[j];
+      if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) src_bb = source_of[j];
+    }
     // The reversals inside a run, where the angle since one drops from a sample to the next.
     Reversal prev{};
     if (lo > 0) prev = rev.at(lo - 1);
-    for (std::size_t i = lo; i < hi; ++i) {
-      const std::size_t q = (i - lo) % kChunk;
-      if (q == 0) {
-        const std::size_t m = std::min(kChunk, hi - i);
-        for (std::size_t t = 0; t < m; ++t) {
-          idx[t] = i + t;
-          rvs[t] = rev.at(i + t);
+    for (std::size_t c0 = lo; c0 < hi;) {
+      const std::size_t run = S.run[c0];
+      const std::size_t c1 = std::min({hi, c0 + kChunk, S.runs[run].end});
+      const std::size_t m = c1 - c0;
+      for (std::size_t t = 0; t < m; ++t) {
+        const std::size_t i = c0 + t;
+        idx[t] = i;
+        const Reversal rv = rev.at(i);
+        rvs[t] = rv;
+        if (i > 0 && S.run[i - 1] == run) {
+          if (rv.since_a < prev.since_a) e.events[0].push_back({i, rv.since_a, rv.dir_a});
+          if (rv.since_b < prev.since_b) e.events[1].push_back({i, rv.since_b, rv.dir_b});
         }
-        for (std::size_t j = 0; j < p; ++j)
-          fill_column(S, st, cols[j], idx.data(), rvs.data(), m, colv.data() + j * kChunk, 1);
+        prev = rv;
+        full[t] = offset(S, st, cols, i, rv);
+        shape[t] = full[t];  // without centring and radius
       }
-      const Reversal& rv = rvs[q];
-      if (i > 0 && S.run[i - 1] == S.run[i]) {
-        if (rv.since_a < prev.since_a) e.events[0].push_back({i, rv.since_a, rv.dir_a});
-        if (rv.since_b < prev.since_b) e.events[1].push_back({i, rv.since_b, rv.dir_b});
-      }
-      prev = rv;
-      double full = offset(S, st, cols, i, rv);
-      double shape = full;  // without centring and radius
-      std::fill(term_at.begin(), term_at.end(), 0.0);
+      std::fill(term.begin(), term.end(), 0.0);
       for (std::size_t j = 0; j < p; ++j) {
-        const double t = colv[j * kChunk + q] * sol.x[static_cast<Eigen::Index>(j)];
-        full += t;
-        if (source_of[j] < 0) continue;
-        shape += t;
-        double& term = term_at[static_cast<std::size_t>(source_of[j])];
-        term += t;
-        if (cols[j].kind == Kind::backlash_a && st.backlash_a > 0) {
-          term += backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).second * S.c[i];
-        } else if (cols[j].kind == Kind::backlash_b && st.backlash_b > 0) {
-          term += backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).second * S.s[i];
+        double* cv = colv.data() + j * kChunk;
+        fill_column(S, st, cols[j], idx.data(), rvs.data(), m, cv, 1);
+        const double xj = xs[j];
+        const int src = source_of[j];
+        if (src < 0) {
+          for (std::size_t t = 0; t < m; ++t) full[t] += cv[t] * xj;
+          continue;
+        }
+        double* tk = term.data() + static_cast<std::size_t>(src) * kChunk;
+        for (std::size_t t = 0; t < m; ++t) {
+          const double v = cv[t] * xj;
+          full[t] += v;
+          shape[t] += v;
+          tk[t] += v;
         }
       }
-      const std::size_t run = S.run[i];
+      if (src_ba >= 0) {
+        double* tk = term.data() + static_cast<std::size_t>(src_ba) * kChunk;
+        for (std::size_t t = 0; t < m; ++t)
+          tk[t] += backlash_terms(rvs[t].dir_a, rvs[t].trav_a, st.backlash_a).second * S.c[c0 + t];
+      }
+      if (src_bb >= 0) {
+        double* tk = term.data() + static_cast<std::size_t>(src_bb) * kChunk;
+        for (std::size_t t = 0; t < m; ++t)
+          tk[t] += backlash_terms(rvs[t].dir_b, rvs[t].trav_b, st.backlash_b).second * S.s[c0 + t];
+      }
       const std::size_t base = run * ns;
       for (std::size_t k = 0; k < ns; ++k) {
-        e.term_min[base + k] = std::min(e.term_min[base + k], term_at[k]);
-        e.term_max[base + k] = std::max(e.term_max[base + k], term_at[k]);
+        const double* tk = term.data() + k * kChunk;
+        double mn = e.term_min[base + k], mx = e.term_max[base + k];
+        for (std::size_t t = 0; t < m; ++t) {
+          mn = std::min(mn, tk[t]);
+          mx = std::max(mx, tk[t]);
+        }
+        e.term_min[base + k] = mn;
+        e.term_max[base + k] = mx;
       }
-      if (shape < e.model_min[run]) {
-        e.model_min[run] = shape;
-        e.model_imin[run] = i;
+      for (std::size_t t = 0; t < m; ++t) {
+        const std::size_t i = c0 + t;
+        if (shape[t] < e.model_min[run]) {
+          e.model_min[run] = shape[t];
+          e.model_imin[run] = i;
+        }
+        if (!(shape[t] < e.model_max[run])) {
+          e.model_max[run] = shape[t];
+          e.model_imax[run] = i;
+        }
+        const double res = S.dr[i] - full[t];
+        resid[i] = res;
+        e.ss += res * res;
+        if (!at_reversal(S, i, rvs[t])) {
+          e.resid_min[run] = std::min(e.resid_min[run], res);
+          e.resid_max[run] = std::max(e.resid_max[run], res);
+        }
       }
-      if (!(shape < e.model_max[run])) {
-        e.model_max[run] = shape;
-        e.model_imax[run] = i;
-      }
-      const double res = S.dr[i] - full;
-      resid[i] = res;
-      e.ss += res * res;
-      if (!at_reversal(S, i, rv)) {
-        e.resid_min[run] = std::min(e.resid_min[run], res);
-        e.resid_max[run] = std::max(e.resid_max[run], res);
-      }
+      c0 = c1;
     }
   });
   Extremes all = ext.empty() ? Extremes{} : ext.front();
