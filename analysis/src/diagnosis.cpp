@@ -437,34 +437,28 @@ double takeup_rad(double b, double radius) {
 }
 
 // The sums of the rows away from every reversal, for one set of columns. There a row's columns
-// do not depend on the play or (within the window) on the lag mismatch: the backlash columns
-// are +-1/2 cos or sin, a spike has decayed below exp(-40), and the servo offset is the lag
-// mismatch squared times a fixed function. A Gauss-Newton step then works out only the rows
+// do not depend on the play, and on the lag mismatch (within the window) only through factors
+// common to all such rows: the backlash columns are +-1/2 cos or sin, a spike column scales by
+// one factor per axis (steady_normal), and the servo offset is the lag mismatch squared times
+// a fixed function. A Gauss-Newton step then works out only the rows
 // near a reversal (a few percent) and adds these sums. The windows are angles before and
 // after the reversals as they were when the sums were taken; a state that moves a reversal or
 // a take-up of the play out of them makes the sums be taken again.
 struct SteadySums {
   std::vector<Column> cols;
   std::size_t stride = 0;
-  State ref;                           // the state they were taken at
-  std::vector<double> before_rad;      // per run: window before a reversal
-  std::vector<double> free_after_rad;  // per run: after one, less the spike's decay
-  std::vector<std::size_t> near;       // the stride rows inside a window, in order
-  std::unique_ptr<Sums> sums;          // of the others, Y = (dr, servo_offset_per_s2)
+  State ref;                       // the state they were taken at
+  std::vector<double> before_rad;  // per run: window before a reversal
+  std::vector<double> after_rad;   // per run: window after a reversal
+  std::vector<std::size_t> near;   // the stride rows inside a window, in order
+  std::unique_ptr<Sums> sums;      // of the others, Y = (dr, servo_offset_per_s2)
 };
 
-// Whether `cols` can use steady sums at all: a column of a decay derivative is needed once,
-// and a slow spike decay reaches every row.
-bool steady_applies(const Samples& S, const State& st, const std::vector<Column>& cols) {
-  double wmax = 0.0;
-  for (const RunInfo& r : S.runs) wmax = std::max(wmax, r.speed_mm_s / S.radius);
-  for (const Column& c : cols) {
-    if (c.kind == Kind::spike_tau_a || c.kind == Kind::spike_tau_b) return false;
-    if ((c.kind == Kind::spike_a && 40.0 * st.tau_a * wmax > kPi / 4) ||
-        (c.kind == Kind::spike_b && 40.0 * st.tau_b * wmax > kPi / 4))
-      return false;
-  }
-  return true;
+// Whether `cols` can use steady sums at all: a column of a decay derivative is needed once.
+bool steady_applies(const std::vector<Column>& cols) {
+  return std::none_of(cols.begin(), cols.end(), [](const Column& c) {
+    return c.kind == Kind::spike_tau_a || c.kind == Kind::spike_tau_b;
+  });
 }
 
 bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
@@ -479,7 +473,7 @@ bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
     const double shift =
         std::abs(r.speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
     if (!(shift + r.eps_rad < ss.before_rad[k]) ||
-        !(shift + std::max(r.eps_rad, need_b) < ss.free_after_rad[k]))
+        !(shift + std::max(r.eps_rad, need_b) < ss.after_rad[k]))
       return false;
   }
   return true;
@@ -491,25 +485,15 @@ SteadySums take_steady(const Samples& S, const State& st, const std::vector<Colu
   ss.cols = cols;
   ss.stride = stride;
   ss.ref = st;
-  auto has = [&](Kind k) {
-    return std::any_of(cols.begin(), cols.end(), [k](const Column& c) { return c.kind == k; });
-  };
-  const bool spike_a = has(Kind::spike_a), spike_b = has(Kind::spike_b);
   const double play =
       std::max({2.0 * std::abs(st.backlash_a), 2.0 * std::abs(st.backlash_b), 1e-3 * S.radius});
-  std::vector<double> after_a(S.runs.size()), after_b(S.runs.size());
   for (const RunInfo& r : S.runs) {
     const double w = r.speed_mm_s / S.radius;
     // Room for the reversals to move with the lag mismatch, and for the excluded samples.
     const double room = std::max(
         {2.0 * r.eps_rad, kPi / 180.0, 2.0 * w * std::max(std::abs(st.servo_mismatch_s), 2e-3)});
     ss.before_rad.push_back(room);
-    ss.free_after_rad.push_back(room + takeup_rad(play, S.radius));
-  }
-  for (std::size_t k = 0; k < S.runs.size(); ++k) {
-    const double w = S.runs[k].speed_mm_s / S.radius;
-    after_a[k] = ss.free_after_rad[k] + (spike_a ? 40.0 * st.tau_a * w : 0.0);
-    after_b[k] = ss.free_after_rad[k] + (spike_b ? 40.0 * st.tau_b * w : 0.0);
+    ss.after_rad.push_back(room + takeup_rad(play, S.radius));
   }
   const Reversals rev(S, st.servo_mismatch_s);
   const auto p = static_cast<Eigen::Index>(cols.size());
@@ -523,7 +507,8 @@ SteadySums take_steady(const Samples& S, const State& st, const std::vector<Colu
       const Reversal rv = rev.at(i);
       const std::size_t k = S.run[i];
       const double before = ss.before_rad[k];
-      if (rv.since_a < after_a[k] || kPi - rv.since_a < before || rv.since_b < after_b[k] ||
+      const double after = ss.after_rad[k];
+      if (rv.since_a < after || kPi - rv.since_a < before || rv.since_b < after ||
           kPi - rv.since_b < before) {
         near[block].push_back(i);
       } else {
@@ -566,6 +551,21 @@ Normal steady_normal(const Samples& S, const SteadySums& ss, const State& st,
   Sums near(p, 1);
   for (const Sums& c : part) near += c;
   Normal N = to_normal(*ss.sums, st.servo_mismatch_s);
+  // A spike column on a steady row is exp(-t / tau) times a fixed part, t the time since the
+  // reversal, and a new lag mismatch moves the reversals by its change d in time: A's column
+  // scales by exp(d / tau_a) and B's by exp(-d / tau_b) on every such row (docs/diagnosis.md:
+  // the reversal of A at w dtau, of B at pi/2 - w dtau).
+  const double d = st.servo_mismatch_s - ss.ref.servo_mismatch_s;
+  if (d != 0.0) {
+    Eigen::VectorXd scale = Eigen::VectorXd::Ones(p);
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const Kind k = cols[static_cast<std::size_t>(j)].kind;
+      if (k == Kind::spike_a && st.tau_a > 0) scale[j] = std::exp(d / st.tau_a);
+      if (k == Kind::spike_b && st.tau_b > 0) scale[j] = std::exp(-d / st.tau_b);
+    }
+    N.M = scale.asDiagonal() * N.M * scale.asDiagonal();
+    N.v = scale.asDiagonal() * N.v;
+  }
   const Normal Nn = to_normal(near, 0.0);
   N.M += Nn.M;
   N.v += Nn.v;
@@ -611,7 +611,7 @@ Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& 
                   std::size_t stride, NormalMemo& memo) {
   if (memo.stride == stride && memo.st == st && memo.cols == cols) return memo.N;
   Normal N;
-  if (!steady_applies(S, st, cols)) {
+  if (!steady_applies(cols)) {
     N = accumulate_pass(S, st, cols, stride);
   } else {
     if (!memo.steady || !steady_valid(S, *memo.steady, st, cols, stride))
