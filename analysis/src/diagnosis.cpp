@@ -769,10 +769,15 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   new (&P.J) MatMap(take(nu * pu), n, p);
   new (&P.e) VecMap(take(nu), n);
   // The rows in chunks: their reversal bookkeeping is worked out again rather than stored.
+  for (std::size_t ax = 0; ax < 2; ++ax) {
+    new (&P.spike_sign[ax]) VecMap(take(nu), n);
+    new (&P.spike_dt_s[ax]) VecMap(take(nu), n);
+  }
+  // The chunks side by side: each writes only its own rows.
   constexpr std::size_t kChunk = 4096;
-  std::vector<Reversal> rvs(std::min(nu, kChunk));
-  for (std::size_t lo = 0; lo < nu; lo += kChunk) {
-    const std::size_t hi = std::min(nu, lo + kChunk);
+  for_each_task((nu + kChunk - 1) / kChunk, [&](std::size_t chunk) {
+    const std::size_t lo = chunk * kChunk, hi = std::min(nu, lo + kChunk);
+    std::vector<Reversal> rvs(hi - lo);
     for (std::size_t r = lo; r < hi; ++r) rvs[r - lo] = rev.at(P.index[r]);
     for (std::size_t j = 0; j < pu; ++j) {
       fill_column(S, st, cols[j], P.index.data() + lo, rvs.data(), hi - lo,
@@ -781,22 +786,15 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
     for (std::size_t r = lo; r < hi; ++r) {
       const std::size_t i = P.index[r];
       const auto ri = static_cast<Eigen::Index>(r);
-      P.e[ri] = S.dr[i] - offset(S, st, cols, i, rvs[r - lo]) - P.J.row(ri).dot(base.x);
+      const Reversal& rv = rvs[r - lo];
+      P.e[ri] = S.dr[i] - offset(S, st, cols, i, rv) - P.J.row(ri).dot(base.x);
+      const double v = S.runs[S.run[i]].speed_mm_s;
+      P.spike_sign[0][ri] = -static_cast<double>(rv.dir_a) * S.c[i];
+      P.spike_sign[1][ri] = -static_cast<double>(rv.dir_b) * S.s[i];
+      P.spike_dt_s[0][ri] = v > 0 ? rv.since_a * S.radius / v : -1.0;
+      P.spike_dt_s[1][ri] = v > 0 ? rv.since_b * S.radius / v : -1.0;
     }
-  }
-  for (std::size_t ax = 0; ax < 2; ++ax) {
-    new (&P.spike_sign[ax]) VecMap(take(nu), n);
-    new (&P.spike_dt_s[ax]) VecMap(take(nu), n);
-  }
-  for (Eigen::Index r = 0; r < n; ++r) {
-    const std::size_t i = P.index[static_cast<std::size_t>(r)];
-    const Reversal rv = rev.at(i);
-    const double v = S.runs[S.run[i]].speed_mm_s;
-    P.spike_sign[0][r] = -static_cast<double>(rv.dir_a) * S.c[i];
-    P.spike_sign[1][r] = -static_cast<double>(rv.dir_b) * S.s[i];
-    P.spike_dt_s[0][r] = v > 0 ? rv.since_a * S.radius / v : -1.0;
-    P.spike_dt_s[1][r] = v > 0 ? rv.since_b * S.radius / v : -1.0;
-  }
+  });
   // (J^T J)^-1 of this subsample, so that the profile is consistent within itself.
   const Eigen::MatrixXd M = P.J.transpose() * P.J;
   Eigen::VectorXd d = M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
@@ -806,7 +804,8 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
   const Eigen::VectorXd x = P.inv * (P.J.transpose() * P.e);
   P.e -= P.J * x;
   P.rss = P.e.squaredNorm();
-  for (std::size_t ax = 0; ax < 2; ++ax) {
+  // Per axis, side by side: the rows with a time since the reversal, in its order.
+  for_each_task(2, [&](std::size_t ax) {
     Profile::SpikeRows& o = P.spike_rows[ax];
     const VecMap& dt = P.spike_dt_s[ax];
     o.row.reserve(nu);
@@ -815,20 +814,26 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
     }
     std::stable_sort(o.row.begin(), o.row.end(),
                      [&](Eigen::Index a, Eigen::Index b) { return dt[a] < dt[b]; });
+  });
+  for (std::size_t ax = 0; ax < 2; ++ax) {
+    Profile::SpikeRows& o = P.spike_rows[ax];
     const auto m = static_cast<Eigen::Index>(o.row.size());
     const auto mu = static_cast<std::size_t>(m);
     new (&o.sign) VecMap(take(mu), m);
     new (&o.dt_s) VecMap(take(mu), m);
     new (&o.e) VecMap(take(mu), m);
     new (&o.J) MatMap(take(mu * pu), m, p);
-    for (Eigen::Index k = 0; k < m; ++k) {
+  }
+  for_each_task(2, [&](std::size_t ax) {
+    Profile::SpikeRows& o = P.spike_rows[ax];
+    for (Eigen::Index k = 0; k < o.sign.size(); ++k) {
       const Eigen::Index r = o.row[static_cast<std::size_t>(k)];
       o.sign[k] = P.spike_sign[ax][r];
-      o.dt_s[k] = dt[r];
+      o.dt_s[k] = P.spike_dt_s[ax][r];
       o.e[k] = P.e[r];
       o.J.row(k) = P.J.row(r);
     }
-  }
+  });
   return P;
 }
 
