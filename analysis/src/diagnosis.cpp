@@ -219,10 +219,9 @@ std::pair<double, double> backlash_terms(double new_dir, double travelled_mm, do
 // The value of a column of kind K at sample i (rv: its reversal bookkeeping; the cyclic and
 // geometric columns do not read it).
 template <Kind K>
-double term(const Samples& S, const State& st, const Column& col, std::size_t i,
-            const Reversal& rv) {
+double term(const Samples& S, const State& st, const Column& col, std::size_t i, const Reversal& rv,
+            const RunInfo& r) {
   const double c = S.c[i], s = S.s[i];
-  const RunInfo& r = S.runs[S.run[i]];
   const double R = S.radius;
   if constexpr (K == Kind::centre_a) {
     return c;
@@ -266,6 +265,12 @@ double term(const Samples& S, const State& st, const Column& col, std::size_t i,
     static_assert(K == Kind::cyclic_b_cos);
     return std::cos(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
   }
+}
+
+template <Kind K>
+double term(const Samples& S, const State& st, const Column& col, std::size_t i,
+            const Reversal& rv) {
+  return term<K>(S, st, col, i, rv, S.runs[S.run[i]]);
 }
 
 // f(std::integral_constant<Kind, k>{}): the kind as a compile-time constant, so that a loop
@@ -326,6 +331,16 @@ void fill_column(const Samples& S, const State& st, const Column& col, const std
   with_kind(col.kind, [&](auto k) {
     for (std::size_t q = 0; q < m; ++q)
       out[q * step] = term<decltype(k)::value>(S, st, col, idx[q], rvs[q]);
+  });
+}
+
+// Column `col` at the contiguous samples i0, i0 + 1, ... of one run (rvs: their reversal
+// bookkeeping) into out[0..m): the run known once, so the loop over the samples vectorises.
+void fill_run_column(const Samples& S, const State& st, const Column& col, const RunInfo& run,
+                     std::size_t i0, const Reversal* rvs, std::size_t m, double* out) {
+  with_kind(col.kind, [&](auto k) {
+    for (std::size_t q = 0; q < m; ++q)
+      out[q] = term<decltype(k)::value>(S, st, col, i0 + q, rvs[q], run);
   });
 }
 
@@ -2017,7 +2032,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       std::fill(term.begin(), term.end(), 0.0);
       for (std::size_t j = 0; j < p; ++j) {
         double* cv = colv.data() + j * kChunk;
-        fill_column(S, st, cols[j], idx.data(), rvs.data(), m, cv, 1);
+        fill_run_column(S, st, cols[j], S.runs[run], c0, rvs.data(), m, cv);
         const double xj = xs[j];
         const int src = source_of[j];
         if (src < 0) {
