@@ -748,7 +748,8 @@ struct Profile {
   // since it, with their base design rows and residual: a spike column at decay tau is zero
   // past ~40 tau, so an evaluation reads only the leading rows.
   struct SpikeRows {
-    std::vector<Eigen::Index> row;  // profile row of each ordered row
+    std::vector<Eigen::Index> row;   // profile row of each ordered row
+    std::vector<Eigen::Index> rank;  // per profile row: its place in this order, or -1
     VecMap sign{nullptr, 0}, dt_s{nullptr, 0}, e{nullptr, 0};
     MatMap J{nullptr, 0, 0};
   };
@@ -829,6 +830,9 @@ Profile make_profile(const Samples& S, const State& st, const std::vector<Column
     }
     std::stable_sort(o.row.begin(), o.row.end(),
                      [&](Eigen::Index a, Eigen::Index b) { return dt[a] < dt[b]; });
+    o.rank.assign(nu, -1);
+    for (std::size_t k = 0; k < o.row.size(); ++k)
+      o.rank[static_cast<std::size_t>(o.row[k])] = static_cast<Eigen::Index>(k);
   });
   for (std::size_t ax = 0; ax < 2; ++ax) {
     Profile::SpikeRows& o = P.spike_rows[ax];
@@ -887,12 +891,12 @@ double spike_profile_rss(const Profile& P, const State& st, const std::vector<Co
       const Profile::SpikeRows& ok = P.spike_rows[axis[static_cast<std::size_t>(k)]];
       const Eigen::VectorXd& vj = x[static_cast<std::size_t>(j)];
       const Eigen::VectorXd& vk = x[static_cast<std::size_t>(k)];
-      Eigen::VectorXd full = Eigen::VectorXd::Zero(P.J.rows());
-      for (Eigen::Index t = 0; t < vj.size(); ++t)
-        full[oj.row[static_cast<std::size_t>(t)]] = vj[t];
       double sum = 0.0;
-      for (Eigen::Index t = 0; t < vk.size(); ++t)
-        sum += vk[t] * full[ok.row[static_cast<std::size_t>(t)]];
+      for (Eigen::Index t = 0; t < vk.size(); ++t) {
+        const Eigen::Index at =
+            oj.rank[static_cast<std::size_t>(ok.row[static_cast<std::size_t>(t)])];
+        if (at >= 0 && at < vj.size()) sum += vk[t] * vj[at];
+      }
       SS(j, k) = SS(k, j) = sum;
     }
   }
