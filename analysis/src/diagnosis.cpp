@@ -429,6 +429,21 @@ void add_rows(const Samples& S, const State& st, const std::vector<Column>& cols
   out.n += m;
 }
 
+// add_rows for the rows each(take) hands to take(i), less those at a reversal at st.
+template <class Each>
+void add_rows_off_reversals(const Samples& S, const State& st, const Reversals& rev,
+                            const std::vector<Column>& cols, Each&& each, Sums& out) {
+  std::vector<std::size_t> idx;
+  std::vector<Reversal> rvs;
+  each([&](std::size_t i) {
+    const Reversal rv = rev.at(i);
+    if (at_reversal(S, i, rv)) return;
+    idx.push_back(i);
+    rvs.push_back(rv);
+  });
+  add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), false, out);
+}
+
 Normal to_normal(const Sums& s, double servo_mismatch_s) {
   Normal N;
   N.M = s.M.selfadjointView<Eigen::Upper>();
@@ -552,16 +567,13 @@ Normal steady_normal(const Samples& S, const SteadySums& ss, const State& st,
   const std::size_t nchunks = (ss.near.size() + kChunk - 1) / kChunk;
   std::vector<Sums> part(nchunks, Sums(p, 1));
   for_each_task(nchunks, [&](std::size_t c) {
-    std::vector<std::size_t> idx;
-    std::vector<Reversal> rvs;
-    for (std::size_t t = c * kChunk; t < std::min(ss.near.size(), (c + 1) * kChunk); ++t) {
-      const std::size_t i = ss.near[t];
-      const Reversal rv = rev.at(i);
-      if (at_reversal(S, i, rv)) continue;
-      idx.push_back(i);
-      rvs.push_back(rv);
-    }
-    add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), false, part[c]);
+    add_rows_off_reversals(
+        S, st, rev, cols,
+        [&](auto&& take) {
+          for (std::size_t t = c * kChunk; t < std::min(ss.near.size(), (c + 1) * kChunk); ++t)
+            take(ss.near[t]);
+        },
+        part[c]);
   });
   Sums near(p, 1);
   for (const Sums& c : part) near += c;
@@ -596,16 +608,12 @@ Normal accumulate_pass(const Samples& S, const State& st, const std::vector<Colu
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
   std::vector<Sums> part(nblocks, Sums(p, 1));
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
-    // The rows off the reversals.
-    std::vector<std::size_t> idx;
-    std::vector<Reversal> rvs;
-    for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) {
-      const Reversal rv = rev.at(i);
-      if (at_reversal(S, i, rv)) continue;
-      idx.push_back(i);
-      rvs.push_back(rv);
-    }
-    add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), false, part[block]);
+    add_rows_off_reversals(
+        S, st, rev, cols,
+        [&](auto&& take) {
+          for (std::size_t i = (lo + stride - 1) / stride * stride; i < hi; i += stride) take(i);
+        },
+        part[block]);
   });
   Sums all(p, 1);
   for (const Sums& b : part) all += b;
