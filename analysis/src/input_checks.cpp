@@ -233,21 +233,25 @@ void check_outliers(const Trace& trace, std::size_t run_number, const Run& run,
                     std::span<const double> a, std::span<const double> b, const Circle& lsc) {
   const std::size_t n = a.size();
   if (n < 8) return;
-  std::vector<double> d(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    d[i] = std::hypot(a[i] - lsc.centre_a_mm, b[i] - lsc.centre_b_mm);
-  }
-  // One scratch copy for both medians (the deviations are recomputed from d, not stored).
-  std::vector<double> scratch(d);
+  // The distances are worked out twice (sqrt, not hypot: mm about a centre near the data
+  // neither overflow nor underflow) instead of being kept: one scratch array of the run's
+  // length serves both medians, since a median does not depend on the order nth_element left.
+  const auto dist = [&](std::size_t i) {
+    const double da = a[i] - lsc.centre_a_mm, db = b[i] - lsc.centre_b_mm;
+    return std::sqrt(da * da + db * db);
+  };
+  std::vector<double> scratch;
+  scratch.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) scratch.push_back(dist(i));
   const double med = median_in_place(scratch);
-  for (std::size_t i = 0; i < n; ++i) scratch[i] = std::abs(d[i] - med);
+  for (double& v : scratch) v = std::abs(v - med);
   const double spread = 1.4826 * median_in_place(scratch);
   const double limit = std::max({50.0 * spread, 0.01 * lsc.radius_mm, 0.05});
   std::size_t worst = n;
   std::size_t count = 0;
   double worst_dev = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
-    const double dev = std::abs(d[i] - med);
+    const double dev = std::abs(dist(i) - med);
     if (!(dev > limit)) continue;
     ++count;
     if (worst == n || dev > worst_dev) worst = i, worst_dev = dev;
@@ -259,7 +263,7 @@ void check_outliers(const Trace& trace, std::size_t run_number, const Run& run,
       fmt::format("run {}: an outlier: this sample lies {:.4f} mm from the run's centre, the "
                   "others {:.4f} mm (spread {:.4f} mm); {} such sample{} (beyond {:.4f} mm), "
                   "which would set G (the MZC zone): correct or remove the row",
-                  run_number, d[worst], med, spread, count, count == 1 ? "" : "s", limit));
+                  run_number, dist(worst), med, spread, count, count == 1 ? "" : "s", limit));
 }
 
 }  // namespace circtest
