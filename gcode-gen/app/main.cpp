@@ -129,7 +129,8 @@ int run(int argc, char** argv) {
     if (!vm.count("ref-d") || !vm.count("ref-f")) {
       throw UsageError("Annex C needs both --ref-d D2 and --ref-f V2");
     }
-    const AnnexCNote note = annex_c_note(diameter, number("ref-d"), number("ref-f"), spec.units);
+    const AnnexCNote note =
+        annex_c_note(diameter, number("ref-d"), number("ref-f"), spec.units, circgen_option_words);
     feeds.push_back(note.scaled_feed);
     spec.annex_c = note;
   }
@@ -201,7 +202,7 @@ int run(int argc, char** argv) {
   if (vm.count("offset")) {
     const auto o = parse_option_list("--offset", text("offset"), 3);
     for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
-    for (double v : offset) check_plausible(plausible::offset, v);
+    for (double v : offset) check_plausible(plausible::offset, v, circgen_option_words);
     spec.work_offset_mm = offset;
   }
   GenerateRequest request;

@@ -8,7 +8,6 @@
 
 namespace circtest {
 
-namespace {
 // circgen's words for the spec settings the library's refusals name: its options. The
 // messages' tests (tests/gcode-gen) hold the text users see.
 std::string_view circgen_option_words(SpecSetting setting) noexcept {
@@ -47,17 +46,25 @@ std::string_view circgen_option_words(SpecSetting setting) noexcept {
       return "--feed-in";
     case SpecSetting::ballbar:
       return "--instrument ballbar";
+    case SpecSetting::test_diameter:
+      return "--d";
+    case SpecSetting::reference_diameter:
+      return "--ref-d";
+    case SpecSetting::reference_feed:
+      return "--ref-f";
+    case SpecSetting::work_offset_values:
+      return "--offset";
   }
   return library_spec_words(setting);
 }
-}  // namespace
 
 int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err) {
   CircleTestSpec& spec = request.spec;
   validate(spec, circgen_option_words);
   if (!request.ini_path.empty()) {
     const MachineLimits limits = read_machine_limits(request.ini_path);
-    const auto checks = check_against_machine(spec, limits, request.work_offset_origin_mm);
+    const auto checks =
+        check_against_machine(spec, limits, request.work_offset_origin_mm, circgen_option_words);
     spec.extra_header.emplace_back(meta_key::ini, request.ini_path);
     spec.extra_header.emplace_back(meta_key::ini_checked, join(checks));
   }

@@ -216,8 +216,9 @@ MachineLimits read_machine_limits(const std::string& path) {
 
 std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
                                                const MachineLimits& limits,
-                                               const std::array<double, 3>& work_offset_mm) {
-  validate(spec);
+                                               const std::array<double, 3>& work_offset_mm,
+                                               SpecWords words) {
+  validate(spec, words);
   const PlaneAxes axes = plane_axes(spec.plane);
   const double unit = limits.mm_per_machine_unit;
   const char* unit_name = unit == 1.0 ? "mm" : "inch";
@@ -353,9 +354,9 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
       const double needed_deg = run_up_mm / spec.radius_mm * 180.0 / std::numbers::pi;
       throw LimitError(fmt::format(
           "{}: the {} deg lead-in [{:.3f} mm] is shorter than the {:.3f} mm needed to reach "
-          "F{} with {} = {}; use --lead {:.0f} or more",
+          "F{} with {} = {}; use {} {:.0f} or more",
           limits.source, spec.lead_deg, lead_mm, run_up_mm, max_feed, a_name,
-          in_machine_units(a_max), std::ceil(needed_deg)));
+          in_machine_units(a_max), words(SpecSetting::lead), std::ceil(needed_deg)));
     }
   }
   std::vector<std::string> checks{"soft limits", "velocity"};
@@ -363,16 +364,18 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
   if (limits.motion_outputs) {
     const MotionOutputs& m = *limits.motion_outputs;
     if (spec.marker_output >= m.num_dio) {
-      throw LimitError(fmt::format(
-          "{}: --marker {}: the motion module loaded at {} has num_dio={} (M62/M63 P0..P{}); "
-          "raise num_dio there or use another output",
-          limits.source, spec.marker_output, m.where, m.num_dio, m.num_dio - 1));
+      throw LimitError(
+          fmt::format("{}: {} {}: the motion module loaded at {} has num_dio={} (M62/M63 P0..P{}); "
+                      "raise num_dio there or use another output",
+                      limits.source, words(SpecSetting::marker), spec.marker_output, m.where,
+                      m.num_dio, m.num_dio - 1));
     }
     if (spec.segment_output >= m.num_aio) {
-      throw LimitError(fmt::format(
-          "{}: --segment-out {}: the motion module loaded at {} has num_aio={} (M67 E0..E{}); "
-          "raise num_aio there or use another output",
-          limits.source, spec.segment_output, m.where, m.num_aio, m.num_aio - 1));
+      throw LimitError(
+          fmt::format("{}: {} {}: the motion module loaded at {} has num_aio={} (M67 E0..E{}); "
+                      "raise num_aio there or use another output",
+                      limits.source, words(SpecSetting::segment_out), spec.segment_output, m.where,
+                      m.num_aio, m.num_aio - 1));
     }
     checks.push_back("motion outputs");
   }

@@ -10,56 +10,58 @@
 
 namespace circtest {
 
-void check_plausible(const PlausibleRange& range, double value) {
+void check_plausible(const PlausibleRange& range, double value, SpecWords words) {
   if (std::isfinite(value) && value >= range.min && value <= range.max) return;
-  throw UsageError(
-      fmt::format("{}: {} of {} {} is outside the plausible range {}..{} {} (docs/circgen.md)",
-                  range.option, range.what, value, range.unit, range.min, range.max, range.unit));
+  throw UsageError(fmt::format(
+      "{}: {} of {} {} is outside the plausible range {}..{} {} (docs/circgen.md)",
+      words(range.setting), range.what, value, range.unit, range.min, range.max, range.unit));
 }
 
 namespace {
 // Lengths and feeds in the units the user gave them in (the table is in mm).
-void check_in_units(const PlausibleRange& range, double value_mm, LengthUnit units) {
+void check_in_units(const PlausibleRange& range, double value_mm, LengthUnit units,
+                    SpecWords words) {
   if (units == LengthUnit::mm || std::isnan(value_mm) ||
       (value_mm >= range.min && value_mm <= range.max)) {
-    return check_plausible(range, value_mm);
+    return check_plausible(range, value_mm, words);
   }
   const std::string unit = range.unit == "mm" ? "in" : "in/min";
   throw UsageError(fmt::format(
       "{}: {} of {:.6g} {} is outside the plausible range {:.4g}..{:.4g} {} (docs/circgen.md)",
-      range.option, range.what, value_mm / kMmPerInch, unit, range.min / kMmPerInch,
+      words(range.setting), range.what, value_mm / kMmPerInch, unit, range.min / kMmPerInch,
       range.max / kMmPerInch, unit));
 }
 }  // namespace
 
-void check_plausible(const CircleTestSpec& spec) {
+void check_plausible(const CircleTestSpec& spec, SpecWords words) {
   const LengthUnit u = spec.units;
-  check_in_units(plausible::diameter, 2.0 * spec.radius_mm, u);
+  check_in_units(plausible::diameter, 2.0 * spec.radius_mm, u, words);
   if (spec.feeds_mm_per_min.size() > plausible::kMaxFeeds) {
-    throw UsageError(fmt::format("--feeds: {} feeds, at most {} (one run pair each)",
-                                 spec.feeds_mm_per_min.size(), plausible::kMaxFeeds));
+    throw UsageError(fmt::format("{}: {} feeds, at most {} (one run pair each)",
+                                 words(SpecSetting::feeds), spec.feeds_mm_per_min.size(),
+                                 plausible::kMaxFeeds));
   }
   const bool inch = spec.units == LengthUnit::inch;
   for (double f : spec.feeds_mm_per_min) {
-    check_in_units(plausible::feed, f, u);
+    check_in_units(plausible::feed, f, u, words);
     if (inch && std::round(f / kMmPerInch * 10.0) < 1.0) {
-      throw UsageError(fmt::format(
-          "--f/--feeds: a feed of {} in/min would be written as F0 (one decimal); at least 0.05",
-          f / kMmPerInch));
+      throw UsageError(
+          fmt::format("{}: a feed of {} in/min would be written as F0 (one decimal); at least 0.05",
+                      words(SpecSetting::feeds), f / kMmPerInch));
     }
   }
   if (spec.approach_feed_mm_per_min) {
-    check_in_units(plausible::approach_feed, *spec.approach_feed_mm_per_min, u);
+    check_in_units(plausible::approach_feed, *spec.approach_feed_mm_per_min, u, words);
   }
-  for (double c : spec.centre_mm) check_in_units(plausible::position, c, u);
+  for (double c : spec.centre_mm) check_in_units(plausible::position, c, u, words);
   if (spec.work_offset_mm) {
-    for (double c : *spec.work_offset_mm) check_in_units(plausible::offset, c, u);
+    for (double c : *spec.work_offset_mm) check_in_units(plausible::offset, c, u, words);
   }
-  if (spec.safe_mm) check_in_units(plausible::safe, *spec.safe_mm, u);
-  check_plausible(plausible::start, spec.start_deg);
-  check_plausible(plausible::arc, spec.arc_deg);
-  check_plausible(plausible::lead, spec.lead_deg);
-  check_plausible(plausible::dwell, spec.dwell_s);
+  if (spec.safe_mm) check_in_units(plausible::safe, *spec.safe_mm, u, words);
+  check_plausible(plausible::start, spec.start_deg, words);
+  check_plausible(plausible::arc, spec.arc_deg, words);
+  check_plausible(plausible::lead, spec.lead_deg, words);
+  check_plausible(plausible::dwell, spec.dwell_s, words);
 }
 
 }  // namespace circtest

@@ -299,6 +299,14 @@ std::string_view library_spec_words(SpecSetting setting) noexcept {
       return "feed_in_mm";
     case SpecSetting::ballbar:
       return "instrument ballbar";
+    case SpecSetting::test_diameter:
+      return "test_diameter";
+    case SpecSetting::reference_diameter:
+      return "reference_diameter";
+    case SpecSetting::reference_feed:
+      return "reference_feed";
+    case SpecSetting::work_offset_values:
+      return "work_offset_mm";
   }
   return "a setting";
 }
@@ -434,7 +442,7 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   if (spec.date.find_first_of("()\n") != std::string::npos) {
     throw UsageError("the date cannot go into a G-code comment");
   }
-  check_plausible(spec);
+  check_plausible(spec, words);
 }
 
 std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec) {

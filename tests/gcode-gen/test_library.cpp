@@ -9,6 +9,7 @@
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/commands.hpp"
 #include "circtest/gcode/machine_limits.hpp"
+#include "circtest/gcode/plausible_ranges.hpp"
 #include "circtest/gcode/test_program.hpp"
 
 namespace circtest {
@@ -28,6 +29,30 @@ TEST(AnnexC, StandardExampleGivesF559) {
   EXPECT_NEAR(note.scaled_feed_exact * note.scaled_feed_exact / 62.5, 500.0 * 500.0 / 50.0, 1e-9);
   EXPECT_NEAR(annex_c_note(5, 4, 20, LengthUnit::inch).scaled_feed, 22.4, 1e-12);
   EXPECT_THROW(annex_c_feed(125, -1, 500), UsageError);
+}
+
+// The library's refusals name the setting by its own word; circgen's words are its options.
+TEST(AnnexC, RefusalsNameTheSettingInTheFrontEndsWords) {
+  auto message = [](auto&& call) {
+    try {
+      call();
+    } catch (const UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message([] { annex_c_feed(125, -1, 500); }),
+            "reference_diameter: the reference diameter must be positive, got -1");
+  EXPECT_EQ(message([] { annex_c_feed(125, -1, 500, circgen_option_words); }),
+            "--ref-d: the reference diameter must be positive, got -1");
+  EXPECT_EQ(message([] { annex_c_note(125, 100, 5e6, LengthUnit::mm); }).substr(0, 16),
+            "reference_feed: ");
+  EXPECT_EQ(message([] { check_plausible(plausible::lead, 200.0); }),
+            "lead_deg: lead arc of 200 deg is outside the plausible range 0..180 deg "
+            "(docs/circgen.md)");
+  EXPECT_EQ(
+      message([] { check_plausible(plausible::lead, 200.0, circgen_option_words); }).substr(0, 8),
+      "--lead: ");
 }
 
 TEST(AnnexC, HeaderShowsTheComputation) {
@@ -144,6 +169,17 @@ TEST(MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
   spec.segment_output = 1;
   try {
     check_against_machine(spec, limits, {0, 0, 0});
+    FAIL() << "no error";
+  } catch (const LimitError& e) {
+    // The library names the spec's field; circgen words it as its option.
+    EXPECT_NE(std::string(e.what()).find("segment_output 1: the motion module loaded at m.hal:5 "
+                                         "has num_aio=1"),
+              std::string::npos)
+        << e.what();
+    EXPECT_EQ(std::string(e.what()).find("--"), std::string::npos) << e.what();
+  }
+  try {
+    check_against_machine(spec, limits, {0, 0, 0}, circgen_option_words);
     FAIL() << "no error";
   } catch (const LimitError& e) {
     EXPECT_NE(std::string(e.what()).find("--segment-out 1: the motion module loaded at m.hal:5 "

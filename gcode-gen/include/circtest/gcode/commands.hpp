@@ -5,6 +5,7 @@
 #include <array>
 #include <ostream>
 #include <string>
+#include <string_view>
 
 #include "circtest/gcode/test_program.hpp"
 
@@ -23,5 +24,8 @@ struct GenerateRequest {
 // Validates the specification (UsageError), checks it against the INI (LimitError), writes
 // the program and its warnings (to `err`, one "circgen: warning: " line each). Returns 0.
 int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err);
+
+// circgen's words for the spec settings a library refusal names: its options ("--lead").
+std::string_view circgen_option_words(SpecSetting setting) noexcept;
 
 }  // namespace circtest

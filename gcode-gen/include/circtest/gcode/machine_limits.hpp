@@ -59,9 +59,11 @@ std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
 // MIN_LIMIT/MAX_LIMIT (work offset origin added), a feed above MAX_VELOCITY, a centripetal
 // acceleration V^2/R that LinuxCNC's planner would not allow on the arc, or a lead-in too
 // short to reach the feed. Throws ParseError (line 0) when an axis of the test has no section.
-// Returns the names of the checks made, for the header.
+// Returns the names of the checks made, for the header. The settings a refusal names are
+// worded by `words` (circgen: its options).
 std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
                                                const MachineLimits& limits,
-                                               const std::array<double, 3>& work_offset_mm);
+                                               const std::array<double, 3>& work_offset_mm,
+                                               SpecWords words = library_spec_words);
 
 }  // namespace circtest

@@ -5,11 +5,13 @@
 #include <cstddef>
 #include <string_view>
 
+#include "circtest/gcode/test_program.hpp"
+
 namespace circtest {
 
 struct PlausibleRange {
-  std::string_view option;  // as the user gave it, e.g. "--d/--r"
-  std::string_view what;    // e.g. "circle diameter"
+  SpecSetting setting;    // what it bounds, worded by the front end (SpecWords)
+  std::string_view what;  // e.g. "circle diameter"
   double min;
   double max;
   std::string_view unit;  // the unit of min and max (lengths in mm, feeds in mm/min)
@@ -19,32 +21,36 @@ namespace plausible {
 // Lengths in mm and feeds in mm/min whatever the program units (inch options are converted
 // first). 100 m is beyond any machine table; a 1 mm circle is the smallest a ballbar or a
 // grid encoder measures; 100 m/min is beyond any machine's feed.
-inline constexpr PlausibleRange diameter{"--d/--r", "circle diameter", 1.0, 10'000.0, "mm"};
-inline constexpr PlausibleRange feed{"--f/--feeds", "feed", 1.0, 100'000.0, "mm/min"};
-inline constexpr PlausibleRange approach_feed{"--approach-feed", "approach feed", 1.0, 100'000.0,
-                                              "mm/min"};
-inline constexpr PlausibleRange reference_diameter{"--ref-d", "Annex C reference diameter", 1.0,
-                                                   10'000.0, "mm"};
-inline constexpr PlausibleRange reference_feed{"--ref-f", "Annex C reference feed", 1.0, 100'000.0,
-                                               "mm/min"};
-inline constexpr PlausibleRange position{"--centre", "position", -100'000.0, 100'000.0, "mm"};
-inline constexpr PlausibleRange safe{"--safe-z", "clearance position", -100'000.0, 100'000.0, "mm"};
-inline constexpr PlausibleRange offset{"--offset", "work offset", -100'000.0, 100'000.0, "mm"};
-inline constexpr PlausibleRange start{"--start", "start angle", -360.0, 360.0, "deg"};
-inline constexpr PlausibleRange arc{"--arc", "measured arc", 90.0, 360.0, "deg"};
-inline constexpr PlausibleRange lead{"--lead", "lead arc", 0.0, 180.0, "deg"};  // > 0
-inline constexpr PlausibleRange dwell{"--dwell", "dwell", 0.0, 2.0, "s"};
+inline constexpr PlausibleRange diameter{SpecSetting::radius, "circle diameter", 1.0, 10'000.0,
+                                         "mm"};
+inline constexpr PlausibleRange feed{SpecSetting::feeds, "feed", 1.0, 100'000.0, "mm/min"};
+inline constexpr PlausibleRange approach_feed{SpecSetting::approach_feed, "approach feed", 1.0,
+                                              100'000.0, "mm/min"};
+inline constexpr PlausibleRange reference_diameter{
+    SpecSetting::reference_diameter, "Annex C reference diameter", 1.0, 10'000.0, "mm"};
+inline constexpr PlausibleRange reference_feed{SpecSetting::reference_feed,
+                                               "Annex C reference feed", 1.0, 100'000.0, "mm/min"};
+inline constexpr PlausibleRange position{SpecSetting::centre, "position", -100'000.0, 100'000.0,
+                                         "mm"};
+inline constexpr PlausibleRange safe{SpecSetting::safe, "clearance position", -100'000.0, 100'000.0,
+                                     "mm"};
+inline constexpr PlausibleRange offset{SpecSetting::work_offset_values, "work offset", -100'000.0,
+                                       100'000.0, "mm"};
+inline constexpr PlausibleRange start{SpecSetting::start, "start angle", -360.0, 360.0, "deg"};
+inline constexpr PlausibleRange arc{SpecSetting::arc, "measured arc", 90.0, 360.0, "deg"};
+inline constexpr PlausibleRange lead{SpecSetting::lead, "lead arc", 0.0, 180.0, "deg"};  // > 0
+inline constexpr PlausibleRange dwell{SpecSetting::dwell, "dwell", 0.0, 2.0, "s"};
 // One run per direction per feed: a sweep is a handful of feeds, not a data file.
 inline constexpr std::size_t kMaxFeeds = 100;
 }  // namespace plausible
 
-// Throws UsageError "OPTION: WHAT of VALUE UNIT is outside the plausible range MIN..MAX UNIT"
-// unless min <= value <= max (a NaN or an infinity is never inside).
-void check_plausible(const PlausibleRange& range, double value);
+// Throws UsageError "SETTING: WHAT of VALUE UNIT is outside the plausible range MIN..MAX UNIT"
+// (SETTING in `words`) unless min <= value <= max (a NaN or an infinity is never inside).
+void check_plausible(const PlausibleRange& range, double value,
+                     SpecWords words = library_spec_words);
 
-struct CircleTestSpec;
 // Every number of the spec against the table (validate() calls it), and every feed against
 // what its word can say: one decimal in the program's units, so never F0.
-void check_plausible(const CircleTestSpec& spec);
+void check_plausible(const CircleTestSpec& spec, SpecWords words = library_spec_words);
 
 }  // namespace circtest

@@ -115,13 +115,18 @@ enum class SpecSetting {
   tool,
   feed_in,
   ballbar,  // the ball bar instrument
+  // Annex C's feed scaling (annex_c.hpp) and the work offset's values.
+  test_diameter,
+  reference_diameter,
+  reference_feed,
+  work_offset_values,
 };
 using SpecWords = std::string_view (*)(SpecSetting setting);
 std::string_view library_spec_words(SpecSetting setting) noexcept;
 
 // Throws UsageError naming the setting (in `words`) when the spec cannot give a valid test
 // (non-positive radius or feed, arc outside 90..360, overlapping leads, bad output numbers,
-// ...). The plausible ranges' text (plausible_ranges.hpp) still names circgen's options.
+// numbers outside the plausible ranges of plausible_ranges.hpp, ...).
 void validate(const CircleTestSpec& spec, SpecWords words = library_spec_words);
 
 // The runs in program order (CCW then CW for each feed when both directions are asked).
