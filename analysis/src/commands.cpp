@@ -100,7 +100,7 @@ std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
     record.trace_sha256 = history::sha256_file(trace_path);
     record.trace_path = std::filesystem::absolute(trace_path, ec).string();
   }
-  const auto store = history::open_store(db_url);
+  const auto store = history::open_store(db_url, "--db");
   const std::int64_t id = store->add(record);
   return fmt::format(
       "Stored as test {} of machine {} (tested at {}) in {}{}\n", id, record.machine,
@@ -271,9 +271,10 @@ int run_history(const HistoryRequest& request, std::ostream& out) {
     throw UsageError("--since: expected a date YYYY-MM-DD or YYYY-MM-DDTHH:MM:SS, got '" +
                      request.since + "'");
   }
-  const history::Limits limits =
-      request.limits.empty() ? history::Limits{} : history::parse_limits(request.limits);
-  const auto store = history::open_store(request.db_url);
+  const history::Limits limits = request.limits.empty()
+                                     ? history::Limits{}
+                                     : history::parse_limits(request.limits, "--limits");
+  const auto store = history::open_store(request.db_url, "--db");
   const auto machines = store->machines();
   if (std::find(machines.begin(), machines.end(), request.machine) == machines.end()) {
     throw Error(

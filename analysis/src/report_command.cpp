@@ -99,7 +99,7 @@ int run_report(const ReportRequest& request, std::ostream& out) {
     pages[i].diagnosis = std::move(chart);
   }
   std::unique_ptr<history::Store> store;
-  if (!request.db_url.empty()) store = history::open_store(request.db_url);
+  if (!request.db_url.empty()) store = history::open_store(request.db_url, "--db");
   for (std::size_t i = 0; i < tests.size(); ++i) {
     ReportPage& page = pages[i];
     page.evaluation = &tests[i].evaluation;

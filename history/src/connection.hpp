@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace circtest::history::detail {
@@ -29,7 +30,8 @@ class Connection {
   virtual const std::string& name() const = 0;
 };
 
-std::unique_ptr<Connection> open_sqlite(const std::string& path);
+// `setting`: how the front end names the database setting, for its messages.
+std::unique_ptr<Connection> open_sqlite(const std::string& path, std::string_view setting);
 std::unique_ptr<Connection> open_postgresql(const std::string& url);
 
 }  // namespace circtest::history::detail

@@ -16,7 +16,8 @@ constexpr int kBusyTimeoutMs = 60000;
 
 class SqliteConnection final : public Connection {
  public:
-  explicit SqliteConnection(const std::string& path) : name_(path) {
+  SqliteConnection(const std::string& path, std::string_view setting)
+      : name_(path), setting_(setting) {
     std::error_code ec;
     const auto parent = std::filesystem::path(path).parent_path();
     if (!parent.empty()) std::filesystem::create_directories(parent, ec);
@@ -102,20 +103,21 @@ class SqliteConnection final : public Connection {
     const std::string m = sqlite3_errmsg(db_);
     if (code == SQLITE_NOTADB || code == SQLITE_CORRUPT) {
       throw DatabaseError(fmt::format(
-          "{}: not a usable SQLite history database ({}): move it away or give another --db", name_,
-          m));
+          "{}: not a usable SQLite history database ({}): move it away or give another {}", name_,
+          m, setting_));
     }
     throw DatabaseError(fmt::format("{}: {}", name_, m));
   }
 
   std::string name_;
+  std::string setting_;  // how the caller names the database setting
   sqlite3* db_ = nullptr;
 };
 
 }  // namespace
 
-std::unique_ptr<Connection> open_sqlite(const std::string& path) {
-  return std::make_unique<SqliteConnection>(path);
+std::unique_ptr<Connection> open_sqlite(const std::string& path, std::string_view setting) {
+  return std::make_unique<SqliteConnection>(path, setting);
 }
 
 }  // namespace circtest::history::detail

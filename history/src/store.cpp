@@ -205,26 +205,28 @@ int latest_schema_version() noexcept {
   return static_cast<int>(migrations().size());
 }
 
-std::string default_database_path() {
+std::string default_database_path(std::string_view setting) {
   std::string base;
   if (const char* x = std::getenv("XDG_DATA_HOME"); x && *x) {
     base = x;
   } else if (const char* h = std::getenv("HOME"); h && *h) {
     base = std::string(h) + "/.local/share";
   } else {
-    throw UsageError("--db: neither XDG_DATA_HOME nor HOME is set; give --db PATH or URL");
+    throw UsageError(fmt::format(
+        "{}: neither XDG_DATA_HOME nor HOME is set to find the default; give a path or URL",
+        setting));
   }
   return base + "/circtest/history.sqlite";
 }
 
-std::unique_ptr<Store> open_store(const std::string& url) {
+std::unique_ptr<Store> open_store(const std::string& url, std::string_view setting) {
   if (url.rfind("postgresql://", 0) == 0 || url.rfind("postgres://", 0) == 0) {
     return std::make_unique<SqlStore>(detail::open_postgresql(url));
   }
   std::string path = url;
   if (path.rfind("sqlite:", 0) == 0) path = path.substr(7);
-  if (path.empty()) path = default_database_path();
-  return std::make_unique<SqlStore>(detail::open_sqlite(path));
+  if (path.empty()) path = default_database_path(setting);
+  return std::make_unique<SqlStore>(detail::open_sqlite(path, setting));
 }
 
 std::string sha256_file(const std::string& path) {

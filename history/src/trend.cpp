@@ -54,7 +54,7 @@ std::optional<double> epoch_s(const std::string& iso) {
 
 }  // namespace
 
-Limits parse_limits(const std::string& text) {
+Limits parse_limits(const std::string& text, std::string_view setting) {
   Limits l;
   std::size_t pos = 0;
   while (pos <= text.size()) {
@@ -69,12 +69,15 @@ Limits parse_limits(const std::string& text) {
     }
     if (!q) {
       throw UsageError(
-          fmt::format("--limits: expected NAME=VALUE,... with NAME one of H, G, F, backlash (mm), "
+          fmt::format("{}: expected NAME=VALUE,... with NAME one of H, G, F, backlash (mm), "
                       "squareness (urad), got '{}'",
-                      item));
+                      setting, item));
     }
-    const double v = parse_option_number("--limits " + std::string(q->name), item.substr(eq + 1));
-    if (!(v > 0)) throw UsageError(fmt::format("--limits {}: expected a positive number", q->name));
+    const double v =
+        parse_option_number(fmt::format("{} {}", setting, q->name), item.substr(eq + 1));
+    if (!(v > 0)) {
+      throw UsageError(fmt::format("{} {}: expected a positive number", setting, q->name));
+    }
     l.*(q->limit) = v;
     pos = comma + 1;
   }

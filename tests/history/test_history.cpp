@@ -536,6 +536,22 @@ TEST(HistoryRecord, NoMachineNameNamesNoOption) {
   fs::remove_all(dir);
 }
 
+// The library names its settings in its own words unless the front end gives its option.
+TEST(HistoryLimits, RefusalsNameTheSettingAsTheCallerDoes) {
+  EXPECT_EQ(*parse_limits("H=0.015,squareness=40").squareness_urad, 40.0);
+  auto message = [](const std::string& text, auto... setting) {
+    try {
+      parse_limits(text, setting...);
+    } catch (const UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message("G=-1"), "limits G: expected a positive number");
+  EXPECT_EQ(message("G=-1", "--limits"), "--limits G: expected a positive number");
+  EXPECT_EQ(message("Q=1").rfind("limits: expected NAME=VALUE", 0), 0u) << message("Q=1");
+}
+
 TEST(HistorySha256, KnownDigests) {
   const fs::path p = fs::temp_directory_path() / fmt::format("circtest-sha-{}", getpid());
   std::ofstream(p) << "abc";

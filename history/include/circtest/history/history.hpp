@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace circtest::history {
@@ -68,11 +69,13 @@ int latest_schema_version() noexcept;
 
 // Opens (creating and migrating when needed) the history at `url`: empty for the default
 // SQLite file, "postgresql://..." / "postgres://..." for a server (a libpq URI), else
-// "sqlite:PATH" or a file path.
-std::unique_ptr<Store> open_store(const std::string& url);
+// "sqlite:PATH" or a file path. `setting` is how the front end names the database setting in
+// its messages (circana: "--db"); the library names no command-line option itself.
+std::unique_ptr<Store> open_store(const std::string& url,
+                                  std::string_view setting = "history database");
 
 // $XDG_DATA_HOME/circtest/history.sqlite ($HOME/.local/share when XDG_DATA_HOME is unset).
-std::string default_database_path();
+std::string default_database_path(std::string_view setting = "history database");
 
 // SHA-256 of a file's contents, lowercase hex. Throws IoError.
 std::string sha256_file(const std::string& path);
@@ -82,8 +85,9 @@ struct Limits {
   std::optional<double> h_mm, g_mm, f_mm, backlash_mm, squareness_urad;
   bool empty() const { return !h_mm && !g_mm && !f_mm && !backlash_mm && !squareness_urad; }
 };
-// "H=0.015,G=0.020" (mm; squareness in urad). Throws UsageError naming --limits.
-Limits parse_limits(const std::string& text);
+// "H=0.015,G=0.020" (mm; squareness in urad). Throws UsageError naming `setting` (circana:
+// "--limits").
+Limits parse_limits(const std::string& text, std::string_view setting = "limits");
 // The quantities of a test that exceed their limit, e.g. {"H 0.0210 > 0.0150 mm"}.
 std::vector<std::string> breaches(const TestRecord& test, const Limits& limits);
 
