@@ -19,7 +19,6 @@
 #include <memory>
 #include <string>
 #include <system_error>
-#include <thread>
 #include <unordered_set>
 
 #include <boost/iterator/counting_iterator.hpp>
@@ -142,30 +141,11 @@ class TraceParser {
     return p;
   }
 
-  // With `populate` false the columns get the huge-page hint but are left for
-  // populate_reserved() (on another thread) or the first touch to map.
-  void reserve_rows(std::size_t n, bool populate = true) {
+  void reserve_rows(std::size_t n) {
     reserve_hint_ = n;
-    populate_ = populate;
     if (!have_header_) return;
-    for (auto& v : trace_.values) reserve_room(v, n);
-    reserve_room(trace_.line_of_row, n);
-  }
-  // Maps the reserved room of every column, 2 MiB of each in turn, in the order the rows fill
-  // them. Safe beside line(): mapping a page never changes what is written in it, and a
-  // column that has moved (the estimate was short) leaves a range that is skipped or harmless.
-  // The columns' addresses and sizes are taken first, on the caller's thread.
-  bool reserved() const {
-    return have_header_ && !trace_.values.empty() && trace_.values[0].capacity() > 0;
-  }
-  std::vector<std::pair<const char*, std::size_t>> reserved_ranges() const {
-    std::vector<std::pair<const char*, std::size_t>> r;
-    for (const auto& v : trace_.values) {
-      r.emplace_back(reinterpret_cast<const char*>(v.data()), v.capacity() * sizeof(double));
-    }
-    r.emplace_back(reinterpret_cast<const char*>(trace_.line_of_row.data()),
-                   trace_.line_of_row.capacity() * sizeof(trace_.line_of_row[0]));
-    return r;
+    for (auto& v : trace_.values) reserve_huge(v, n);
+    reserve_huge(trace_.line_of_row, n);
   }
   std::size_t lines() const { return line_no_; }
 
@@ -331,7 +311,7 @@ class TraceParser {
     trace_.values.assign(trace_.columns.size(), {});
     trace_.header_line = line_no_;
     have_header_ = true;
-    if (reserve_hint_ > 0) reserve_rows(reserve_hint_, populate_);
+    if (reserve_hint_ > 0) reserve_rows(reserve_hint_);
     time_column_ =
         options_.check_time_monotonic ? trace_.column_index(column_name::t) : std::nullopt;
     time_field_.reset();
@@ -515,16 +495,6 @@ class TraceParser {
   std::optional<std::size_t> time_column_;  // the `t` column when time must not go back
   std::optional<std::size_t> time_field_;   // its field in the header
   std::size_t reserve_hint_ = 0;
-  bool populate_ = true;
-  template <class T>
-  void reserve_room(std::vector<T>& v, std::size_t n) {
-    if (populate_) {
-      reserve_huge(v, n);
-    } else {
-      v.reserve(n);
-      advise_huge_pages_only(v.data(), v.capacity() * sizeof(T));
-    }
-  }
   bool binary_ = false;
   std::size_t record_ = 0;
   Slots slots_;  // with in_slots_: a stretch parsed in place (fork())
@@ -918,15 +888,6 @@ Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
   const std::string& path = in.path();
   TraceParser parser(path, options);
   bool reserved = size_hint == 0;
-  // The columns' first touch (the kernel zero-filling ~70 MB for 1e6 rows: a quarter of the
-  // read on this VM) goes to a second core when there is one: it maps the reserved room while
-  // this thread parses. Declared after the parser so that it is joined before the columns go.
-  ThreadCountRequest populate_request;
-  populate_request.asked = options.threads;
-  populate_request.work = size_hint;
-  populate_request.min_work = options.parallel_min_bytes;
-  const bool populate_aside = size_hint > 0 && thread_count(populate_request) >= 2;
-  std::jthread populator;
   constexpr std::size_t kBlock = 4u << 20;  // more than a line may hold
   static_assert(kBlock > kMaxInputLineBytes + 1);
   std::string buf(kBlock, '\0');
@@ -944,10 +905,9 @@ Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
       reserved = true;
       const std::size_t sample_rows = estimate_rows(std::string_view(buf.data(), have));
       if (sample_rows > 0 && have > 0) {
-        parser.reserve_rows(
-            static_cast<std::size_t>(static_cast<double>(sample_rows) *
-                                     static_cast<double>(size_hint) / static_cast<double>(have)),
-            !populate_aside);
+        parser.reserve_rows(static_cast<std::size_t>(static_cast<double>(sample_rows) *
+                                                     static_cast<double>(size_hint) /
+                                                     static_cast<double>(have)));
       }
     }
     std::size_t pos = 0;
@@ -958,18 +918,6 @@ Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
       const std::size_t stop = static_cast<std::size_t>(static_cast<const char*>(nl) - data);
       parser.line(std::string_view(data + pos, stop - pos));
       pos = stop + 1;
-      if (populate_aside && !populator.joinable() && parser.reserved()) {
-        populator = std::jthread([ranges = parser.reserved_ranges()] {
-          constexpr std::size_t kChunk = std::size_t{2} << 20;
-          std::size_t longest = 0;
-          for (const auto& r : ranges) longest = std::max(longest, r.second);
-          for (std::size_t off = 0; off < longest; off += kChunk) {
-            for (const auto& [data, bytes] : ranges) {
-              if (off < bytes) populate_pages(data + off, std::min(kChunk, bytes - off));
-            }
-          }
-        });
-      }
     }
     if (eof) {
       if (pos < have) parser.line(std::string_view(data + pos, have - pos));
@@ -981,7 +929,6 @@ Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
     std::memmove(buf.data(), data + pos, have - pos);
     have -= pos;
   }
-  if (populator.joinable()) populator.join();
   return parser.finish();
 }
 

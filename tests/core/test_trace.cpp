@@ -15,7 +15,6 @@
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
-#include "circtest/core/memory.hpp"
 #include "circtest/core/trace.hpp"
 #include "scratch.hpp"
 
@@ -458,40 +457,6 @@ TEST(TraceParallel, AFileReadInBlocksWholeOrMappedGivesTheSameTrace) {
     }
   }
   EXPECT_NE(expected.find("column 'y': expected a number, got 'x'"), std::string::npos) << expected;
-}
-
-TEST(TraceParallel, ColumnsMappedOnASecondThreadGiveTheSameTrace) {
-  // A file read in blocks on one thread while a second maps the columns' room: the same trace
-  // as without the second thread, also when the first block's long lines make the row estimate
-  // short and the columns move while they are being mapped.
-  const circtest::testing::ScratchDir scratch("circtest-core");
-  const std::string path = (scratch.dir() / "long-then-short.csv").string();
-  std::string text = "# plane: XY\nt,x,y\n";
-  for (int i = 0; i < 40000; ++i) {
-    text +=
-        fmt::format("{:.17f},{:.17f},{:.17f}\n", i * 1e-3, std::cos(i * 1e-3), std::sin(i * 1e-3));
-  }
-  for (int i = 40000; i < 400000; ++i) text += fmt::format("{},{},{}\n", i, i % 7, i % 11);
-  circtest::testing::spit(path, text);
-  const Trace one = read_trace(path, threads(1));
-  ASSERT_EQ(one.rows(), 400000u);
-  TraceReadOptions o;  // threads: one per core, so the mapping thread starts on 2 or more
-  o.parallel_min_bytes = 1 << 20;
-  const Trace t = read_trace(path, o);
-  EXPECT_EQ(t.values, one.values);
-  EXPECT_EQ(t.line_of_row, one.line_of_row);
-  // Independent truth: the last row as written.
-  EXPECT_EQ(one.values[0].back(), 399999.0);
-  EXPECT_EQ(one.values[2].back(), 399999 % 11);
-}
-
-TEST(Memory, PopulatingPagesKeepsWhatIsWrittenInThem) {
-  std::vector<double> v;
-  reserve_huge(v, std::size_t{3} << 20);  // 24 MiB: several huge pages
-  for (std::size_t i = 0; i < (std::size_t{1} << 20); ++i)
-    v.push_back(static_cast<double>(i) * 0.5);
-  populate_pages(v.data(), v.capacity() * sizeof(double));
-  for (std::size_t i = 0; i < v.size(); ++i) ASSERT_EQ(v[i], static_cast<double>(i) * 0.5) << i;
 }
 
 TEST(TraceParallel, TheFirstErrorInFileOrderWinsWithItsLine) {
