@@ -31,7 +31,8 @@ Path circle(double ca, double cb, double r, double start_rad, double turns, std:
   std::mt19937_64 rng(42);
   std::normal_distribution<double> gauss(0.0, noise_mm);
   for (std::size_t i = 0; i < n; ++i) {
-    const double t = start_rad + 2 * kPi * turns * static_cast<double>(i) / (n - 1);
+    const double t =
+        start_rad + 2 * kPi * turns * static_cast<double>(i) / static_cast<double>(n - 1);
     const double rr = r + (noise_mm > 0 ? gauss(rng) : 0.0);
     const std::size_t copies = (dwell > 0 && i % 5000 == 0) ? dwell + 1 : 1;
     for (std::size_t k = 0; k < copies; ++k) {
@@ -104,7 +105,9 @@ TEST(RadialProfile, CwPathIsReversedAndItsAnglesMatchAtan2) {
   double worst = 0.0;
   for (std::size_t k = 0; k < truth.size(); ++k) {
     worst = std::max(worst, std::abs(prof.points[k].angle_rad - truth[truth.size() - 1 - k]));
-    if (k > 0) EXPECT_LE(prof.points[k - 1].angle_rad, prof.points[k].angle_rad);
+    if (k > 0) {
+      EXPECT_LE(prof.points[k - 1].angle_rad, prof.points[k].angle_rad);
+    }
   }
   EXPECT_LT(worst, kAngleTol);
 }
