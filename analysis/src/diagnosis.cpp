@@ -219,9 +219,10 @@ std::pair<double, double> backlash_terms(double new_dir, double travelled_mm, do
 // The value of a column of kind K at sample i (rv: its reversal bookkeeping; the cyclic and
 // geometric columns do not read it).
 template <Kind K>
-double term(const Samples& S, const State& st, const Column& col, std::size_t i, const Reversal& rv,
-            const RunInfo& r) {
+double term(const Samples& S, const State& st, const Column& col, std::size_t i,
+            const Reversal& rv) {
   const double c = S.c[i], s = S.s[i];
+  const RunInfo& r = S.runs[S.run[i]];
   const double R = S.radius;
   if constexpr (K == Kind::centre_a) {
     return c;
@@ -265,12 +266,6 @@ double term(const Samples& S, const State& st, const Column& col, std::size_t i,
     static_assert(K == Kind::cyclic_b_cos);
     return std::cos(2 * kPi * S.pos(1, i) / st.pitch_b) * s;
   }
-}
-
-template <Kind K>
-double term(const Samples& S, const State& st, const Column& col, std::size_t i,
-            const Reversal& rv) {
-  return term<K>(S, st, col, i, rv, S.runs[S.run[i]]);
 }
 
 // f(std::integral_constant<Kind, k>{}): the kind as a compile-time constant, so that a loop
@@ -331,16 +326,6 @@ void fill_column(const Samples& S, const State& st, const Column& col, const std
   with_kind(col.kind, [&](auto k) {
     for (std::size_t q = 0; q < m; ++q)
       out[q * step] = term<decltype(k)::value>(S, st, col, idx[q], rvs[q]);
-  });
-}
-
-// Column `col` at the contiguous samples i0, i0 + 1, ... of one run (rvs: their reversal
-// bookkeeping) into out[0..m): the run known once, so the loop over the samples vectorises.
-void fill_run_column(const Samples& S, const State& st, const Column& col, const RunInfo& run,
-                     std::size_t i0, const Reversal* rvs, std::size_t m, double* out) {
-  with_kind(col.kind, [&](auto k) {
-    for (std::size_t q = 0; q < m; ++q)
-      out[q] = term<decltype(k)::value>(S, st, col, i0 + q, rvs[q], run);
   });
 }
 
@@ -481,7 +466,7 @@ struct SteadySums {
   std::vector<double> before_rad;  // per run: window before a reversal
   std::vector<double> after_rad;   // per run: window after a reversal
   std::vector<std::size_t> near;   // the stride rows inside a window, in order
-  std::unique_ptr<Sums> sums;      // of the others, Y = (dr, servo_offset_per_s2)
+  std::optional<Sums> sums;        // of the others, Y = (dr, servo_offset_per_s2)
 };
 
 // Whether `cols` can use steady sums at all: a column of a decay derivative is needed once.
@@ -548,7 +533,7 @@ SteadySums take_steady(const Samples& S, const State& st, const std::vector<Colu
     }
     add_rows(S, st, cols, idx.data(), rvs.data(), idx.size(), true, part[block]);
   });
-  ss.sums = std::make_unique<Sums>(p, 2);
+  ss.sums.emplace(p, 2);
   for (std::size_t b = 0; b < nblocks; ++b) {
     *ss.sums += part[b];
     ss.near.insert(ss.near.end(), near[b].begin(), near[b].end());
@@ -1110,24 +1095,6 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
   peak.pitch_mm = 1.0 / f;
   peak.ratio = median > 0 ? *it / median : std::numeric_limits<double>::infinity();
   return peak;
-}
-
-// atan2(cross, dot) for the angle between a commanded and a measured position: the following
-// lag keeps it below a few degrees, where atan's series to the 11th power is exact in double
-// precision (for |t| < 0.05 the next term is below 2e-17 of the angle) and several times
-// cheaper than atan2.
-constexpr double kSeriesMax = 0.05;
-
-double atan_series(double t) {
-  const double t2 = t * t;
-  return t *
-         (1.0 - t2 * (1.0 / 3.0 -
-                      t2 * (1.0 / 5.0 - t2 * (1.0 / 7.0 - t2 * (1.0 / 9.0 - t2 * (1.0 / 11.0))))));
-}
-
-double lag_angle(double cross, double dot) {
-  if (dot > 0.0 && std::abs(cross) < kSeriesMax * dot) return atan_series(cross / dot);
-  return std::atan2(cross, dot);
 }
 
 const std::vector<double>* cmd_column(const Trace& trace, char axis) {
@@ -1829,8 +1796,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
           const double ma = ra[q] - ca - oa, mb = rb[q] - cb - ob;
           const double qa = qa_[q] - ca, qb = qb_[q] - cb;
           const double cross = qa * mb - qb * ma, dot = qa * ma + qb * mb;
-          far |= static_cast<int>(!(dot > 0.0 && std::abs(cross) < kSeriesMax * dot));
-          tsum += atan_series(cross / dot);
+          far |= static_cast<int>(!(dot > 0.0 && std::abs(cross) < detail::kAtanSeriesMax * dot));
+          tsum += detail::atan_series(cross / dot);
           // No overflow or underflow at machine coordinates: hypot's care is not needed.
           const double r = std::sqrt(ma * ma + mb * mb);
           const double c = ma / r, s = mb / r;
@@ -1844,7 +1811,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
           for (std::size_t q = 0; q < n; ++q) {
             const double ma = ra[q] - ca - oa, mb = rb[q] - cb - ob;
             const double qa = qa_[q] - ca, qb = qb_[q] - cb;
-            tsum += lag_angle(qa * mb - qb * ma, qa * ma + qb * mb);
+            tsum += detail::turn_angle(qa * mb - qb * ma, qa * ma + qb * mb);
           }
         }
         tsums[block * nruns + k] += info.dir * tsum * R;
@@ -2044,7 +2011,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       std::fill(term.begin(), term.end(), 0.0);
       for (std::size_t j = 0; j < p; ++j) {
         double* cv = colv.data() + j * kChunk;
-        fill_run_column(S, st, cols[j], S.runs[run], c0, rvs.data(), m, cv);
+        fill_column(S, st, cols[j], idx.data(), rvs.data(), m, cv, 1);
         const double xj = xs[j];
         const int src = source_of[j];
         if (src < 0) {

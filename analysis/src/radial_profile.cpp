@@ -61,10 +61,9 @@ class Unwrapper {
 constexpr std::size_t kExactEvery = 64;
 
 // emit(i, angle_rad, radius_mm) for every sample in path order, the angle unwrapped along the
-// path. atan2 every kExactEvery samples; in between, the step from the previous sample is the
-// atan of the cross/dot ratio by its series, which for the tiny steps of a sampled path is
-// exact in double precision (the next term is below 1.5e-19 of the step) and several times
-// cheaper than atan2; a large step (a gap, a path through the centre) takes atan2 of the pair.
+// path. atan2 every kExactEvery samples; in between, the step from the previous sample is
+// turn_angle of the pair (atan's series for the tiny steps of a sampled path; atan2 of the pair
+// for a large step: a gap, a path through the centre).
 template <class Emit>
 void polar_walk(std::span<const double> a, std::span<const double> b, PlanePoint centre,
                 Emit&& emit) {
@@ -80,15 +79,7 @@ void polar_walk(std::span<const double> a, std::span<const double> b, PlanePoint
       since = 0.0;
       ang = base;
     } else {
-      const double cross = pa * db - pb * da, dot = pa * da + pb * db;
-      double step;
-      if (dot > 0.0 && std::abs(cross) < 1e-3 * dot) {
-        const double t = cross / dot, t2 = t * t;
-        step = t * (1.0 - t2 * (1.0 / 3.0 - t2 * 0.2));
-      } else {
-        step = std::atan2(cross, dot);
-      }
-      since += step;
+      since += turn_angle(pa * db - pb * da, pa * da + pb * db);
       ang = base + since;
     }
     pa = da;

@@ -10,6 +10,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
+#include "radial_profile.hpp"
 
 namespace circtest {
 
@@ -31,16 +32,10 @@ struct Span {
   std::size_t begin, end;
 };
 
-// The signed angle (rad) from p to q about the centre: atan2 of their cross and dot products.
-// Between successive samples it is tiny, where atan's series to the fifth power is exact in
-// double precision (the next term is below 1.5e-19 of the angle) and several times cheaper.
+// The signed angle (rad) from p to q about the centre (tiny between successive samples, where
+// detail::turn_angle takes atan's series).
 double turn_angle(double pa, double pb, double qa, double qb) {
-  const double cross = pa * qb - pb * qa, dot = pa * qa + pb * qb;
-  if (dot > 0.0 && std::abs(cross) < 1e-3 * dot) {
-    const double t = cross / dot, t2 = t * t;
-    return t * (1.0 - t2 * (1.0 / 3.0 - t2 * 0.2));
-  }
-  return std::atan2(cross, dot);
+  return detail::turn_angle(pa * qb - pb * qa, pa * qa + pb * qb);
 }
 
 // Signed swept angle (rad) of rows [begin, end) about a centre.

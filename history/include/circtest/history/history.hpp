@@ -71,11 +71,12 @@ int latest_schema_version() noexcept;
 // SQLite file, "postgresql://..." / "postgres://..." for a server (a libpq URI), else
 // "sqlite:PATH" or a file path. `setting` is how the front end names the database setting in
 // its messages (circana: "--db"); the library names no command-line option itself.
+inline constexpr std::string_view kDatabaseSetting = "history database";  // the library's word
 std::unique_ptr<Store> open_store(const std::string& url,
-                                  std::string_view setting = "history database");
+                                  std::string_view setting = kDatabaseSetting);
 
 // $XDG_DATA_HOME/circtest/history.sqlite ($HOME/.local/share when XDG_DATA_HOME is unset).
-std::string default_database_path(std::string_view setting = "history database");
+std::string default_database_path(std::string_view setting = kDatabaseSetting);
 
 // SHA-256 of a file's contents, lowercase hex. Throws IoError.
 std::string sha256_file(const std::string& path);
