@@ -5,6 +5,8 @@
 # then `circana diagnose --json` on the same files against analyze (issue 9: at most 2x).
 # Rounds interleave circana and the floors, so a busy machine slows both alike; the best
 # round of each counts.
+# Wall and CPU times come from bash's `time` at 1 ms resolution (/usr/bin/time's 10 ms was too
+# coarse for the last few per cent); /usr/bin/time only gives the peak memory.
 # usage: bench/analyze-cli.sh [BUILD_DIR] [ROUNDS]   (Release build; needs /usr/bin/time)
 set -euo pipefail
 build=${1:-build}
@@ -16,7 +18,11 @@ sim=(--backlash-x 0.02 --squareness 100e-6 --kv-x 30 --kv-y 33 --noise 0.0002 --
 [ -f "$work/trace-1e6.csv" ] || "$build/tests/support/circtest-simtrace" -o "$work/trace-1e6.csv" "${sim[@]}"
 [ -f "$work/trace-1e6.ctb" ] || "$build/tests/support/circtest-simtrace" -o "$work/trace-1e6.ctb" "${sim[@]}"
 
-now() { date +%s.%N; }
+# timed CMD...: "wall user sys" in seconds, ms resolution; the command's output is dropped.
+timed() {
+  local TIMEFORMAT='%3R %3U %3S'
+  { time "$@" >/dev/null 2>&1; } 2>&1
+}
 min() { awk -v a="$1" -v b="$2" 'BEGIN { print (a < b ? a : b) }'; }
 
 # bench FILE MODE: best circana wall time and best floor/reader times over the rounds.
@@ -24,7 +30,7 @@ bench() {
   local file=$1 mode=$2 best=999 cpu=999 floor=999 floorc=999 reader=999 reader1=999 readerc=999
   local line t
   for _ in $(seq "$rounds"); do
-    t=$( { /usr/bin/time -f '%e %U %S' "$build/analysis/circana" analyze "$file" --json >/dev/null; } 2>&1 | tail -1)
+    t=$(timed "$build/analysis/circana" analyze "$file" --json)
     best=$(min "$best" "$(cut -d' ' -f1 <<<"$t")")
     cpu=$(min "$cpu" "$(awk '{ print $2 + $3 }' <<<"$t")")
     line=$("$build/bench/parse_baseline" "$file" 1 "$mode" | grep '^floor_wall_s=')
@@ -59,10 +65,10 @@ bench "$work/trace-1e6.ctb" binary
 diagnose_bench() {
   local file=$1 dw=999 dc=999 aw=999 ac=999 t
   for _ in $(seq "$rounds"); do
-    t=$( { /usr/bin/time -f '%e %U %S' "$build/analysis/circana" diagnose "$file" --json >/dev/null; } 2>&1 | tail -1)
+    t=$(timed "$build/analysis/circana" diagnose "$file" --json)
     dw=$(min "$dw" "$(cut -d' ' -f1 <<<"$t")")
     dc=$(min "$dc" "$(awk '{ print $2 + $3 }' <<<"$t")")
-    t=$( { /usr/bin/time -f '%e %U %S' "$build/analysis/circana" analyze "$file" --json >/dev/null; } 2>&1 | tail -1)
+    t=$(timed "$build/analysis/circana" analyze "$file" --json)
     aw=$(min "$aw" "$(cut -d' ' -f1 <<<"$t")")
     ac=$(min "$ac" "$(awk '{ print $2 + $3 }' <<<"$t")")
   done

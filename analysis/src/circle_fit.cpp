@@ -154,7 +154,9 @@ Circle lsc_refine(std::span<const Points> sets, Vec2 m, Circle start) {
           // sqrt instead of std::hypot in the hot loop: the data are centred, so dx^2 + dy^2
           // cannot overflow or underflow for any coordinate in mm, and hypot is ~10x slower.
           const double d = std::sqrt(dx * dx + dy * dy);
-          const double inv = d > 0.0 ? 1.0 / d : 0.0;
+          // No branch, so that the loop is vectorised: a point exactly on the centre has
+          // dx = dy = 0 and so ux = uy = 0 whatever inv is.
+          const double inv = 1.0 / std::max(d, std::numeric_limits<double>::min());
           const double ux = dx * inv, uy = dy * inv;
           const double e = d - r;
           // Jacobian row is (-ux, -uy, -1); signs are folded into the step below.
