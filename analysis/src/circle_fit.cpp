@@ -2,12 +2,16 @@
 // circumscribed and inscribed fits live in circle_fit_zone.cpp.
 #include "circtest/analysis/circle_fit.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "circle_fit_detail.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/parallel.hpp"
 
 namespace circtest {
 namespace fit_detail {
@@ -129,50 +133,86 @@ struct Points {
   std::size_t n;
 };
 
-Circle lsc_refine(std::span<const Points> sets, Vec2 m, Circle start) {
+// The sums of one block of points [lo, hi) of a set for the centre (ox, oy) and radius r:
+// ux^2, ux uy, ux, uy^2, uy, count, ux e, uy e, e, e^2 with u the unit vector from the centre
+// and e the radial residual.
+void block_sums(const Points& set, std::size_t lo, std::size_t hi, double ox, double oy, double r,
+                double out[10]) {
+  const double* pa = set.a;
+  const double* pb = set.b;
+  double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s6 = 0, s7 = 0, s8 = 0, s9 = 0;
+  // The block's sums may be taken in any order (vector lanes); the compensated accumulators
+  // across blocks keep the total accurate.
+#pragma omp simd reduction(+ : s0, s1, s2, s3, s4, s6, s7, s8, s9)
+  for (std::size_t i = lo; i < hi; ++i) {
+    const double dx = pa[i] - ox;
+    const double dy = pb[i] - oy;
+    // sqrt instead of std::hypot in the hot loop: the data are centred, so dx^2 + dy^2
+    // cannot overflow or underflow for any coordinate in mm, and hypot is ~10x slower.
+    const double d = std::sqrt(dx * dx + dy * dy);
+    // No branch, so that the loop is vectorised: a point exactly on the centre has
+    // dx = dy = 0 and so ux = uy = 0 whatever inv is.
+    const double inv = 1.0 / std::max(d, std::numeric_limits<double>::min());
+    const double ux = dx * inv, uy = dy * inv;
+    const double e = d - r;
+    // Jacobian row is (-ux, -uy, -1); signs are folded into the step below.
+    s0 += ux * ux;
+    s1 += ux * uy;
+    s2 += ux;
+    s3 += uy * uy;
+    s4 += uy;
+    s6 += ux * e;
+    s7 += uy * e;
+    s8 += e;
+    s9 += e * e;
+  }
+  const double sums[10] = {s0, s1, s2, s3, s4, static_cast<double>(hi - lo), s6, s7, s8, s9};
+  std::copy(sums, sums + 10, out);
+}
+
+// With threads > 1 each pass's block sums are worked out side by side and then added in block
+// order, exactly as one thread adds them: the same fit to the bit.
+Circle lsc_refine(std::span<const Points> sets, Vec2 m, Circle start, unsigned threads = 1) {
   struct Eval {
     double jtj[6];  // xx, xy, xr, yy, yr, rr
     double jte[3];
     double cost;
   };
+  struct Block {
+    const Points* set;
+    std::size_t lo, hi;
+  };
+  std::vector<Block> blocks;
+  std::vector<std::array<double, 10>> sums;
+  if (threads > 1) {
+    for (const Points& set : sets) {
+      for (std::size_t lo = 0; lo < set.n; lo += kBlock) {
+        blocks.push_back({&set, lo, std::min(set.n, lo + kBlock)});
+      }
+    }
+    sums.resize(blocks.size());
+  }
   auto evaluate = [&](double cx, double cy, double r) {
     const double ox = m.x + cx, oy = m.y + cy;
     Neumaier acc[10];
-    for (const Points& set : sets) {
-      const double* pa = set.a;
-      const double* pb = set.b;
-      const std::size_t n = set.n;
-      for (std::size_t start_i = 0; start_i < n; start_i += kBlock) {
-        const std::size_t stop = std::min(n, start_i + kBlock);
-        double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s6 = 0, s7 = 0, s8 = 0, s9 = 0;
-        // The block's sums may be taken in any order (vector lanes); the compensated
-        // accumulators across blocks keep the total accurate.
-#pragma omp simd reduction(+ : s0, s1, s2, s3, s4, s6, s7, s8, s9)
-        for (std::size_t i = start_i; i < stop; ++i) {
-          const double dx = pa[i] - ox;
-          const double dy = pb[i] - oy;
-          // sqrt instead of std::hypot in the hot loop: the data are centred, so dx^2 + dy^2
-          // cannot overflow or underflow for any coordinate in mm, and hypot is ~10x slower.
-          const double d = std::sqrt(dx * dx + dy * dy);
-          // No branch, so that the loop is vectorised: a point exactly on the centre has
-          // dx = dy = 0 and so ux = uy = 0 whatever inv is.
-          const double inv = 1.0 / std::max(d, std::numeric_limits<double>::min());
-          const double ux = dx * inv, uy = dy * inv;
-          const double e = d - r;
-          // Jacobian row is (-ux, -uy, -1); signs are folded into the step below.
-          s0 += ux * ux;
-          s1 += ux * uy;
-          s2 += ux;
-          s3 += uy * uy;
-          s4 += uy;
-          s6 += ux * e;
-          s7 += uy * e;
-          s8 += e;
-          s9 += e * e;
+    if (threads > 1) {
+      // Two stretches of blocks per thread at most: a thread's start costs ~0.1 ms.
+      const std::size_t per = (blocks.size() + threads - 1) / threads;
+      for_blocks(blocks.size(), per, threads, [&](std::size_t lo, std::size_t hi, std::size_t) {
+        for (std::size_t k = lo; k < hi; ++k) {
+          block_sums(*blocks[k].set, blocks[k].lo, blocks[k].hi, ox, oy, r, sums[k].data());
         }
-        const double sums[10] = {s0, s1, s2, s3, s4, static_cast<double>(stop - start_i),
-                                 s6, s7, s8, s9};
-        for (int k = 0; k < 10; ++k) acc[k].add(sums[k]);
+      });
+      for (const auto& block : sums) {
+        for (int k = 0; k < 10; ++k) acc[k].add(block[k]);
+      }
+    } else {
+      double block[10];
+      for (const Points& set : sets) {
+        for (std::size_t lo = 0; lo < set.n; lo += kBlock) {
+          block_sums(set, lo, std::min(set.n, lo + kBlock), ox, oy, r, block);
+          for (int k = 0; k < 10; ++k) acc[k].add(block[k]);
+        }
       }
     }
     Eval ev{};
@@ -250,19 +290,19 @@ namespace {
 
 // The fit over one or two point sets: the start from an evenly strided subset of all of them
 // when they are large, then the full passes over each set in place (no joined copy).
-Circle fit_lsc_sets(std::span<const Points> sets, Vec2 m) {
+Circle fit_lsc_sets(std::span<const Points> sets, Vec2 m, unsigned threads = 1) {
   std::size_t n = 0;
   for (const Points& p : sets) n += p.n;
   if (n <= kSubsampleAbove) {
     if (sets.size() == 1) {
-      return lsc_refine(sets, m, fit_detail::kasa_about(sets[0].a, sets[0].b, n, m));
+      return lsc_refine(sets, m, fit_detail::kasa_about(sets[0].a, sets[0].b, n, m), threads);
     }
     std::vector<double> ja, jb;
     for (const Points& p : sets) {
       ja.insert(ja.end(), p.a, p.a + p.n);
       jb.insert(jb.end(), p.b, p.b + p.n);
     }
-    return lsc_refine(sets, m, fit_detail::kasa_about(ja.data(), jb.data(), n, m));
+    return lsc_refine(sets, m, fit_detail::kasa_about(ja.data(), jb.data(), n, m), threads);
   }
   const std::size_t stride = n / kSubsamplePoints;
   std::vector<double> sa, sb;
@@ -287,7 +327,7 @@ Circle fit_lsc_sets(std::span<const Points> sets, Vec2 m) {
     }
     rough = fit_detail::kasa_about(ja.data(), jb.data(), n, m);
   }
-  return lsc_refine(sets, m, rough);
+  return lsc_refine(sets, m, rough, threads);
 }
 
 }  // namespace
@@ -299,7 +339,7 @@ Circle fit_lsc(std::span<const double> a, std::span<const double> b) {
 }
 
 Circle fit_lsc(std::span<const double> a1, std::span<const double> b1, std::span<const double> a2,
-               std::span<const double> b2) {
+               std::span<const double> b2, unsigned threads) {
   if (a1.size() != b1.size()) fit_detail::check_points(a1, b1, "fit_lsc");
   if (a2.size() != b2.size()) fit_detail::check_points(a2, b2, "fit_lsc");
   if (a1.size() < 3 || a2.size() < 3) {
@@ -315,7 +355,7 @@ Circle fit_lsc(std::span<const double> a1, std::span<const double> b1, std::span
   const double w1 = static_cast<double>(n1) / static_cast<double>(n1 + n2);
   const Vec2 m{m1.x + (m2.x - m1.x) * (1.0 - w1), m1.y + (m2.y - m1.y) * (1.0 - w1)};
   const Points sets[2] = {{a1.data(), b1.data(), n1}, {a2.data(), b2.data(), n2}};
-  return fit_lsc_sets(sets, m);
+  return fit_lsc_sets(sets, m, threads);
 }
 
 }  // namespace circtest

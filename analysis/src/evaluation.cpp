@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <numbers>
 #include <numeric>
 
@@ -276,6 +277,7 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   so.centre = ev.centre;
   so.radius_mm = ev.nominal_radius_mm;
   so.min_sweep_deg = options.min_arc_deg;
+  so.threads = options.threads;
   const Segmentation seg = segment_trace(trace, ev.columns, so);
   ev.segmentation = seg.method;
   ev.notes.insert(ev.notes.end(), seg.notes.begin(), seg.notes.end());
@@ -295,19 +297,27 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   std::vector<RunResult> results(runs.size());
   std::vector<std::vector<std::string>> run_notes(runs.size());
   std::vector<Circle> common(pairs.size());
-  run_tasks(runs.size() + pairs.size(), threads, [&](std::size_t k) {
-    if (k >= runs.size()) {  // H's circle: the LSC of both runs together
-      const Run& r1 = runs[pairs[k - runs.size()]];
-      const Run& r2 = runs[pairs[k - runs.size()] + 1];
-      const std::size_t first = pairs[k - runs.size()];
-      // Each run's own fit passed, so this one refuses only what a joint fit adds (none known).
-      common[k - runs.size()] = with_rows_context(
+  std::vector<std::exception_ptr> common_error(pairs.size());
+  // H's circles: the LSC of both runs of each pair together, each pass over the points shared
+  // out over the threads (a third task beside the runs' two would leave one core idle while it
+  // ran).
+  for (std::size_t p = 0; p < pairs.size(); ++p) {
+    const Run& r1 = runs[pairs[p]];
+    const Run& r2 = runs[pairs[p] + 1];
+    // Each run's own fit passes or fails below, so this one refuses only what a joint fit adds
+    // (none known); a refusal of a run's is reported first, as the run's own.
+    try {
+      common[p] = with_rows_context(
           trace, r1.begin, r2.end,
-          fmt::format("common circle of runs {} and {} (H)", first + 1, first + 2), [&] {
-            return fit_lsc(slice(col_a, r1), slice(col_b, r1), slice(col_a, r2), slice(col_b, r2));
+          fmt::format("common circle of runs {} and {} (H)", pairs[p] + 1, pairs[p] + 2), [&] {
+            return fit_lsc(slice(col_a, r1), slice(col_b, r1), slice(col_a, r2), slice(col_b, r2),
+                           threads);
           });
-      return;
+    } catch (...) {
+      common_error[p] = std::current_exception();
     }
+  }
+  run_tasks(runs.size(), threads, [&](std::size_t k) {
     const Run& run = runs[k];
     const std::size_t number = k + 1;
     std::vector<std::string>& notes = run_notes[k];
@@ -327,6 +337,9 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     }
     results[k] = std::move(rr);
   });
+  for (const std::exception_ptr& e : common_error) {
+    if (e) std::rethrow_exception(e);
+  }
   for (std::size_t k = 0; k < runs.size(); ++k) {
     ev.notes.insert(ev.notes.end(), run_notes[k].begin(), run_notes[k].end());
     ev.runs.push_back(std::move(results[k]));
@@ -347,7 +360,8 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     h.run_ccw = ccw_first ? first : first + 1;
     h.run_cw = ccw_first ? first + 1 : first;
     h.common_lsc = common[p];
-    const RadialDifference d = detail::radial_difference(profiles[2 * p], profiles[2 * p + 1]);
+    const RadialDifference d =
+        detail::radial_difference(profiles[2 * p], profiles[2 * p + 1], threads);
     h.h_mm = d.max_mm;
     h.at_angle_deg = d.at_angle_deg;
     h.overlap_deg = d.overlap_deg;

@@ -9,6 +9,7 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace_keys.hpp"
+#include "median.hpp"
 
 namespace circtest {
 namespace {
@@ -49,14 +50,6 @@ struct Range {
   }
   double width() const { return hi >= lo ? hi - lo : 0.0; }
 };
-
-// The upper median (v[n/2] once ordered); reorders v, so a caller can reuse it as scratch.
-double median_in_place(std::vector<double>& v) {
-  if (v.empty()) return 0.0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 double default_radius_tolerance(double nominal_mm) {
   return std::max(0.01 * nominal_mm, 0.05);
@@ -233,19 +226,15 @@ void check_outliers(const Trace& trace, std::size_t run_number, const Run& run,
                     std::span<const double> a, std::span<const double> b, const Circle& lsc) {
   const std::size_t n = a.size();
   if (n < 8) return;
-  // The distances are worked out twice (sqrt, not hypot: mm about a centre near the data
-  // neither overflow nor underflow) instead of being kept: one scratch array of the run's
-  // length serves both medians, since a median does not depend on the order nth_element left.
+  // The distances are worked out again for each pass (sqrt, not hypot: mm about a centre near
+  // the data neither overflow nor underflow) instead of being kept.
   const auto dist = [&](std::size_t i) {
     const double da = a[i] - lsc.centre_a_mm, db = b[i] - lsc.centre_b_mm;
     return std::sqrt(da * da + db * db);
   };
-  std::vector<double> scratch;
-  scratch.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) scratch.push_back(dist(i));
-  const double med = median_in_place(scratch);
-  for (double& v : scratch) v = std::abs(v - med);
-  const double spread = 1.4826 * median_in_place(scratch);
+  const double med = detail::median_of(n, dist);
+  const double spread =
+      1.4826 * detail::median_of(n, [&](std::size_t i) { return std::abs(dist(i) - med); });
   const double limit = std::max({50.0 * spread, 0.01 * lsc.radius_mm, 0.05});
   std::size_t worst = n;
   std::size_t count = 0;

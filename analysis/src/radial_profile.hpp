@@ -29,6 +29,17 @@ inline double turn_angle(double cross, double dot) {
   return std::atan2(cross, dot);
 }
 
+// Samples whose turn angles are worked out at once (a few pages of stack, in cache).
+inline constexpr std::size_t kTurnBlock = 1024;
+
+// out[k] = turn_angle of the vectors from (ca, cb) to samples k and k + 1, for k < count (a
+// and b hold count + 1 samples). The same arithmetic as turn_angle on each pair, so the same
+// values to the bit; done in two passes so that the first, the series for every pair, is
+// vectorised: the few pairs outside the series' range (a gap, a path through the centre) are
+// taken again with atan2.
+void turn_angles(const double* a, const double* b, double ca, double cb, std::size_t count,
+                 double* out);
+
 // Angle about `centre`, unwrapped along the path (successive samples are far less than pi
 // apart), and radius; in path order.
 struct PathPolar {
@@ -63,7 +74,9 @@ struct ProfileDifference {
 };
 ProfileDifference compare_profiles(const RadialProfile& ref, const RadialProfile& from);
 
-// Both ways round: the largest difference of the two, where it is, and the overlap.
-RadialDifference radial_difference(const RadialProfile& p1, const RadialProfile& p2);
+// Both ways round (side by side on up to `threads` threads): the largest difference of the
+// two, where it is, and the overlap.
+RadialDifference radial_difference(const RadialProfile& p1, const RadialProfile& p2,
+                                   unsigned threads = 1);
 
 }  // namespace circtest::detail

@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <numbers>
 
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/parallel.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
@@ -32,22 +34,16 @@ struct Span {
   std::size_t begin, end;
 };
 
-// The signed angle (rad) from p to q about the centre (tiny between successive samples, where
-// detail::turn_angle takes atan's series).
-double turn_angle(double pa, double pb, double qa, double qb) {
-  return detail::turn_angle(pa * qb - pb * qa, pa * qa + pb * qb);
-}
-
-// Signed swept angle (rad) of rows [begin, end) about a centre.
+// Signed swept angle (rad) of rows [begin, end) about a centre: the turn angles of successive
+// samples (detail::turn_angle, block by block), summed in row order.
 double swept_angle(const double* a, const double* b, std::size_t begin, std::size_t end, double ca,
                    double cb) {
   double total = 0.0;
-  double pa = a[begin] - ca, pb = b[begin] - cb;
-  for (std::size_t i = begin + 1; i < end; ++i) {
-    const double qa = a[i] - ca, qb = b[i] - cb;
-    total += turn_angle(pa, pb, qa, qb);
-    pa = qa;
-    pb = qb;
+  double turn[detail::kTurnBlock];
+  for (std::size_t i = begin; i + 1 < end; i += detail::kTurnBlock) {
+    const std::size_t count = std::min(detail::kTurnBlock, end - 1 - i);
+    detail::turn_angles(a + i, b + i, ca, cb, count, turn);
+    for (std::size_t k = 0; k < count; ++k) total += turn[k];
   }
   return total;
 }
@@ -82,12 +78,14 @@ std::vector<Span> split_at_reversals(const double* a, const double* b, Span s, c
   std::size_t extreme_row = s.begin;
   int dir = 0;
   std::size_t begin = s.begin;
-  double pa = a[s.begin] - c.centre_a_mm, pb = b[s.begin] - c.centre_b_mm;
+  double turn[detail::kTurnBlock];
   for (std::size_t i = s.begin + 1; i < s.end; ++i) {
-    const double qa = a[i] - c.centre_a_mm, qb = b[i] - c.centre_b_mm;
-    theta += turn_angle(pa, pb, qa, qb);
-    pa = qa;
-    pb = qb;
+    const std::size_t k = (i - s.begin - 1) % detail::kTurnBlock;
+    if (k == 0) {
+      detail::turn_angles(a + i - 1, b + i - 1, c.centre_a_mm, c.centre_b_mm,
+                          std::min(detail::kTurnBlock, s.end - i), turn);
+    }
+    theta += turn[k];
     if (dir == 0) {
       if (std::abs(theta) > hysteresis) dir = theta > 0 ? 1 : -1;
       extreme = theta;
@@ -293,6 +291,11 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     }
     return std::lround(v);
   };
+  // Whether `row` carries run `id`, the id of row `first`: the same value as that row's needs
+  // no check or rounding again (nearly every row of a run).
+  auto in_run = [&](std::size_t row, std::size_t first, long id) {
+    return !segment || (*segment)[row] == (*segment)[first] || seg_id(row) == id;
+  };
 
   std::vector<Span> spans;
   if (marker) {
@@ -305,7 +308,7 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       }
       std::size_t j = i + 1;
       const long id = seg_id(i);
-      while (j < n && (*marker)[j] >= 0.5 && seg_id(j) == id) ++j;
+      while (j < n && (*marker)[j] >= 0.5 && in_run(j, i, id)) ++j;
       spans.push_back({i, j});
       i = j;
     }
@@ -319,7 +322,7 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       }
       std::size_t j = i + 1;
       const long id = seg_id(i);
-      while (j < n && seg_id(j) == id) ++j;
+      while (j < n && in_run(j, i, id)) ++j;
       spans.push_back({i, j});
       i = j;
     }
@@ -328,7 +331,33 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     spans.push_back({0, n});
   }
 
-  for (const Span& s : spans) {
+  // Each marked span's parts and runs depend on no other span's: worked out side by side, then
+  // checked in span order below, so that the first problem in file order is the one reported.
+  struct SpanRuns {
+    std::vector<Span> parts;
+    std::vector<Run> runs;
+    std::exception_ptr error;
+  };
+  std::vector<SpanRuns> worked(result.method == SegmentationMethod::marker ? spans.size() : 0);
+  if (!worked.empty()) {
+    const unsigned threads = thread_count(
+        ThreadCountRequest{.asked = options.threads, .work = n, .min_work = std::size_t{1} << 16});
+    run_tasks(spans.size(), threads, [&](std::size_t k) {
+      const Span& s = spans[k];
+      if (s.end - s.begin < options.min_points) return;  // refused below
+      try {
+        const Circle centre = centre_of(a, b, s, options);
+        worked[k].parts = split_at_reversals(a, b, s, centre, options.min_points);
+        for (const Span& part : worked[k].parts)
+          worked[k].runs.push_back(make_run(a, b, part, centre));
+      } catch (...) {
+        worked[k].error = std::current_exception();
+      }
+    });
+  }
+
+  for (std::size_t k = 0; k < spans.size(); ++k) {
+    const Span& s = spans[k];
     if (result.method == SegmentationMethod::marker) {
       const std::size_t number = result.runs.size() + 1;
       if (s.end - s.begin < options.min_points) {
@@ -337,12 +366,13 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
             fmt::format("run {} (lines {}-{}): too few points ({}), expected at least {}", number,
                         line(s.begin), line(s.end - 1), s.end - s.begin, options.min_points));
       }
-      const Circle centre = centre_of(a, b, s, options);
-      const std::vector<Span> parts = split_at_reversals(a, b, s, centre, options.min_points);
+      if (worked[k].error) std::rethrow_exception(worked[k].error);
+      const std::vector<Span>& parts = worked[k].parts;
       std::vector<Run> runs;
-      for (const Span& part : parts) {
+      for (std::size_t p = 0; p < parts.size(); ++p) {
+        const Span& part = parts[p];
         const std::size_t no = result.runs.size() + runs.size() + 1;
-        Run r = make_run(a, b, part, centre);
+        Run r = worked[k].runs[p];
         r.segment_id = seg_id(s.begin);
         if (r.sweep_deg < options.min_sweep_deg || part.end - part.begin < options.min_points) {
           throw DataError(
@@ -360,8 +390,8 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       }
       if (runs.size() > 1) {
         std::string turns;
-        for (std::size_t k = 1; k < parts.size(); ++k) {
-          turns += fmt::format("{}{}", k > 1 ? ", " : "", line(parts[k - 1].end - 1));
+        for (std::size_t t = 1; t < parts.size(); ++t) {
+          turns += fmt::format("{}{}", t > 1 ? ", " : "", line(parts[t - 1].end - 1));
         }
         std::string sweeps;
         for (const Run& r : runs) {

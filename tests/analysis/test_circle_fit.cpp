@@ -575,6 +575,14 @@ TEST(CircleFitLsc, TwoSetsFitLikeTheirUnion) {
     EXPECT_NEAR(two.centre_a_mm, joined.centre_a_mm, 1e-9);
     EXPECT_NEAR(two.centre_b_mm, joined.centre_b_mm, 1e-9);
     EXPECT_NEAR(two.radius_mm, joined.radius_mm, 1e-9);
+    // Its passes shared out over threads add the same block sums in the same order: the same
+    // circle to the bit.
+    for (unsigned threads : {2u, 3u}) {
+      const Circle shared = fit_lsc(a1, b1, a2, b2, threads);
+      EXPECT_EQ(shared.centre_a_mm, two.centre_a_mm) << threads;
+      EXPECT_EQ(shared.centre_b_mm, two.centre_b_mm) << threads;
+      EXPECT_EQ(shared.radius_mm, two.radius_mm) << threads;
+    }
   }
   const std::vector<double> one = {1.0}, two_points = {1.0, 2.0};
   EXPECT_THROW(fit_lsc(one, one, two_points, one), Error);  // lengths differ

@@ -31,9 +31,11 @@ RadialRange radial_range(std::span<const double> a, std::span<const double> b, d
 // from the algebraic fit). Needs at least 3 non-collinear points; throws circtest::Error
 // (ExitCode::data) otherwise.
 Circle fit_lsc(std::span<const double> a, std::span<const double> b);
-// The LSC of two point sets together (two runs), without joining them into one copy.
+// The LSC of two point sets together (two runs), without joining them into one copy; its
+// passes over the points shared out over up to `threads` threads (the same result for any
+// count).
 Circle fit_lsc(std::span<const double> a1, std::span<const double> b1, std::span<const double> a2,
-               std::span<const double> b2);
+               std::span<const double> b2, unsigned threads = 1);
 
 // Algebraic (Kasa) fit; exposed for tests and as the starting guess.
 Circle fit_lsc_algebraic(std::span<const double> a, std::span<const double> b);

@@ -45,6 +45,8 @@ struct SegmentationOptions {
   std::optional<double> radius_mm;
   double min_sweep_deg = 90.0;  // shorter runs are refused (DataError naming their lines)
   std::size_t min_points = 8;
+  // Marked spans are worked out side by side on up to this many threads (0: one per core).
+  unsigned threads = 0;
 };
 
 struct Segmentation {
