@@ -509,38 +509,16 @@ constexpr std::size_t kFooterBytes = 8 + 4 + 4;  // rows (u64), trailer bytes (u
 static_assert(std::endian::native == std::endian::little,
               "the binary trace is little-endian; add byte swapping for this host");
 
-// Feeds the lines of `text` to the parser. With `mapped`, the text is a private read-only
-// file mapping whose pages are given back as they are consumed, so that reading a large file
-// does not hold it all in memory next to the parsed columns.
-void feed_text(TraceParser& parser, std::string_view text, bool mapped = false) {
-  constexpr std::size_t kRelease = std::size_t{8} << 20;
+// Feeds the lines of `text` to the parser.
+void feed_text(TraceParser& parser, std::string_view text) {
   const char* data = text.data();
   const std::size_t n = text.size();
   std::size_t pos = 0;
-  std::size_t released = 0;
-  std::size_t populated = 0;
-  const auto page = static_cast<std::uintptr_t>(::sysconf(_SC_PAGESIZE));
   while (pos < n) {
-#ifdef MADV_POPULATE_READ
-    if (mapped && pos >= populated) {
-      // The next window mapped in one call rather than a fault per page.
-      const std::size_t stop = std::min(n, pos + kRelease);
-      const auto lo = reinterpret_cast<std::uintptr_t>(data + pos) & ~(page - 1);
-      const auto hi = reinterpret_cast<std::uintptr_t>(data + stop) & ~(page - 1);
-      if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_POPULATE_READ);
-      populated = stop;
-    }
-#endif
     const void* nl = std::memchr(data + pos, '\n', n - pos);
     const std::size_t stop = nl ? static_cast<std::size_t>(static_cast<const char*>(nl) - data) : n;
     parser.line(std::string_view(data + pos, stop - pos));
     pos = stop + 1;
-    if (mapped && pos - released >= kRelease) {
-      const auto lo = (reinterpret_cast<std::uintptr_t>(data + released) + page - 1) & ~(page - 1);
-      const auto hi = reinterpret_cast<std::uintptr_t>(data + pos) & ~(page - 1);
-      if (hi > lo) ::madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_DONTNEED);
-      released = pos;
-    }
   }
 }
 
@@ -564,61 +542,43 @@ unsigned worker_count(const TraceReadOptions& options, std::size_t bytes) {
   return thread_count(request);
 }
 
-// Threads for a text trace of `bytes`: stretches only when two or more are asked for. Read
-// whole and parsed on both cores of this VM, idle, a 1e6-row CSV took 0.146 s against 0.122 s
-// for one thread reading in blocks (the floor of parsing every number is 0.116 s): the work is
-// the first touch of memory, not the parse.
+// Threads for a text trace of `bytes` in memory: stretches only when two or more are asked for
+// (nothing in circtest reads a large text from memory).
 unsigned text_workers(const TraceReadOptions& options, std::size_t bytes) {
   return options.threads >= 2 ? worker_count(options, bytes) : 1;
 }
 
-// Text after the metadata and header, in stretches parsed side by side when the file is
-// large. Any error sends the whole text back through one parser, so the message and line are
-// the ones a sequential read gives (the first problem in file order).
-Trace parse_text(std::string_view text, const std::string& source, const TraceReadOptions& options,
-                 bool mapped, unsigned workers) {
-  auto sequential = [&] {
-    TraceParser p(source, options);
-    p.reserve_rows(estimate_rows(text));
-    feed_text(p, text, mapped);
-    return p.finish();
-  };
-  TraceParser parser(source, options);
-  std::size_t pos = 0;
-  while (pos < text.size() && !parser.has_header()) {
-    const auto nl = text.find('\n', pos);
-    const std::size_t stop = nl == std::string_view::npos ? text.size() : nl;
-    parser.line(text.substr(pos, stop - pos));
-    pos = stop + 1;
-  }
-  const std::string_view rows = pos < text.size() ? text.substr(pos) : std::string_view();
-  const std::size_t estimate = estimate_rows(rows);
-  if (workers < 2 || !parser.has_header()) {
-    parser.reserve_rows(estimate);
-    feed_text(parser, rows, mapped);
-    return parser.finish();
-  }
-  // Stretches end just after a newline, so each starts at the beginning of a line.
-  std::vector<std::size_t> bounds{0};
-  for (unsigned k = 1; k < workers; ++k) {
-    const std::size_t at = rows.size() / workers * k;
-    const auto nl = rows.find('\n', std::max(at, bounds.back()));
-    if (nl == std::string_view::npos || nl + 1 >= rows.size()) break;
-    if (nl + 1 > bounds.back()) bounds.push_back(nl + 1);
-  }
-  bounds.push_back(rows.size());
-  const std::size_t parts = bounds.size() - 1;
-  auto stretch = [&](std::size_t k) { return rows.substr(bounds[k], bounds[k + 1] - bounds[k]); };
+// Threads for a regular text file of `bytes`: one per idle core (or as asked) once it is large.
+// Idle, on 2 cores, a 1e6-row CSV (71 MB) took 0.12-0.13 s in two streamed stretches against
+// 0.16-0.19 s on one thread (the floor of parsing every number on one thread: 0.16 s).
+unsigned file_text_workers(const TraceReadOptions& options, std::size_t bytes) {
+  return worker_count(options, bytes);
+}
+
+// The rows of a text in `parts` stretches parsed side by side, after `parser` has read the
+// metadata and header: count(k) gives stretch k's lines, feed(k, p) gives its lines to p, and
+// sequential() parses the whole text again on one thread. Any error sends the whole text back
+// through that one parser, so the message and line are the ones a sequential read gives (the
+// first problem in file order).
+template <class Count, class Feed, class Sequential>
+Trace parse_stretches(TraceParser& parser, std::size_t parts, unsigned workers, Count&& count,
+                      Feed&& feed, Sequential&& sequential) {
   // Each stretch's rows are written in place into columns sized for the whole file: at most a
   // row per line, so the lines are counted first. No copy of the rows afterwards but to close
   // the gaps comment and blank lines leave (round 4's stretches parsed into their own columns
   // and appended them, which made two threads slower than one).
   std::vector<std::size_t> lines(parts);
+  std::vector<std::exception_ptr> errors(parts);
   run_tasks(parts, workers, [&](std::size_t k) {
-    const std::string_view part = stretch(k);
-    lines[k] = static_cast<std::size_t>(std::count(part.begin(), part.end(), '\n')) +
-               (!part.empty() && part.back() != '\n' ? 1 : 0);
+    try {
+      lines[k] = count(k);
+    } catch (...) {
+      errors[k] = std::current_exception();
+    }
   });
+  for (const auto& e : errors) {
+    if (e) return sequential();
+  }
   std::vector<std::size_t> first_row(parts + 1, 0);
   for (std::size_t k = 0; k < parts; ++k) first_row[k + 1] = first_row[k] + lines[k];
   const std::size_t room = first_row[parts];
@@ -642,10 +602,9 @@ Trace parse_text(std::string_view text, const std::string& source, const TraceRe
     slots.line_base = parser.lines() + first_row[k];
     parsers.push_back(parser.fork(std::move(slots)));
   }
-  std::vector<std::exception_ptr> errors(parts);
   run_tasks(parts, workers, [&](std::size_t k) {
     try {
-      feed_text(parsers[k], stretch(k), mapped);
+      feed(k, parsers[k]);
     } catch (...) {
       errors[k] = std::current_exception();  // reported by the sequential pass below
     }
@@ -676,6 +635,50 @@ Trace parse_text(std::string_view text, const std::string& source, const TraceRe
   for (auto& column : trace.values) column.resize(kept);
   trace.line_of_row.resize(kept);
   return parser.finish();
+}
+
+// Text after the metadata and header, in stretches parsed side by side when the text is
+// large.
+Trace parse_text(std::string_view text, const std::string& source, const TraceReadOptions& options,
+                 unsigned workers) {
+  auto sequential = [&] {
+    TraceParser p(source, options);
+    p.reserve_rows(estimate_rows(text));
+    feed_text(p, text);
+    return p.finish();
+  };
+  TraceParser parser(source, options);
+  std::size_t pos = 0;
+  while (pos < text.size() && !parser.has_header()) {
+    const auto nl = text.find('\n', pos);
+    const std::size_t stop = nl == std::string_view::npos ? text.size() : nl;
+    parser.line(text.substr(pos, stop - pos));
+    pos = stop + 1;
+  }
+  const std::string_view rows = pos < text.size() ? text.substr(pos) : std::string_view();
+  if (workers < 2 || !parser.has_header()) {
+    parser.reserve_rows(estimate_rows(rows));
+    feed_text(parser, rows);
+    return parser.finish();
+  }
+  // Stretches end just after a newline, so each starts at the beginning of a line.
+  std::vector<std::size_t> bounds{0};
+  for (unsigned k = 1; k < workers; ++k) {
+    const std::size_t at = rows.size() / workers * k;
+    const auto nl = rows.find('\n', std::max(at, bounds.back()));
+    if (nl == std::string_view::npos || nl + 1 >= rows.size()) break;
+    if (nl + 1 > bounds.back()) bounds.push_back(nl + 1);
+  }
+  bounds.push_back(rows.size());
+  auto stretch = [&](std::size_t k) { return rows.substr(bounds[k], bounds[k + 1] - bounds[k]); };
+  return parse_stretches(
+      parser, bounds.size() - 1, workers,
+      [&](std::size_t k) {
+        const std::string_view part = stretch(k);
+        return static_cast<std::size_t>(std::count(part.begin(), part.end(), '\n')) +
+               (!part.empty() && part.back() != '\n' ? 1 : 0);
+      },
+      [&](std::size_t k, TraceParser& p) { feed_text(p, stretch(k)); }, sequential);
 }
 
 std::size_t read_exact(int fd, void* dst, std::size_t n, std::uint64_t offset,
@@ -850,38 +853,6 @@ Trace read_binary_trace(const InputFile& in, const TraceReadOptions& options) {
   return parser.finish();
 }
 
-// A regular text file is mapped and parsed in place; the mapping goes when the parse ends.
-Trace read_mapped_text(const InputFile& in, const TraceReadOptions& options, unsigned workers) {
-  const std::size_t size = static_cast<std::size_t>(in.size());
-  void* map = ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, in.fd(), 0);
-  if (map == MAP_FAILED)
-    throw IoError(in.path(), std::string("cannot map: ") + std::strerror(errno));
-  struct Unmap {
-    void* p;
-    std::size_t n;
-    ~Unmap() { ::munmap(p, n); }
-  } unmap{map, size};
-  ::madvise(map, size, MADV_SEQUENTIAL);
-  return parse_text(std::string_view(static_cast<const char*>(map), size), in.path(), options, true,
-                    workers);
-}
-
-// A file read whole on the stretches' threads (pread, each its share), then parsed in
-// stretches from memory: read() copies the pages in about half the time that touching a
-// mapping's pages takes on a virtual machine with shadow paging (71 MB: ~25 against ~55 ms).
-Trace read_whole_text(const InputFile& in, const TraceReadOptions& options, unsigned workers) {
-  const auto size = static_cast<std::size_t>(in.size());
-  const auto text = std::make_unique_for_overwrite<char[]>(size);  // each byte is read into
-  const std::size_t share = size / workers + 1;
-  run_tasks(workers, workers, [&](std::size_t w) {
-    const std::size_t lo = std::min(size, w * share), hi = std::min(size, lo + share);
-    if (read_exact(in.fd(), text.get() + lo, hi - lo, lo, in.path()) != hi - lo) {
-      throw IoError(in.path(), "file shrank while being read");
-    }
-  });
-  return parse_text(std::string_view(text.get(), size), in.path(), options, false, workers);
-}
-
 // A pipe is read in blocks; a line longer than the cap is refused before it fills memory.
 Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
                        std::uint64_t size_hint = 0) {
@@ -932,11 +903,130 @@ Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
   return parser.finish();
 }
 
+// A regular text file parsed in stretches, each thread reading its own stretch in blocks
+// (pread into a buffer of its own) twice: once to count its lines, once to parse them. No copy
+// of the whole text is held (round 5 read it whole into memory first: 71 MB more to touch,
+// which on a virtual machine with costly page faults made two threads slower than one). The
+// file's size at opening bounds what is read.
+constexpr std::size_t kTextBlock = std::size_t{4} << 20;  // more than a line may hold
+static_assert(kTextBlock > kMaxInputLineBytes + 1);
+
+struct LineTooLong {};
+
+// f(line) for each line of the file's bytes [lo, hi), read in blocks into `buf` (kTextBlock
+// bytes), until f returns false; returns the offset after the last line given to f. A line
+// longer than a block holds throws LineTooLong.
+template <class F>
+std::uint64_t for_each_line(const InputFile& in, std::uint64_t lo, std::uint64_t hi, char* buf,
+                            F&& f) {
+  std::uint64_t at = lo, next = lo;  // the offsets of buf[0] and of the next byte to read
+  std::size_t have = 0;
+  while (true) {
+    const auto want =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kTextBlock - have, hi - next));
+    if (read_exact(in.fd(), buf + have, want, next, in.path()) != want) {
+      throw IoError(in.path(), "file shrank while being read");
+    }
+    next += want;
+    have += want;
+    std::size_t pos = 0;
+    while (pos < have) {
+      const void* nl = std::memchr(buf + pos, '\n', have - pos);
+      if (!nl) break;
+      const auto stop = static_cast<std::size_t>(static_cast<const char*>(nl) - buf);
+      const bool more = f(std::string_view(buf + pos, stop - pos));
+      pos = stop + 1;
+      if (!more) return at + pos;
+    }
+    if (next == hi) {
+      if (pos < have) f(std::string_view(buf + pos, have - pos));
+      return hi;
+    }
+    if (have - pos > kMaxInputLineBytes) throw LineTooLong{};
+    std::memmove(buf, buf + pos, have - pos);
+    have -= pos;
+    at += pos;
+  }
+}
+
+// Lines in the file's bytes [lo, hi): its newlines, and one more for a last line without one.
+std::size_t count_lines(const InputFile& in, std::uint64_t lo, std::uint64_t hi, char* buf) {
+  std::size_t lines = 0;
+  char last = '\n';
+  for (std::uint64_t at = lo; at < hi;) {
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(kTextBlock, hi - at));
+    if (read_exact(in.fd(), buf, n, at, in.path()) != n) {
+      throw IoError(in.path(), "file shrank while being read");
+    }
+    lines += static_cast<std::size_t>(std::count(buf, buf + n, '\n'));
+    last = buf[n - 1];
+    at += n;
+  }
+  return lines + (last != '\n' ? 1 : 0);
+}
+
+// The offset just after the first newline in the file's bytes [from, hi), or hi.
+std::uint64_t after_newline(const InputFile& in, std::uint64_t from, std::uint64_t hi) {
+  char window[std::size_t{1} << 16];
+  for (std::uint64_t at = from; at < hi;) {
+    const auto n = static_cast<std::size_t>(std::min<std::uint64_t>(sizeof window, hi - at));
+    const std::size_t got = read_exact(in.fd(), window, n, at, in.path());
+    if (const void* nl = std::memchr(window, '\n', got)) {
+      return at + static_cast<std::uint64_t>(static_cast<const char*>(nl) - window) + 1;
+    }
+    if (got < n) break;
+    at += n;
+  }
+  return hi;
+}
+
+Trace read_text_stretches(const InputFile& in, const TraceReadOptions& options, unsigned workers) {
+  const std::string& path = in.path();
+  const auto size = static_cast<std::uint64_t>(in.size());
+  // pread only, so the file offset is still 0 for the one-thread reader.
+  auto sequential = [&] { return read_stream_text(in, options, size); };
+  std::vector<std::unique_ptr<char[]>> buffers;
+  buffers.push_back(std::make_unique_for_overwrite<char[]>(kTextBlock));
+  TraceParser parser(path, options);
+  std::uint64_t rows_at = 0;
+  try {
+    rows_at = for_each_line(in, 0, size, buffers[0].get(), [&](std::string_view line) {
+      parser.line(line);
+      return !parser.has_header();
+    });
+  } catch (const LineTooLong&) {
+    return sequential();  // which refuses the line where one thread does
+  }
+  if (!parser.has_header() || rows_at >= size) return parser.finish();
+  // Stretches end just after a newline, so each starts at the beginning of a line.
+  std::vector<std::uint64_t> bounds{rows_at};
+  for (unsigned k = 1; k < workers; ++k) {
+    const std::uint64_t at = rows_at + (size - rows_at) / workers * k;
+    const std::uint64_t cut = after_newline(in, std::max(at, bounds.back()), size);
+    if (cut >= size) break;
+    if (cut > bounds.back()) bounds.push_back(cut);
+  }
+  bounds.push_back(size);
+  const std::size_t parts = bounds.size() - 1;
+  while (buffers.size() < parts)
+    buffers.push_back(std::make_unique_for_overwrite<char[]>(kTextBlock));
+  return parse_stretches(
+      parser, parts, workers,
+      [&](std::size_t k) { return count_lines(in, bounds[k], bounds[k + 1], buffers[k].get()); },
+      [&](std::size_t k, TraceParser& p) {
+        for_each_line(in, bounds[k], bounds[k + 1], buffers[k].get(), [&](std::string_view line) {
+          p.line(line);
+          return true;
+        });
+      },
+      sequential);
+}
+
 }  // namespace
 
 Trace parse_trace(std::string_view text, const std::string& source,
                   const TraceReadOptions& options) {
-  return parse_text(text, source, options, false, text_workers(options, text.size()));
+  return parse_text(text, source, options, text_workers(options, text.size()));
 }
 
 Trace read_trace(const std::string& path, const TraceReadOptions& options) {
@@ -948,15 +1038,10 @@ Trace read_trace(const std::string& path, const TraceReadOptions& options) {
       std::memcmp(magic, kBinaryMagic, sizeof magic) == 0) {
     return read_binary_trace(in, options);
   }
-  if (in.size() == 0) return parse_text({}, path, options, false, 1);
-  // Read, not mapped, up to a size: on a virtual machine with shadow paging, touching a
-  // mapping's pages costs about twice what read() takes to copy them (71 MB: ~55 against
-  // ~25 ms). One thread reads in blocks into one buffer; stretches on several threads need the
-  // whole text, read into memory when it fits the budget and mapped beyond it.
-  const unsigned workers = text_workers(options, in.size());
+  if (in.size() == 0) return parse_text({}, path, options, 1);
+  const unsigned workers = file_text_workers(options, in.size());
   if (workers < 2) return read_stream_text(in, options, in.size());
-  if (in.size() <= options.read_whole_max_bytes) return read_whole_text(in, options, workers);
-  return read_mapped_text(in, options, workers);
+  return read_text_stretches(in, options, workers);
 }
 
 // ---------------------------------------------------------------- writer

@@ -427,19 +427,18 @@ TEST(TraceParallel, StretchesGiveTheSameTraceAsOneThread) {
   EXPECT_EQ(*one.metadata.find("rows"), "5000");
 }
 
-TEST(TraceParallel, AFileReadInBlocksWholeOrMappedGivesTheSameTrace) {
-  // One thread reads the file in blocks; stretches read it whole into memory, or map it when it
-  // is larger than read_whole_max_bytes. The same trace from all three, and the same error.
+TEST(TraceParallel, AFileReadInBlocksOrInStretchesGivesTheSameTrace) {
+  // One thread reads the file in blocks; stretches each read their own part of it. The same
+  // trace from all, and the same error.
   const circtest::testing::ScratchDir scratch("circtest-core");
   const std::string path = (scratch.dir() / "mixed.csv").string();
   circtest::testing::spit(path, mixed_trace(20000));
   TraceReadOptions stream = threads(1);
-  TraceReadOptions whole = threads(2);
-  TraceReadOptions mapped = threads(3);
-  mapped.read_whole_max_bytes = 0;
+  TraceReadOptions two = threads(2);
+  TraceReadOptions seven = threads(7);
   const Trace one = read_trace(path, stream);
   ASSERT_EQ(one.rows(), 20000u);
-  for (const TraceReadOptions& o : {whole, mapped}) {
+  for (const TraceReadOptions& o : {two, seven}) {
     const Trace t = read_trace(path, o);
     EXPECT_EQ(t.values, one.values);
     EXPECT_EQ(t.line_of_row, one.line_of_row);
@@ -447,7 +446,7 @@ TEST(TraceParallel, AFileReadInBlocksWholeOrMappedGivesTheSameTrace) {
   }
   circtest::testing::spit(path, mixed_trace(20000) + "\n99,2,x,4\n");
   std::string expected;
-  for (const TraceReadOptions& o : {stream, whole, mapped}) {
+  for (const TraceReadOptions& o : {stream, two, seven}) {
     try {
       read_trace(path, o);
       ADD_FAILURE() << "read a bad row";
@@ -457,6 +456,31 @@ TEST(TraceParallel, AFileReadInBlocksWholeOrMappedGivesTheSameTrace) {
     }
   }
   EXPECT_NE(expected.find("column 'y': expected a number, got 'x'"), std::string::npos) << expected;
+
+  // A line longer than any reader holds, three quarters in (a later stretch's), and time going
+  // back where the second half starts: refused at the same line as by one thread.
+  const std::string rows = mixed_trace(20000);
+  const std::size_t cut = rows.find('\n', rows.size() * 3 / 4) + 1;
+  const std::string long_line =
+      rows.substr(0, cut) + std::string(std::size_t{2} << 20, '7') + "\n" + rows.substr(cut);
+  std::string back = mixed_trace(10000);
+  back += "\n" + mixed_trace(10000).substr(std::string("# plane: XY\nt,x,y,note\n").size());
+  const std::pair<const std::string*, const char*> bad[] = {{&long_line, "line longer than"},
+                                                            {&back, "time goes backwards"}};
+  for (const auto& [text, refusal] : bad) {
+    circtest::testing::spit(path, *text);
+    std::string first;
+    for (const TraceReadOptions& o : {stream, two, seven}) {
+      try {
+        read_trace(path, o);
+        ADD_FAILURE() << "read a bad file";
+      } catch (const Error& e) {
+        if (first.empty()) first = e.what();
+        EXPECT_EQ(e.what(), first);
+      }
+    }
+    EXPECT_NE(first.find(refusal), std::string::npos) << first;
+  }
 }
 
 TEST(TraceParallel, TheFirstErrorInFileOrderWinsWithItsLine) {

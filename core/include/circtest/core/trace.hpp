@@ -65,15 +65,12 @@ struct TraceReadOptions {
   // When the trace has a `t` column: reject time going backwards (DataError at that row).
   bool check_time_monotonic = true;
   // Threads for a large trace (0: one per idle core). A binary trace's rows are shared out
-  // among them. A text trace of at least parallel_min_bytes is parsed in stretches only when
-  // two or more are asked for (a regular file is otherwise read in blocks on one thread, which
-  // measured faster: docs/performance.md), each writing its rows in place into the columns;
-  // results and errors are the same as with one thread.
+  // among them. A text file of at least parallel_min_bytes is parsed in stretches, each thread
+  // reading its own stretch and writing its rows in place into the columns; a text in memory
+  // (parse_trace) only when two or more are asked for. Results and errors are the same as with
+  // one thread.
   unsigned threads = 0;
   std::size_t parallel_min_bytes = std::size_t{4} << 20;
-  // A text file parsed in stretches is read whole into memory up to this size (faster than
-  // mapping it on a virtual machine), and mapped beyond it.
-  std::size_t read_whole_max_bytes = std::size_t{512} << 20;
 };
 
 // Reads a text trace (or a binary one, see docs/trace-format.md; detected by its magic) from
