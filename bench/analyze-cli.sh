@@ -28,6 +28,7 @@ min() { awk -v a="$1" -v b="$2" 'BEGIN { print (a < b ? a : b) }'; }
 # bench FILE MODE: best circana wall time and best floor/reader times over the rounds.
 bench() {
   local file=$1 mode=$2 best=999 cpu=999 floor=999 floorc=999 reader=999 reader1=999 readerc=999
+  local fresh=999
   local line t
   for _ in $(seq "$rounds"); do
     t=$(timed "$build/analysis/circana" analyze "$file" --json)
@@ -39,6 +40,7 @@ bench() {
     reader1=$(min "$reader1" "$(sed 's/.*reader1_wall_s=\([0-9.]*\).*/\1/' <<<"$line")")
     floorc=$(min "$floorc" "$(sed 's/.*floor_cpu_s=\([0-9.]*\).*/\1/' <<<"$line")")
     readerc=$(min "$readerc" "$(sed 's/.*reader1_cpu_s=\([0-9.]*\).*/\1/' <<<"$line")")
+    fresh=$(min "$fresh" "$(sed 's/.*fresh_wall_s=\([0-9.]*\).*/\1/' <<<"$line")")
   done
   local rss
   rss=$( { /usr/bin/time -f '%M' "$build/analysis/circana" analyze "$file" --json >/dev/null; } 2>&1 | tail -1)
@@ -46,12 +48,13 @@ bench() {
   rows=$("$build/bench/parse_baseline" "$file" 1 "$mode" | sed -n 's/^read_trace, 1 thread.*(\([0-9]*\) rows).*/\1/p')
   printf '%s: %s rows, %s MB\n' "$file" "$rows" "$(du -m "$file" | cut -f1)"
   awk -v c="$best" -v f="$floor" -v r="$reader" -v r1="$reader1" -v m="$mode" -v rss="$rss" \
-      -v n="$rows" -v cc="$cpu" -v fc="$floorc" -v rc="$readerc" 'BEGIN {
+      -v n="$rows" -v cc="$cpu" -v fc="$floorc" -v rc="$readerc" -v fr="$fresh" 'BEGIN {
     fl = (m == "binary") ? "reading its bytes" : "from_chars of every number";
     printf "  floor (%s):            %.3f s\n", fl, f
     printf "  read_trace (all cores / 1 thread): %.3f / %.3f s = %.2fx / %.2fx the floor\n", r, r1, r / f, r1 / f
     printf "  circana analyze --json:                %.3f s = %.2fx the floor\n", c, c / f
     printf "  CPU time (user+sys): floor %.3f s, read_trace 1 thread %.3f s = %.2fx, circana %.2f s = %.2fx\n", fc, rc, rc / fc, cc, cc / fc
+    if (m == "binary") printf "  reading its bytes into fresh memory (what keeping them costs): %.3f s; read_trace %.2fx, analyze %.2fx that\n", fr, r / fr, c / fr
     printf "  circana peak RSS: %d MiB, %.0f MiB per 1e6 rows\n", rss / 1024, rss / 1024 / n * 1e6
   }'
 }
