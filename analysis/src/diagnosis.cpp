@@ -1298,15 +1298,18 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   for_each_task(ev.runs.size(), [&](std::size_t k) {
     const Run& run = ev.runs[k].run;
     const RunInfo& info = S.runs[k];
-    const detail::PathPolar polar =
-        detail::path_polar(std::span(col_a).subspan(run.begin, run.size()),
-                           std::span(col_b).subspan(run.begin, run.size()), PlanePoint{ca, cb});
+    // The angle straight into u and the radius into dr (made r - R below): no copy.
+    double* const angle = S.u.data() + info.begin;
+    double* const radius = S.dr.data() + info.begin;
+    detail::path_polar_into(std::span(col_a).subspan(run.begin, run.size()),
+                            std::span(col_b).subspan(run.begin, run.size()), PlanePoint{ca, cb},
+                            angle, radius);
     double lo = 0, hi = 0;
     for (std::size_t q = 0; q < run.size(); ++q) {
       const std::size_t i = run.begin + q, j = info.begin + q;
       const double da = col_a[i] - ca, db = col_b[i] - cb;
-      const double r = polar.radius_mm[q];
-      const double u = polar.angle_rad[q];
+      const double r = radius[q];
+      const double u = angle[q];
       if (q == 0) lo = hi = u;
       lo = std::min(lo, u);
       hi = std::max(hi, u);
@@ -1314,7 +1317,6 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       S.s[j] = db / r;
       S.dr[j] = r - R;
       S.run[j] = static_cast<std::uint32_t>(k);
-      S.u[j] = u;
     }
     angle_range[k] = {lo, hi};
   });

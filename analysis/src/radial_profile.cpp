@@ -147,11 +147,18 @@ PathPolar path_polar(std::span<const double> a, std::span<const double> b, Plane
   const std::size_t n = a.size();
   reserve_huge(p.angle_rad, n);
   reserve_huge(p.radius_mm, n);
-  polar_walk(a, b, centre, [&](std::size_t, double angle_rad, double radius_mm) {
-    p.angle_rad.push_back(angle_rad);
-    p.radius_mm.push_back(radius_mm);
-  });
+  p.angle_rad.resize(n);
+  p.radius_mm.resize(n);
+  path_polar_into(a, b, centre, p.angle_rad.data(), p.radius_mm.data());
   return p;
+}
+
+void path_polar_into(std::span<const double> a, std::span<const double> b, PlanePoint centre,
+                     double* angle_rad, double* radius_mm) {
+  polar_walk(a, b, centre, [&](std::size_t i, double angle, double radius) {
+    angle_rad[i] = angle;
+    radius_mm[i] = radius;
+  });
 }
 
 RadialProfile radial_profile(std::span<const double> a, std::span<const double> b,

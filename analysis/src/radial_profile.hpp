@@ -48,6 +48,9 @@ struct PathPolar {
   std::size_t size() const { return angle_rad.size(); }
 };
 PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre);
+// The same into arrays the caller holds (a.size() values each), without a copy of its own.
+void path_polar_into(std::span<const double> a, std::span<const double> b, PlanePoint centre,
+                     double* angle_rad, double* radius_mm);
 
 // The same samples ordered by increasing angle, the first in [-pi, pi) (a CW path is
 // reversed; a path that backs up locally, noise at a reversal, is sorted, equal angles kept
