@@ -19,9 +19,17 @@ TEST(UtcTime, SecondsAndMilliseconds) {
 }
 
 TEST(UtcTime, NowIsTheWallClock) {
-  const std::time_t before = std::time(nullptr);
+  // The same clock as utc_now_iso8601: std::time() reads Linux's coarse clock, which can still
+  // be in the previous second for a few ms after CLOCK_REALTIME has passed it (this test failed
+  // so once under load).
+  auto seconds = [] {
+    std::timespec ts{};
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return ts.tv_sec;
+  };
+  const std::time_t before = seconds();
   const std::string now = utc_now_iso8601(true);
-  const std::time_t after = std::time(nullptr);
+  const std::time_t after = seconds();
   ASSERT_EQ(now.size(), 24u) << now;
   EXPECT_EQ(now.back(), 'Z');
   std::tm t{};
