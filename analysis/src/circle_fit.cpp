@@ -170,8 +170,8 @@ void block_sums(const Points& set, std::size_t lo, std::size_t hi, double ox, do
   std::copy(sums, sums + 10, out);
 }
 
-// With threads > 1 each pass's block sums are worked out side by side and then added in block
-// order, exactly as one thread adds them: the same fit to the bit.
+// Each pass's block sums are worked out (side by side with threads > 1) and then added in block
+// order: the same fit to the bit for any thread count.
 Circle lsc_refine(std::span<const Points> sets, Vec2 m, Circle start, unsigned threads = 1) {
   struct Eval {
     double jtj[6];  // xx, xy, xr, yy, yr, rr
@@ -183,37 +183,26 @@ Circle lsc_refine(std::span<const Points> sets, Vec2 m, Circle start, unsigned t
     std::size_t lo, hi;
   };
   std::vector<Block> blocks;
-  std::vector<std::array<double, 10>> sums;
-  if (threads > 1) {
-    for (const Points& set : sets) {
-      for (std::size_t lo = 0; lo < set.n; lo += kBlock) {
-        blocks.push_back({&set, lo, std::min(set.n, lo + kBlock)});
-      }
+  for (const Points& set : sets) {
+    for (std::size_t lo = 0; lo < set.n; lo += kBlock) {
+      blocks.push_back({&set, lo, std::min(set.n, lo + kBlock)});
     }
-    sums.resize(blocks.size());
   }
+  std::vector<std::array<double, 10>> sums(blocks.size());
   auto evaluate = [&](double cx, double cy, double r) {
     const double ox = m.x + cx, oy = m.y + cy;
+    // One stretch of blocks per thread (a thread's start costs ~0.1 ms); one thread works them
+    // all in place.
+    const unsigned t = std::max(threads, 1u);
+    const std::size_t per = (blocks.size() + t - 1) / t;
+    for_blocks(blocks.size(), per, t, [&](std::size_t lo, std::size_t hi, std::size_t) {
+      for (std::size_t k = lo; k < hi; ++k) {
+        block_sums(*blocks[k].set, blocks[k].lo, blocks[k].hi, ox, oy, r, sums[k].data());
+      }
+    });
     Neumaier acc[10];
-    if (threads > 1) {
-      // Two stretches of blocks per thread at most: a thread's start costs ~0.1 ms.
-      const std::size_t per = (blocks.size() + threads - 1) / threads;
-      for_blocks(blocks.size(), per, threads, [&](std::size_t lo, std::size_t hi, std::size_t) {
-        for (std::size_t k = lo; k < hi; ++k) {
-          block_sums(*blocks[k].set, blocks[k].lo, blocks[k].hi, ox, oy, r, sums[k].data());
-        }
-      });
-      for (const auto& block : sums) {
-        for (int k = 0; k < 10; ++k) acc[k].add(block[k]);
-      }
-    } else {
-      double block[10];
-      for (const Points& set : sets) {
-        for (std::size_t lo = 0; lo < set.n; lo += kBlock) {
-          block_sums(set, lo, std::min(set.n, lo + kBlock), ox, oy, r, block);
-          for (int k = 0; k < 10; ++k) acc[k].add(block[k]);
-        }
-      }
+    for (const auto& block : sums) {
+      for (int k = 0; k < 10; ++k) acc[k].add(block[k]);
     }
     Eval ev{};
     for (int k = 0; k < 6; ++k) ev.jtj[k] = acc[k].value();

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
 
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/core/memory.hpp"
@@ -27,19 +28,20 @@ double wrap_deg(double rad) {
 // Out of line: so vectorised once here, whatever the caller's loop around it.
 void turn_angles(const double* a, const double* b, double ca, double cb, std::size_t count,
                  double* out) {
+  const auto cross_dot = [&](std::size_t k) {
+    const double pa = a[k] - ca, pb = b[k] - cb, qa = a[k + 1] - ca, qb = b[k + 1] - cb;
+    return std::pair{pa * qb - pb * qa, pa * qa + pb * qb};
+  };
   double far = 0.0;  // a count; as a double, so that the loop vectorises with it
   for (std::size_t k = 0; k < count; ++k) {
-    const double pa = a[k] - ca, pb = b[k] - cb, qa = a[k + 1] - ca, qb = b[k + 1] - cb;
-    const double cross = pa * qb - pb * qa, dot = pa * qa + pb * qb;
-    const bool near = dot > 0.0 && std::abs(cross) < kAtanSeriesMax * dot;
-    far += near ? 0.0 : 1.0;
+    const auto [cross, dot] = cross_dot(k);
+    far += in_series_range(cross, dot) ? 0.0 : 1.0;
     out[k] = atan_series(cross / dot);
   }
   if (far == 0.0) return;
   for (std::size_t k = 0; k < count; ++k) {
-    const double pa = a[k] - ca, pb = b[k] - cb, qa = a[k + 1] - ca, qb = b[k + 1] - cb;
-    const double cross = pa * qb - pb * qa, dot = pa * qa + pb * qb;
-    if (!(dot > 0.0 && std::abs(cross) < kAtanSeriesMax * dot)) out[k] = std::atan2(cross, dot);
+    const auto [cross, dot] = cross_dot(k);
+    if (!in_series_range(cross, dot)) out[k] = std::atan2(cross, dot);
   }
 }
 

@@ -24,8 +24,11 @@ inline double atan_series(double t) {
 
 // The signed angle (rad) between two vectors from their cross and dot products: the series
 // where it is exact (successive samples, a following lag), else atan2.
+inline bool in_series_range(double cross, double dot) {
+  return dot > 0.0 && std::abs(cross) < kAtanSeriesMax * dot;
+}
 inline double turn_angle(double cross, double dot) {
-  if (dot > 0.0 && std::abs(cross) < kAtanSeriesMax * dot) return atan_series(cross / dot);
+  if (in_series_range(cross, dot)) return atan_series(cross / dot);
   return std::atan2(cross, dot);
 }
 

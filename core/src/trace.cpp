@@ -548,13 +548,6 @@ unsigned text_workers(const TraceReadOptions& options, std::size_t bytes) {
   return options.threads >= 2 ? worker_count(options, bytes) : 1;
 }
 
-// Threads for a regular text file of `bytes`: one per idle core (or as asked) once it is large.
-// Idle, on 2 cores, a 1e6-row CSV (71 MB) took 0.12-0.13 s in two streamed stretches against
-// 0.16-0.19 s on one thread (the floor of parsing every number on one thread: 0.16 s).
-unsigned file_text_workers(const TraceReadOptions& options, std::size_t bytes) {
-  return worker_count(options, bytes);
-}
-
 // The rows of a text in `parts` stretches parsed side by side, after `parser` has read the
 // metadata and header: count(k) gives stretch k's lines, feed(k, p) gives its lines to p, and
 // sequential() parses the whole text again on one thread. Any error sends the whole text back
@@ -853,82 +846,22 @@ Trace read_binary_trace(const InputFile& in, const TraceReadOptions& options) {
   return parser.finish();
 }
 
-// A pipe is read in blocks; a line longer than the cap is refused before it fills memory.
-Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
-                       std::uint64_t size_hint = 0) {
-  const std::string& path = in.path();
-  TraceParser parser(path, options);
-  bool reserved = size_hint == 0;
-  constexpr std::size_t kBlock = 4u << 20;  // more than a line may hold
-  static_assert(kBlock > kMaxInputLineBytes + 1);
-  std::string buf(kBlock, '\0');
-  std::size_t have = 0;
-  while (true) {
-    const ssize_t n = ::read(in.fd(), buf.data() + have, buf.size() - have);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw IoError(path, std::string("read failed: ") + std::strerror(errno));
-    }
-    const bool eof = n == 0;
-    have += static_cast<std::size_t>(n);
-    if (!reserved) {
-      // A regular file's size and its first block's lines: room for all its rows at once.
-      reserved = true;
-      const std::size_t sample_rows = estimate_rows(std::string_view(buf.data(), have));
-      if (sample_rows > 0 && have > 0) {
-        parser.reserve_rows(static_cast<std::size_t>(static_cast<double>(sample_rows) *
-                                                     static_cast<double>(size_hint) /
-                                                     static_cast<double>(have)));
-      }
-    }
-    std::size_t pos = 0;
-    const char* data = buf.data();
-    while (pos < have) {
-      const void* nl = std::memchr(data + pos, '\n', have - pos);
-      if (!nl) break;
-      const std::size_t stop = static_cast<std::size_t>(static_cast<const char*>(nl) - data);
-      parser.line(std::string_view(data + pos, stop - pos));
-      pos = stop + 1;
-    }
-    if (eof) {
-      if (pos < have) parser.line(std::string_view(data + pos, have - pos));
-      break;
-    }
-    if (have - pos > kMaxInputLineBytes) {
-      throw ParseError(path, parser.lines() + 1, detail::line_too_long_message());
-    }
-    std::memmove(buf.data(), data + pos, have - pos);
-    have -= pos;
-  }
-  return parser.finish();
-}
-
-// A regular text file parsed in stretches, each thread reading its own stretch in blocks
-// (pread into a buffer of its own) twice: once to count its lines, once to parse them. No copy
-// of the whole text is held (round 5 read it whole into memory first: 71 MB more to touch,
-// which on a virtual machine with costly page faults made two threads slower than one). The
-// file's size at opening bounds what is read.
 constexpr std::size_t kTextBlock = std::size_t{4} << 20;  // more than a line may hold
 static_assert(kTextBlock > kMaxInputLineBytes + 1);
 
 struct LineTooLong {};
 
-// f(line) for each line of the file's bytes [lo, hi), read in blocks into `buf` (kTextBlock
-// bytes), until f returns false; returns the offset after the last line given to f. A line
-// longer than a block holds throws LineTooLong.
-template <class F>
-std::uint64_t for_each_line(const InputFile& in, std::uint64_t lo, std::uint64_t hi, char* buf,
-                            F&& f) {
-  std::uint64_t at = lo, next = lo;  // the offsets of buf[0] and of the next byte to read
+// The lines of a text read in blocks into `buf` (kTextBlock bytes): fill(dst, room) puts up to
+// `room` bytes at dst and returns how many (0 at the end); f(line) is called for each line until
+// it returns false. Returns the bytes taken, through the last line given to f. A line longer
+// than kMaxInputLineBytes throws LineTooLong before it fills memory.
+template <class Fill, class F>
+std::uint64_t split_lines(char* buf, Fill&& fill, F&& f) {
+  std::uint64_t at = 0;  // the bytes before buf[0]
   std::size_t have = 0;
   while (true) {
-    const auto want =
-        static_cast<std::size_t>(std::min<std::uint64_t>(kTextBlock - have, hi - next));
-    if (read_exact(in.fd(), buf + have, want, next, in.path()) != want) {
-      throw IoError(in.path(), "file shrank while being read");
-    }
-    next += want;
-    have += want;
+    const std::size_t got = fill(buf + have, kTextBlock - have);
+    have += got;
     std::size_t pos = 0;
     while (pos < have) {
       const void* nl = std::memchr(buf + pos, '\n', have - pos);
@@ -938,15 +871,74 @@ std::uint64_t for_each_line(const InputFile& in, std::uint64_t lo, std::uint64_t
       pos = stop + 1;
       if (!more) return at + pos;
     }
-    if (next == hi) {
+    if (got == 0) {
       if (pos < have) f(std::string_view(buf + pos, have - pos));
-      return hi;
+      return at + have;
     }
     if (have - pos > kMaxInputLineBytes) throw LineTooLong{};
     std::memmove(buf, buf + pos, have - pos);
     have -= pos;
     at += pos;
   }
+}
+
+// A pipe, or a file on one thread, is read in blocks from its current offset.
+Trace read_stream_text(const InputFile& in, const TraceReadOptions& options,
+                       std::uint64_t size_hint = 0) {
+  const std::string& path = in.path();
+  TraceParser parser(path, options);
+  bool reserved = size_hint == 0;
+  const auto buf = std::make_unique_for_overwrite<char[]>(kTextBlock);
+  auto fill = [&](char* dst, std::size_t room) -> std::size_t {
+    ssize_t n = 0;
+    while ((n = ::read(in.fd(), dst, room)) < 0) {
+      if (errno != EINTR) throw IoError(path, std::string("read failed: ") + std::strerror(errno));
+    }
+    if (!reserved) {
+      // A regular file's size and its first block's lines: room for all its rows at once.
+      reserved = true;
+      const auto first = static_cast<std::size_t>(n);
+      const std::size_t sample_rows = estimate_rows(std::string_view(buf.get(), first));
+      if (sample_rows > 0 && first > 0) {
+        parser.reserve_rows(static_cast<std::size_t>(static_cast<double>(sample_rows) *
+                                                     static_cast<double>(size_hint) /
+                                                     static_cast<double>(first)));
+      }
+    }
+    return static_cast<std::size_t>(n);
+  };
+  try {
+    split_lines(buf.get(), fill, [&](std::string_view line) {
+      parser.line(line);
+      return true;
+    });
+  } catch (const LineTooLong&) {
+    throw ParseError(path, parser.lines() + 1, detail::line_too_long_message());
+  }
+  return parser.finish();
+}
+
+// A regular text file parsed in stretches, each thread reading its own stretch in blocks
+// (pread into a buffer of its own) twice: once to count its lines, once to parse them. No copy
+// of the whole text is held (round 5 read it whole into memory first: 71 MB more to touch,
+// which on a virtual machine with costly page faults made two threads slower than one). The
+// file's size at opening bounds what is read.
+
+// f(line) for each line of the file's bytes [lo, hi) as split_lines gives them; returns the
+// offset after the last line given to f.
+template <class F>
+std::uint64_t for_each_line(const InputFile& in, std::uint64_t lo, std::uint64_t hi, char* buf,
+                            F&& f) {
+  std::uint64_t next = lo;
+  auto fill = [&](char* dst, std::size_t room) -> std::size_t {
+    const auto want = static_cast<std::size_t>(std::min<std::uint64_t>(room, hi - next));
+    if (read_exact(in.fd(), dst, want, next, in.path()) != want) {
+      throw IoError(in.path(), "file shrank while being read");
+    }
+    next += want;
+    return want;
+  };
+  return lo + split_lines(buf, fill, std::forward<F>(f));
 }
 
 // Lines in the file's bytes [lo, hi): its newlines, and one more for a last line without one.
@@ -1039,7 +1031,10 @@ Trace read_trace(const std::string& path, const TraceReadOptions& options) {
     return read_binary_trace(in, options);
   }
   if (in.size() == 0) return parse_text({}, path, options, 1);
-  const unsigned workers = file_text_workers(options, in.size());
+  // One thread per idle core (or as asked) once the file is large. Idle, on 2 cores, a 1e6-row
+  // CSV (71 MB) took 0.10-0.11 s in two streamed stretches against 0.16-0.19 s on one thread
+  // (the floor of parsing every number on one thread: 0.16 s).
+  const unsigned workers = worker_count(options, in.size());
   if (workers < 2) return read_stream_text(in, options, in.size());
   return read_text_stretches(in, options, workers);
 }
