@@ -1,7 +1,10 @@
 #include "circtest/core/cli.hpp"
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
+#include <iostream>
 #include <new>
 #include <string>
 #include <string_view>
@@ -10,9 +13,32 @@
 
 namespace circtest {
 
+namespace {
+
+// What the program printed must have reached its destination: a full disk or a closed pipe
+// under `> out.json` would otherwise leave a truncated document behind an exit status of 0.
+// Returns the error's text, or "" when standard output took everything.
+std::string standard_output_failure() {
+  std::cout.flush();
+  const bool stream_failed = !std::cout.good();
+  errno = 0;
+  const bool flush_failed = std::fflush(stdout) != 0 || std::ferror(stdout) != 0;
+  if (!stream_failed && !flush_failed) return {};
+  return errno != 0 ? std::strerror(errno) : "write failed";
+}
+
+}  // namespace
+
 int run_cli(const char* program_name, const std::function<int()>& body) {
   try {
-    return body();
+    const int code = body();
+    const std::string failure = standard_output_failure();
+    if (!failure.empty()) {
+      std::fprintf(stderr, "%s: error: cannot write to standard output: %s\n", program_name,
+                   failure.c_str());
+      return static_cast<int>(ExitCode::io);
+    }
+    return code;
   } catch (const Error& e) {
     std::fprintf(stderr, "%s: error: %s\n", program_name, e.what());
     return static_cast<int>(e.code());

@@ -46,15 +46,19 @@ void spit(const std::filesystem::path& path, const std::string& text) {
 }
 
 CommandResult run_command(const std::vector<std::string>& argv,
-                          const std::vector<std::string>& env) {
+                          const std::vector<std::string>& env, const std::string& stdout_to) {
   ScratchDir io("circtest-run");
   const std::string out_path = io.file("stdout");
   const std::string err_path = io.file("stderr");
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                   0600);
+  if (stdout_to.empty()) {
+    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  } else {
+    posix_spawn_file_actions_addopen(&actions, 1, stdout_to.c_str(), O_WRONLY, 0);
+  }
   posix_spawn_file_actions_addopen(&actions, 2, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
                                    0600);
   std::vector<std::string> environment;
@@ -79,7 +83,7 @@ CommandResult run_command(const std::vector<std::string>& argv,
   }
   CommandResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  result.out = slurp(out_path);
+  result.out = stdout_to.empty() ? slurp(out_path) : std::string();
   result.err = slurp(err_path);
   return result;
 }

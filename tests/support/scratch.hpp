@@ -39,8 +39,10 @@ struct CommandResult {
 };
 
 // Runs argv (no shell; argv[0] a path) with extra "KEY=value" environment entries, stdin from
-// /dev/null, capturing stdout and stderr.
+// /dev/null, capturing stdout and stderr. With STDOUT_TO (e.g. "/dev/full") standard output
+// goes to that existing file instead and CommandResult::out stays empty.
 CommandResult run_command(const std::vector<std::string>& argv,
-                          const std::vector<std::string>& env = {});
+                          const std::vector<std::string>& env = {},
+                          const std::string& stdout_to = {});
 
 }  // namespace circtest::testing

@@ -8,7 +8,9 @@
 namespace circtest {
 
 // Runs body(); returns its result, or the exit code of the circtest::Error it threw
-// (ExitCode::internal for any other exception). Prints nothing on success.
+// (ExitCode::internal for any other exception). Prints nothing on success. Standard output
+// is flushed before returning: a write that failed (a full disk, a closed pipe) is
+// ExitCode::io with a message, whatever body() returned.
 int run_cli(const char* program_name, const std::function<int()>& body);
 
 // Throws UsageError when an argument holds one of Boost.Program_options' message
