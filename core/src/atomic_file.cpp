@@ -12,10 +12,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
 
 namespace circtest {
 
@@ -228,12 +227,7 @@ void fsync_parent_directory(const std::string& path) {
 }
 
 std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path, std::string("cannot open for reading: ") + errno_text());
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw IoError(path, "read failed");
-  return ss.str();
+  return read_input_bytes(path);
 }
 
 }  // namespace circtest

@@ -17,14 +17,15 @@ namespace {
 
 // What the program printed must have reached its destination: a full disk or a closed pipe
 // under `> out.json` would otherwise leave a truncated document behind an exit status of 0.
-// Returns the error's text, or "" when standard output took everything.
+// Returns the error's text, or "" when standard output took everything. The reason is known
+// only when this last flush fails; an earlier failed write left no errno behind.
 std::string standard_output_failure() {
   std::cout.flush();
   const bool stream_failed = !std::cout.good();
   errno = 0;
   const bool flush_failed = std::fflush(stdout) != 0 || std::ferror(stdout) != 0;
   if (!stream_failed && !flush_failed) return {};
-  return errno != 0 ? std::strerror(errno) : "write failed";
+  return errno != 0 ? std::string("write failed: ") + std::strerror(errno) : "write failed";
 }
 
 }  // namespace
@@ -34,8 +35,7 @@ int run_cli(const char* program_name, const std::function<int()>& body) {
     const int code = body();
     const std::string failure = standard_output_failure();
     if (!failure.empty()) {
-      std::fprintf(stderr, "%s: error: cannot write to standard output: %s\n", program_name,
-                   failure.c_str());
+      std::fprintf(stderr, "%s: error: standard output: %s\n", program_name, failure.c_str());
       return static_cast<int>(ExitCode::io);
     }
     return code;

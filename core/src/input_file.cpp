@@ -71,28 +71,61 @@ InputFile::~InputFile() {
   if (owned_) ::close(fd_);
 }
 
-std::string read_input_text(const std::string& path, std::size_t max_bytes) {
-  InputFile in(path);
-  if (in.regular() && in.size() > max_bytes) {
-    throw IoError(path, "larger than " + std::to_string(max_bytes) + " bytes");
+namespace {
+
+std::string over_limit(std::size_t max_bytes) {
+  const std::size_t mib = max_bytes >> 20;
+  if (mib > 0 && (mib << 20) == max_bytes) {
+    return "larger than the limit of " + std::to_string(mib) + " MiB for this input";
   }
-  std::string text;
+  return "larger than the limit of " + std::to_string(max_bytes) + " bytes for this input";
+}
+
+// Reads IN to its end in blocks, handing each to CONSUME; refuses more than MAX_BYTES.
+template <class Consume>
+void read_blocks(const InputFile& in, std::size_t max_bytes, Consume&& consume) {
   char block[1 << 16];
-  LineLengthGuard guard(path);
+  std::size_t total = 0;
   while (true) {
     const ssize_t n = ::read(in.fd(), block, sizeof block);
     if (n < 0) {
       if (errno == EINTR) continue;
-      throw IoError(path, std::string("read failed: ") + std::strerror(errno));
+      throw IoError(in.path(), std::string("read failed: ") + std::strerror(errno));
     }
     if (n == 0) break;
-    guard.feed(std::string_view(block, static_cast<std::size_t>(n)));
-    if (text.size() + static_cast<std::size_t>(n) > max_bytes) {
-      throw IoError(path, "larger than " + std::to_string(max_bytes) + " bytes");
-    }
-    text.append(block, static_cast<std::size_t>(n));
+    total += static_cast<std::size_t>(n);
+    if (total > max_bytes) throw IoError(in.path(), over_limit(max_bytes));
+    consume(std::string_view(block, static_cast<std::size_t>(n)));
   }
-  return text;
+}
+
+std::string read_whole(const std::string& path, std::size_t max_bytes, bool text) {
+  InputFile in(path);
+  if (in.regular() && in.size() > max_bytes) throw IoError(path, over_limit(max_bytes));
+  std::string bytes;
+  if (in.regular()) bytes.reserve(static_cast<std::size_t>(in.size()));
+  LineLengthGuard guard(path);
+  read_blocks(in, max_bytes, [&](std::string_view block) {
+    if (text) guard.feed(block);
+    bytes.append(block);
+  });
+  return bytes;
+}
+
+}  // namespace
+
+std::string read_input_bytes(const std::string& path, std::size_t max_bytes) {
+  return read_whole(path, max_bytes, false);
+}
+
+std::string read_input_text(const std::string& path, std::size_t max_bytes) {
+  return read_whole(path, max_bytes, true);
+}
+
+void for_each_input_block(const std::string& path,
+                          const std::function<void(std::string_view block)>& consume) {
+  InputFile in(path);
+  read_blocks(in, static_cast<std::size_t>(-1), consume);
 }
 
 }  // namespace circtest

@@ -78,7 +78,7 @@ int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err) 
   } else {
     out.write(program.text.data(), static_cast<std::streamsize>(program.text.size()));
     out.flush();
-    if (!out) throw IoError("<stdout>", "write failed");
+    if (!out) throw IoError("standard output", "write failed");
   }
   return 0;
 }

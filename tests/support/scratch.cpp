@@ -45,8 +45,8 @@ void spit(const std::filesystem::path& path, const std::string& text) {
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
-CommandResult run_command(const std::vector<std::string>& argv,
-                          const std::vector<std::string>& env, const std::string& stdout_to) {
+CommandResult run_command(const std::vector<std::string>& argv, const std::vector<std::string>& env,
+                          const std::string& stdout_to) {
   ScratchDir io("circtest-run");
   const std::string out_path = io.file("stdout");
   const std::string err_path = io.file("stderr");
@@ -54,8 +54,8 @@ CommandResult run_command(const std::vector<std::string>& argv,
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
   if (stdout_to.empty()) {
-    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(),
-                                     O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0600);
   } else {
     posix_spawn_file_actions_addopen(&actions, 1, stdout_to.c_str(), O_WRONLY, 0);
   }

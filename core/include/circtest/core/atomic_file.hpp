@@ -60,7 +60,8 @@ std::string checked_output_target(const std::string& path);
 // fsync a file's directory so a rename survives a crash.
 void fsync_parent_directory(const std::string& path);
 
-// Reads a whole file; throws IoError.
+// Reads a whole file: read_input_bytes with its limit (kMaxWholeInputBytes); throws IoError
+// for a device, a directory or a file over the limit.
 std::string read_file(const std::string& path);
 
 }  // namespace circtest

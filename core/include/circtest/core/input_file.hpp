@@ -4,7 +4,9 @@
 // refused with an IoError before a byte is read. Trace and INI readers both use it.
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <string_view>
 
 namespace circtest {
 
@@ -34,8 +36,23 @@ class InputFile {
   std::uint64_t size_ = 0;
 };
 
-// The whole file as text, refusing what InputFile refuses and, with ParseError (naming the
-// line), a line longer than kMaxInputLineBytes; IoError when the file is over max_bytes.
-std::string read_input_text(const std::string& path, std::size_t max_bytes = std::size_t{64} << 20);
+// The most any input read whole may hold (a diagnosis or result JSON, an INI and its includes,
+// a comp table, a polar export, a manifest): far above any real one, low enough that a wrong
+// file (a disk image, a log) is refused instead of filling memory. Traces are streamed and
+// have limits of their own (docs/input-checks.md).
+inline constexpr std::size_t kMaxWholeInputBytes = std::size_t{64} << 20;
+
+// The whole file, refusing what InputFile refuses; IoError naming the limit when it holds
+// more than max_bytes (checked before reading a regular file, while reading a pipe).
+std::string read_input_bytes(const std::string& path, std::size_t max_bytes = kMaxWholeInputBytes);
+
+// As read_input_bytes, and also refusing with ParseError (naming the line) a line longer than
+// kMaxInputLineBytes.
+std::string read_input_text(const std::string& path, std::size_t max_bytes = kMaxWholeInputBytes);
+
+// Calls consume(block) for every block of the file in order (no size limit: for digests of
+// files of any length), refusing what InputFile refuses.
+void for_each_input_block(const std::string& path,
+                          const std::function<void(std::string_view block)>& consume);
 
 }  // namespace circtest

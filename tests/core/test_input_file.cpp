@@ -1,0 +1,92 @@
+// Inputs read whole have a limit and never hang on a device: /dev/zero as a diagnosis JSON
+// once filled all memory. The digest of a file streams, so a trace of any length is hashed.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <thread>
+
+#include "circtest/core/atomic_file.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
+#include "circtest/core/sha256.hpp"
+#include "scratch.hpp"
+
+namespace {
+
+using namespace circtest;
+using circtest::testing::ScratchDir;
+using circtest::testing::spit;
+
+std::string io_error_of(const std::function<void()>& read) {
+  try {
+    read();
+  } catch (const IoError& e) {
+    return e.what();
+  }
+  return "(no IoError)";
+}
+
+TEST(InputFile, ADeviceIsRefusedBeforeAByteIsRead) {
+  for (const std::string device : {"/dev/zero", "/dev/urandom"}) {
+    const std::string what = io_error_of([&] { (void)read_file(device); });
+    EXPECT_NE(what.find(device + ": is a character device"), std::string::npos) << what;
+    EXPECT_NE(io_error_of([&] { (void)sha256_of_file(device); }).find("character device"),
+              std::string::npos);
+  }
+  ScratchDir dir;
+  EXPECT_NE(io_error_of([&] { (void)read_file(dir.path()); }).find("is a directory"),
+            std::string::npos);
+}
+
+TEST(InputFile, AFileOverTheLimitIsRefusedNamingTheLimit) {
+  ScratchDir dir;
+  const std::string big = dir.file("big.json");
+  spit(big, "");
+  ASSERT_EQ(::truncate(big.c_str(), static_cast<off_t>(kMaxWholeInputBytes) + 1), 0);
+  const std::string what = io_error_of([&] { (void)read_file(big); });
+  EXPECT_NE(what.find(big + ": larger than the limit of 64 MiB"), std::string::npos) << what;
+  // A small limit of the caller's own, in bytes when not whole MiB.
+  spit(dir.file("small"), "0123456789");
+  EXPECT_NE(io_error_of([&] {
+              (void)read_input_bytes(dir.file("small"), 9);
+            }).find("larger than the limit of 9 bytes"),
+            std::string::npos);
+  EXPECT_EQ(read_input_bytes(dir.file("small"), 10), "0123456789");
+}
+
+TEST(InputFile, APipeOverTheLimitIsRefusedWhileReading) {
+  ScratchDir dir;
+  ::signal(SIGPIPE, SIG_IGN);  // the writer outlives the reader that gave up
+  const std::string fifo = dir.file("fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::thread writer([&] {
+    const int fd = ::open(fifo.c_str(), O_WRONLY);
+    const std::string block(4096, 'x');
+    for (int i = 0; i < 64; ++i) {
+      if (::write(fd, block.data(), block.size()) < 0) break;  // the reader gave up
+    }
+    ::close(fd);
+  });
+  const std::string what = io_error_of([&] { (void)read_input_bytes(fifo, 100000); });
+  writer.join();
+  EXPECT_NE(what.find("larger than the limit of 100000 bytes"), std::string::npos) << what;
+}
+
+TEST(InputFile, TheStreamedDigestIsTheDigestOfTheBytes) {
+  ScratchDir dir;
+  std::string text;
+  for (int i = 0; i < 300000; ++i) text += static_cast<char>('a' + i % 26);  // several blocks
+  spit(dir.file("t"), text);
+  EXPECT_EQ(sha256_of_file(dir.file("t")), sha256_hex(text));
+  spit(dir.file("empty"), "");
+  // FIPS 180-2's digest of the empty message.
+  EXPECT_EQ(sha256_of_file(dir.file("empty")),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+}
+
+}  // namespace
