@@ -63,7 +63,8 @@ TEST(HostileHistory, ANumberBeyondADoubleInAResultIsAParseErrorWithItsLine) {
   ScratchDir dir;
   const std::string doc = dir.file("result.json");
   spit(doc, edited(result_document(), R"("H": [-0-9.e]+)", R"("H": 1e400)"));
-  const CommandResult r = run_command({CIRCANA_PATH, "store", doc, "--machine", "m", "--db", db_of(dir)});
+  const CommandResult r =
+      run_command({CIRCANA_PATH, "store", doc, "--machine", "m", "--db", db_of(dir)});
   expect_refusal(r, 4, {doc + ":", "1e400", "not valid JSON"});
   EXPECT_FALSE(std::filesystem::exists(dir.file("history.sqlite")));
 }
@@ -72,9 +73,11 @@ TEST(HostileHistory, AHugeNumberInAResultIsRefusedNamingItsKey) {
   ScratchDir dir;
   const std::string doc = dir.file("result.json");
   spit(doc, edited(result_document(), R"(("pairs": \[\s*\{[^}]*?"H": )[-0-9.e]+)", "$011.7e308"));
-  const CommandResult r = run_command({CIRCANA_PATH, "store", doc, "--machine", "m", "--db", db_of(dir)});
+  const CommandResult r =
+      run_command({CIRCANA_PATH, "store", doc, "--machine", "m", "--db", db_of(dir)});
   expect_refusal(r, 5, {doc, "pairs[0].H", "1.7e+308"});
-  const CommandResult h = run_command({CIRCANA_PATH, "history", "--machine", "m", "--db", db_of(dir)});
+  const CommandResult h =
+      run_command({CIRCANA_PATH, "history", "--machine", "m", "--db", db_of(dir)});
   EXPECT_FALSE(has(h.out, "inf")) << h.out;
 }
 
@@ -93,7 +96,8 @@ TEST(HostileHistory, DeepNestingInADocumentIsRefusedWithItsLine) {
   ScratchDir dir;
   const std::string doc = dir.file("result.json");
   const std::string deep = std::string(100000, '[') + std::string(100000, ']');
-  spit(doc, edited(result_document(), R"("notes": \[)", "\"extra\": " + deep + ",\n  \"notes\": ["));
+  spit(doc,
+       edited(result_document(), R"("notes": \[)", "\"extra\": " + deep + ",\n  \"notes\": ["));
   expect_refusal(run_command({CIRCANA_PATH, "store", doc, "--machine", "m", "--db", db_of(dir)}), 4,
                  {doc + ":", "nested deeper than 64"});
   spit(dir.file("diag.json"), "{\"schema\": \"circtest.diagnosis/1\",\n\"x\": " + deep + "}");
@@ -136,9 +140,9 @@ TEST(HostileHistory, MetadataThatIsNotUtf8IsRefusedWithItsLineAndKey) {
 }
 
 TEST(HostileHistory, AnOptionValueThatIsNotUtf8IsAUsageError) {
-  expect_refusal(run_command({CIRCANA_PATH, "analyze", kExample, "--json", "--operator",
-                              "J\xFCrgen"}),
-                 2, {"--operator", "not UTF-8", "0xFC"});
+  expect_refusal(
+      run_command({CIRCANA_PATH, "analyze", kExample, "--json", "--operator", "J\xFCrgen"}), 2,
+      {"--operator", "not UTF-8", "0xFC"});
   expect_refusal(run_command({CIRCANA_PATH, "history", "--machine", "M\xE4hwerk"}), 2,
                  {"--machine", "not UTF-8"});
 }
@@ -160,23 +164,26 @@ TEST(HostileHistory, AFileNameThatIsNotUtf8IsReplacedInJson) {
 
 TEST(HostileHistory, ADateThatDoesNotParseIsNotStored) {
   ScratchDir dir;
-  for (const std::string date : std::vector<std::string>{"yesterday", "2026-02-30", "2026-13-01", "2025-02-29T10:00:00Z",
-        "2026-11-23T24:00:00Z", "2026-11-23 junk"}) {
+  for (const std::string date :
+       std::vector<std::string>{"yesterday", "2026-02-30", "2026-13-01", "2025-02-29T10:00:00Z",
+                                "2026-11-23T24:00:00Z", "2026-11-23 junk"}) {
     SCOPED_TRACE(date);
     const std::string trace = trace_with(dir, "dated.csv", "# date: " + date + "\n");
-    expect_refusal(run_command({CIRCANA_PATH, "analyze", trace, "--machine", "m", "--store",
-                                "--db", db_of(dir)}),
+    expect_refusal(run_command({CIRCANA_PATH, "analyze", trace, "--machine", "m", "--store", "--db",
+                                db_of(dir)}),
                    5, {trace + ":1:", "'date'", "ISO 8601"});
   }
   EXPECT_FALSE(std::filesystem::exists(dir.file("history.sqlite")));
   // A valid date with an offset is stored in UTC; a leap day exists in a leap year.
-  for (const std::string& date : {std::string("2026-11-23T15:47:14+01:00"), std::string("2024-02-29")}) {
+  for (const std::string& date :
+       {std::string("2026-11-23T15:47:14+01:00"), std::string("2024-02-29")}) {
     const std::string trace = trace_with(dir, "dated.csv", "# start_time: " + date + "\n");
     const CommandResult r = run_command(
         {CIRCANA_PATH, "analyze", trace, "--machine", "m", "--store", "--db", db_of(dir)});
     EXPECT_EQ(r.exit_code, 0) << r.err;
   }
-  const CommandResult h = run_command({CIRCANA_PATH, "history", "--machine", "m", "--db", db_of(dir)});
+  const CommandResult h =
+      run_command({CIRCANA_PATH, "history", "--machine", "m", "--db", db_of(dir)});
   ASSERT_EQ(h.exit_code, 0) << h.err;
   EXPECT_TRUE(has(h.out, "2026-11-23T14:47:14Z")) << h.out;
   EXPECT_TRUE(has(h.out, "2024-02-29")) << h.out;
@@ -184,11 +191,12 @@ TEST(HostileHistory, ADateThatDoesNotParseIsNotStored) {
 
 TEST(HostileHistory, SinceMustBeARealDate) {
   ScratchDir dir;
-  for (const std::string since : std::vector<std::string>{"2026-13-45", "2026-00-10", "2026-04-31", "2025-02-29", "2026-11-23T25:00",
-        "2026-11-23T10:61", "2026-1-5"}) {
+  for (const std::string since :
+       std::vector<std::string>{"2026-13-45", "2026-00-10", "2026-04-31", "2025-02-29",
+                                "2026-11-23T25:00", "2026-11-23T10:61", "2026-1-5"}) {
     SCOPED_TRACE(since);
-    expect_refusal(run_command({CIRCANA_PATH, "history", "--machine", "m", "--since", since,
-                                "--db", db_of(dir)}),
+    expect_refusal(run_command({CIRCANA_PATH, "history", "--machine", "m", "--since", since, "--db",
+                                db_of(dir)}),
                    2, {"--since", "'" + since + "'"});
   }
   EXPECT_FALSE(std::filesystem::exists(dir.file("history.sqlite")));
@@ -196,17 +204,20 @@ TEST(HostileHistory, SinceMustBeARealDate) {
 
 TEST(HostileHistory, NumericOptionsOutsideTheirPlausibleRangeAreUsageErrors) {
   ScratchDir dir;
-  const std::vector<std::vector<std::string>> cases = {
-      {"--t-machine", "-274"},      {"--t-instrument", "1e6"},
-      {"--alpha-machine", "1"},     {"--alpha-instrument", "-0.5"},
-      {"--radius", "1e308"},        {"--centre", "1e300,0"},
-      {"--scale-um-per-div", "1e-300"}, {"--scale-um-per-div", "1e300"},
-      {"--radius-tolerance", "1e300"}};
+  const std::vector<std::vector<std::string>> cases = {{"--t-machine", "-274"},
+                                                       {"--t-instrument", "1e6"},
+                                                       {"--alpha-machine", "1"},
+                                                       {"--alpha-instrument", "-0.5"},
+                                                       {"--radius", "1e308"},
+                                                       {"--centre", "1e300,0"},
+                                                       {"--scale-um-per-div", "1e-300"},
+                                                       {"--scale-um-per-div", "1e300"},
+                                                       {"--radius-tolerance", "1e300"}};
   for (const auto& c : cases) {
     SCOPED_TRACE(c[0] + " " + c[1]);
-    expect_refusal(run_command({CIRCANA_PATH, "analyze", kExample, c[0], c[1], "--svg",
-                                dir.file("p.svg")}),
-                   2, {c[0] + ":", "expected", "'" + c[1] + "'"});
+    expect_refusal(
+        run_command({CIRCANA_PATH, "analyze", kExample, c[0], c[1], "--svg", dir.file("p.svg")}), 2,
+        {c[0] + ":", "expected", "'" + c[1] + "'"});
   }
   expect_refusal(run_command({CIRCANA_PATH, "diagnose", kExample, "--pitch", "X=1e-200"}), 2,
                  {"--pitch", "X=1e-200"});
