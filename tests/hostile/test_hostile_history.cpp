@@ -130,7 +130,7 @@ TEST(HostileHistory, ADiagnosisDocumentOfTheWrongShapeNamesTheKey) {
 TEST(HostileHistory, MetadataThatIsNotUtf8IsRefusedWithItsLineAndKey) {
   ScratchDir dir;
   const std::string trace = trace_with(dir, "latin1.csv", "# operator: J\xFCrgen\n");
-  for (const std::vector<std::string> extra :
+  for (const std::vector<std::string>& extra :
        {std::vector<std::string>{"--json"}, {}, {"--store", "--db", db_of(dir)}}) {
     std::vector<std::string> argv = {CIRCANA_PATH, "analyze", trace, "--machine", "m"};
     argv.insert(argv.end(), extra.begin(), extra.end());
@@ -164,7 +164,7 @@ TEST(HostileHistory, AFileNameThatIsNotUtf8IsReplacedInJson) {
 
 TEST(HostileHistory, ADateThatDoesNotParseIsNotStored) {
   ScratchDir dir;
-  for (const std::string date :
+  for (const std::string& date :
        std::vector<std::string>{"yesterday", "2026-02-30", "2026-13-01", "2025-02-29T10:00:00Z",
                                 "2026-11-23T24:00:00Z", "2026-11-23 junk"}) {
     SCOPED_TRACE(date);
@@ -191,7 +191,7 @@ TEST(HostileHistory, ADateThatDoesNotParseIsNotStored) {
 
 TEST(HostileHistory, SinceMustBeARealDate) {
   ScratchDir dir;
-  for (const std::string since :
+  for (const std::string& since :
        std::vector<std::string>{"2026-13-45", "2026-00-10", "2026-04-31", "2025-02-29",
                                 "2026-11-23T25:00", "2026-11-23T10:61", "2026-1-5"}) {
     SCOPED_TRACE(since);
