@@ -291,7 +291,9 @@ TEST_P(History, LimitsMakeItAPassFailCheckOfTheLatestTest) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["pass"], false);
   r = run(circana("history --machine VMC-3 --limits H=abc"), dir_);
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.err, "circana: error: --limits H: expected a number, got 'abc'\n");
+  EXPECT_EQ(r.err,
+            "circana: error: --limits H: expected a limit in mm above 0 and at most 10, got "
+            "'abc'\n");
 }
 
 // diagnose --store keeps the diagnosis: the backlash and squareness columns are the
@@ -414,7 +416,7 @@ TEST_P(History, ConcurrentStoresFromTwoProcessesLoseNothing) {
         const auto store = open_store(url_);
         for (int i = 0; i < kPerProcess; ++i) {
           TestRecord r = record_from_result(doc, nullptr, fmt::format("M{}", p));
-          r.tested_at = fmt::format("2026-01-05T00:00:{:03d}", i);
+          r.tested_at = fmt::format("2026-01-05T00:{:02d}:{:02d}Z", i / 60, i % 60);
           store->add(r);
         }
       } catch (const std::exception& e) {
