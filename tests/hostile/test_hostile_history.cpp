@@ -233,6 +233,13 @@ TEST(HostileHistory, ImportPolarRefusesSizesThatMakeNoTest) {
   expect_refusal(run_command({CIRCANA_PATH, "import-polar", dir.file("polar.txt"), "--radius",
                               "1e308", "-o", dir.file("t.csv")}),
                  2, {"--radius", "'1e308'"});
+  // Numbers of the export that would size the trace's numbers rather than describe a test.
+  for (const std::string& row : {std::string("90 1e300"), std::string("1e300 1")}) {
+    spit(dir.file("polar.txt"), "0 1.5\n" + row + "\n180 -1.0\n270 0.5\n");
+    expect_refusal(run_command({CIRCANA_PATH, "import-polar", dir.file("polar.txt"), "--radius",
+                                "50", "-o", dir.file("t.csv")}),
+                   4, {dir.file("polar.txt") + ":2:", "within +-3600 deg", "+-10000 um", row});
+  }
   EXPECT_FALSE(std::filesystem::exists(dir.file("t.csv")));
 }
 
