@@ -1,8 +1,10 @@
 // circana: ISO 230-4 evaluation of circular-test traces. Parses options, calls the library.
+#include <algorithm>
 #include <boost/program_options.hpp>
 #include <cctype>
 #include <functional>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <string>
@@ -59,6 +61,15 @@ void answer_info(const po::options_description& desc, const std::vector<std::str
   }
 }
 
+// Options whose values are file names or URLs: any bytes the file system allows. Every other
+// value goes into a JSON document, a plot or the history, so it must be UTF-8 text.
+bool names_a_file(const std::string& option) {
+  static const char* const kFileOptions[] = {"trace",   "before", "diagnosis", "output", "svg",
+                                             "compare", "db",     "input",     "points"};
+  return std::find(std::begin(kFileOptions), std::end(kFileOptions), option) !=
+         std::end(kFileOptions);
+}
+
 po::variables_map parse(const po::options_description& desc,
                         const po::positional_options_description& pos,
                         const std::vector<std::string>& args) {
@@ -68,6 +79,16 @@ po::variables_map parse(const po::options_description& desc,
     refuse_option_placeholders(args);
     po::store(po::command_line_parser(args).options(desc).positional(pos).run(), vm);
     po::notify(vm);
+    for (const auto& [name, value] : vm) {
+      if (names_a_file(name)) continue;
+      if (const auto* text = boost::any_cast<std::string>(&value.value())) {
+        require_utf8_option("--" + name, *text);
+      }
+    }
+  } catch (const po::unknown_option& e) {
+    std::vector<std::string> known;
+    for (const auto& o : desc.options()) known.push_back("--" + o->long_name());
+    throw UsageError(unknown_option_message(e.get_option_name(), known));
   } catch (const po::required_option& e) {
     // A missing positional argument is not an option the user could have given as --name.
     const std::string name = e.get_option_name();
@@ -145,10 +166,10 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   parsed.vm = parse(desc, pos, args);
   const auto& vm = parsed.vm;
 
-  // A numeric option's value, when given.
-  auto number = [&vm](const char* name) -> std::optional<double> {
+  // A numeric option's value within its plausible range, when given.
+  auto number = [&vm](const char* name, const NumberRange& range) -> std::optional<double> {
     if (!vm.count(name)) return std::nullopt;
-    return parse_option_number(std::string("--") + name, vm[name].as<std::string>());
+    return parse_option_number(std::string("--") + name, vm[name].as<std::string>(), range);
   };
   AnalyzeRequest& req = parsed.request;
   const auto& traces = vm["trace"].as<std::vector<std::string>>();
@@ -162,12 +183,14 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   if (vm.count("svg")) req.svg_path = vm["svg"].as<std::string>();
   if (vm.count("compare")) req.compare_path = vm["compare"].as<std::string>();
   auto& o = req.options;
-  o.nominal_radius_mm = number("radius");
-  if (o.nominal_radius_mm && *o.nominal_radius_mm <= 0) {
-    throw UsageError("--radius: expected a positive number");
-  }
+  o.nominal_radius_mm = number("radius", kRadiusRangeMm);
   if (vm.count("centre")) {
-    const auto c = parse_option_list("--centre", vm["centre"].as<std::string>(), 2);
+    const std::string text = vm["centre"].as<std::string>();
+    const auto c = parse_option_list("--centre", text, 2);
+    if (!kCentreRangeMm.contains(c[0]) || !kCentreRangeMm.contains(c[1])) {
+      throw UsageError("--centre: expected " + std::string(kCentreRangeMm.expected) + ", got '" +
+                       text + "'");
+    }
     o.centre = PlanePoint{c[0], c[1]};
   }
   if (vm.count("plane")) {
@@ -198,24 +221,25 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   if (vm.count("columns"))
     std::tie(o.column_a, o.column_b) = column_pair(vm["columns"].as<std::string>());
   o.conditions = condition_values(vm);
-  o.temperatures.machine_C = number("t-machine");
-  o.temperatures.instrument_C = number("t-instrument");
-  if (auto d = number("scale-um-per-div")) {
-    if (*d <= 0) throw UsageError("--scale-um-per-div: expected a positive number");
+  o.temperatures.machine_C = number("t-machine", kTemperatureRangeC);
+  o.temperatures.instrument_C = number("t-instrument", kTemperatureRangeC);
+  if (auto d = number("scale-um-per-div", kPlotScaleRangeUm))
     req.plot.mm_per_division = *d / 1000.0;
-  }
   if (vm.count("units")) {
     const std::string u = vm["units"].as<std::string>();
     if (u != "mm" && u != "inch") throw UsageError("--units: expected mm or inch, got '" + u + "'");
     o.input_checks.position_units = u == "mm" ? PositionUnits::mm : PositionUnits::inch;
   }
-  if (auto t = number("radius-tolerance")) {
-    if (!(*t > 0)) throw UsageError("--radius-tolerance: expected a positive number");
+  if (auto t = number("radius-tolerance", kRadiusToleranceRangeMm)) {
     o.input_checks.radius_tolerance_mm = *t;
   }
   o.input_checks.warn_only = vm.count("warn-inconsistent") > 0;
-  if (auto a = number("alpha-machine")) o.temperatures.machine_expansion_per_K = *a;
-  if (auto a = number("alpha-instrument")) o.temperatures.instrument_expansion_per_K = *a;
+  if (auto a = number("alpha-machine", kExpansionRangePerK)) {
+    o.temperatures.machine_expansion_per_K = *a;
+  }
+  if (auto a = number("alpha-instrument", kExpansionRangePerK)) {
+    o.temperatures.instrument_expansion_per_K = *a;
+  }
   return parsed;
 }
 
@@ -283,12 +307,12 @@ std::map<char, double> pitch_list(const std::string& text) {
     const auto eq = item.find('=');
     const char axis =
         eq == 1 ? static_cast<char>(std::tolower(static_cast<unsigned char>(item[0]))) : '\0';
-    if (axis != 'x' && axis != 'y' && axis != 'z') {
-      throw UsageError("--pitch: expected AXIS=MM items like X=5,Y=5, got '" + item + "'");
+    const auto v = axis ? parse_finite(item.substr(2)) : std::nullopt;
+    if ((axis != 'x' && axis != 'y' && axis != 'z') || !v || !kPitchRangeMm.contains(*v)) {
+      throw UsageError("--pitch: expected " + std::string(kPitchRangeMm.expected) + ", got '" +
+                       item + "'");
     }
-    const double v = parse_option_number("--pitch", item.substr(2));
-    if (!(v > 0)) throw UsageError("--pitch: expected a positive pitch, got '" + item + "'");
-    out[axis] = v;
+    out[axis] = *v;
     pos = comma + 1;
   }
   return out;
@@ -371,7 +395,7 @@ int import_polar(const std::vector<std::string>& args) {
   ImportPolarRequest req;
   req.input_path = vm["input"].as<std::string>();
   req.output_path = vm["output"].as<std::string>();
-  req.radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>());
+  req.radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>(), kRadiusRangeMm);
   const auto plane = parse_plane(vm["plane"].as<std::string>());
   if (!plane) {
     throw UsageError("--plane: expected XY, YZ or ZX, got '" + vm["plane"].as<std::string>() + "'");
@@ -410,7 +434,14 @@ int main(int argc, char** argv) {
     } catch (const InfoShown&) {
       return 0;
     }
-    throw UsageError("unknown command '" + command +
-                     "': expected analyze, diagnose, report, fit, import-polar, store or history");
+    std::string message = "unknown command '" + command +
+                          "': expected analyze, diagnose, report, fit, import-polar, store or "
+                          "history";
+    const std::vector<std::string> commands = {"analyze",      "diagnose", "report", "fit",
+                                               "import-polar", "store",    "history"};
+    if (const std::string guess = closest_name(command, commands); !guess.empty()) {
+      message += "; did you mean " + guess + "?";
+    }
+    throw UsageError(message);
   });
 }

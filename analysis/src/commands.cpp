@@ -14,12 +14,15 @@
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
+#include "circtest/core/utc_time.hpp"
 #include "circtest/history/history.hpp"
 
 #include <filesystem>
-#include <regex>
+#include <fstream>
 #include <sstream>
 
 namespace circtest {
@@ -91,14 +94,36 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
   };
 }
 
+// The metadata goes into every output (the JSON conditions, the plots, the history), which
+// must be UTF-8 text: a trace written in another encoding is refused at the line and key
+// rather than printed as a document no JSON or XML reader accepts.
+void require_utf8_metadata(const TraceMetadata& metadata, const std::string& path) {
+  const auto& entries = metadata.entries();
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const auto& [key, value] = entries[i];
+    for (const std::string* text : {&key, &value}) {
+      const std::size_t bad = invalid_utf8_offset(*text);
+      if (bad == std::string::npos) continue;
+      throw ParseError(
+          path, metadata.line_at(i),
+          fmt::format("metadata '{}': not UTF-8 text (byte 0x{:02X} at {} of the {}): "
+                      "write the trace in UTF-8 (iconv -f LATIN1 -t UTF-8)",
+                      utf8_replacing_invalid(key), static_cast<unsigned char>((*text)[bad]),
+                      bad + 1, text == &key ? "key" : "value"));
+    }
+  }
+}
+
 // Stores a test (its diagnosis too, when given); returns the line that says so.
+// `source`: the file the evaluation was read from (a trace or a result document), for messages.
 std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
-                         const std::string& trace_path, const std::string& db_url) {
-  history::TestRecord record = history_record(ev, diagnosis, {}, circana_option_words);
+                         const std::string& trace_path, const std::string& db_url,
+                         const std::string& source) {
+  history::TestRecord record = history_record(ev, diagnosis, {}, circana_option_words, source);
   std::error_code ec;
   if (!trace_path.empty() && std::filesystem::is_regular_file(trace_path, ec)) {
     record.trace_sha256 = history::sha256_file(trace_path);
-    record.trace_path = std::filesystem::absolute(trace_path, ec).string();
+    record.trace_path = utf8_replacing_invalid(std::filesystem::absolute(trace_path, ec).string());
   }
   const auto store = history::open_store(db_url, "--db");
   const std::int64_t id = store->add(record);
@@ -140,6 +165,7 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& a
     if (!c->empty()) ro.required.push_back(*c);
   }
   Trace read = read_trace(path, ro);
+  require_utf8_metadata(read.metadata, path);
   // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
   const std::optional<std::string> units = resolve_units(
       read, trace_plane(read, given.plane), given.nominal_radius_mm, given.input_checks);
@@ -168,7 +194,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
       evaluate_file(request.trace_path, request.options, request.radial);
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
-  std::string text = request.json ? to_json(ev).dump(2) + "\n" : text_report(ev);
+  std::string text = request.json ? json_text(to_json(ev), 2) + "\n" : text_report(ev);
   // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
   // still gets its H, G and F.
   std::optional<Diagnosis> diagnosis;
@@ -196,7 +222,8 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
     write_file_atomic(request.svg_path, svg_plot(ev, trace, plot));
   }
   if (request.store) {
-    const std::string stored = store_result(ev, nullptr, request.trace_path, request.db_url);
+    const std::string stored =
+        store_result(ev, nullptr, request.trace_path, request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
   out << text;
@@ -222,10 +249,10 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
     plot.diagnosis = &d;
     write_file_atomic(request.svg_path, svg_plot(evaluated.evaluation, evaluated.trace, plot));
   }
-  std::string text = request.json ? to_json(d).dump(2) + "\n" : text_report(d);
+  std::string text = request.json ? json_text(to_json(d), 2) + "\n" : text_report(d);
   if (request.store) {
-    const std::string stored =
-        store_result(evaluated.evaluation, &d, request.trace_path, request.db_url);
+    const std::string stored = store_result(evaluated.evaluation, &d, request.trace_path,
+                                            request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
   out << text;
@@ -233,43 +260,75 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   return 0;
 }
 
-int run_store(const StoreRequest& request, std::ostream& out) {
-  const std::string head = read_file(request.path).substr(0, 4096);
-  const auto first = head.find_first_not_of(" \t\r\n");
-  if (first != std::string::npos && head[first] == '{') {
-    nlohmann::ordered_json document;
-    try {
-      document = nlohmann::ordered_json::parse(read_file(request.path));
-    } catch (const nlohmann::json::parse_error& e) {
-      throw ParseError(request.path, 0, std::string("not valid JSON: ") + e.what());
+namespace {
+
+// The evaluation document given to circana store, when `path` holds one (its first byte that
+// is not blank is '{'); nullopt for a trace. A regular file is peeked at; anything else (a
+// pipe) can be read once only, so it must hold a document.
+std::optional<nlohmann::ordered_json> store_document(const std::string& path) {
+  std::error_code ec;
+  std::string text;
+  if (std::filesystem::is_regular_file(path, ec)) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError(path, "cannot open for reading");
+    std::string head(4096, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    const auto first = head.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos || head[first] != '{') return std::nullopt;
+    text = read_input_text(path, kMaxJsonDocumentBytes);
+  } else {
+    text = read_input_text(path, kMaxJsonDocumentBytes);
+    const auto first = text.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos || text[first] != '{') {
+      throw IoError(path,
+                    "not a regular file: circana store reads a trace from a regular file (a "
+                    "result document may come through a pipe)");
     }
-    if (!document.is_object()) throw ParseError(request.path, 0, "expected a JSON object");
-    if (document.contains("schema") && document["schema"].is_string() &&
-        document["schema"].get<std::string>().rfind("circtest.diagnosis/", 0) == 0) {
+  }
+  return parse_ordered_json_text(text, path);
+}
+
+}  // namespace
+
+int run_store(const StoreRequest& request, std::ostream& out) {
+  if (std::optional<nlohmann::ordered_json> document = store_document(request.path)) {
+    if (!document->is_object()) throw ParseError(request.path, 0, "expected a JSON object");
+    const auto schema = document->find("schema");
+    if (schema != document->end() && schema->is_string() &&
+        schema->get<std::string>().starts_with("circtest.diagnosis/")) {
       throw DataError(request.path, 0,
                       "a diagnosis document: store the trace (circana diagnose --store) or its "
                       "evaluation (circana analyze --json)");
     }
     // Conditions are optional in a hand-made document; the command line adds to them.
-    if (!document.contains("conditions")) document["conditions"] = nlohmann::ordered_json::object();
-    Evaluation ev = evaluation_from_json(document, request.path);
+    if (!document->contains("conditions")) {
+      (*document)["conditions"] = nlohmann::ordered_json::object();
+    }
+    Evaluation ev = evaluation_from_json(*document, request.path);
     for (const auto& [key, value] : request.options.conditions) ev.conditions.set(key, value);
-    out << store_result(ev, nullptr, ev.source, request.db_url);
+    out << store_result(ev, nullptr, ev.source, request.db_url, request.path);
     out.flush();
     return 0;
   }
   // A trace: evaluated and stored as analyze --store does (no diagnosis: diagnose --store).
   const EvaluatedTrace evaluated = evaluate_file(request.path, request.options, request.radial);
-  out << store_result(evaluated.evaluation, nullptr, request.path, request.db_url);
+  out << store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
   out.flush();
   return 0;
 }
 
 int run_history(const HistoryRequest& request, std::ostream& out) {
-  static const std::regex iso(R"(\d{4}-\d{2}-\d{2}(T\d{2}(:\d{2}(:\d{2}(\.\d+)?)?)?Z?)?)");
-  if (!request.since.empty() && !std::regex_match(request.since, iso)) {
-    throw UsageError("--since: expected a date YYYY-MM-DD or YYYY-MM-DDTHH:MM:SS, got '" +
-                     request.since + "'");
+  std::string since;
+  if (!request.since.empty()) {
+    const auto canonical = canonical_utc_iso8601(request.since);
+    if (!canonical) {
+      throw UsageError(
+          "--since: expected a real date YYYY-MM-DD or date-time "
+          "YYYY-MM-DDTHH:MM[:SS][Z|+HH:MM], got '" +
+          request.since + "'");
+    }
+    since = *canonical;
   }
   const history::Limits limits = request.limits.empty()
                                      ? history::Limits{}
@@ -282,16 +341,16 @@ int run_history(const HistoryRequest& request, std::ostream& out) {
         fmt::format("{}: no tests of machine '{}' (machines in the history: {})", store->name(),
                     request.machine, machines.empty() ? "none" : join(machines, ", ")));
   }
-  const auto tests = store->tests(request.machine, request.since);
+  const auto tests = store->tests(request.machine, since);
   if (tests.empty() && !limits.empty()) {
     throw Error(ExitCode::data,
                 fmt::format("{}: no tests of machine '{}' since {}: nothing to check",
-                            store->name(), request.machine, request.since));
+                            store->name(), request.machine, since));
   }
   if (!request.svg_path.empty()) {
     write_file_atomic(request.svg_path, history::history_svg(request.machine, tests, limits));
   }
-  out << (request.json ? history::history_json(request.machine, tests, limits).dump(2) + "\n"
+  out << (request.json ? json_text(history::history_json(request.machine, tests, limits), 2) + "\n"
                        : history::history_text(request.machine, tests, limits));
   out.flush();
   if (!limits.empty() && !history::breaches(tests.back(), limits).empty()) {
@@ -314,17 +373,20 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   const auto& a = *trace.column(request.column_a);
   const auto& b = *trace.column(request.column_b);
   const FitReport report = fit_all(request.points_path, a, b);
-  out << (request.json ? to_json(report).dump(2) + "\n" : text_report(report));
+  out << (request.json ? json_text(to_json(report), 2) + "\n" : text_report(report));
   out.flush();
   return 0;
 }
 
 int run_import_polar(const ImportPolarRequest& request, std::ostream& out) {
-  if (!(request.radius_mm > 0.0) || !std::isfinite(request.radius_mm)) {
-    throw UsageError("--radius: the nominal radius of the test must be positive");
+  if (!(request.radius_mm > 0.0) || !(request.radius_mm <= kMaxOptionLengthMm)) {
+    throw UsageError(
+        fmt::format("--radius: expected a radius in mm above 0 and at most {:g}, "
+                    "got {:g}",
+                    kMaxOptionLengthMm, request.radius_mm));
   }
-  const std::vector<PolarPoint> points =
-      parse_polar_text(read_file(request.input_path), request.input_path);
+  const std::vector<PolarPoint> points = parse_polar_text(
+      read_input_text(request.input_path, kMaxPolarExportBytes), request.input_path);
   const Trace trace = polar_to_trace(points, request.plane, request.radius_mm, request.input_path);
   write_trace(request.output_path, trace);
   // polar_to_trace numbers the runs 1, 2, ... itself, so the last id is a small whole number.

@@ -5,23 +5,67 @@
 #include <algorithm>
 #include <cmath>
 
+#include "circtest/analysis/result_checks.hpp"
 #include "circtest/analysis/result_json.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
+#include "circtest/core/utc_time.hpp"
 
 namespace circtest {
 
 namespace {
-nlohmann::json plain(const nlohmann::ordered_json& j) {
-  return nlohmann::json::parse(j.dump());
+nlohmann::json plain(const nlohmann::ordered_json& j, const std::string& source) {
+  return parse_json_text(json_text(j), source);
 }
 void keep_max(std::optional<double>& slot, double v) {
   slot = std::max(slot.value_or(v), v);
 }
+
+// The test's time: start_time (the recorder's), else date (the program's), canonical UTC;
+// "" when the trace has neither.
+std::string tested_at(const TraceMetadata& conditions, const std::string& source) {
+  for (const char* key : {meta_key::start_time, meta_key::date}) {
+    const std::string* text = conditions.find(key);
+    if (!text) continue;
+    if (auto canonical = canonical_utc_iso8601(*text)) return *canonical;
+    throw DataError(source, conditions.line_of(key),
+                    fmt::format("'{}': expected an ISO 8601 date YYYY-MM-DD or date-time "
+                                "YYYY-MM-DDTHH:MM:SSZ (a real one), got '{}': the test is not "
+                                "stored under a date that is none",
+                                key, utf8_replacing_invalid(*text)));
+  }
+  return {};
+}
+
+// Every number the history keeps, finite and of a size a circular test can have, or a
+// DataError naming it: "inf" never reaches the trend.
+void require_usable_numbers(const history::TestRecord& r, const std::string& source) {
+  auto check = [&source](const std::optional<double>& v, const std::string& what) {
+    if (v && !(std::abs(*v) <= kMaxReportedMagnitude)) {
+      throw DataError(source, 0,
+                      fmt::format("{} = {:g} is not a usable number (finite, at most {:g} in "
+                                  "size): not stored",
+                                  what, *v, kMaxReportedMagnitude));
+    }
+  };
+  check(r.h_mm, "H");
+  check(r.g_mm, "G");
+  check(r.f_mm, "F");
+  check(r.backlash_mm, "backlash");
+  check(r.squareness_urad, "squareness_urad");
+  for (const auto& m : r.measures) {
+    check(m.value_mm, m.kind + " of run " + m.label + " " + m.direction);
+    check(m.feed_mm_per_min, "feed of run " + m.label + " " + m.direction);
+  }
+}
 }  // namespace
 
 history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagnosis,
-                                   const std::string& machine, RemedyWords words) {
+                                   const std::string& machine, RemedyWords words,
+                                   const std::string& source) {
+  const std::string& file = source.empty() ? ev.source : source;
   history::TestRecord r;
   auto condition = [&ev](const char* key) {
     const std::string* v = ev.conditions.find(key);
@@ -33,12 +77,11 @@ history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagno
                 fmt::format("no machine name: give {} or record it in the trace (# machine: NAME)",
                             words(Remedy::give_machine)));
   }
-  r.tested_at = condition(meta_key::start_time);
-  if (r.tested_at.empty()) r.tested_at = condition(meta_key::date);
+  r.tested_at = tested_at(ev.conditions, file);
   r.plane = std::string(plane_name(ev.plane));
   r.channels = ev.channel_a + "," + ev.channel_b;
-  r.trace_path = ev.source;
-  r.result = plain(to_json(ev));
+  r.trace_path = utf8_replacing_invalid(ev.source);
+  r.result = plain(to_json(ev), file);
   r.conditions = r.result.value("conditions", nlohmann::json::object());
   r.conditions[meta_key::machine] = r.machine;
   r.result["conditions"] = r.conditions;
@@ -59,12 +102,13 @@ history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagno
     }
   }
   if (diagnosis) {
-    r.diagnosis = plain(to_json(*diagnosis));
+    r.diagnosis = plain(to_json(*diagnosis), file);
     for (const Estimate& b : diagnosis->backlash_mm) {
       if (b.value) keep_max(r.backlash_mm, std::abs(*b.value));
     }
     r.squareness_urad = diagnosis->squareness_urad.value;
   }
+  require_usable_numbers(r, file);
   return r;
 }
 

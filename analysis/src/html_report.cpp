@@ -10,6 +10,7 @@
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_json.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/svg.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -285,33 +286,33 @@ DiagnosisChart diagnosis_chart(const Diagnosis& d) {
 }
 
 DiagnosisChart diagnosis_chart_from_json(const nlohmann::json& j, const std::string& path) {
-  const char* expected = "a circtest.diagnosis/1 document (circana diagnose --json)";
+  // A bar of the chart is at most as long as the page: a percentage beyond +-1000 or a G of
+  // more than a metre is no diagnosis of a circular test.
+  constexpr double kMaxPercent = 1000.0, kMaxGmm = 1000.0;
+  const JsonReader<nlohmann::json> rd(path, "diagnosis JSON", kMaxGmm);
+  const JsonReader<nlohmann::json> percent(path, "diagnosis JSON", kMaxPercent);
   if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
       j["schema"].get<std::string>() != "circtest.diagnosis/1") {
-    throw ParseError(path, 0, std::string("expected ") + expected);
+    throw ParseError(path, 0, "expected a circtest.diagnosis/1 document (circana diagnose --json)");
   }
   DiagnosisChart d;
-  try {
-    d.source = j.value("source", std::string());
-    const auto plane = parse_plane(j.at("plane").get<std::string>());
-    if (!plane) throw ParseError(path, 0, "plane: expected XY, YZ or ZX");
-    d.plane = *plane;
-    for (const auto& c : j.at("contributions")) {
-      Contribution k;
-      k.source = c.at("source").get<std::string>();
-      k.g_mm = c.at("G_mm").get<double>();
-      k.percent = c.at("percent").get<double>();
-      k.share_mm = c.value("share_mm", 0.0);
-      if (!std::isfinite(k.g_mm) || !std::isfinite(k.percent)) {
-        throw ParseError(path, 0, "contributions: G_mm and percent must be finite numbers");
-      }
-      d.contributions.push_back(std::move(k));
-    }
-    d.model_g_mm = j.at("model_G_mm").get<double>();
-    d.residual_g_mm = j.at("residual").at("G_mm").get<double>();
-  } catch (const nlohmann::json::exception& e) {
-    throw ParseError(path, 0, std::string("in ") + expected + ": " + e.what());
+  if (j.contains("source")) d.source = rd.text(j, "source", "");
+  const auto plane = parse_plane(rd.text(j, "plane", ""));
+  if (!plane) rd.fail("plane", "XY, YZ or ZX");
+  d.plane = *plane;
+  const auto& contributions = rd.array(j, "contributions", "");
+  for (std::size_t i = 0; i < contributions.size(); ++i) {
+    const std::string at = fmt::format("contributions[{}]", i);
+    const auto& c = contributions[i];
+    Contribution k;
+    k.source = rd.text(c, "source", at);
+    k.g_mm = rd.number(c, "G_mm", at);
+    k.percent = percent.number(c, "percent", at);
+    if (c.is_object() && c.contains("share_mm")) k.share_mm = rd.number(c, "share_mm", at);
+    d.contributions.push_back(std::move(k));
   }
+  d.model_g_mm = rd.number(j, "model_G_mm", "");
+  d.residual_g_mm = rd.number(rd.at(j, "residual", ""), "G_mm", "residual");
   return d;
 }
 

@@ -173,6 +173,14 @@ std::vector<PolarPoint> parse_polar_text(std::string_view text, const std::strin
     const auto angle = fields.size() == 2 ? parse_finite(fields[0]) : std::nullopt;
     const auto dev = fields.size() == 2 ? parse_finite(fields[1]) : std::nullopt;
     if (angle && dev) {
+      // The bounds of a trace's start_deg (+-3600 deg); a ball bar's range is a few mm, so a
+      // deviation of 10 mm is no reading: either would size the trace's numbers, not a test.
+      if (std::abs(*angle) > kMaxPolarAngleDeg || std::abs(*dev) > kMaxPolarDeviationUm) {
+        throw ParseError(source, line_no,
+                         fmt::format("expected an angle within +-{:g} deg and a radial deviation "
+                                     "within +-{:g} um, got '{}'",
+                                     kMaxPolarAngleDeg, kMaxPolarDeviationUm, original));
+      }
       points.push_back({*angle, *dev, line_no});
       header_allowed = false;
       continue;

@@ -8,6 +8,7 @@
 #include "circtest/analysis/html_report.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "circtest/history/history.hpp"
 
@@ -84,13 +85,7 @@ int run_report(const ReportRequest& request, std::ostream& out) {
   }
   std::vector<ReportPage> pages(tests.size());
   for (const auto& path : request.diagnosis_paths) {
-    nlohmann::json doc;
-    try {
-      doc = nlohmann::json::parse(read_file(path));
-    } catch (const nlohmann::json::parse_error& e) {
-      throw ParseError(path, 0, std::string("not valid JSON: ") + e.what());
-    }
-    DiagnosisChart chart = diagnosis_chart_from_json(doc, path);
+    DiagnosisChart chart = diagnosis_chart_from_json(read_json_file(path), path);
     const std::size_t i = page_of(tests, chart.plane, path, "a diagnosis");
     if (pages[i].diagnosis) {
       throw DataError(path, 0,

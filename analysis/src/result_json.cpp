@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include "circtest/analysis/result_checks.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 
 namespace circtest {
 
@@ -15,69 +17,32 @@ json opt(const std::optional<double>& v) {
 }
 
 // Reading a document back: every key where to_json puts it, else a ParseError naming the
-// key, so a document of another shape is refused instead of read as zeros.
-class Reader {
+// key, so a document of another shape is refused instead of read as zeros; a number beyond
+// what an evaluation can report is a DataError naming the key.
+class Reader : public JsonReader<json> {
  public:
-  explicit Reader(const std::string& source) : source_(source) {}
+  explicit Reader(const std::string& source)
+      : JsonReader<json>(source, "result JSON", kMaxReportedMagnitude) {}
 
-  [[noreturn]] void fail(const std::string& path, const std::string& what) const {
-    throw ParseError(source_, 0, fmt::format("result JSON '{}': expected {}", path, what));
-  }
-  const json& at(const json& j, const char* key, const std::string& path) const {
-    if (!j.is_object()) fail(path, "an object");
-    const auto it = j.find(key);
-    if (it == j.end()) fail(path + "." + key, "a value (missing)");
-    return *it;
-  }
-  double number(const json& j, const char* key, const std::string& path) const {
-    const json& v = at(j, key, path);
-    if (!v.is_number()) fail(path + "." + key, "a number");
-    return v.get<double>();
-  }
-  std::optional<double> optional_number(const json& j, const char* key,
-                                        const std::string& path) const {
-    const json& v = at(j, key, path);
-    if (v.is_null()) return std::nullopt;
-    if (!v.is_number()) fail(path + "." + key, "a number or null");
-    return v.get<double>();
-  }
-  std::size_t count(const json& j, const char* key, const std::string& path) const {
-    const json& v = at(j, key, path);
-    if (!v.is_number_unsigned()) fail(path + "." + key, "a non-negative integer");
-    return v.get<std::size_t>();
-  }
-  std::string text(const json& j, const char* key, const std::string& path) const {
-    const json& v = at(j, key, path);
-    if (!v.is_string()) fail(path + "." + key, "a string");
-    return v.get<std::string>();
-  }
-  bool boolean(const json& j, const char* key, const std::string& path) const {
-    const json& v = at(j, key, path);
-    if (!v.is_boolean()) fail(path + "." + key, "true or false");
-    return v.get<bool>();
-  }
   PlanePoint point(const json& v, const std::string& path) const {
     if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number()) {
       fail(path, "two numbers [a, b]");
     }
-    return {v[0].get<double>(), v[1].get<double>()};
+    return {number(v[0], path + "[0]"), number(v[1], path + "[1]")};
   }
   PlanePoint point(const json& j, const char* key, const std::string& path) const {
-    return point(at(j, key, path), path + "." + key);
+    return point(at(j, key, path), key_path(path, key));
   }
   std::vector<std::size_t> indices(const json& j, const char* key, const std::string& path) const {
     const json& v = at(j, key, path);
-    if (!v.is_array()) fail(path + "." + key, "an array of indices");
+    if (!v.is_array()) fail(key_path(path, key), "an array of indices");
     std::vector<std::size_t> out;
     for (const json& e : v) {
-      if (!e.is_number_unsigned()) fail(path + "." + key, "an array of indices");
+      if (!e.is_number_unsigned()) fail(key_path(path, key), "an array of indices");
       out.push_back(e.get<std::size_t>());
     }
     return out;
   }
-
- private:
-  const std::string& source_;
 };
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "circtest/core/cli.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <string_view>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
 
 namespace circtest {
 
@@ -69,6 +71,53 @@ void refuse_option_placeholders(int argc, const char* const* argv) {
 
 void refuse_option_placeholders(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < args.size(); ++i) refuse_placeholders_in(args[i], i + 1);
+}
+
+void require_utf8_option(std::string_view option, std::string_view value) {
+  const std::size_t bad = invalid_utf8_offset(value);
+  if (bad == std::string_view::npos) return;
+  char byte[8];
+  std::snprintf(byte, sizeof byte, "0x%02X", static_cast<unsigned char>(value[bad]));
+  throw UsageError(std::string(option) + ": not UTF-8 text (byte " + byte + " at " +
+                   std::to_string(bad + 1) + "): give it in UTF-8");
+}
+
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  // One row of the dynamic programme: row[j] is the distance of a[0, i) and b[0, j).
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({above + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string closest_name(std::string_view given, std::span<const std::string> candidates) {
+  std::string best;
+  std::size_t best_distance = 0;
+  for (const std::string& c : candidates) {
+    const std::size_t d = edit_distance(given, c);
+    const std::size_t allowed = std::max<std::size_t>(1, std::max(given.size(), c.size()) / 3);
+    if (d <= allowed && (best.empty() || d < best_distance)) {
+      best = c;
+      best_distance = d;
+    }
+  }
+  return best;
+}
+
+std::string unknown_option_message(std::string_view given,
+                                   std::span<const std::string> candidates) {
+  std::string message = "unknown option " + std::string(given);
+  const std::string guess = closest_name(given, candidates);
+  if (!guess.empty()) message += "; did you mean " + guess + "?";
+  return message;
 }
 
 }  // namespace circtest

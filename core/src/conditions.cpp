@@ -2,6 +2,7 @@
 
 #include <array>
 
+#include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -44,9 +45,8 @@ std::string condition_value(const ConditionOption& option, std::string_view valu
   if (v.find_first_of("\r\n") != std::string_view::npos) {
     throw UsageError(name + ": expected one line, got a line break");
   }
-  if (option.numeric) {
-    parse_option_number(name, v);  // throws UsageError on anything but a finite number
-  }
+  require_utf8_option(name, v);
+  if (option.numeric) parse_option_number(name, v, kTemperatureRangeC);
   return std::string(v);
 }
 

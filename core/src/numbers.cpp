@@ -39,6 +39,15 @@ double parse_option_number(std::string_view option, std::string_view text) {
   return *v;
 }
 
+double parse_option_number(std::string_view option, std::string_view text,
+                           const NumberRange& range) {
+  const auto v = parse_finite(text);
+  if (!v || !range.contains(*v)) {
+    throw UsageError(fmt::format("{}: expected {}, got '{}'", option, range.expected, text));
+  }
+  return *v;
+}
+
 std::vector<double> parse_option_list(std::string_view option, std::string_view text,
                                       std::size_t count) {
   std::vector<double> out;

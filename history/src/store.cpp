@@ -12,7 +12,9 @@
 #include <fstream>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/core/utc_time.hpp"
 #include "circtest/history/history.hpp"
 #include "connection.hpp"
@@ -50,9 +52,46 @@ const std::vector<std::vector<std::string>>& migrations() {
 Value number(const std::optional<double>& v) {
   return v ? Value(fmt::format("{:.17g}", *v)) : Value();
 }
-std::optional<double> number(const Value& v) {
-  if (!v) return std::nullopt;
-  return parse_finite(*v);
+
+// What a record must be to be stored: its text UTF-8 (a PostgreSQL database refuses
+// anything else, and every output of the history is JSON, XML or text), every number
+// finite. DataError naming the field otherwise: nothing is written.
+void check_record(const TestRecord& r) {
+  auto text = [](const std::string& value, const char* field) {
+    if (const std::size_t bad = invalid_utf8_offset(value); bad != std::string::npos) {
+      throw Error(ExitCode::data,
+                  fmt::format("history record: {} is not UTF-8 text (byte {} of '{}')", field,
+                              bad + 1, utf8_replacing_invalid(value)));
+    }
+  };
+  auto finite = [](const std::optional<double>& v, const std::string& field) {
+    if (v && !std::isfinite(*v)) {
+      throw Error(ExitCode::data,
+                  fmt::format("history record: {} = {} is not a finite number", field, *v));
+    }
+  };
+  text(r.machine, "machine");
+  text(r.tested_at, "tested_at");
+  text(r.plane, "plane");
+  text(r.channels, "channels");
+  text(r.trace_path, "trace_path");
+  if (!r.tested_at.empty() && !canonical_utc_iso8601(r.tested_at)) {
+    throw Error(ExitCode::data, fmt::format("history record: tested_at '{}' is not an ISO 8601 "
+                                            "date or date-time",
+                                            utf8_replacing_invalid(r.tested_at)));
+  }
+  finite(r.h_mm, "H");
+  finite(r.g_mm, "G");
+  finite(r.f_mm, "F");
+  finite(r.backlash_mm, "backlash");
+  finite(r.squareness_urad, "squareness_urad");
+  for (const Measure& m : r.measures) {
+    text(m.kind, "a measure's kind");
+    text(m.label, "a measure's label");
+    text(m.direction, "a measure's direction");
+    finite(m.value_mm, m.kind);
+    finite(m.feed_mm_per_min, m.kind + " feed");
+  }
 }
 
 // Rolls back unless committed: a store is all or nothing, whatever throws.
@@ -77,6 +116,7 @@ class SqlStore final : public Store {
   explicit SqlStore(std::unique_ptr<Connection> c) : c_(std::move(c)) { migrate(); }
 
   std::int64_t add(const TestRecord& r) override {
+    check_record(r);
     Transaction tx(*c_);
     const std::string now = utc_now_iso8601();
     const auto rows = c_->query(
@@ -86,8 +126,8 @@ class SqlStore final : public Store {
         {r.machine, r.tested_at.empty() ? now : r.tested_at,
          r.stored_at.empty() ? now : r.stored_at, r.plane, r.channels, r.trace_path,
          r.trace_sha256.empty() ? Value() : Value(r.trace_sha256), number(r.h_mm), number(r.g_mm),
-         number(r.f_mm), number(r.backlash_mm), number(r.squareness_urad), r.conditions.dump(),
-         r.result.dump(), r.diagnosis.is_null() ? Value() : Value(r.diagnosis.dump())});
+         number(r.f_mm), number(r.backlash_mm), number(r.squareness_urad), json_text(r.conditions),
+         json_text(r.result), r.diagnosis.is_null() ? Value() : Value(json_text(r.diagnosis))});
     if (rows.size() != 1 || !rows[0][0]) {
       throw DatabaseError(c_->name() + ": the new test got no id");
     }
@@ -121,11 +161,11 @@ class SqlStore final : public Store {
       r.channels = row[5].value_or("");
       r.trace_path = row[6].value_or("");
       r.trace_sha256 = row[7].value_or("");
-      r.h_mm = number(row[8]);
-      r.g_mm = number(row[9]);
-      r.f_mm = number(row[10]);
-      r.backlash_mm = number(row[11]);
-      r.squareness_urad = number(row[12]);
+      r.h_mm = stored_number(row[8], r.id);
+      r.g_mm = stored_number(row[9], r.id);
+      r.f_mm = stored_number(row[10], r.id);
+      r.backlash_mm = stored_number(row[11], r.id);
+      r.squareness_urad = stored_number(row[12], r.id);
       r.conditions = parse(row[13], r.id);
       r.result = parse(row[14], r.id);
       r.diagnosis = row[15] ? parse(row[15], r.id) : json(nullptr);
@@ -140,8 +180,12 @@ class SqlStore final : public Store {
       const std::int64_t id = std::stoll(row[0].value_or("0"));
       auto it = std::find_if(out.begin(), out.end(), [id](const auto& t) { return t.id == id; });
       if (it == out.end()) continue;  // stored between the two queries
+      const std::optional<double> value = stored_number(row[5], id);
+      if (!value)
+        throw DatabaseError(
+            fmt::format("{}: test {} holds a measure without a value", c_->name(), id));
       it->measures.push_back({row[1].value_or(""), row[2].value_or(""), row[3].value_or(""),
-                              number(row[4]), number(row[5]).value_or(0.0)});
+                              stored_number(row[4], id), *value});
     }
     return out;
   }
@@ -164,10 +208,23 @@ class SqlStore final : public Store {
  private:
   json parse(const Value& v, std::int64_t id) const {
     try {
-      return json::parse(v.value_or("null"));
-    } catch (const json::exception&) {
-      throw DatabaseError(fmt::format("{}: test {} holds a broken JSON document", c_->name(), id));
+      return parse_json_text(v.value_or("null"), c_->name());
+    } catch (const ParseError& e) {
+      throw DatabaseError(
+          fmt::format("{}: test {} holds a broken JSON document ({})", c_->name(), id, e.detail()));
     }
+  }
+  // A number column: NULL or a number. Text that is no number (written by another program)
+  // is a DatabaseError rather than a zero in the trend; a non-finite one (stored before
+  // add() refused them) is kept, and the outputs show it as "n/a".
+  std::optional<double> stored_number(const Value& v, std::int64_t id) const {
+    if (!v) return std::nullopt;
+    const auto x = parse_number(*v);
+    if (!x) {
+      throw DatabaseError(fmt::format("{}: test {} holds '{}' where a number belongs", c_->name(),
+                                      id, utf8_replacing_invalid(*v)));
+    }
+    return x;
   }
 
   // Creates the schema, or brings it up to date, in one transaction under a lock: two

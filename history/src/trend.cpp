@@ -8,6 +8,7 @@
 #include <iterator>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/svg.hpp"
@@ -25,19 +26,28 @@ struct Quantity {
   double scale;  // to the display unit
   std::optional<double> TestRecord::*value;
   std::optional<double> Limits::*limit;
+  double max_limit;  // the largest limit that means anything for a circular test
+  const char* limit_words;
 };
 
-// Limits and values of H, G, F and backlash in mm (shown in um), squareness in urad.
+// Limits and values of H, G, F and backlash in mm (shown in um), squareness in urad. A limit
+// of 10 mm or 10,000 urad (0.57 deg) is far beyond any machine worth testing.
+constexpr const char* kMmLimitWords = "a limit in mm above 0 and at most 10";
 constexpr Quantity kQuantities[] = {
-    {"H", "um", 1000.0, &TestRecord::h_mm, &Limits::h_mm},
-    {"G", "um", 1000.0, &TestRecord::g_mm, &Limits::g_mm},
-    {"F", "um", 1000.0, &TestRecord::f_mm, &Limits::f_mm},
-    {"backlash", "um", 1000.0, &TestRecord::backlash_mm, &Limits::backlash_mm},
-    {"squareness", "urad", 1.0, &TestRecord::squareness_urad, &Limits::squareness_urad},
+    {"H", "um", 1000.0, &TestRecord::h_mm, &Limits::h_mm, 10.0, kMmLimitWords},
+    {"G", "um", 1000.0, &TestRecord::g_mm, &Limits::g_mm, 10.0, kMmLimitWords},
+    {"F", "um", 1000.0, &TestRecord::f_mm, &Limits::f_mm, 10.0, kMmLimitWords},
+    {"backlash", "um", 1000.0, &TestRecord::backlash_mm, &Limits::backlash_mm, 10.0, kMmLimitWords},
+    {"squareness", "urad", 1.0, &TestRecord::squareness_urad, &Limits::squareness_urad, 10000.0,
+     "a limit in urad above 0 and at most 10000"},
 };
 
+// A value in its display unit: "-" when not measured, "n/a" when not a finite number (a row
+// stored by another program), never "inf".
 std::string cell(const std::optional<double>& v, double scale) {
-  return v ? fmt::format("{:.1f}", *v * scale) : std::string("-");
+  if (!v) return "-";
+  const double shown = *v * scale;
+  return std::isfinite(shown) ? fmt::format("{:.1f}", shown) : std::string("n/a");
 }
 
 // Seconds since the epoch of an ISO 8601 date or date-time (UTC), when it parses.
@@ -73,12 +83,9 @@ Limits parse_limits(const std::string& text, std::string_view setting) {
                       "squareness (urad), got '{}'",
                       setting, item));
     }
-    const double v =
-        parse_option_number(fmt::format("{} {}", setting, q->name), item.substr(eq + 1));
-    if (!(v > 0)) {
-      throw UsageError(fmt::format("{} {}: expected a positive number", setting, q->name));
-    }
-    l.*(q->limit) = v;
+    const NumberRange range{0.0, q->max_limit, true, q->limit_words};
+    l.*(q->limit) =
+        parse_option_number(fmt::format("{} {}", setting, q->name), item.substr(eq + 1), range);
     pos = comma + 1;
   }
   return l;
@@ -97,8 +104,8 @@ std::vector<std::string> breaches(const TestRecord& t, const Limits& limits) {
                       q.value == &TestRecord::backlash_mm || q.value == &TestRecord::squareness_urad
                           ? " (no diagnosis stored)"
                           : ""));
-    } else if (std::abs(*v) > *lim) {
-      out.push_back(fmt::format("{} {:.1f} > {:.1f} {}", q.name, std::abs(*v) * q.scale,
+    } else if (!(std::abs(*v) <= *lim)) {
+      out.push_back(fmt::format("{} {} > {:.1f} {}", q.name, cell(std::abs(*v), q.scale),
                                 *lim * q.scale, q.unit));
     }
   }
@@ -178,7 +185,7 @@ ojson history_json(const std::string& machine, const std::vector<TestRecord>& te
                   {"backlash", opt(t.backlash_mm)},
                   {"squareness_urad", opt(t.squareness_urad)},
                   {"measures", measures},
-                  {"conditions", ojson::parse(t.conditions.dump())}};
+                  {"conditions", parse_ordered_json_text(json_text(t.conditions), t.trace_path)}};
     if (!limits.empty()) test["breaches"] = breaches(t, limits);
     arr.push_back(std::move(test));
   }
@@ -223,7 +230,8 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
     const auto& lim = limits.*(q.limit);
     double vmax = lim ? *lim * q.scale : 0.0;
     for (const auto& t : tests) {
-      if (const auto& v = t.*(q.value)) vmax = std::max(vmax, std::abs(*v) * q.scale);
+      const auto& v = t.*(q.value);
+      if (v && std::isfinite(*v * q.scale)) vmax = std::max(vmax, std::abs(*v) * q.scale);
     }
     if (!(vmax > 0)) vmax = 1;
     vmax *= 1.15;
@@ -248,7 +256,7 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
     std::string pts;
     for (std::size_t i = 0; i < tests.size(); ++i) {
       const auto& v = tests[i].*(q.value);
-      if (!v) continue;
+      if (!v || !std::isfinite(*v * q.scale)) continue;
       const double vx = px(xs[i]), vy = py(std::abs(*v) * q.scale);
       svg_add_point(pts, vx, vy);
       const bool bad = lim && std::abs(*v) > *lim;

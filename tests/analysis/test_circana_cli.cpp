@@ -238,18 +238,21 @@ TEST_F(CircanaCli, ImplausibleMetadataIsAParseErrorAtItsLine) {
 }
 
 TEST_F(CircanaCli, NonFiniteResultsAreRefusedNotPrinted) {
-  // The metadata cannot carry such values any more (above); an option still can.
+  // Neither the metadata (above) nor an option can carry such values: refused where given.
   const std::string t = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
   const CommandResult r = run("analyze " + t + " --radius 1e308");
-  EXPECT_EQ(r.exit_code, 5) << r.out << r.err;
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
   EXPECT_EQ(r.out, "");
-  EXPECT_NE(r.err.find("nominal_radius = 1e+308 is not a usable number"), std::string::npos)
+  EXPECT_NE(r.err.find("--radius: expected a radius in mm above 0 and at most 100000, got "
+                       "'1e308'"),
+            std::string::npos)
       << r.err;
 }
 
 TEST_F(CircanaCli, BadOptions) {
   const std::string t = write("t.csv", "t,x,y\n0,1,2\n");
-  expect_error("analyze " + t + " --radius abc", 2, "--radius: expected a number, got 'abc'");
+  expect_error("analyze " + t + " --radius abc", 2,
+               "--radius: expected a radius in mm above 0 and at most 100000, got 'abc'");
   expect_error("analyze " + t + " --centre 1", 2,
                "--centre: expected 2 comma-separated numbers, got '1'");
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
@@ -316,9 +319,11 @@ TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
   EXPECT_NE(circtest::testing::slurp(svg).find("servo mismatch: X lags Y by 3.0"),
             std::string::npos);
   expect_error("diagnose " + trace + " --pitch X5", 2,
-               "--pitch: expected AXIS=MM items like X=5,Y=5, got 'X5'");
+               "--pitch: expected AXIS=MM items like X=5,Y=5, each pitch from 0.001 to 1000 mm, "
+               "got 'X5'");
   expect_error("diagnose " + trace + " --pitch X=-1", 2,
-               "--pitch: expected a positive pitch, got 'X=-1'");
+               "--pitch: expected AXIS=MM items like X=5,Y=5, each pitch from 0.001 to 1000 mm, "
+               "got 'X=-1'");
 }
 
 TEST_F(CircanaCli, RadialTraceGivesTheResultsOfItsXyForm) {
@@ -363,7 +368,7 @@ TEST_F(CircanaCli, ImportPolarWritesARadialTrace) {
       (dir_ / "bad.txt").string() +
           ":2: expected two numbers: angle in deg and radial deviation in um, got '1 one'");
   expect_error("import-polar " + in + " --radius -5 -o " + out, 2,
-               "--radius: the nominal radius of the test must be positive");
+               "--radius: expected a radius in mm above 0 and at most 100000, got '-5'");
 }
 
 TEST_F(CircanaCli, FitOfTheCertifiedCaseC09) {
@@ -431,10 +436,11 @@ TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
   EXPECT_EQ(j["channels"], nlohmann::json::array({"x", "y"}));
 
   expect_error("analyze " + trace + " --t-machine warm", 2,
-               "--t-machine: expected a number, got 'warm'");
+               "--t-machine: expected a temperature in deg C from -273.15 to 1000, got 'warm'");
   expect_error({"analyze", trace, "--machine", " "}, 2, "--machine: expected a value, got nothing");
   expect_error("analyze " + trace + " --scale-um-per-div 0", 2,
-               "--scale-um-per-div: expected a positive number");
+               "--scale-um-per-div: expected a plot scale in um per division from 0.01 to 10000, "
+               "got '0'");
 }
 
 TEST_F(CircanaCli, HostileInputs) {
@@ -594,7 +600,8 @@ TEST_F(CircanaCli, NominalRadiusFarFromTheMeasuredOneIsRefused) {
   EXPECT_EQ(run("analyze " + trace + " --radius 50 --radius-tolerance 26").exit_code, 0);
   EXPECT_EQ(run("analyze " + trace + " --radius 74.5").exit_code, 0);  // within 1 %
   expect_error("analyze " + trace + " --radius-tolerance -1", 2,
-               "--radius-tolerance: expected a positive number");
+               "--radius-tolerance: expected a radius tolerance in mm above 0 and at most 1000, "
+               "got '-1'");
 }
 
 TEST_F(CircanaCli, ARunCutOffBeforeItsArcIsRefused) {

@@ -84,3 +84,20 @@ TEST(ResultJson, RefusesAnotherSchemaOrAMissingKey) {
   EXPECT_ERROR(evaluation_from_json(f_centre), ExitCode::parse,
                "'runs[0].F_centre': expected lsc or nominal");
 }
+
+TEST(ResultJson, RefusesNumbersNoEvaluationReportsNamingTheKey) {
+  const json j = to_json(simulated_evaluation(false));
+  json huge = j;
+  huge["pairs"][0]["H"] = 1e300;
+  EXPECT_ERROR(evaluation_from_json(huge, "r.json"), ExitCode::data,
+               "r.json: result JSON 'pairs[0].H': 1e+300 is not a usable number (at most 1e+09 "
+               "in size)");
+  json centre = j;
+  centre["runs"][1]["centre"][1] = -2e9;
+  EXPECT_ERROR(evaluation_from_json(centre, "r.json"), ExitCode::data,
+               "'runs[1].centre[1]': -2e+09 is not a usable number");
+  json temperature = j;
+  temperature["temperature"]["machine_C"] = 1e12;
+  EXPECT_ERROR(evaluation_from_json(temperature, "r.json"), ExitCode::data,
+               "'temperature.machine_C': 1e+12");
+}

@@ -39,3 +39,24 @@ TEST(UtcTime, NowIsTheWallClock) {
   EXPECT_LE(parsed, after);
   EXPECT_EQ(utc_now_iso8601().size(), 20u);
 }
+
+TEST(UtcTime, CanonicalDatesAreRealDates) {
+  using circtest::canonical_utc_iso8601;
+  EXPECT_EQ(canonical_utc_iso8601("2026-11-23"), "2026-11-23");
+  EXPECT_EQ(canonical_utc_iso8601("2026-11-23T15:47:14Z"), "2026-11-23T15:47:14Z");
+  EXPECT_EQ(canonical_utc_iso8601("2026-11-23T15:47:14.123Z"), "2026-11-23T15:47:14.123Z");
+  EXPECT_EQ(canonical_utc_iso8601("2026-11-23T15:47"), "2026-11-23T15:47:00Z");
+  // An offset is taken off, across a day, a month and a year.
+  EXPECT_EQ(canonical_utc_iso8601("2026-11-23T15:47:14+01:00"), "2026-11-23T14:47:14Z");
+  EXPECT_EQ(canonical_utc_iso8601("2027-01-01T00:30:00+02:00"), "2026-12-31T22:30:00Z");
+  EXPECT_EQ(canonical_utc_iso8601("2024-02-28T23:00:00-05:00"), "2024-02-29T04:00:00Z");
+  EXPECT_EQ(canonical_utc_iso8601("2024-02-29"), "2024-02-29");  // leap year
+  EXPECT_EQ(canonical_utc_iso8601("2000-02-29"), "2000-02-29");  // divisible by 400
+  for (const char* bad :
+       {"2026-13-45", "2026-00-10", "2026-04-31", "2025-02-29", "1900-02-29", "2026-11-23T24:00",
+        "2026-11-23T10:60", "2026-11-23T10:00:60", "2026-1-5", "2026-11-23 10:00", "yesterday", "",
+        "2026-11-23T10:00:00+1:00", "2026-11-23T10:00:00.Z", "2026-11-23Tjunk",
+        "2026-11-23T10:00:00Zjunk", "+2026-11-23"}) {
+    EXPECT_FALSE(canonical_utc_iso8601(bad).has_value()) << bad;
+  }
+}

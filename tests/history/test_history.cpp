@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,7 @@
 #include "circtest/analysis/report.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/history/history.hpp"
+#include "expect_error.hpp"
 #include "machine_sim.hpp"
 
 namespace fs = std::filesystem;
@@ -289,7 +291,9 @@ TEST_P(History, LimitsMakeItAPassFailCheckOfTheLatestTest) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["pass"], false);
   r = run(circana("history --machine VMC-3 --limits H=abc"), dir_);
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.err, "circana: error: --limits H: expected a number, got 'abc'\n");
+  EXPECT_EQ(r.err,
+            "circana: error: --limits H: expected a limit in mm above 0 and at most 10, got "
+            "'abc'\n");
 }
 
 // diagnose --store keeps the diagnosis: the backlash and squareness columns are the
@@ -412,7 +416,7 @@ TEST_P(History, ConcurrentStoresFromTwoProcessesLoseNothing) {
         const auto store = open_store(url_);
         for (int i = 0; i < kPerProcess; ++i) {
           TestRecord r = record_from_result(doc, nullptr, fmt::format("M{}", p));
-          r.tested_at = fmt::format("2026-01-05T00:00:{:03d}", i);
+          r.tested_at = fmt::format("2026-01-05T00:{:02d}:{:02d}Z", i / 60, i % 60);
           store->add(r);
         }
       } catch (const std::exception& e) {
@@ -536,6 +540,65 @@ TEST(HistoryRecord, NoMachineNameNamesNoOption) {
   fs::remove_all(dir);
 }
 
+// The test's time is a real date, kept in one form that sorts in time order; a date that is
+// none is refused with its key rather than stored as the test's time.
+TEST(HistoryRecord, TheTestTimeIsARealDateInUtc) {
+  const fs::path dir = fs::temp_directory_path() / ("circtest-date-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  auto doc = simulated_result(0.01, "2026-01-06", dir);
+  EXPECT_EQ(record_from_result(doc, nullptr).tested_at, "2026-01-06");
+  doc["conditions"]["start_time"] = "2026-11-23T00:30:00+01:00";
+  EXPECT_EQ(record_from_result(doc, nullptr).tested_at, "2026-11-22T23:30:00Z");
+  for (const char* bad : {"2026-02-30", "2026-13-45", "last week", "2026-11-23T10:00:00 CET"}) {
+    doc["conditions"]["start_time"] = bad;
+    EXPECT_ERROR(record_from_result(doc, nullptr), ExitCode::data,
+                 std::string("'start_time': expected an ISO 8601 date YYYY-MM-DD or date-time "
+                             "YYYY-MM-DDTHH:MM:SSZ (a real one), got '") +
+                     bad + "'");
+  }
+  fs::remove_all(dir);
+}
+
+// No number that is not finite reaches the history: the record refuses it with its name, the
+// store refuses it from any caller, and one stored by an older version shows as n/a.
+TEST(HistoryRecord, NumbersThatAreNotFiniteAreNeverStoredOrShown) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("circtest-numbers-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const auto doc = simulated_result(0.01, "2026-01-06", dir);
+  Evaluation ev = evaluation_from_json(nlohmann::ordered_json::parse(doc.dump()));
+  ev.hysteresis.front().h_mm = INFINITY;
+  EXPECT_ERROR(history_record(ev, nullptr, "VMC-3"), ExitCode::data,
+               "H = inf is not a usable number (finite, at most 1e+09 in size): not stored");
+
+  const auto store = open_store((dir / "h.sqlite").string());
+  TestRecord good = record_from_result(doc, nullptr);
+  TestRecord r = good;
+  r.h_mm = INFINITY;
+  EXPECT_ERROR(store->add(r), ExitCode::data, "history record: H = inf is not a finite number");
+  r = good;
+  r.measures.front().value_mm = NAN;
+  EXPECT_ERROR(store->add(r), ExitCode::data, "is not a finite number");
+  r = good;
+  r.machine = "M\xE4hwerk";
+  EXPECT_ERROR(store->add(r), ExitCode::data, "history record: machine is not UTF-8 text");
+  r = good;
+  r.tested_at = "yesterday";
+  EXPECT_ERROR(store->add(r), ExitCode::data, "tested_at 'yesterday' is not an ISO 8601");
+  EXPECT_TRUE(store->machines().empty());
+
+  r = good;
+  r.h_mm = INFINITY;
+  r.g_mm = 1e308;
+  const std::string text = history_text("VMC-3", {r}, {});
+  EXPECT_EQ(text.find("inf"), std::string::npos) << text;
+  EXPECT_NE(text.find("n/a"), std::string::npos) << text;
+  Limits limits;
+  limits.g_mm = 0.02;
+  EXPECT_EQ(breaches(r, limits), std::vector<std::string>{"G n/a > 20.0 um"});
+  fs::remove_all(dir);
+}
+
 // The library names its settings in its own words unless the front end gives its option.
 TEST(HistoryLimits, RefusalsNameTheSettingAsTheCallerDoes) {
   EXPECT_EQ(*parse_limits("H=0.015,squareness=40").squareness_urad, 40.0);
@@ -547,8 +610,14 @@ TEST(HistoryLimits, RefusalsNameTheSettingAsTheCallerDoes) {
     }
     return std::string("no error");
   };
-  EXPECT_EQ(message("G=-1"), "limits G: expected a positive number");
-  EXPECT_EQ(message("G=-1", "--limits"), "--limits G: expected a positive number");
+  EXPECT_EQ(message("G=-1"), "limits G: expected a limit in mm above 0 and at most 10, got '-1'");
+  EXPECT_EQ(message("G=-1", "--limits"),
+            "--limits G: expected a limit in mm above 0 and at most 10, got '-1'");
+  // A limit no circular test can come near is a slip, and would print as "inf" scaled to um.
+  EXPECT_EQ(message("H=1e308", "--limits"),
+            "--limits H: expected a limit in mm above 0 and at most 10, got '1e308'");
+  EXPECT_EQ(message("squareness=20000"),
+            "limits squareness: expected a limit in urad above 0 and at most 10000, got '20000'");
   EXPECT_EQ(message("Q=1").rfind("limits: expected NAME=VALUE", 0), 0u) << message("Q=1");
 }
 

@@ -1,5 +1,6 @@
 #pragma once
 // The circana commands as library calls: main.cpp only parses options.
+#include <cstddef>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -7,9 +8,33 @@
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/plot.hpp"
+#include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
+
+// The plausible ranges of circana's numeric options (docs/input-checks.md). A length is
+// bounded as the trace metadata bounds radius_mm and centre_mm (100 m), an expansion
+// coefficient as expansion_*_per_K, so a value is judged alike from either source.
+inline constexpr NumberRange kRadiusRangeMm{0.0, 100'000.0, true,
+                                            "a radius in mm above 0 and at most 100000"};
+inline constexpr double kMaxOptionLengthMm = kRadiusRangeMm.max;
+inline constexpr NumberRange kCentreRangeMm{-100'000.0, 100'000.0, false,
+                                            "two numbers A,B in mm, each within +-100000"};
+inline constexpr NumberRange kExpansionRangePerK{-1e-3, 1e-3, false,
+                                                 "an expansion coefficient per K within +-0.001"};
+// The plot's scale sizes its drawing: coordinates grow as 1 / scale.
+inline constexpr NumberRange kPlotScaleRangeUm{0.01, 10'000.0, false,
+                                               "a plot scale in um per division from 0.01 to "
+                                               "10000"};
+inline constexpr NumberRange kRadiusToleranceRangeMm{
+    0.0, 1000.0, true, "a radius tolerance in mm above 0 and at most 1000"};
+// From an encoder's signal period (a few um) to the longest ball screw lead.
+inline constexpr NumberRange kPitchRangeMm{0.001, 1000.0, false,
+                                           "AXIS=MM items like X=5,Y=5, each pitch from 0.001 to "
+                                           "1000 mm"};
+// A polar export read whole: about 20 bytes a point, so 3 million points.
+inline constexpr std::size_t kMaxPolarExportBytes = std::size_t{64} << 20;
 
 // A trace file read and evaluated as circana analyze does (a ball bar's `r` channel turned
 // into positions when forced or when it is the only channel); every result finite.

@@ -58,7 +58,10 @@ struct PolarPoint {
 
 // Plain two-column text (angle deg, radial deviation um), separated by blanks, tabs, a
 // comma or a semicolon; '#' and ';' comment lines, blank lines and one header line of
-// non-numbers before the data are skipped. ParseError "file:line: ..." otherwise.
+// non-numbers before the data are skipped. ParseError "file:line: ..." otherwise, also for an
+// angle beyond +-kMaxPolarAngleDeg or a deviation beyond +-kMaxPolarDeviationUm.
+inline constexpr double kMaxPolarAngleDeg = 3600.0;
+inline constexpr double kMaxPolarDeviationUm = 10'000.0;
 std::vector<PolarPoint> parse_polar_text(std::string_view text, const std::string& source);
 
 // The points as a radial trace: <a>_cmd, <b>_cmd on the nominal circle about `centre`,

@@ -6,7 +6,14 @@
 #include <string>
 #include <string_view>
 
+#include "circtest/core/numbers.hpp"
+
 namespace circtest {
+
+// A temperature of the test (--t-machine, --t-instrument): from absolute zero to 1000 deg C,
+// the bounds the trace metadata of the same quantities has (docs/trace-format.md).
+inline constexpr NumberRange kTemperatureRangeC{-273.15, 1000.0, false,
+                                                "a temperature in deg C from -273.15 to 1000"};
 
 struct ConditionOption {
   const char* option;      // without the dashes: "machine" is --machine
@@ -24,7 +31,8 @@ std::span<const ConditionOption> condition_options() noexcept;
 const ConditionOption* condition_option_for_key(std::string_view key) noexcept;
 
 // A value as it goes into the metadata: trimmed, one line (a metadata line cannot hold a
-// newline), not empty, a finite number for temperatures. Throws UsageError naming --option.
+// newline), UTF-8 text, not empty, a temperature within kTemperatureRangeC. Throws
+// UsageError naming --option.
 std::string condition_value(const ConditionOption& option, std::string_view value);
 
 }  // namespace circtest

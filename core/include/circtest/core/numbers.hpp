@@ -17,6 +17,19 @@ std::optional<double> parse_finite(std::string_view text);
 // variable's name.
 // A finite number, the whole text.
 double parse_option_number(std::string_view option, std::string_view text);
+// The plausible range of an option's value: [min, max], min itself excluded when above_min.
+// `expected` says it in words for the message ("a radius in mm above 0 and at most 100000").
+struct NumberRange {
+  double min;
+  double max;
+  bool above_min;
+  std::string_view expected;
+  bool contains(double v) const { return (above_min ? v > min : v >= min) && v <= max; }
+};
+// A finite number within `range`: UsageError "<option>: expected <range.expected>, got
+// '<text>'" for anything else.
+double parse_option_number(std::string_view option, std::string_view text,
+                           const NumberRange& range);
 // "a,b,c" of finite numbers with exactly `count` of them (count 0: any number, at least one).
 std::vector<double> parse_option_list(std::string_view option, std::string_view text,
                                       std::size_t count = 0);

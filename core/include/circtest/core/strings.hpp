@@ -1,5 +1,6 @@
 #pragma once
 // The small text helpers every part needs, once.
+#include <cstddef>
 #include <string>
 #include <string_view>
 
@@ -28,30 +29,17 @@ std::string join(const Range& items, std::string_view separator = ",") {
   return out;
 }
 
-// The text with &, <, > and " replaced by their entities: safe inside XML/HTML text and
-// double-quoted attribute values (SVG plots, the HTML report).
-inline std::string xml_escape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
+// The byte offset of the first byte of `text` that does not belong to a well-formed UTF-8
+// sequence (overlong forms, surrogates and code points above U+10FFFF are not), or npos.
+std::size_t invalid_utf8_offset(std::string_view text) noexcept;
+
+// The text with each byte that is not part of well-formed UTF-8 replaced by U+FFFD, the way
+// circtest writes text it cannot refuse (a file name) into JSON, XML and the history.
+std::string utf8_replacing_invalid(std::string_view text);
+
+// The text with &, <, > and " replaced by their entities, bytes that are not UTF-8 and the
+// control characters XML 1.0 forbids replaced by U+FFFD: safe inside XML/HTML text and
+// double-quoted attribute values (SVG plots, the HTML report), whatever the text held.
+std::string xml_escape(std::string_view text);
 
 }  // namespace circtest
