@@ -47,7 +47,7 @@ TEST(JsonText, FilesHaveASizeLimit) {
   circtest::testing::spit(dir.file("d.json"), "{\"a\": [1, 2, 3]}");
   EXPECT_EQ(read_json_file(dir.file("d.json"))["a"].size(), 3u);
   EXPECT_ERROR(read_json_file(dir.file("d.json"), 10), ExitCode::io,
-               dir.file("d.json") + ": larger than 10 bytes");
+               dir.file("d.json") + ": larger than the limit of 10 bytes");
   EXPECT_ERROR(read_json_file("/dev/zero"), ExitCode::io, "/dev/zero: is a character device");
 }
 

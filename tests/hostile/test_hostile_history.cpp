@@ -263,16 +263,16 @@ TEST(HostileHistory, DocumentsOverTheSizeLimitAreRefusedUnread) {
   spit(big_json, "{");
   std::filesystem::resize_file(big_json, (std::uintmax_t{16} << 20) + 1);
   expect_refusal(run_command({CIRCANA_PATH, "store", big_json, "--db", db_of(dir)}), 3,
-                 {big_json, "larger than 16777216 bytes"});
+                 {big_json, "larger than the limit of 16 MiB"});
   expect_refusal(run_command({CIRCANA_PATH, "report", kExample, "-o", dir.file("r.html"),
                               "--diagnosis", big_json}),
-                 3, {big_json, "larger than 16777216 bytes"});
+                 3, {big_json, "larger than the limit of 16 MiB"});
   const std::string big_polar = dir.file("big.txt");
   spit(big_polar, "0 1\n");
   std::filesystem::resize_file(big_polar, (std::uintmax_t{64} << 20) + 1);
   expect_refusal(run_command({CIRCANA_PATH, "import-polar", big_polar, "--radius", "50", "-o",
                               dir.file("t.csv")}),
-                 3, {big_polar, "larger than 67108864 bytes"});
+                 3, {big_polar, "larger than the limit of 64 MiB"});
   // A device is never read.
   expect_refusal(run_command({CIRCANA_PATH, "report", kExample, "-o", dir.file("r.html"),
                               "--diagnosis", "/dev/zero"}),
