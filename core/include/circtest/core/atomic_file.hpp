@@ -3,7 +3,7 @@
 // place with one rename, fsync the directory. Configuration files keep a backup of the
 // previous version.
 //
-// Output paths (README "Output files"):
+// Output paths (docs/development.md, "Output files"):
 // - a path that exists and is not a regular file (device, FIFO, socket, directory) is
 //   refused with IoError (exit 3), never replaced;
 // - a symbolic link is followed: its regular target is replaced in the target's directory
