@@ -23,6 +23,17 @@ constexpr int kMaxDepth = 16;
 constexpr double kMinPitchMm = 1e-3;
 constexpr double kMaxPitchMm = 1e4;
 
+// The library's message with the input's bytes it quotes made printable: an error line never
+// carries the invalid UTF-8 or control bytes that caused it.
+std::string printable(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    const auto b = static_cast<unsigned char>(c);
+    out += b >= 0x20 && b < 0x7f ? std::string(1, c) : fmt::format("\\x{:02x}", b);
+  }
+  return out;
+}
+
 // Parses TEXT, refusing a document nested deeper than kMaxDepth; every library error becomes
 // a ParseError naming SOURCE and, where it is known, the key being read.
 json parse_json(const std::string& text, const std::string& source) {
@@ -50,11 +61,12 @@ json parse_json(const std::string& text, const std::string& source) {
   try {
     return json::parse(text, track);
   } catch (const json::parse_error& e) {
-    throw ParseError(source, 0, where() + "not JSON: " + e.what());
+    throw ParseError(source, 0, where() + "not JSON: " + printable(e.what()));
   } catch (const json::out_of_range& e) {
-    throw ParseError(source, 0, where() + "a number beyond a double's range: " + e.what());
+    throw ParseError(source, 0,
+                     where() + "a number beyond a double's range: " + printable(e.what()));
   } catch (const json::exception& e) {
-    throw ParseError(source, 0, where() + e.what());
+    throw ParseError(source, 0, where() + printable(e.what()));
   }
 }
 
