@@ -83,32 +83,29 @@ void ConfigDir::check_name(std::string_view name, const std::string& source) {
 
 bool ConfigDir::regular_or_absent(const std::string& name) const {
   check_name(name, path(name));
-  struct stat st {};
-  std::size_t slash = name.find('/');
-  while (slash != std::string::npos) {
-    const std::string folder = path(name.substr(0, slash));
-    if (::lstat(folder.c_str(), &st) != 0) {
+  // Each folder on the way, then NAME itself, without following a link: false when absent.
+  std::size_t end = name.find('/');
+  for (;;) {
+    const bool last = end == std::string::npos;
+    const std::string at = path(last ? name : name.substr(0, end));
+    struct stat st {};
+    if (::lstat(at.c_str(), &st) != 0) {
       if (errno == ENOENT) return false;
-      throw IoError(folder, std::string("cannot inspect: ") + std::strerror(errno));
+      throw IoError(at, std::string("cannot inspect: ") + std::strerror(errno));
     }
-    if (!S_ISDIR(st.st_mode)) {
-      throw UnsafePathError(folder, fmt::format("is {}, expected a directory inside {}; circcomp "
-                                                "follows no link out of the configuration",
-                                                kind_of(st.st_mode), root_));
+    if (last && S_ISREG(st.st_mode)) return true;
+    if (!last && S_ISDIR(st.st_mode)) {
+      end = name.find('/', end + 1);
+      continue;
     }
-    slash = name.find('/', slash + 1);
+    throw UnsafePathError(
+        at, last ? fmt::format("is {}, expected a regular file; circcomp reads back, writes and "
+                               "removes only regular files inside {}",
+                               kind_of(st.st_mode), root_)
+                 : fmt::format("is {}, expected a directory inside {}; circcomp follows no link "
+                               "out of the configuration",
+                               kind_of(st.st_mode), root_));
   }
-  const std::string full = path(name);
-  if (::lstat(full.c_str(), &st) != 0) {
-    if (errno == ENOENT) return false;
-    throw IoError(full, std::string("cannot inspect: ") + std::strerror(errno));
-  }
-  if (!S_ISREG(st.st_mode)) {
-    throw UnsafePathError(full, fmt::format("is {}, expected a regular file; circcomp reads back, "
-                                            "writes and removes only regular files inside {}",
-                                            kind_of(st.st_mode), root_));
-  }
-  return true;
 }
 
 std::optional<std::string> ConfigDir::read(const std::string& name) const {

@@ -1,7 +1,6 @@
 #include "circtest/compensation/plan.hpp"
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>

@@ -530,3 +530,18 @@ TEST_F(Hostile, CirctestIniSetArgumentsAreUsageErrors) {
   }
   EXPECT_EQ(slurp(ini_), kMachineIni);
 }
+
+TEST_F(Hostile, AVersionOneManifestInsideIsStillReverted) {
+  // What an earlier circcomp left: absolute paths inside the configuration, no checksums.
+  fs::create_directories(cfg_ / ".circcomp");
+  spit(cfg_ / ".circcomp" / "1a-2b-0.orig", kMachineIni);
+  spit(ini_, std::string(kMachineIni) + "[CIRCTEST_COMP]\nSQUARENESS_XY = 1e-4\n");
+  spit(cfg_ / "circtest-comp.hal", "setp circtest-kins.squareness-xy 1e-4\n");
+  write_manifest("circcomp-manifest 1\nexisted\t1a-2b-0.orig\t" + ini_ + "\ncreated\t-\t" +
+                 (cfg_ / "circtest-comp.hal").string() + "\n");
+  const CommandResult r = revert();
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(slurp(ini_), kMachineIni);
+  EXPECT_FALSE(fs::exists(cfg_ / "circtest-comp.hal"));
+  EXPECT_FALSE(fs::exists(cfg_ / ".circcomp"));
+}
