@@ -364,6 +364,15 @@ TEST(Compensation, LibraryRefusalsNameNoOption) {
   half.gain = 1.5;
   DiagnosisInput stale = diag(0.002);
   stale.ini_sha256 = std::string(64, '0');
+  Plan needs_kins;
+  needs_kins.needs_kins_module = true;
+  ::setenv("CIRCTEST_KINS_MODULE", (s.dir / "missing" / "circtest_kins.so").c_str(), 1);
+  const std::string kins_text = message([&] { require_kins_module(needs_kins); });
+  ::unsetenv("CIRCTEST_KINS_MODULE");
+  EXPECT_NE(kins_text.find("or leave squareness out of the corrections; nothing changed"),
+            std::string::npos)
+      << kins_text;
+  EXPECT_EQ(kins_text.find("--"), std::string::npos) << kins_text;
   const std::string texts[] = {
       message([&] { make_plan(ini, diag(0.3), PlanOptions{}); }),
       message([&] { make_plan(ini, uncertain, PlanOptions{}); }),

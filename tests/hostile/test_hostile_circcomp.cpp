@@ -270,6 +270,14 @@ TEST_F(Hostile, FilesOutsideTheConfigurationAreReadNeverWritten) {
     expect_refused([&] { return apply(diagnosis()); }, 12, "outside the configuration directory");
     EXPECT_EQ(slurp(ini_), text);
   }
+  // A HAL file outside that loads trivkins, which squareness would switch to circtest_kins.
+  spit(top() / "shared.hal", "loadrt trivkins coordinates=XYZ\n");
+  std::string hal = kMachineIni;
+  hal.replace(hal.find("HALFILE = mill.hal"), 18, "HALFILE = ../shared.hal");
+  spit(ini_, hal);
+  expect_refused([&] { return apply(diagnosis(100.0)); }, 12,
+                 "shared.hal: outside the configuration directory");
+  EXPECT_EQ(slurp(ini_), hal);
   // An #INCLUDE outside holding the joint circcomp would change: refused; one holding only
   // what circcomp reads: the plan goes ahead.
   spit(top() / "joints.inc", "[JOINT_0]\nMIN_LIMIT = -300\nMAX_LIMIT = 300\nBACKLASH = 0.008\n");
