@@ -656,6 +656,13 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     FileChange f;
     f.path = path;
     f.name = target_name(config, path);
+    for (const FileChange& other : plan.files) {
+      if (other.name == f.name) {
+        throw DataError(ini_path, 0,
+                        fmt::format("{} and {} are the same file ({}): name it one way", other.path,
+                                    path, config.path(f.name)));
+      }
+    }
     f.before = slurp_if(path, f.existed);
     f.after = std::move(after);
     if (f.before != f.after) plan.files.push_back(std::move(f));

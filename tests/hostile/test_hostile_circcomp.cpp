@@ -553,3 +553,20 @@ TEST_F(Hostile, AVersionOneManifestInsideIsStillReverted) {
   EXPECT_FALSE(fs::exists(cfg_ / "circtest-comp.hal"));
   EXPECT_FALSE(fs::exists(cfg_ / ".circcomp"));
 }
+
+TEST_F(Hostile, OneFileUnderTwoNamesIsRefused) {
+  // Two joints whose COMP_FILEs are one file by two spellings: two plans for one file, and a
+  // manifest naming it twice, would follow.
+  spit(cfg_ / "x.comp", "-300 0 0\n300 0 0\n");
+  std::string text = kMachineIni;
+  text.replace(text.find("BACKLASH = 0.008\n"), 17, "COMP_FILE = x.comp\nCOMP_FILE_TYPE = 1\n");
+  text.replace(text.find("BACKLASH = 0.008\n"), 17, "COMP_FILE = ./x.comp\nCOMP_FILE_TYPE = 1\n");
+  spit(ini_, text);
+  std::string d = slurp(diagnosis());
+  d.replace(d.find("\"Y\": 0.0}"), 9, "\"Y\": 0.003}");
+  const std::string path = (top() / "diagnoses" / "both.json").string();
+  spit(path, d);
+  expect_refused([&] { return apply(path); }, 5, "are the same file");
+  EXPECT_EQ(slurp(ini_), text);
+  EXPECT_EQ(slurp(cfg_ / "x.comp"), "-300 0 0\n300 0 0\n");
+}
