@@ -296,7 +296,8 @@ TEST_F(Hostile, AFifoOrAFolderWhereAFileBelongs) {
   ASSERT_EQ(::mkfifo((cfg_ / "fifo.comp").c_str(), 0644), 0);
   fs::create_directories(cfg_ / "dir.comp");
   spit(cfg_ / "dir.comp" / "keep", "keep\n");
-  for (const std::string name : {"fifo.comp", "dir.comp"}) {
+  fs::create_symlink(top() / "victim.txt", cfg_ / "link.comp");
+  for (const std::string name : {"fifo.comp", "dir.comp", "link.comp"}) {
     SCOPED_TRACE(name);
     // As a COMP_FILE: refused before it is opened (a FIFO would block the plan).
     std::string text = kMachineIni;
@@ -314,6 +315,7 @@ TEST_F(Hostile, AFifoOrAFolderWhereAFileBelongs) {
     fs::remove_all(cfg_ / ".circcomp");
   }
   EXPECT_TRUE(fs::is_fifo(cfg_ / "fifo.comp"));
+  EXPECT_TRUE(fs::is_symlink(cfg_ / "link.comp"));
   EXPECT_EQ(slurp(cfg_ / "dir.comp" / "keep"), "keep\n");
 }
 
