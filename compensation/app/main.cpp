@@ -26,7 +26,7 @@ constexpr const char* kUsage =
     "backlash,scale,squareness,cyclic]\n"
     "                       [--gain F] [--force]\n"
     "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
-    "       circcomp revert --ini MACHINE.ini\n";
+    "       circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
 
 // circcomp's words for what the library asks the user to give: its options (the library's
 // text names none).
@@ -38,6 +38,8 @@ std::string_view circcomp_option_words(PlanSetting setting) noexcept {
       return "--gain";
     case PlanSetting::record_with_ini:
       return "with circtest-run or circlog-record --ini";
+    case PlanSetting::without_squareness:
+      return "leave squareness out (--only backlash,scale,cyclic)";
   }
   return library_setting_words(setting);
 }
@@ -69,6 +71,30 @@ StepHook after_step_hook() {
 }
 #endif
 
+int run_revert(const std::string& ini, const std::string& diagnosis, const std::string& to,
+               bool force) {
+  if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
+  if (!to.empty() && to != "last" && to != "as-found") {
+    throw UsageError("--to: expected last or as-found, got '" + to + "'");
+  }
+  RevertOptions options;
+  options.as_found = to == "as-found";
+  options.force = force;
+  const RevertResult r = revert(ini, options, after_step_hook());
+  if (r.reverted) {
+    std::cout << "circcomp: reverted " + ini +
+                     (options.as_found ? " to the configuration as found before the first apply\n"
+                                       : " to the state before the last apply\n");
+  } else {
+    std::cout << "circcomp: nothing to revert for " + ini + "\n";
+  }
+  if (r.earlier_kept) {
+    std::cout << "circcomp: earlier applies remain; circcomp revert --to as-found --ini " << ini
+              << " goes back to the configuration as it was before the first\n";
+  }
+  return 0;
+}
+
 int run(int argc, char** argv) {
   if (argc < 2) throw UsageError(std::string("expected plan, apply or revert\n") + kUsage);
   const std::string command = argv[1];
@@ -83,12 +109,12 @@ int run(int argc, char** argv) {
   if (command != "plan" && command != "apply" && command != "revert") {
     throw UsageError("unknown command '" + command + "' (expected plan, apply or revert)");
   }
-  std::string ini, diagnosis, only, gain_text = "1";
+  std::string ini, diagnosis, only, gain_text = "1", to;
   bool force = false;
   po::options_description opts;
   opts.add_options()("ini", po::value(&ini))("diagnosis", po::value(&diagnosis))(
       "only", po::value(&only))("gain", po::value(&gain_text))("force", po::bool_switch(&force))(
-      "help,h", "");
+      "to", po::value(&to))("help,h", "");
   po::positional_options_description pos;
   pos.add("diagnosis", 1);
   po::variables_map vm;
@@ -104,13 +130,8 @@ int run(int argc, char** argv) {
     return 0;
   }
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
-  if (command == "revert") {
-    if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
-    std::cout << (revert(ini, after_step_hook())
-                      ? "circcomp: reverted " + ini + " to the state before the last apply\n"
-                      : "circcomp: nothing to revert for " + ini + "\n");
-    return 0;
-  }
+  if (command == "revert") return run_revert(ini, diagnosis, to, force);
+  if (!to.empty()) throw UsageError("--to: only for revert");
   if (diagnosis.empty()) throw UsageError("expected DIAGNOSIS.json (circana diagnose --json)");
   PlanOptions options;
   options.force = force;
@@ -132,6 +153,11 @@ int run(int argc, char** argv) {
   if (command == "plan") {
     std::cout << unified_diff(plan);
     print_summary(plan, std::cout);
+    try {
+      require_kins_module(plan, circcomp_option_words);
+    } catch (const HalError& e) {
+      std::cout << "# note: apply will refuse (exit 7): " << e.what() << "\n";
+    }
     if (!plan.provenance_checked) {
       std::cout << "# note: the diagnosis's ini_sha256 does not match " << ini
                 << " now: apply will refuse (exit 10) without --force\n";
@@ -143,6 +169,7 @@ int run(int argc, char** argv) {
     std::cout << "circcomp: nothing to change in " << ini << "\n";
     return 0;
   }
+  require_kins_module(plan, circcomp_option_words);
   apply_plan(plan, after_step_hook());
   print_summary(plan, std::cout);
   for (const auto& f : plan.files) {

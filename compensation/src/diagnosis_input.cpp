@@ -5,14 +5,70 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
 
 namespace circtest::compensation {
 
 namespace {
 
 using json = nlohmann::json;
+
+constexpr const char* kSchema = "circtest.diagnosis/1";
+constexpr const char* kSchemaFamily = "circtest.diagnosis/";
+// A diagnosis is a few kB with objects three levels deep.
+constexpr int kMaxDepth = 16;
+// A cyclic error's pitch: finer than 1 um or coarser than 10 m is no lead screw, rack or
+// encoder period, and the pitch sizes the compensation table.
+constexpr double kMinPitchMm = 1e-3;
+constexpr double kMaxPitchMm = 1e4;
+
+// The library's message with the input's bytes it quotes made printable: an error line never
+// carries the invalid UTF-8 or control bytes that caused it.
+std::string printable(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    const auto b = static_cast<unsigned char>(c);
+    out += b >= 0x20 && b < 0x7f ? std::string(1, c) : fmt::format("\\x{:02x}", b);
+  }
+  return out;
+}
+
+// Parses TEXT, refusing a document nested deeper than kMaxDepth; every library error becomes
+// a ParseError naming SOURCE and, where it is known, the key being read.
+json parse_json(const std::string& text, const std::string& source) {
+  std::vector<std::string> keys;  // the key at each depth, down to the value being read
+  const auto where = [&keys] {
+    std::string path;
+    for (const auto& k : keys) path += (path.empty() ? "" : ".") + k;
+    return path.empty() ? std::string() : "\"" + path + "\": ";
+  };
+  json::parser_callback_t track = [&](int depth, json::parse_event_t event, json& parsed) {
+    if (depth > kMaxDepth) {
+      throw ParseError(
+          source, 0,
+          fmt::format("nested deeper than {} levels: not a circtest diagnosis", kMaxDepth));
+    }
+    if (event == json::parse_event_t::key) {
+      keys.resize(static_cast<std::size_t>(std::max(depth, 1)));
+      keys.back() = parsed.get<std::string>();
+    } else if (event == json::parse_event_t::object_end ||
+               event == json::parse_event_t::array_end) {
+      keys.resize(static_cast<std::size_t>(std::max(depth, 0)));
+    }
+    return true;
+  };
+  try {
+    return json::parse(text, track);
+  } catch (const json::parse_error& e) {
+    throw ParseError(source, 0, where() + "not JSON: " + printable(e.what()));
+  } catch (const json::out_of_range& e) {
+    throw ParseError(source, 0,
+                     where() + "a number beyond a double's range: " + printable(e.what()));
+  } catch (const json::exception& e) {
+    throw ParseError(source, 0, where() + printable(e.what()));
+  }
+}
 
 struct Reader {
   const std::string& source;
@@ -26,6 +82,11 @@ struct Reader {
     const double v = j.get<double>();
     if (!std::isfinite(v)) fail(key, "not finite");
     return v;
+  }
+  std::optional<std::string> text(const json& j, const std::string& key) const {
+    if (j.is_null()) return std::nullopt;
+    if (!j.is_string()) fail(key, "expected a string or null");
+    return j.get<std::string>();
   }
   const json& member(const json& j, const std::string& key, const std::string& path) const {
     static const json null_value;
@@ -50,23 +111,30 @@ struct Reader {
 }  // namespace
 
 DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source) {
-  json doc;
-  try {
-    doc = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw ParseError(source, 0, std::string("not JSON: ") + e.what());
-  }
+  const json doc = parse_json(text, source);
   const Reader r{source};
-  if (!doc.is_object() || doc.value("schema", "") != "circtest.diagnosis/1") {
+  if (!doc.is_object()) {
     throw ParseError(source, 0,
-                     "expected a circtest.diagnosis/1 document (circana diagnose --json)");
+                     fmt::format("expected a {} document (circana diagnose --json)", kSchema));
   }
-  if (doc.value("units", "mm") != "mm") r.fail("units", "expected mm");
+  const auto schema = r.text(r.member(doc, "schema", "schema"), "schema");
+  if (schema && schema->starts_with(kSchemaFamily) && *schema != kSchema) {
+    r.fail("schema", fmt::format("{} is a version this circcomp does not read (it reads {}): "
+                                 "use the circcomp of the circana that wrote it",
+                                 *schema, kSchema));
+  }
+  if (schema != kSchema) {
+    throw ParseError(source, 0,
+                     fmt::format("expected a {} document (circana diagnose --json)", kSchema));
+  }
+  if (r.text(r.member(doc, "units", "units"), "units").value_or("mm") != "mm") {
+    r.fail("units", "expected mm");
+  }
   DiagnosisInput d;
   d.source = source;
-  const json& plane = doc["plane"];
-  if (!plane.is_string()) r.fail("plane", "expected XY, YZ or ZX");
-  d.plane = plane.get<std::string>();
+  const auto plane = r.text(r.member(doc, "plane", "plane"), "plane");
+  if (!plane) r.fail("plane", "expected XY, YZ or ZX");
+  d.plane = *plane;
   if (d.plane == "XY")
     d.axes = {'X', 'Y'};
   else if (d.plane == "YZ")
@@ -77,13 +145,14 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
     r.fail("plane", "expected XY, YZ or ZX, got '" + d.plane + "'");
 
   const json null_value;
-  const json& se = doc.contains("standard_error") ? doc["standard_error"] : null_value;
+  const json& se = r.member(doc, "standard_error", "standard_error");
+  if (!se.is_null() && !se.is_object()) r.fail("standard_error", "expected an object or null");
   auto se_axis = [&](const std::string& key) {
     return se.is_object() ? r.per_axis(se, key, d.axes) : std::array<std::optional<double>, 2>{};
   };
   auto se_scalar = [&](const std::string& key) {
-    return se.is_object() && se.contains(key) ? r.number(se[key], "standard_error." + key)
-                                              : std::nullopt;
+    return se.is_object() ? r.number(r.member(se, key, "standard_error"), "standard_error." + key)
+                          : std::nullopt;
   };
   const auto backlash = r.per_axis(doc, "backlash_mm", d.axes);
   const auto backlash_se = se_axis("backlash_mm");
@@ -99,27 +168,36 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
     d.scale_ppm[k] = {scale[k], scale_se[k]};
   }
   auto scalar = [&](const std::string& key) {
-    return Measured{r.number(doc.contains(key) ? doc[key] : null_value, key), se_scalar(key)};
+    return Measured{r.number(r.member(doc, key, key), key), se_scalar(key)};
   };
   d.scale_mismatch_ppm = scalar("scale_mismatch_ppm");
   d.squareness_urad = scalar("squareness_urad");
   d.servo_mismatch_ms = scalar("servo_mismatch_ms");
-  d.kv_per_s = r.number(doc.contains("kv_per_s") ? doc["kv_per_s"] : null_value, "kv_per_s");
-  if (doc.contains("cyclic") && doc["cyclic"].is_object()) {
+  d.kv_per_s = r.number(r.member(doc, "kv_per_s", "kv_per_s"), "kv_per_s");
+  const json& cyclic = r.member(doc, "cyclic", "cyclic");
+  if (!cyclic.is_null()) {
     for (int k = 0; k < 2; ++k) {
       const std::string a(1, d.axes[k]);
-      const json& c = r.member(doc["cyclic"], a, "cyclic");
+      const json& c = r.member(cyclic, a, "cyclic");
       if (c.is_null()) continue;
       const auto amplitude = r.number(r.member(c, "amplitude_mm", "cyclic." + a), "cyclic." + a);
       const auto pitch = r.number(r.member(c, "pitch_mm", "cyclic." + a), "cyclic." + a);
       if (!amplitude || !pitch || *pitch <= 0)
         r.fail("cyclic." + a, "expected amplitude_mm, pitch_mm > 0");
+      if (*pitch < kMinPitchMm || *pitch > kMaxPitchMm) {
+        throw DataError(source, 0,
+                        fmt::format("\"cyclic.{}.pitch_mm\": {} mm is no machine's pitch "
+                                    "(expected {} to {} mm)",
+                                    a, *pitch, kMinPitchMm, kMaxPitchMm));
+      }
       Cyclic cy;
       cy.amplitude_mm = *amplitude;
       cy.pitch_mm = *pitch;
       cy.phase_rad = r.number(r.member(c, "phase_rad", "cyclic." + a), "cyclic." + a).value_or(0.0);
-      if (se.is_object() && se.contains("cyclic") && se["cyclic"].is_object()) {
-        const json& cs = r.member(se["cyclic"], a, "standard_error.cyclic");
+      const json& se_cyclic =
+          se.is_object() ? r.member(se, "cyclic", "standard_error") : null_value;
+      if (se_cyclic.is_object()) {
+        const json& cs = r.member(se_cyclic, a, "standard_error.cyclic");
         if (cs.is_object()) {
           cy.amplitude_se_mm = r.number(r.member(cs, "amplitude_mm", "standard_error.cyclic"),
                                         "standard_error.cyclic." + a);
@@ -128,14 +206,12 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
       d.cyclic[k] = cy;
     }
   }
-  if (doc.contains("ini_sha256") && doc["ini_sha256"].is_string()) {
-    d.ini_sha256 = doc["ini_sha256"].get<std::string>();
-  }
+  d.ini_sha256 = r.text(r.member(doc, "ini_sha256", "ini_sha256"), "ini_sha256");
   return d;
 }
 
 DiagnosisInput read_diagnosis(const std::string& path) {
-  return parse_diagnosis(read_file(path), path);
+  return parse_diagnosis(read_input_text(path, kMaxDiagnosisBytes), path);
 }
 
 }  // namespace circtest::compensation

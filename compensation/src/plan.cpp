@@ -1,12 +1,11 @@
 #include "circtest/compensation/plan.hpp"
 
 #include <fmt/format.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
-#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -14,6 +13,7 @@
 #include <sstream>
 
 #include "circtest/compensation/comp_table.hpp"
+#include "circtest/compensation/config_dir.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
@@ -36,6 +36,12 @@ constexpr double kMinBacklashMm = 1e-4;
 constexpr double kMinScalePpm = 0.5;
 constexpr double kMinCyclicMm = 1e-4;
 constexpr double kMinSquarenessUrad = 0.5;
+// What a compensation table is laid out over: a travel (MIN_LIMIT..MAX_LIMIT) beyond 100 m is
+// LinuxCNC's "no limit" default (1e99), not a machine's; units per mm outside 0.001..1000 are
+// no unit a machine uses. Both size the table's loops and are checked before use.
+constexpr double kMaxTravelMm = 1e5;
+constexpr double kMinUnitsPerMm = 1e-3;
+constexpr double kMaxUnitsPerMm = 1e3;
 
 std::string number_text(double v) {
   std::string s = fmt::format("{:.7f}", v);
@@ -54,7 +60,15 @@ std::string upper(std::string s) {
 double units_per_mm(const IniDocument& ini) {
   const auto entry = ini.find("TRAJ", "LINEAR_UNITS");
   if (!entry || entry->value.empty()) return 1.0;
-  if (const auto v = parse_finite(entry->value); v && *v > 0) return *v;
+  if (const auto v = parse_finite(entry->value); v && *v > 0) {
+    if (*v < kMinUnitsPerMm || *v > kMaxUnitsPerMm) {
+      throw DataError(entry->file, entry->line,
+                      fmt::format("[TRAJ] LINEAR_UNITS = {}: expected {} to {} machine units "
+                                  "per mm (or mm, inch)",
+                                  entry->value, kMinUnitsPerMm, kMaxUnitsPerMm));
+    }
+    return *v;
+  }
   const std::string u = upper(entry->value);
   if (u == "MM" || u == "METRIC") return 1.0;
   if (u == "IN" || u == "INCH" || u == "IMPERIAL") return 1.0 / 25.4;
@@ -136,10 +150,40 @@ std::string ini_dir(const std::string& ini_path) {
   return fs::path(ini_path).parent_path().string();
 }
 
+// A configuration file's text (bounded; a FIFO or a folder refused), "" when absent.
 std::string slurp_if(const std::string& path, bool& existed) {
-  std::error_code ec;
-  existed = fs::exists(path, ec);
-  return existed ? read_file(path) : std::string();
+  const auto text = read_config_file(path);
+  existed = text.has_value();
+  return text.value_or("");
+}
+
+// The name inside CONFIG of a file the plan changes; UnsafePathError when it lies outside, is a
+// link or is not a regular file (checked before it is read: a FIFO would block).
+std::string target_name(const ConfigDir& config, const std::string& path) {
+  const auto name = config.name_of(path);
+  if (!name) {
+    throw UnsafePathError(path,
+                          fmt::format("outside the configuration directory {}: circcomp changes "
+                                      "only files inside it (reading one outside is fine); move "
+                                      "it in, or make this change by hand",
+                                      config.root()));
+  }
+  config.regular_or_absent(*name);
+  return *name;
+}
+
+// The text of a file the plan changes, "" when absent.
+std::string read_target(const ConfigDir& config, const std::string& path, bool& existed) {
+  target_name(config, path);
+  return slurp_if(path, existed);
+}
+
+// The INI's own text, for its SHA-256.
+std::string ini_text(const std::string& ini_path) {
+  bool existed = false;
+  std::string text = slurp_if(ini_path, existed);
+  if (!existed) throw IoError(ini_path, "no such file (expected the machine's LinuxCNC INI)");
+  return text;
 }
 
 // The squareness key of [CIRCTEST_COMP] and the circtest_kins pin for a plane.
@@ -204,7 +248,8 @@ bool loads_kins_from_ini(const std::string& text) {
 // [KINS] KINEMATICS becomes circtest_kins (same arguments), a literal "loadrt trivkins" in a HAL
 // file follows, [CIRCTEST_COMP] keeps the three angles and circtest-comp.hal, added as the last
 // [HAL] HALFILE, sets the pins from them.
-void plan_squareness(IniDocument& ini, const DiagnosisInput& d, double alpha_urad, Plan& plan,
+void plan_squareness(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& d,
+                     double alpha_urad, Plan& plan,
                      std::map<std::string, std::pair<bool, std::string>>& files) {
   const auto kins = ini.find("KINS", "KINEMATICS");
   joints_of(ini, d.axes[0]);  // refuses a kinematics circcomp cannot map, names a missing axis
@@ -263,7 +308,8 @@ void plan_squareness(IniDocument& ini, const DiagnosisInput& d, double alpha_ura
     const fs::path path = fs::path(dir.empty() ? "." : dir) / h.value;
     std::error_code ec;
     if (fs::path(h.value).extension() != ".hal" || !fs::is_regular_file(path, ec)) continue;
-    std::string text = read_file(path.string());
+    bool readable = false;
+    std::string text = slurp_if(path.string(), readable);
     if (loads_kins_from_ini(text)) loaded = true;
     if (!active && swap_loadrt(text) > 0) {
       loaded = true;
@@ -282,7 +328,7 @@ void plan_squareness(IniDocument& ini, const DiagnosisInput& d, double alpha_ura
     ini.append("HAL", "HALFILE", "circtest-comp.hal");
     const fs::path comp = fs::path(dir.empty() ? "." : dir) / "circtest-comp.hal";
     bool existed = false;
-    const std::string before = slurp_if(comp.string(), existed);
+    const std::string before = read_target(config, comp.string(), existed);
     if (existed && before != comp_hal_text()) {
       throw DataError(comp.string(), 0,
                       "exists but is not [HAL] HALFILE and not circcomp's: move it away first");
@@ -301,6 +347,8 @@ std::string_view library_setting_words(PlanSetting setting) noexcept {
       return "the gain setting";
     case PlanSetting::record_with_ini:
       return "with circtest-run, or with circlog-record given the INI";
+    case PlanSetting::without_squareness:
+      return "leave squareness out of the corrections";
   }
   return "a setting";
 }
@@ -315,7 +363,7 @@ void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis,
                     diagnosis.source, ini_path, words(PlanSetting::record_with_ini),
                     words(PlanSetting::force)));
   }
-  const std::string now = sha256_hex(read_file(ini_path));
+  const std::string now = sha256_hex(ini_text(ini_path));
   if (*diagnosis.ini_sha256 != now) {
     throw StaleError(fmt::format(
         "{} changed since the measurement of {} (SHA-256 {} then, {} now): a correction "
@@ -332,13 +380,12 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
   Plan plan;
   plan.ini_path = ini_path;
   IniDocument ini = IniDocument::load(ini_path);
-  for (const auto& w : ini.warnings()) plan.notes.push_back(w);
+  const ConfigDir config(ini_path);
   const double upm = units_per_mm(ini);
   const std::string dir = ini_dir(ini_path);
-  plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == sha256_hex(read_file(ini_path));
+  plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == sha256_hex(ini_text(ini_path));
 
   auto wants = [&o](const char* what) { return o.only.count(what) > 0; };
-  std::vector<std::string> comp_files_out;  // new or changed tables: path -> content
   std::map<std::string, std::pair<bool, std::string>> tables;  // path -> (existed, after)
 
   for (int k = 0; k < 2; ++k) {
@@ -385,21 +432,29 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
               ini_path, 0,
               fmt::format("[{}] {} is needed to lay out a compensation table", section, key));
         }
+        if (std::fabs(*v) > kMaxTravelMm * upm) {
+          throw DataError(e->file, e->line,
+                          fmt::format("[{}] {} = {}: a compensation table needs the real travel "
+                                      "(within +-{} mm)",
+                                      section, key, e->value, kMaxTravelMm));
+        }
         return *v;
       };
       std::optional<Cyclic> cyclic = c.cyclic;
       std::size_t cyclic_points = 0;
       if (cyclic) {
-        // At least 16 points a pitch over the whole travel, within LinuxCNC's 256.
+        // At least 16 points a pitch over the whole travel, within LinuxCNC's 256; counted in
+        // double first, so that no pitch and travel overflow the count.
         const double span = limit("MAX_LIMIT") - limit("MIN_LIMIT");
-        cyclic_points =
-            static_cast<std::size_t>(std::ceil(span / (cyclic->pitch_mm * upm / 16.0))) + 1;
-        if (cyclic_points > kMaxCompEntries) {
+        const double points = std::ceil(span / (cyclic->pitch_mm * upm / 16.0)) + 1;
+        if (!(points <= static_cast<double>(kMaxCompEntries))) {
           plan.notes.push_back(fmt::format(
-              "{} cyclic: a {} mm pitch over [{}] MIN_LIMIT..MAX_LIMIT needs {} points, more "
-              "than LinuxCNC's 256: not written",
-              letter, number_text(cyclic->pitch_mm), section, cyclic_points));
+              "{} cyclic: a {} mm pitch over [{}] MIN_LIMIT..MAX_LIMIT needs {:.0f} points, "
+              "more than LinuxCNC's 256: not written",
+              letter, number_text(cyclic->pitch_mm), section, points));
           cyclic.reset();
+        } else {
+          cyclic_points = static_cast<std::size_t>(std::max(points, 2.0));
         }
       }
       const auto comp_file = ini.get(section, "COMP_FILE");
@@ -420,6 +475,11 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
               "[{}] BACKLASH {} + {} is negative: set to 0 (the machine is over-compensated)",
               section, number_text(backlash_now), number_text(add)));
           next = 0;
+        }
+        if (!std::isfinite(next)) {
+          throw DataError(d.source, 0,
+                          fmt::format("[{}] BACKLASH {} + {} is not a finite number", section,
+                                      number_text(backlash_now), number_text(add)));
         }
         ini.set(section, "BACKLASH", number_text(next));
         plan.changes.push_back(fmt::format("[{}] BACKLASH {} -> {} (axis {} backlash {:+.4f} mm)",
@@ -447,7 +507,7 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
         }
         const auto it = tables.find(table_path);
         const std::string text =
-            it != tables.end() ? it->second.second : slurp_if(table_path, existed);
+            it != tables.end() ? it->second.second : read_target(config, table_path, existed);
         if (it != tables.end()) existed = it->second.first;
         if (!existed && it == tables.end()) {
           throw DataError(ini_path, 0,
@@ -465,7 +525,7 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
         table.type = 1;
         table.entries = {{lo, backlash_now / 2, -backlash_now / 2},
                          {hi, backlash_now / 2, -backlash_now / 2}};
-        slurp_if(table_path, existed);
+        read_target(config, table_path, existed);
         if (existed) {
           throw DataError(
               table_path, 0,
@@ -524,6 +584,12 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
           e.forward_trim += o.gain * *c.backlash_mm * upm / 2;
           e.reverse_trim -= o.gain * *c.backlash_mm * upm / 2;
         }
+        if (!std::isfinite(e.forward_trim) || !std::isfinite(e.reverse_trim)) {
+          throw DataError(table_path, 0,
+                          fmt::format("the corrected trim at {} is not a finite number: the "
+                                      "correction is out of any range a table can hold",
+                                      number_text(x)));
+        }
         next.entries.push_back(e);
       }
       tables[table_path] = {existed, render_comp_table(next)};
@@ -548,7 +614,10 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     } catch (const DataError& e) {
       throw DataError(d.source, 0, e.detail());
     }
-    if (v) plan_squareness(ini, d, o.gain * *v, plan, tables);
+    if (v) {
+      plan_squareness(ini, config, d, o.gain * *v, plan, tables);
+      plan.needs_kins_module = true;
+    }
   }
   // Advice: what a configuration file cannot fix.
   if (d.servo_mismatch_ms.value && std::fabs(*d.servo_mismatch_ms.value) >= 0.05) {
@@ -583,22 +652,25 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     }
   }
 
-  for (std::size_t i = 0; i < ini.file_count(); ++i) {
-    if (!ini.file_modified(i)) continue;
-    FileChange f;
-    f.path = ini.file_path(i);
-    f.before = slurp_if(f.path, f.existed);
-    f.after = ini.render_file(i);
-    if (f.before != f.after) plan.files.push_back(std::move(f));
-  }
-  for (const auto& [path, t] : tables) {
+  auto add = [&](const std::string& path, std::string after) {
     FileChange f;
     f.path = path;
+    f.name = target_name(config, path);
+    for (const FileChange& other : plan.files) {
+      if (other.name == f.name) {
+        throw DataError(ini_path, 0,
+                        fmt::format("{} and {} are the same file ({}): name it one way", other.path,
+                                    path, config.path(f.name)));
+      }
+    }
     f.before = slurp_if(path, f.existed);
-    f.after = t.second;
+    f.after = std::move(after);
     if (f.before != f.after) plan.files.push_back(std::move(f));
+  };
+  for (std::size_t i = 0; i < ini.file_count(); ++i) {
+    if (ini.file_modified(i)) add(ini.file_path(i), ini.render_file(i));
   }
-  (void)comp_files_out;
+  for (const auto& [path, t] : tables) add(path, t.second);
   return plan;
 }
 
@@ -681,11 +753,6 @@ std::string file_diff(const FileChange& f) {
   return out;
 }
 
-fs::path state_dir(const std::string& ini_path) {
-  const std::string dir = ini_dir(ini_path);
-  return fs::path(dir.empty() ? "." : dir) / ".circcomp";
-}
-
 }  // namespace
 
 std::string unified_diff(const Plan& plan) {
@@ -694,105 +761,42 @@ std::string unified_diff(const Plan& plan) {
   return out;
 }
 
-// The manifest says, per file, whether it existed and where its original is kept; it is
-// written after the originals and before any file changes, so a crash at any step leaves
-// either nothing changed (the previous manifest, if any, still names its own backups) or a
-// manifest that revert can undo. Backups carry this apply's own prefix, so a crashed apply
-// never overwrites the originals an earlier, complete apply kept; the older ones go once the
-// new manifest is in place.
-void apply_plan(const Plan& plan, const StepHook& after_step) {
-  const fs::path state = state_dir(plan.ini_path);
-  std::error_code ec;
-  fs::create_directories(state, ec);
-  if (ec) throw IoError(state.string(), "cannot create: " + ec.message());
-  std::size_t step = 0;
-  auto write = [&](const std::string& path, const std::string& text, const std::string& what) {
-    AtomicOutput out(path);
-    out.write(text);
-    if (after_step) after_step(step++, what + ": written, not yet in place");
-    out.commit();
-    if (after_step) after_step(step++, what + ": in place");
-  };
-  const std::string prefix = fmt::format(
-      "{:x}-{:x}", std::chrono::steady_clock::now().time_since_epoch().count(), ::getpid());
-  std::string manifest = "circcomp-manifest 1\n";
-  for (std::size_t i = 0; i < plan.files.size(); ++i) {
-    const FileChange& f = plan.files[i];
-    const std::string abs = fs::absolute(f.path).string();
-    if (f.existed) {
-      const std::string backup = fmt::format("{}-{}.orig", prefix, i);
-      write((state / backup).string(), f.before, "original of " + f.path);
-      manifest += fmt::format("existed\t{}\t{}\n", backup, abs);
-    } else {
-      manifest += fmt::format("created\t-\t{}\n", abs);
+std::string linuxcnc_module_dir() {
+  std::string dir = "/usr/lib/linuxcnc/modules";
+  std::optional<std::string> conf;
+  try {
+    conf = read_config_file("/etc/linuxcnc/rtapi.conf");
+  } catch (const Error&) {
+    return dir;  // unreadable: LinuxCNC's default
+  }
+  std::istringstream in(conf.value_or(""));
+  for (std::string line; std::getline(in, line);) {
+    if (!line.starts_with("RTLIB_DIR=")) continue;
+    std::string value = line.substr(10);
+    if (value.size() >= 2 && (value.front() == '"' || value.front() == '\'') &&
+        value.back() == value.front()) {
+      value = value.substr(1, value.size() - 2);
     }
+    if (!value.empty()) dir = value;
   }
-  write((state / "manifest").string(), manifest, "manifest");
-  // Originals of earlier (complete or crashed) applies: not named by the manifest now.
-  for (const auto& entry : fs::directory_iterator(state, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.ends_with(".orig") && !name.starts_with(prefix + "-")) fs::remove(entry.path(), ec);
-  }
-  for (const FileChange& f : plan.files) write(f.path, f.after, f.path);
+  return dir;
 }
 
-bool revert(const std::string& ini_path, const StepHook& after_step) {
-  const fs::path state = state_dir(ini_path);
-  const fs::path manifest_path = state / "manifest";
+void require_kins_module(const Plan& plan, PlanSettingWords words) {
+  if (!plan.needs_kins_module) return;
+  const char* chosen = std::getenv("CIRCTEST_KINS_MODULE");
+  const bool from_env = chosen != nullptr && *chosen != '\0';
+  const std::string module =
+      from_env ? std::string(chosen) : linuxcnc_module_dir() + "/circtest_kins.so";
   std::error_code ec;
-  if (!fs::exists(manifest_path, ec)) {
-    // Originals of an apply killed before its manifest was in place: it changed nothing.
-    for (const auto& entry : fs::directory_iterator(state, ec)) {
-      if (entry.path().filename().string().ends_with(".orig")) fs::remove(entry.path(), ec);
-    }
-    fs::remove(state, ec);  // only when empty
-    return false;
-  }
-  std::istringstream in(read_file(manifest_path.string()));
-  std::string line;
-  std::getline(in, line);
-  if (line != "circcomp-manifest 1") {
-    throw ParseError(manifest_path.string(), 1, "not a circcomp manifest");
-  }
-  std::size_t line_no = 1;
-  std::vector<std::pair<std::string, std::string>> steps;  // (backup or "", path)
-  while (std::getline(in, line)) {
-    ++line_no;
-    const auto t1 = line.find('\t'), t2 = line.find('\t', t1 + 1);
-    if (t1 == std::string::npos || t2 == std::string::npos) {
-      throw ParseError(manifest_path.string(), line_no, "expected KIND<TAB>BACKUP<TAB>PATH");
-    }
-    const std::string kind = line.substr(0, t1);
-    if (kind != "existed" && kind != "created") {
-      throw ParseError(manifest_path.string(), line_no, "unknown kind '" + kind + "'");
-    }
-    steps.push_back(
-        {kind == "existed" ? line.substr(t1 + 1, t2 - t1 - 1) : "", line.substr(t2 + 1)});
-  }
-  std::size_t step = 0;
-  for (const auto& [backup, path] : steps) {
-    if (backup.empty()) {
-      fs::remove(path, ec);
-      if (ec) throw IoError(path, "cannot remove: " + ec.message());
-      fsync_parent_directory(path);
-      if (after_step) after_step(step++, path + ": removed");
-    } else {
-      const std::string original = read_file((state / backup).string());
-      bool exists = false;
-      if (slurp_if(path, exists) != original || !exists) write_file_atomic(path, original);
-      if (after_step) after_step(step++, path + ": restored");
-    }
-  }
-  fsync_parent_directory(ini_path);
-  // The manifest goes last: a crash before this point reverts again to the same state.
-  fs::remove(manifest_path, ec);
-  if (after_step) after_step(step++, "manifest removed");
-  // Every original, also those a crashed apply left without a manifest naming them.
-  for (const auto& entry : fs::directory_iterator(state, ec)) {
-    if (entry.path().filename().string().ends_with(".orig")) fs::remove(entry.path(), ec);
-  }
-  fs::remove(state, ec);
-  return true;
+  if (fs::is_regular_file(module, ec)) return;
+  throw HalError(fmt::format(
+      "the plan loads the circtest_kins kinematics (squareness) but {} is not there{}, so "
+      "LinuxCNC could not start this configuration: install circtest's realtime modules (the "
+      "circtest package, or cmake's install step as root), set CIRCTEST_KINS_MODULE to the "
+      "circtest_kins.so your run loads (circtest-run's build tree), or {}; nothing changed",
+      module, from_env ? " (CIRCTEST_KINS_MODULE)" : " (where LinuxCNC's loadrt looks for modules)",
+      words(PlanSetting::without_squareness)));
 }
 
 }  // namespace circtest::compensation

@@ -44,6 +44,11 @@ int run(int argc, char** argv) {
   if (!reads && !writes) throw UsageError("unknown command '" + command + "'\n" + kUsage);
   if (argc != (reads ? 5 : 6))
     throw UsageError(std::string("wrong number of arguments\n") + kUsage);
+  if (writes) {
+    if (const auto problem = ini_edit_problem(section, key, argv[5])) {
+      throw UsageError(command + ": " + *problem + "\n" + kUsage);
+    }
+  }
   IniDocument doc = IniDocument::load(file);
   if (command == "get") {
     const auto value = doc.get(section, key);

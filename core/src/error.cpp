@@ -30,6 +30,8 @@ const char* exit_code_name(ExitCode code) noexcept {
       return "tolerance";
     case ExitCode::database:
       return "database";
+    case ExitCode::unsafe_path:
+      return "unsafe-path";
   }
   return "unknown";
 }

@@ -1,15 +1,16 @@
 #include "circtest/core/ini.hpp"
 
-#include <fcntl.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 
+#include <fmt/format.h>
+
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
 #include "circtest/core/strings.hpp"
 
 namespace circtest {
@@ -30,38 +31,20 @@ std::string_view line_end(std::string_view physical) {
   return {};
 }
 
-// Reads a configuration file with bounds: a device or /dev/zero must not eat the memory.
+// Reads a configuration file with bounds: a device or /dev/zero must not eat the memory, and a
+// FIFO (which read_input_text would wait on) is no configuration file either.
 std::string read_bounded(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw IoError(path, std::string("cannot open for reading: ") + std::strerror(errno));
   struct stat st {};
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    ::close(fd);
+  if (::stat(path.c_str(), &st) != 0) {
+    throw IoError(path, std::string("cannot open for reading: ") + std::strerror(errno));
+  }
+  if (!S_ISREG(st.st_mode)) {
     throw IoError(path, "not a regular file (expected a LinuxCNC INI file)");
   }
   if (static_cast<std::size_t>(st.st_size) > kMaxFileBytes) {
-    ::close(fd);
     throw IoError(path, "larger than 16 MiB: not a LinuxCNC INI file");
   }
-  std::string text;
-  char buffer[65536];
-  for (;;) {
-    const ssize_t n = ::read(fd, buffer, sizeof buffer);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const std::string why = std::strerror(errno);
-      ::close(fd);
-      throw IoError(path, "read failed: " + why);
-    }
-    if (n == 0) break;
-    text.append(buffer, static_cast<std::size_t>(n));
-    if (text.size() > kMaxFileBytes) {
-      ::close(fd);
-      throw IoError(path, "larger than 16 MiB: not a LinuxCNC INI file");
-    }
-  }
-  ::close(fd);
-  return text;
+  return read_input_text(path, kMaxFileBytes);
 }
 
 using Line = IniDocument::Line;
@@ -180,16 +163,43 @@ bool section_matches(const Line& line, std::string_view section) {
 }
 
 void check_value(std::string_view key, std::string_view value) {
-  if (key.empty() || key.find_first_of(" \t\r\n=[]#;") != std::string_view::npos) {
-    throw Error(ExitCode::internal, "INI edit: '" + std::string(key) + "' is not a key name");
+  if (const auto problem = ini_edit_problem("X", key, value)) {
+    throw Error(ExitCode::internal, "INI edit: " + *problem);
   }
-  if (value.find_first_of("\r\n") != std::string_view::npos || value.ends_with('\\')) {
-    throw Error(ExitCode::internal,
-                "INI edit: the value of " + std::string(key) + " would span lines");
+}
+
+void check_section(std::string_view section) {
+  if (const auto problem = ini_edit_problem(section, "X", "")) {
+    throw Error(ExitCode::internal, "INI edit: " + *problem);
   }
 }
 
 }  // namespace
+
+std::optional<std::string> ini_edit_problem(std::string_view section, std::string_view key,
+                                            std::string_view value) {
+  const auto control = [](std::string_view s) {
+    for (const char c : s) {
+      if (static_cast<unsigned char>(c) < 0x20 && c != '\t') return true;
+    }
+    return false;
+  };
+  if (section.empty() || control(section) ||
+      section.find_first_of("[]") != std::string_view::npos) {
+    return fmt::format("'{}' is not a section name (expected no brackets and no line break)",
+                       section);
+  }
+  if (key.empty() || key.find_first_of(" \t\r\n=[]#;") != std::string_view::npos || control(key)) {
+    return fmt::format("'{}' is not a key name (expected no blank, '=', '[', ']', '#' or ';')",
+                       key);
+  }
+  if (control(value) || value.ends_with('\\')) {
+    return fmt::format(
+        "the value of {} would span lines (a line break, a control character or a final '\\')",
+        key);
+  }
+  return std::nullopt;
+}
 
 IniDocument IniDocument::parse(std::string_view text, std::string source) {
   IniDocument doc;
@@ -203,28 +213,53 @@ IniDocument IniDocument::parse(std::string_view text, std::string source) {
 
 IniDocument IniDocument::load(const std::string& path) {
   IniDocument doc = parse(read_bounded(path), path);
+  std::vector<std::pair<dev_t, ino_t>> seen;  // the files read so far: the INI first
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0) seen.emplace_back(st.st_dev, st.st_ino);
   for (std::size_t i = 0; i < doc.files_.front().lines.size(); ++i) {
     Line& line = doc.files_.front().lines[i];
     if (line.kind != Line::Kind::include) continue;
-    // The linuxcnc script reports these and starts without them; so do we.
+    const std::string where = path + ":" + std::to_string(line.line);
+    // The linuxcnc script starts without an #INCLUDE it cannot read; the machine would then
+    // run without those sections, so circtest refuses instead.
     if (line.value.empty()) {
-      doc.warnings_.push_back(path + ":" + std::to_string(line.line) +
-                              ": #INCLUDE without a file name");
-      continue;
+      throw ParseError(path, line.line, "#INCLUDE without a file name");
     }
     const std::string target = expand_include_path(line.value, path);
     std::string text;
     try {
       text = read_bounded(target);
     } catch (const IoError& e) {
-      doc.warnings_.push_back(path + ":" + std::to_string(line.line) + ": #INCLUDE " + line.value +
-                              ": " + e.what());
-      continue;
+      throw IoError(where, "#INCLUDE " + line.value + ": " + e.what());
+    }
+    if (::stat(target.c_str(), &st) == 0) {
+      for (const auto& [dev, ino] : seen) {
+        if (dev == st.st_dev && ino == st.st_ino) {
+          throw ParseError(path, line.line,
+                           "#INCLUDE " + line.value + ": includes " +
+                               (seen.front() == std::make_pair(dev, ino)
+                                    ? std::string("the INI itself")
+                                    : std::string("a file already included")) +
+                               " (expected each file once)");
+        }
+      }
+      seen.emplace_back(st.st_dev, st.st_ino);
     }
     File included;
     included.path = target;
     included.lines = split_lines(text, target, false);
     included.newline = detect_newline(text);
+    for (const Line& nested : included.lines) {
+      const std::string nested_text = logical_text(nested.raw);
+      if (nested.kind == Line::Kind::comment && nested_text.starts_with("#INCLUDE") &&
+          (nested_text.size() == 8 || is_blank(nested_text[8]))) {
+        throw ParseError(target, nested.line,
+                         "#INCLUDE inside an included file: LinuxCNC follows #INCLUDE only in "
+                         "the main INI (one level), so " +
+                             std::string(trim(std::string_view(nested_text).substr(8))) +
+                             " would never be read (included from " + where + ")");
+      }
+    }
     line.included_file = doc.files_.size();
     doc.files_.push_back(std::move(included));
   }
@@ -388,6 +423,7 @@ void IniDocument::append(std::string_view section, std::string_view key, std::st
   const auto view = expanded();
   const auto span = section_span(view, section);
   if (!span) {
+    check_section(section);
     check_value(key, value);
     File& main = files_.front();
     if (!main.lines.empty() && !main.lines.back().raw.ends_with('\n')) {

@@ -12,7 +12,9 @@
 #include <string>
 
 #include "circtest/compensation/comp_table.hpp"
+#include "circtest/compensation/config_dir.hpp"
 #include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/compensation/manifest.hpp"
 #include "circtest/compensation/plan.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
@@ -120,6 +122,31 @@ TEST(Compensation, ApplyRevertIdempotence) {
   EXPECT_FALSE(fs::exists(s.dir / ".circcomp"));
   EXPECT_FALSE(revert(ini));  // a second revert is a no-op
   EXPECT_EQ(read_file(ini), text);
+}
+
+// The manifest names files relative to the configuration, with the SHA-256 of what apply
+// wrote, and reads back as written.
+TEST(Compensation, ManifestNamesRelativeFilesWithTheirChecksums) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", machine());
+  DiagnosisInput d = diag(0.002, ini);
+  d.scale_ppm[0] = {20.0, 0.5};
+  apply_plan(make_plan(ini, d, PlanOptions{}));
+  const std::string text = s.read(".circcomp/manifest");
+  const ConfigDir dir(ini);
+  const Manifest m = parse_manifest(text, "manifest", dir);
+  EXPECT_EQ(render_manifest(m), text);
+  ASSERT_EQ(m.last.size(), 2u);
+  EXPECT_EQ(m.last[0].name, "m.ini");
+  EXPECT_TRUE(m.last[0].existed);
+  EXPECT_EQ(m.last[0].sha256, sha256_hex(s.read("m.ini")));
+  EXPECT_EQ(m.last[1].name, "circtest-joint0.comp");
+  EXPECT_FALSE(m.last[1].existed);
+  EXPECT_EQ(m.last[1].sha256, sha256_hex(s.read("circtest-joint0.comp")));
+  EXPECT_EQ(m.found.size(), 2u);  // the first apply: its originals are the state as found
+  EXPECT_EQ(text.find(s.dir.string()), std::string::npos) << text;  // no absolute path
+  EXPECT_TRUE(revert(ini));
+  EXPECT_EQ(s.read("m.ini"), machine());
 }
 
 TEST(Compensation, ScaleCreatesATableWithBacklashMovedIntoIt) {
@@ -364,6 +391,15 @@ TEST(Compensation, LibraryRefusalsNameNoOption) {
   half.gain = 1.5;
   DiagnosisInput stale = diag(0.002);
   stale.ini_sha256 = std::string(64, '0');
+  Plan needs_kins;
+  needs_kins.needs_kins_module = true;
+  ::setenv("CIRCTEST_KINS_MODULE", (s.dir / "missing" / "circtest_kins.so").c_str(), 1);
+  const std::string kins_text = message([&] { require_kins_module(needs_kins); });
+  ::unsetenv("CIRCTEST_KINS_MODULE");
+  EXPECT_NE(kins_text.find("or leave squareness out of the corrections; nothing changed"),
+            std::string::npos)
+      << kins_text;
+  EXPECT_EQ(kins_text.find("--"), std::string::npos) << kins_text;
   const std::string texts[] = {
       message([&] { make_plan(ini, diag(0.3), PlanOptions{}); }),
       message([&] { make_plan(ini, uncertain, PlanOptions{}); }),

@@ -143,14 +143,17 @@ TEST_F(CompensationLoop, DiagnosedBacklashScaleAndSquarenessWrittenBackAndGone) 
             0)
       << slurp(out_ / "plan.diff");
   EXPECT_EQ(slurp(ini_), original);  // plan writes nothing
-  ASSERT_EQ(run(std::string(CIRCCOMP_PATH) + " apply --ini " + ini_ + " " + djson.string() + " >" +
+  // circtest-run loads the build tree's circtest_kins.so; circcomp checks that file is there.
+  const std::string kins_module = std::string("CIRCTEST_KINS_MODULE=") + CIRCTEST_BINARY_DIR +
+                                  "/hal-component/circtest_kins.so ";
+  ASSERT_EQ(run(kins_module + CIRCCOMP_PATH + " apply --ini " + ini_ + " " + djson.string() + " >" +
                 (out_ / "apply.log").string() + " 2>&1"),
             0)
       << slurp(out_ / "apply.log");
   EXPECT_TRUE(fs::exists(out_ / "machine" / "circtest-joint0.comp"));
   EXPECT_TRUE(fs::exists(out_ / "machine" / "circtest-comp.hal"));
   // The same correction again is refused: the INI is not the one measured any more.
-  EXPECT_EQ(run(std::string(CIRCCOMP_PATH) + " apply --ini " + ini_ + " " + djson.string() +
+  EXPECT_EQ(run(kins_module + CIRCCOMP_PATH + " apply --ini " + ini_ + " " + djson.string() +
                 " >/dev/null 2>&1"),
             10);
 

@@ -2,6 +2,7 @@
 // The part of a `circtest.diagnosis/1` document (circana diagnose --json) that compensation
 // reads. Keys are the plane's axis letters; a null is a value the diagnosis could not fit.
 #include <array>
+#include <cstddef>
 #include <optional>
 #include <string>
 
@@ -35,8 +36,13 @@ struct DiagnosisInput {
   std::optional<std::string> ini_sha256;
 };
 
-// Throws IoError, ParseError (not JSON, not schema circtest.diagnosis/1, a key of the wrong
-// type: file and key named).
+// The largest diagnosis read (a real one is a few kB).
+inline constexpr std::size_t kMaxDiagnosisBytes = std::size_t{4} << 20;
+
+// Throws IoError (missing, a device, larger than kMaxDiagnosisBytes), ParseError (not JSON,
+// nested deeper than 16 levels, a number beyond a double, not schema circtest.diagnosis/1 or
+// a newer version of it, a key of the wrong type: file and key named), DataError (a cyclic
+// pitch outside 0.001..10000 mm).
 DiagnosisInput read_diagnosis(const std::string& path);
 DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source);
 

@@ -18,9 +18,10 @@ namespace circtest::compensation {
 // words it as its own (circcomp: its options, in compensation/app/main.cpp), so library text
 // names no command-line option.
 enum class PlanSetting {
-  force,            // apply what is implausible, uncertain or of a changed INI
-  gain,             // the share of the residual to apply
-  record_with_ini,  // how to record a trace whose diagnosis carries the INI's SHA-256
+  force,               // apply what is implausible, uncertain or of a changed INI
+  gain,                // the share of the residual to apply
+  record_with_ini,     // how to record a trace whose diagnosis carries the INI's SHA-256
+  without_squareness,  // the corrections without squareness (no circtest_kins needed)
 };
 using PlanSettingWords = std::string_view (*)(PlanSetting setting);
 // The library's words: "the force setting", "the gain setting", ...
@@ -34,7 +35,8 @@ struct PlanOptions {
 };
 
 struct FileChange {
-  std::string path;
+  std::string path;  // as the INI names it (relative to the current folder), for messages
+  std::string name;  // relative to the configuration directory (ConfigDir), for the writes
   bool existed = false;
   std::string before;  // empty when !existed
   std::string after;
@@ -47,12 +49,15 @@ struct Plan {
   std::vector<std::string> advice;   // what circcomp cannot write (servo gains, friction)
   std::vector<std::string> notes;    // what was skipped and why
   bool provenance_checked = false;   // the diagnosis's ini_sha256 matched the INI
+  bool needs_kins_module = false;    // the plan loads the circtest_kins kinematics
 };
 
 // Reads the INI (with its #INCLUDEd files and COMP_FILEs) and builds the plan. Throws
 // DataError (exit 5) for an implausible or uncertain correction without options.force, or a
-// kinematics whose axes cannot be mapped to joints; StaleError (exit 10) when the INI is not
-// the one measured (checked by apply, not by plan: see require_fresh).
+// kinematics whose axes cannot be mapped to joints; UnsafePathError (exit 12) when a file the
+// plan changes lies outside the INI's directory, is a symbolic link or not a regular file;
+// StaleError (exit 10) when the INI is not the one measured (checked by apply, not by plan:
+// see require_fresh).
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& diagnosis,
                const PlanOptions& options);
 // Throws StaleError unless the diagnosis's ini_sha256 is the INI's SHA-256 now (or force).
@@ -62,16 +67,41 @@ void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis,
 // "--- a/FILE\n+++ b/FILE\n@@ ..." for every file of the plan (new files against /dev/null).
 std::string unified_diff(const Plan& plan);
 
-// Writes the originals and a manifest into <ini dir>/.circcomp/, then every file atomically.
+// Where LinuxCNC's loadrt finds realtime modules: RTLIB_DIR of /etc/linuxcnc/rtapi.conf, else
+// /usr/lib/linuxcnc/modules.
+std::string linuxcnc_module_dir();
+// The circtest_kins module a run of the configuration loads: $CIRCTEST_KINS_MODULE when set
+// (circtest-run loads that file, e.g. the build tree's, beside the system modules), else
+// circtest_kins.so in linuxcnc_module_dir(). Throws HalError (exit 7) with the fix spelled out
+// when the plan needs the module and that file is not there.
+void require_kins_module(const Plan& plan, PlanSettingWords words = library_setting_words);
+
+// Writes the originals and a manifest (manifest.hpp) into <ini dir>/.circcomp/, then every
+// file atomically. Every file is checked first (ConfigDir: inside the directory, no link, a
+// regular file or absent): a refusal touches nothing.
 // AFTER_STEP, when given, is called after every step (a temporary written but not yet renamed
 // into place, then the rename) with the step's number from 0 and a description: the crash
 // test kills the process there (circcomp-crash-test, tests/compensation).
 using StepHook = std::function<void(std::size_t step, const std::string& what)>;
 void apply_plan(const Plan& plan, const StepHook& after_step = {});
-// Restores the state before the last apply byte-identical (created files removed). Returns
-// false when there is nothing to revert (a second revert is a no-op).
-// AFTER_STEP as for apply_plan, after each file and after the manifest's removal: a revert
-// killed anywhere is finished by the next one.
+struct RevertOptions {
+  bool as_found = false;  // back to the state before the first apply, not only the last one
+  bool force = false;     // overwrite or remove files changed since circcomp wrote them
+};
+struct RevertResult {
+  bool reverted = false;      // false: nothing to revert
+  bool earlier_kept = false;  // earlier applies remain (revert with as_found undoes them)
+};
+// Restores the state before the last apply (or, with as_found, before the first one)
+// byte-identical, created files removed. Every file is checked before any is touched: a file
+// that is not what circcomp wrote (edited since) is refused with StaleError (exit 10) unless
+// FORCE; a link, FIFO or folder where a file was written, or a manifest naming anything
+// outside the directory, with UnsafePathError (exit 12). AFTER_STEP as for apply_plan, after
+// each file and after the manifest's removal or rewrite: a revert killed anywhere is finished
+// by the next one.
+RevertResult revert(const std::string& ini_path, const RevertOptions& options,
+                    const StepHook& after_step = {});
+// revert() of the last apply; false when there is nothing to revert.
 bool revert(const std::string& ini_path, const StepHook& after_step = {});
 
 }  // namespace circtest::compensation

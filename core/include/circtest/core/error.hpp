@@ -9,17 +9,18 @@ namespace circtest {
 
 enum class ExitCode : int {
   ok = 0,
-  internal = 1,   // a bug or an unexpected failure (std::bad_alloc, ...)
-  usage = 2,      // bad command-line options or option values
-  io = 3,         // a file cannot be opened, read, written or renamed
-  parse = 4,      // an input file is malformed (file and line in the message)
-  data = 5,       // input well-formed but unusable (too few points, arc under 90 deg, ...)
-  limit = 6,      // a request violates a machine limit (soft limits, velocity, acceleration)
-  hal = 7,        // HAL/LinuxCNC not available or the component is not loaded
-  data_loss = 8,  // the recorder lost samples (overruns or gaps); the file is still complete
-  tolerance = 9,  // a checked limit was breached (circana history --limits); not an error
-  stale = 10,     // circcomp apply: the INI changed since the measurement
-  database = 11,  // the history database cannot be opened, read or written
+  internal = 1,      // a bug or an unexpected failure (std::bad_alloc, ...)
+  usage = 2,         // bad command-line options or option values
+  io = 3,            // a file cannot be opened, read, written or renamed
+  parse = 4,         // an input file is malformed (file and line in the message)
+  data = 5,          // input well-formed but unusable (too few points, arc under 90 deg, ...)
+  limit = 6,         // a request violates a machine limit (soft limits, velocity, acceleration)
+  hal = 7,           // HAL/LinuxCNC not available or the component is not loaded
+  data_loss = 8,     // the recorder lost samples (overruns or gaps); the file is still complete
+  tolerance = 9,     // a checked limit was breached (circana history --limits); not an error
+  stale = 10,        // circcomp apply: the INI changed since the measurement
+  database = 11,     // the history database cannot be opened, read or written
+  unsafe_path = 12,  // circcomp: a path outside the configuration, a link or not a regular file
 };
 
 // Short stable name of an exit code, for messages and documentation.
@@ -89,6 +90,18 @@ class StaleError : public Error {
 class DatabaseError : public Error {
  public:
   explicit DatabaseError(const std::string& message) : Error(ExitCode::database, message) {}
+};
+
+// A file circcomp was asked to read back, write, rename or remove that lies outside the
+// configuration directory, is reached through a symbolic link, or is not a regular file.
+class UnsafePathError : public Error {
+ public:
+  UnsafePathError(const std::string& path, const std::string& message)
+      : Error(ExitCode::unsafe_path, path + ": " + message), path_(path) {}
+  const std::string& path() const noexcept { return path_; }
+
+ private:
+  std::string path_;
 };
 
 class HalError : public Error {

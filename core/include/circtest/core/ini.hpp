@@ -7,7 +7,8 @@
 // line ending in a backslash continues on the next; lines starting with '#' or ';' are
 // comments, lines without '=' are ignored; a "#INCLUDE FILE" line at the start of a line of
 // the main file is replaced by FILE's text (relative to the INI's folder, '~' is $HOME; one
-// level, as the linuxcnc script does).
+// level, as the linuxcnc script does). Where the linuxcnc script would start without an
+// #INCLUDE (it cannot be read) or never read one (nested in an included file), load() refuses.
 //
 // Writing changes only the lines an edit means: every other byte (comments, blank lines, key
 // order, spacing, CRLF line ends, continuation lines, included files) renders back unchanged.
@@ -19,6 +20,12 @@
 #include <vector>
 
 namespace circtest {
+
+// What makes an edit impossible to write as one INI line: a section name with a bracket or a
+// line break, a key with a blank, '=', '[', ']', '#' or ';', a value with a line break or a
+// control character or ending in '\' (a continuation); nullopt when the edit is fine.
+std::optional<std::string> ini_edit_problem(std::string_view section, std::string_view key,
+                                            std::string_view value);
 
 // One key = value as LinuxCNC reads it.
 struct IniEntry {
@@ -32,8 +39,9 @@ struct IniEntry {
 class IniDocument {
  public:
   // Reads PATH and the files it #INCLUDEs. Throws IoError (missing, not a regular file,
-  // larger than 16 MiB) or ParseError (a line longer than 1 MiB). An #INCLUDE that cannot be
-  // read is left out with a warning, as LinuxCNC starts without it.
+  // larger than 16 MiB; for an #INCLUDE that cannot be read, the message starts with the INI's
+  // FILE:LINE) or ParseError (a line longer than 1 MiB; an #INCLUDE without a name, of the
+  // INI itself or of a file already included; an #INCLUDE inside an included file).
   static IniDocument load(const std::string& path);
   // Parses TEXT as the file SOURCE; #INCLUDE lines are kept as text but not followed.
   static IniDocument parse(std::string_view text, std::string source = "<ini>");
@@ -67,8 +75,6 @@ class IniDocument {
   std::string render_file(std::size_t index) const;
   bool file_modified(std::size_t index) const { return files_.at(index).modified; }
   const std::string& path() const { return files_.front().path; }
-  // "FILE:LINE: what" for each #INCLUDE that could not be followed.
-  const std::vector<std::string>& warnings() const { return warnings_; }
 
   struct Line;  // a logical line: one physical line, or several joined by '\'
 
@@ -95,7 +101,6 @@ class IniDocument {
   IniEntry entry_of(const Ref& ref, std::string_view section) const;
 
   std::vector<File> files_;
-  std::vector<std::string> warnings_;
 };
 
 struct IniDocument::Line {
