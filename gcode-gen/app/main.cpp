@@ -4,6 +4,7 @@
 #include <boost/program_options.hpp>
 
 #include <cctype>
+#include <cmath>
 #include <cstdlib>
 #include <ctime>
 #include <iostream>
@@ -27,8 +28,15 @@ namespace {
 // SOURCE_DATE_EPOCH makes the output reproducible (reproducible-builds.org convention).
 std::string header_date() {
   if (const char* epoch = std::getenv("SOURCE_DATE_EPOCH")) {
-    return utc_iso8601(
-        {static_cast<std::time_t>(parse_option_number("SOURCE_DATE_EPOCH", epoch)), 0});
+    // Whole seconds up to the end of year 9999, the last date ISO 8601 writes in 4 digits.
+    constexpr double kLastSecond = 253402300799.0;
+    const double seconds = parse_option_number("SOURCE_DATE_EPOCH", epoch);
+    if (!(seconds >= 0.0 && seconds <= kLastSecond) || seconds != std::floor(seconds)) {
+      throw UsageError(fmt::format(
+          "SOURCE_DATE_EPOCH: expected whole seconds since 1970 in 0..{:.0f} (year 9999), got '{}'",
+          kLastSecond, epoch));
+    }
+    return utc_iso8601({static_cast<std::time_t>(seconds), 0});
   }
   return utc_now_iso8601();
 }
