@@ -497,6 +497,26 @@ TEST_F(Recorder, TheWaitForAMissingRunComesFromTheProgramsPauses) {
   EXPECT_EQ(rec::run_wait_s(r), rec::kDefaultRunWait_s);
 }
 
+// circgen's own programs (tests/gcode-gen/golden): the recorder reads the runs and the
+// numbers of the pauses from the header keys circgen writes.
+TEST(CirclogRecordProgram, ReadsTheRunsAndPausesCircgenAnnounces) {
+  const std::string golden = std::string(CIRCTEST_SOURCE_DIR) + "/tests/gcode-gen/golden/";
+  const auto ballbar = rec::read_program_plan(golden + "ballbar_xy_safe.ngc");
+  ASSERT_EQ(ballbar.runs.size(), 2u);
+  EXPECT_EQ(ballbar.runs[1].segment_id, 2);
+  EXPECT_EQ(ballbar.runs[1].direction, circtest::Direction::CW);
+  EXPECT_EQ(ballbar.runs[1].label, "CW F1000");
+  // R100, 20 deg overshoots at F1000 (2 x 2.094 s), 1.5 mm feed-out and feed-in at F200.
+  ASSERT_TRUE(ballbar.longest_pause_s);
+  EXPECT_NEAR(*ballbar.longest_pause_s, 2 * 2.0943951 + 0.9, 1e-6);
+  // Inch, CW at F10 then F20 in/min on R2 in (50.8 mm), 10 deg leads: the lead-out at
+  // 254 mm/min (2.094 s), the 20 deg way back and the lead-in at 508 mm/min (2.094 s, 1.047 s).
+  const auto inch = rec::read_program_plan(golden + "inch_sweep_cw.ngc");
+  ASSERT_EQ(inch.runs.size(), 2u);
+  ASSERT_TRUE(inch.longest_pause_s);
+  EXPECT_NEAR(*inch.longest_pause_s, 2.0943951 + 2.0943951 + 1.0471976, 1e-6);
+}
+
 std::string parse_error(const std::string& file) {
   try {
     rec::read_program_plan(file);
