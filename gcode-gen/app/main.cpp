@@ -120,6 +120,12 @@ int run(int argc, char** argv) {
   if (vm.count("d") && vm.count("r")) throw UsageError("give --d or --r, not both");
   if (!vm.count("d") && !vm.count("r")) throw UsageError("missing --d (diameter) or --r (radius)");
   const double diameter = vm.count("d") ? number("d") : 2.0 * number("r");
+  if (!std::isfinite(diameter)) {  // twice a radius near the largest double
+    throw UsageError(
+        fmt::format("--r: a radius of {} is outside the plausible range {:.4g}..{:.4g} {}",
+                    text("r"), plausible::diameter.min / 2.0 / mm,
+                    plausible::diameter.max / 2.0 / mm, vm.count("inch") ? "in" : "mm"));
+  }
   if (diameter <= 0.0) {
     throw UsageError(fmt::format("--{}: the circle must be larger than 0, got {}",
                                  vm.count("d") ? "d" : "r", text(vm.count("d") ? "d" : "r")));

@@ -42,6 +42,8 @@ char offset_word(char axis) {
 // Header numbers: shortest form that survives a round trip, after dropping float noise
 // (38.099999999999994 mm from 1.5 in is 38.1).
 std::string header_number(double value) {
+  // Beyond 1e9 there is no float noise below 1e-9 to drop (and value * 1e9 could overflow).
+  if (!(std::abs(value) < 1e9)) return fmt::format("{}", value);
   double rounded = std::round(value * 1e9) / 1e9;
   if (rounded == 0.0) rounded = 0.0;  // no "-0"
   return fmt::format("{}", rounded);
@@ -353,13 +355,29 @@ void check_lead_gap(const CircleTestSpec& spec, SpecWords words) {
   // one that closes it.
   const double closing_deg = full ? 180.0 : (360.0 - spec.arc_deg) / 2.0;
   const double below_deg = std::floor((closing_deg - step / 2.0) * 1000.0) / 1000.0;
+  const std::string lead = std::string(words(SpecSetting::lead));
   throw UsageError(fmt::format(
       "{}: {} deg leads around a {} deg arc leave {} deg of the circle between the lead-out end "
-      "and the lead-in start, less than {} deg: that arc cannot be written; use {} {} or less, "
-      "or {} to close the circle",
-      words(SpecSetting::lead), header_number(spec.lead_deg), header_number(spec.arc_deg),
-      header_number(360.0 - gap_deg), header_number(step), words(SpecSetting::lead),
-      header_number(below_deg), header_number(closing_deg)));
+      "and the lead-in start, less than {} deg: that arc cannot be written; use {}{} {} to close "
+      "the circle",
+      lead, header_number(spec.lead_deg), header_number(spec.arc_deg),
+      header_number(360.0 - gap_deg), header_number(step),
+      below_deg >= step ? fmt::format("{} {} or less, or ", lead, header_number(below_deg)) : "",
+      lead, header_number(closing_deg)));
+}
+
+// What fits around a partial arc that the leads overlap: a shorter lead when one of at least
+// kMinArcStepDeg fits, else a shorter (or the full) arc.
+std::string overlap_advice(const CircleTestSpec& spec, SpecWords words) {
+  const double step = plausible::kMinArcStepDeg;
+  const double max_lead_deg = std::floor((360.0 - spec.arc_deg) / 2.0 * 1000.0) / 1000.0;
+  if (max_lead_deg >= step) {
+    return fmt::format("{} {} or less", words(SpecSetting::lead), header_number(max_lead_deg));
+  }
+  const double lead_deg = std::max(spec.lead_deg, step);
+  return fmt::format("{} {} or less, or {} 360", words(SpecSetting::arc),
+                     header_number(std::floor((360.0 - 2.0 * lead_deg) * 1000.0) / 1000.0),
+                     words(SpecSetting::arc));
 }
 }  // namespace
 
@@ -395,8 +413,7 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
         fmt::format("{}: the lead arcs must be at least {} deg, got {}: the measured arc needs a "
                     "run-up to reach the feed, M63 only takes effect with the next move, and a "
                     "shorter arc can be written as a full circle",
-                    w(SpecSetting::lead), header_number(plausible::kMinArcStepDeg),
-                    header_number(spec.lead_deg)));
+                    w(SpecSetting::lead), header_number(plausible::kMinArcStepDeg), spec.lead_deg));
   }
   const bool full = spec.arc_deg >= 360.0;
   if (full && spec.lead_deg > 180.0) {
@@ -406,12 +423,11 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
         w(SpecSetting::lead), header_number(spec.lead_deg)));
   }
   if (!full && spec.arc_deg + 2.0 * spec.lead_deg > 360.0 + kAngleEpsilonDeg) {
-    throw UsageError(
-        fmt::format("{}: {} deg lead arcs around a {} deg arc would overlap each other "
-                    "(arc + 2 * lead = {} > 360 deg); use {} {} or less",
-                    w(SpecSetting::lead), header_number(spec.lead_deg), header_number(spec.arc_deg),
-                    header_number(spec.arc_deg + 2.0 * spec.lead_deg), w(SpecSetting::lead),
-                    header_number(std::floor((360.0 - spec.arc_deg) / 2.0 * 1000.0) / 1000.0)));
+    throw UsageError(fmt::format(
+        "{}: {} deg lead arcs around a {} deg arc would overlap each other "
+        "(arc + 2 * lead = {} > 360 deg); use {}",
+        w(SpecSetting::lead), header_number(spec.lead_deg), header_number(spec.arc_deg),
+        header_number(spec.arc_deg + 2.0 * spec.lead_deg), overlap_advice(spec, words)));
   }
   check_lead_gap(spec, words);
   for (double c : spec.centre_mm) {
