@@ -176,6 +176,40 @@ TEST(HostileCircgen, SourceDateEpochOutsideWholeSecondsToYear9999) {
   EXPECT_NE(last.out.find("(circtest: date: 9999-12-31T23:59:59Z)"), std::string::npos);
 }
 
+// The numbers --ini takes from a configuration size the velocity, acceleration and lead
+// run-up checks: a zero or negative limit, an absurd LINEAR_UNITS or crossed soft limits are
+// a broken file (exit 4 at its line), not a limit the test exceeds.
+TEST(HostileCircgen, MachineNumbersThatCannotBeLimits) {
+  ScratchDir dir;
+  const std::string base =
+      "[TRAJ]\nLINEAR_UNITS = mm\nMAX_LINEAR_VELOCITY = 50\n[AXIS_X]\nMIN_LIMIT = -200\n"
+      "MAX_LIMIT = 200\nMAX_VELOCITY = 30\nMAX_ACCELERATION = 500\n";
+  struct Edit {
+    std::string from, to, message;
+  };
+  const std::vector<Edit> edits{
+      {"MAX_ACCELERATION = 500", "MAX_ACCELERATION = 0",
+       ":8: [AXIS_X] MAX_ACCELERATION: expected a positive number, got '0'"},
+      {"MAX_VELOCITY = 30", "MAX_VELOCITY = -1",
+       ":7: [AXIS_X] MAX_VELOCITY: expected a positive number, got '-1'"},
+      {"MAX_LINEAR_VELOCITY = 50", "MAX_LINEAR_VELOCITY = 0",
+       ":3: [TRAJ] MAX_LINEAR_VELOCITY: expected a positive number, got '0'"},
+      {"LINEAR_UNITS = mm", "LINEAR_UNITS = 1e-300",
+       ":2: [TRAJ] LINEAR_UNITS: expected a positive number of units per mm, 0.0001..10000, got "
+       "'1e-300'"},
+      {"MIN_LIMIT = -200", "MIN_LIMIT = 1e308",
+       ":5: [AXIS_X] MIN_LIMIT = 1e308 is above MAX_LIMIT = 200"},
+  };
+  for (const Edit& e : edits) {
+    std::string text = base;
+    text.replace(text.find(e.from), e.from.size(), e.to);
+    const std::string ini = dir.file("m.ini");
+    spit(ini, text);
+    expect_refusal(CIRCGEN_PATH, "circgen",
+                   {{"--d", "100", "--f", "500", "--ini", ini}, 4, ini + e.message});
+  }
+}
+
 // circlog-record reads the program's announced runs before it looks for HAL: a header it
 // could not account for is refused whether or not LinuxCNC runs.
 TEST(HostileCirclogRecord, AnnouncedRunsAndWaitsAreCheckedBeforeRecording) {
