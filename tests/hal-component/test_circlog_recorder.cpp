@@ -397,15 +397,21 @@ void script(FakeServo& servo, std::vector<ScriptedRun> runs) {
   };
 }
 
+// Recording into t.csv with a ballbar program (p.ngc) that announces `segments`.
+rec::Options with_program(const fs::path& dir, const std::string& segments) {
+  std::ofstream(dir / "p.ngc") << ballbar_header(segments);
+  rec::Options o = options_for((dir / "t.csv").string());
+  o.program = (dir / "p.ngc").string();
+  o.program_plan = rec::read_program_plan(o.program);
+  return o;
+}
+
 TEST_F(Recorder, WaitsForEveryAnnouncedRunThroughAPauseLongerThanTheIdleTime) {
   FakeServo servo(1, 1 << 14);
   // CCW 100..1100, a 4 s pause (the ballbar's feed-out and feed-in), CW 5100..6100.
   script(servo, {{100, 1100, 1.0}, {5100, 6100, 2.0}});
-  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000,2:CW:F1000");
-  rec::Options o = options_for(path("t.csv"));
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
   o.idle_s = 2.0;  // as the README shows it
-  o.program = path("p.ngc");
-  o.program_plan = rec::read_program_plan(o.program);
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.runs, 2u);
   EXPECT_EQ(s.stop_reason, "idle");
@@ -422,11 +428,8 @@ TEST_F(Recorder, AProgramThatEndsWithoutARunSaysWhichIsMissing) {
   FakeServo servo(1, 1 << 14);
   // Runs 1 and 2 of three; run 3 never comes.
   script(servo, {{100, 1100, 1.0}, {3000, 4000, 2.0}});
-  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000,2:CW:F1000,3:CCW:F2000");
-  rec::Options o = options_for(path("t.csv"));
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000,3:CCW:F2000");
   o.idle_s = 2.0;
-  o.program = path("p.ngc");
-  o.program_plan = rec::read_program_plan(o.program);
   const double wait_s = rec::run_wait_s(o);
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.stop_reason, "idle with runs missing");
@@ -447,12 +450,9 @@ TEST_F(Recorder, ARunWhoseStartWasNotRecordedIsIncomplete) {
   FakeServo servo(1, 1 << 14);
   // Run 1 is already under way when the recorder attaches.
   script(servo, {{0, 1000, 1.0}, {2000, 3000, 2.0}});
-  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000,2:CW:F1000");
-  rec::Options o = options_for(path("t.csv"));
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
   o.idle_s = 0.5;
   o.run_wait_s = 1.0;
-  o.program = path("p.ngc");
-  o.program_plan = rec::read_program_plan(o.program);
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.missing_runs, (std::vector<std::string>{"1 (CCW F1000) incomplete"}));
   EXPECT_EQ(s.stop_reason, "idle with runs missing");
@@ -462,10 +462,7 @@ TEST_F(Recorder, ASignalBeforeTheLastRunListsIt) {
   FakeServo servo(1, 1 << 14);
   script(servo, {{100, 1100, 1.0}, {50000, 51000, 2.0}});
   servo.stop_after_sleeps = 400;  // 2 s of 5 ms polls
-  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000,2:CW:F1000");
-  rec::Options o = options_for(path("t.csv"));
-  o.program = path("p.ngc");
-  o.program_plan = rec::read_program_plan(o.program);
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.stop_reason, "signal");
   EXPECT_EQ(s.missing_runs, (std::vector<std::string>{"2 (CW F1000) not recorded"}));
