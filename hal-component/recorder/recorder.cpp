@@ -230,14 +230,40 @@ struct HeaderLine {
   std::size_t line = 0;
 };
 
+// A header is a few dozen short comment lines, and LinuxCNC reads lines of at most 256
+// characters: past these limits the file is not a program (a device such as /dev/zero, or
+// endless blank lines, would otherwise be read without end).
+constexpr std::size_t kMaxLineBytes = 4096;
+constexpr std::size_t kMaxHeaderLines = 10000;
+
+// One line without its '\n'; false at the end of the input.
+bool read_line(std::istream& in, std::string& line, const std::string& path, std::size_t line_no) {
+  line.clear();
+  for (int c = in.get(); c != std::char_traits<char>::eof(); c = in.get()) {
+    if (c == '\n') return true;
+    if (line.size() == kMaxLineBytes) {
+      throw ParseError(
+          path, line_no,
+          fmt::format("a line longer than {} bytes: not a G-code program", kMaxLineBytes));
+    }
+    line.push_back(static_cast<char>(c));
+  }
+  return !line.empty();
+}
+
 std::vector<HeaderLine> read_header_lines(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw IoError(path, "cannot open the G-code program");
   std::vector<HeaderLine> out;
   std::string line;
   std::size_t line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
+  while (read_line(in, line, path, line_no + 1)) {
+    if (++line_no > kMaxHeaderLines) {
+      throw ParseError(path, line_no,
+                       fmt::format("more than {} lines before the first line of code: not a "
+                                   "G-code program header",
+                                   kMaxHeaderLines));
+    }
     const std::string s(trim(line));
     if (s.empty() || s == "%") continue;
     if (s.front() != '(' || s.back() != ')') break;  // the first line of code ends the header

@@ -243,4 +243,21 @@ TEST(HostileCirclogRecord, AnnouncedRunsAndWaitsAreCheckedBeforeRecording) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// A "program" that never ends its first line, or never reaches code, is not read without end.
+TEST(HostileCirclogRecord, AProgramWithoutEndIsRefused) {
+  ScratchDir dir;
+  spit(dir.file("blank.ngc"), std::string(20000, '\n'));
+  const std::string out = dir.file("t.csv");
+  expect_refusal(CIRCLOG_RECORD_PATH, "circlog-record",
+                 {{"-o", out, "--program", "/dev/zero"},
+                  4,
+                  "/dev/zero:1: a line longer than 4096 bytes: not a G-code program"});
+  expect_refusal(CIRCLOG_RECORD_PATH, "circlog-record",
+                 {{"-o", out, "--program", dir.file("blank.ngc")},
+                  4,
+                  dir.file("blank.ngc") +
+                      ":10001: more than 10000 lines before the first line of code: not a G-code "
+                      "program header"});
+}
+
 }  // namespace
