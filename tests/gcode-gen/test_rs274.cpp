@@ -784,6 +784,27 @@ TEST(Rs274Grid, EveryAcceptedLeadAndArcTurnsAsIntended) {
       }
     }
   }
+  // Start angles at and near the ends of their range, where angles wrap.
+  for (Plane plane : {Plane::XY, Plane::ZX}) {
+    for (double start : {-360.0, -0.0001, 123.456, 359.9999, 360.0}) {
+      for (double arc : {90.0, 360.0}) {
+        for (double lead : {1.0, 45.0}) {
+          for (double diameter : {1.0, 100.0}) {
+            CircleTestSpec spec;
+            spec.plane = plane;
+            spec.radius_mm = diameter / 2.0;
+            spec.arc_deg = arc;
+            spec.lead_deg = lead;
+            spec.start_deg = start;
+            spec.directions = {Direction::CW};
+            spec.feeds_mm_per_min = {300.0, 600.0};
+            SCOPED_TRACE(fmt_case(spec));
+            check_through_rs274(spec, outcome);
+          }
+        }
+      }
+    }
+  }
   // Both outcomes occur: the grid reaches past the limits on both sides.
   std::cout << outcome.accepted << " accepted, " << outcome.refused << " refused\n";
   EXPECT_GT(outcome.accepted, 300);
