@@ -19,15 +19,17 @@ namespace {
 
 // What the program printed must have reached its destination: a full disk or a closed pipe
 // under `> out.json` would otherwise leave a truncated document behind an exit status of 0.
-// Returns the error's text, or "" when standard output took everything. The reason is known
-// only when this last flush fails; an earlier failed write left no errno behind.
+// Returns the error's text, or "" when standard output took everything. cout shares stdio's
+// buffer, so its flush writes what is left and a full disk fails it again with the reason.
 std::string standard_output_failure() {
-  std::cout.flush();
-  const bool stream_failed = !std::cout.good();
   errno = 0;
+  std::cout.flush();
+  int reason = errno;
+  const bool stream_failed = !std::cout.good();
   const bool flush_failed = std::fflush(stdout) != 0 || std::ferror(stdout) != 0;
+  if (reason == 0) reason = errno;
   if (!stream_failed && !flush_failed) return {};
-  return errno != 0 ? std::string("write failed: ") + std::strerror(errno) : "write failed";
+  return reason != 0 ? std::string("write failed: ") + std::strerror(reason) : "write failed";
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <boost/program_options.hpp>
 
 #include <cctype>
+#include <cmath>
 #include <cstdlib>
 #include <ctime>
 #include <iostream>
@@ -27,8 +28,15 @@ namespace {
 // SOURCE_DATE_EPOCH makes the output reproducible (reproducible-builds.org convention).
 std::string header_date() {
   if (const char* epoch = std::getenv("SOURCE_DATE_EPOCH")) {
-    return utc_iso8601(
-        {static_cast<std::time_t>(parse_option_number("SOURCE_DATE_EPOCH", epoch)), 0});
+    // Whole seconds up to the end of year 9999, the last date ISO 8601 writes in 4 digits.
+    constexpr double kLastSecond = 253402300799.0;
+    const double seconds = parse_option_number("SOURCE_DATE_EPOCH", epoch);
+    if (!(seconds >= 0.0 && seconds <= kLastSecond) || seconds != std::floor(seconds)) {
+      throw UsageError(fmt::format(
+          "SOURCE_DATE_EPOCH: expected whole seconds since 1970 in 0..{:.0f} (year 9999), got '{}'",
+          kLastSecond, epoch));
+    }
+    return utc_iso8601({static_cast<std::time_t>(seconds), 0});
   }
   return utc_now_iso8601();
 }
@@ -112,6 +120,12 @@ int run(int argc, char** argv) {
   if (vm.count("d") && vm.count("r")) throw UsageError("give --d or --r, not both");
   if (!vm.count("d") && !vm.count("r")) throw UsageError("missing --d (diameter) or --r (radius)");
   const double diameter = vm.count("d") ? number("d") : 2.0 * number("r");
+  if (!std::isfinite(diameter)) {  // twice a radius near the largest double
+    throw UsageError(
+        fmt::format("--r: a radius of {} is outside the plausible range {:.4g}..{:.4g} {}",
+                    text("r"), plausible::diameter.min / 2.0 / mm,
+                    plausible::diameter.max / 2.0 / mm, vm.count("inch") ? "in" : "mm"));
+  }
   if (diameter <= 0.0) {
     throw UsageError(fmt::format("--{}: the circle must be larger than 0, got {}",
                                  vm.count("d") ? "d" : "r", text(vm.count("d") ? "d" : "r")));

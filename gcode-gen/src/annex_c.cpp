@@ -41,13 +41,15 @@ AnnexCNote annex_c_note(double test_diameter, double reference_diameter, double 
   // where a whole unit would be a coarse step.
   const double step = units == LengthUnit::mm ? 1.0 : 0.1;
   note.scaled_feed = std::round(note.scaled_feed_exact / step) * step;
-  if (note.scaled_feed <= 0.0) note.scaled_feed = step;
-  if (!(note.scaled_feed * mm <= plausible::feed.max)) {
+  // A feed rounded up to one step would be a different test than the one asked for: refuse.
+  const double scaled_mm = note.scaled_feed * mm;
+  if (!(scaled_mm >= plausible::feed.min && scaled_mm <= plausible::feed.max)) {
     throw UsageError(fmt::format(
-        "{}: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is above "
-        "the plausible {} mm/min",
+        "{}: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is {} the plausible {}..{} mm/min",
         words(SpecSetting::reference_feed), reference_feed, test_diameter, reference_diameter,
-        note.scaled_feed_exact, units == LengthUnit::inch ? "in" : "mm", plausible::feed.max));
+        note.scaled_feed_exact, units == LengthUnit::inch ? "in" : "mm",
+        scaled_mm > plausible::feed.max ? "above" : "below", plausible::feed.min,
+        plausible::feed.max));
   }
   return note;
 }

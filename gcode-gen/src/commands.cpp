@@ -1,5 +1,10 @@
 #include "circtest/gcode/commands.hpp"
 
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstring>
+
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
@@ -76,9 +81,16 @@ int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err) 
   if (!request.output_path.empty()) {
     write_file_atomic(request.output_path, program.text);
   } else {
+    // A failed write (a full disk under `> test.ngc`) is an error with the system's reason,
+    // worded as run_cli words it for every program.
+    errno = 0;
     out.write(program.text.data(), static_cast<std::streamsize>(program.text.size()));
     out.flush();
-    if (!out) throw IoError("standard output", "write failed");
+    if (!out) {
+      throw IoError("standard output", errno != 0
+                                           ? std::string("write failed: ") + std::strerror(errno)
+                                           : std::string("write failed"));
+    }
   }
   return 0;
 }

@@ -36,17 +36,35 @@ std::optional<double> ini_number(const IniDocument& ini, const char* section, co
   return *number;
 }
 
+// A velocity or acceleration: zero or negative is not a limit but a broken configuration,
+// and would turn every check (and the lead run-up it sizes) into a division by it.
+std::optional<double> ini_positive(const IniDocument& ini, const char* section, const char* key) {
+  const auto number = ini_number(ini, section, key);
+  if (number && !(*number > 0.0)) {
+    const auto entry = ini.find(section, key);
+    throw ParseError(
+        entry->file, entry->line,
+        fmt::format("[{}] {}: expected a positive number, got '{}'", section, key, entry->value));
+  }
+  return number;
+}
+
+// The range of a numeric LINEAR_UNITS (machine units per mm): from metres (0.001) to
+// micrometres (1000) with a decade to spare on each side.
+constexpr double kMinUnitsPerMm = 1e-4;
+constexpr double kMaxUnitsPerMm = 1e4;
+
 // [TRAJ] LINEAR_UNITS as LinuxCNC 2.9 reads it (emcIniFile linearUnitsMap): machine units per
 // mm as a number, or a name, case-insensitive.
 double mm_per_unit(const IniDocument& ini) {
   const auto entry = ini.find("TRAJ", "LINEAR_UNITS");
   if (!entry || entry->value.empty()) return 1.0;
   if (const auto units_per_mm = parse_finite(entry->value)) {
-    if (*units_per_mm <= 0.0) {
+    if (!(*units_per_mm >= kMinUnitsPerMm && *units_per_mm <= kMaxUnitsPerMm)) {
       throw ParseError(entry->file, entry->line,
                        fmt::format("[TRAJ] LINEAR_UNITS: expected a positive number of units "
-                                   "per mm, got '{}'",
-                                   entry->value));
+                                   "per mm, {}..{}, got '{}'",
+                                   kMinUnitsPerMm, kMaxUnitsPerMm, entry->value));
     }
     return 1.0 / *units_per_mm;
   }
@@ -90,9 +108,9 @@ MachineLimits machine_limits_from(const IniDocument& ini) {
   auto length = [unit](std::optional<double> v) {
     return v ? std::optional<double>(*v * unit) : std::nullopt;
   };
-  limits.max_linear_velocity_mm_per_s = length(ini_number(ini, "TRAJ", "MAX_LINEAR_VELOCITY"));
+  limits.max_linear_velocity_mm_per_s = length(ini_positive(ini, "TRAJ", "MAX_LINEAR_VELOCITY"));
   limits.max_linear_acceleration_mm_per_s2 =
-      length(ini_number(ini, "TRAJ", "MAX_LINEAR_ACCELERATION"));
+      length(ini_positive(ini, "TRAJ", "MAX_LINEAR_ACCELERATION"));
   const std::string letters = coordinate_letters(ini);
   for (int i = 0; i < 3; ++i) {
     AxisLimits& axis = limits.axes[i];
@@ -104,8 +122,15 @@ MachineLimits machine_limits_from(const IniDocument& ini) {
     if (!axis.present) continue;
     axis.min_limit_mm = length(ini_number(ini, section.c_str(), "MIN_LIMIT"));
     axis.max_limit_mm = length(ini_number(ini, section.c_str(), "MAX_LIMIT"));
-    axis.max_velocity_mm_per_s = length(ini_number(ini, section.c_str(), "MAX_VELOCITY"));
-    axis.max_acceleration_mm_per_s2 = length(ini_number(ini, section.c_str(), "MAX_ACCELERATION"));
+    if (axis.min_limit_mm && axis.max_limit_mm && *axis.min_limit_mm > *axis.max_limit_mm) {
+      const auto entry = ini.find(section.c_str(), "MIN_LIMIT");
+      throw ParseError(entry->file, entry->line,
+                       fmt::format("[{}] MIN_LIMIT = {} is above MAX_LIMIT = {}", section,
+                                   entry->value, ini.find(section.c_str(), "MAX_LIMIT")->value));
+    }
+    axis.max_velocity_mm_per_s = length(ini_positive(ini, section.c_str(), "MAX_VELOCITY"));
+    axis.max_acceleration_mm_per_s2 =
+        length(ini_positive(ini, section.c_str(), "MAX_ACCELERATION"));
     // LinuxCNC 2.9 (iniaxis.cc, emccfg.h) gives an axis without these keys 1 unit/s and
     // 1 unit/s^2, and limits of +-1e99: a real machine limit, checked as such.
     if (!axis.max_velocity_mm_per_s) axis.max_velocity_mm_per_s = unit * 1.0;

@@ -42,6 +42,8 @@ char offset_word(char axis) {
 // Header numbers: shortest form that survives a round trip, after dropping float noise
 // (38.099999999999994 mm from 1.5 in is 38.1).
 std::string header_number(double value) {
+  // Beyond 1e9 there is no float noise below 1e-9 to drop (and value * 1e9 could overflow).
+  if (!(std::abs(value) < 1e9)) return fmt::format("{}", value);
   double rounded = std::round(value * 1e9) / 1e9;
   if (rounded == 0.0) rounded = 0.0;  // no "-0"
   return fmt::format("{}", rounded);
@@ -136,6 +138,7 @@ class ProgramWriter {
     const double to_deg = direction == Direction::CCW ? from_deg + sweep_deg : from_deg - sweep_deg;
     const std::array<double, 3> end =
         std::abs(sweep_deg - 360.0) < kAngleEpsilonDeg ? position_ : point_at(to_deg, extra);
+    check_written_sweep(direction, end, sweep_deg);
     std::string s = direction == Direction::CCW ? "G3" : "G2";
     for (char axis : std::string_view("xyz")) {
       if (axis == axes_.normal) continue;
@@ -162,6 +165,29 @@ class ProgramWriter {
   static void check_word(double value) {
     if (!(std::abs(value) < 1e7)) {
       throw Error(ExitCode::internal, fmt::format("refusing to write a G-code word of {}", value));
+    }
+  }
+
+  // What the interpreter runs for the written words: the turn from the start to the end
+  // point in `direction`, a full one when they are the same point. validate() keeps every
+  // arc and gap at least kMinArcStepDeg from 0 and 360 deg, far beyond the written digits,
+  // so a mismatch is a bug, never a user's number: refuse rather than write a full circle.
+  void check_written_sweep(Direction direction, const std::array<double, 3>& end,
+                           double sweep_deg) const {
+    const int a = axis_index(axes_.first), b = axis_index(axes_.second);
+    double turn_deg = 360.0;
+    if (end[a] != position_[a] || end[b] != position_[b]) {
+      const double from = std::atan2(position_[b] - centre_[b], position_[a] - centre_[a]);
+      const double to = std::atan2(end[b] - centre_[b], end[a] - centre_[a]);
+      const double ccw_deg = (to - from) * 180.0 / std::numbers::pi;
+      turn_deg = std::fmod((direction == Direction::CCW ? ccw_deg : -ccw_deg) + 720.0, 360.0);
+      if (turn_deg == 0.0) turn_deg = 360.0;
+    }
+    if (!(std::abs(turn_deg - sweep_deg) <= plausible::kMinArcStepDeg / 2.0)) {
+      throw Error(ExitCode::internal,
+                  fmt::format("refusing to write an arc meant to turn {} deg that the "
+                              "interpreter would run as {} deg",
+                              header_number(sweep_deg), header_number(turn_deg)));
     }
   }
 
@@ -315,6 +341,46 @@ std::string generator_version() {
   return version_line("circgen");
 }
 
+namespace {
+// Where the lead-out ends and the next lead-in starts: the same point when both directions
+// run back to back or the leads close the circle, else a gap that a single-direction sweep
+// runs back over. A gap under kMinArcStepDeg (or that short of a full turn) cannot be
+// written as the arc it is: its end point lands on or behind its start.
+void check_lead_gap(const CircleTestSpec& spec, SpecWords words) {
+  const double gap_deg = normalize_deg(spec.arc_deg + 2.0 * spec.lead_deg);
+  const double step = plausible::kMinArcStepDeg;
+  if (gap_deg < kAngleEpsilonDeg || (gap_deg >= step && gap_deg <= 360.0 - step)) return;
+  const bool full = spec.arc_deg >= 360.0;
+  // The two leads that keep the gap at 0 or at least one step: the largest below, and the
+  // one that closes it.
+  const double closing_deg = full ? 180.0 : (360.0 - spec.arc_deg) / 2.0;
+  const double below_deg = std::floor((closing_deg - step / 2.0) * 1000.0) / 1000.0;
+  const std::string lead = std::string(words(SpecSetting::lead));
+  throw UsageError(fmt::format(
+      "{}: {} deg leads around a {} deg arc leave {} deg of the circle between the lead-out end "
+      "and the lead-in start, less than {} deg: that arc cannot be written; use {}{} {} to close "
+      "the circle",
+      lead, header_number(spec.lead_deg), header_number(spec.arc_deg),
+      header_number(360.0 - gap_deg), header_number(step),
+      below_deg >= step ? fmt::format("{} {} or less, or ", lead, header_number(below_deg)) : "",
+      lead, header_number(closing_deg)));
+}
+
+// What fits around a partial arc that the leads overlap: a shorter lead when one of at least
+// kMinArcStepDeg fits, else a shorter (or the full) arc.
+std::string overlap_advice(const CircleTestSpec& spec, SpecWords words) {
+  const double step = plausible::kMinArcStepDeg;
+  const double max_lead_deg = std::floor((360.0 - spec.arc_deg) / 2.0 * 1000.0) / 1000.0;
+  if (max_lead_deg >= step) {
+    return fmt::format("{} {} or less", words(SpecSetting::lead), header_number(max_lead_deg));
+  }
+  const double lead_deg = std::max(spec.lead_deg, step);
+  return fmt::format("{} {} or less, or {} 360", words(SpecSetting::arc),
+                     header_number(std::floor((360.0 - 2.0 * lead_deg) * 1000.0) / 1000.0),
+                     words(SpecSetting::arc));
+}
+}  // namespace
+
 void validate(const CircleTestSpec& spec, SpecWords words) {
   auto w = [words](SpecSetting setting) { return words(setting); };
   auto finite = [](double v) { return std::isfinite(v); };
@@ -342,11 +408,12 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   }
   if (!finite(spec.start_deg))
     throw UsageError(fmt::format("{}: not a finite angle", w(SpecSetting::start)));
-  if (!finite(spec.lead_deg) || spec.lead_deg <= 0.0) {
+  if (!finite(spec.lead_deg) || spec.lead_deg < plausible::kMinArcStepDeg) {
     throw UsageError(
-        fmt::format("{}: the lead arcs must be longer than 0 deg, got {}: the measured arc needs a "
-                    "run-up to reach the feed, and M63 only takes effect with the next move",
-                    w(SpecSetting::lead), header_number(spec.lead_deg)));
+        fmt::format("{}: the lead arcs must be at least {} deg, got {}: the measured arc needs a "
+                    "run-up to reach the feed, M63 only takes effect with the next move, and a "
+                    "shorter arc can be written as a full circle",
+                    w(SpecSetting::lead), header_number(plausible::kMinArcStepDeg), spec.lead_deg));
   }
   const bool full = spec.arc_deg >= 360.0;
   if (full && spec.lead_deg > 180.0) {
@@ -356,13 +423,13 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
         w(SpecSetting::lead), header_number(spec.lead_deg)));
   }
   if (!full && spec.arc_deg + 2.0 * spec.lead_deg > 360.0 + kAngleEpsilonDeg) {
-    throw UsageError(
-        fmt::format("{}: {} deg lead arcs around a {} deg arc would overlap each other "
-                    "(arc + 2 * lead = {} > 360 deg); use {} {} or less",
-                    w(SpecSetting::lead), header_number(spec.lead_deg), header_number(spec.arc_deg),
-                    header_number(spec.arc_deg + 2.0 * spec.lead_deg), w(SpecSetting::lead),
-                    header_number(std::floor((360.0 - spec.arc_deg) / 2.0 * 1000.0) / 1000.0)));
+    throw UsageError(fmt::format(
+        "{}: {} deg lead arcs around a {} deg arc would overlap each other "
+        "(arc + 2 * lead = {} > 360 deg); use {}",
+        w(SpecSetting::lead), header_number(spec.lead_deg), header_number(spec.arc_deg),
+        header_number(spec.arc_deg + 2.0 * spec.lead_deg), overlap_advice(spec, words)));
   }
+  check_lead_gap(spec, words);
   for (double c : spec.centre_mm) {
     if (!finite(c))
       throw UsageError(fmt::format("{}: not a finite position", w(SpecSetting::centre)));

@@ -14,10 +14,12 @@ extern "C" {
 #include <cstring>
 #include <ctime>
 #include <string>
+#include <vector>
 
 #include "circlog_kernel.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/core/utc_time.hpp"
 #include "recorder.hpp"
 
@@ -144,11 +146,20 @@ int run(int argc, char** argv) {
                options->output.c_str(), s.rows, static_cast<unsigned long long>(s.runs),
                static_cast<unsigned long long>(s.overruns), static_cast<unsigned long long>(s.gaps),
                static_cast<unsigned long long>(s.lost), s.stop_reason.c_str());
+  std::vector<std::string> problems;
   if (s.lost > 0 || s.overruns > 0) {
+    problems.push_back(
+        fmt::format("{} sample(s) lost ({} overrun(s), {} gap(s))", s.lost, s.overruns, s.gaps));
+  }
+  if (!s.missing_runs.empty()) {
+    problems.push_back(fmt::format("run(s) announced by {} missing: {}", options->program,
+                                   circtest::join(s.missing_runs, "; ")));
+  }
+  if (!problems.empty()) {
     throw circtest::Error(
         circtest::ExitCode::data_loss,
-        fmt::format("{} sample(s) lost ({} overrun(s), {} gap(s)); {} is complete but has holes",
-                    s.lost, s.overruns, s.gaps, options->output));
+        fmt::format("{}; {} is complete up to where it stopped ({})",
+                    circtest::join(problems, "; "), options->output, s.stop_reason));
   }
   return 0;
 }

@@ -4,15 +4,18 @@
 
 #include <algorithm>
 #include <boost/program_options.hpp>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <memory>
+#include <numbers>
 #include <set>
 #include <sstream>
 
 #include "circtest/core/cli.hpp"
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace.hpp"
@@ -34,6 +37,12 @@ constexpr double kServoStallTimeout_s = 2.0;
 // After release(), at most this long for the two periods that let the writer finish a record.
 constexpr double kReleaseSettle_s = 0.5;
 
+// The trailer's account of the runs the program announced (--program).
+constexpr const char* kRunsAnnouncedKey = "runs_announced";
+constexpr const char* kRunsMissingKey = "runs_missing";
+// The longest --duration: a week of servo time.
+constexpr double kMaxDuration_s = 7.0 * 86400.0;
+
 // Keys the recorder writes itself; a program header may not override them.
 const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_period_s,
                                                           meta_key::start_time,
@@ -52,18 +61,24 @@ const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_perio
                                                           meta_key::program,
                                                           meta_key::ring_high_water,
                                                           meta_key::recorder,
-                                                          meta_key::stop_reason};
+                                                          meta_key::stop_reason,
+                                                          kRunsAnnouncedKey,
+                                                          kRunsMissingKey};
 
 const std::set<std::string, std::less<>> kFixedColumns = {
     column_name::t, column_name::period, column_name::marker, column_name::segment};
 
-std::vector<std::string> split_commas(const std::string& text) {
+std::vector<std::string> split_on(const std::string& text, char separator) {
   std::vector<std::string> out;
   std::string item;
   std::istringstream in(text);
-  while (std::getline(in, item, ',')) out.push_back(item);
-  if (!text.empty() && text.back() == ',') out.emplace_back();
+  while (std::getline(in, item, separator)) out.push_back(item);
+  if (!text.empty() && text.back() == separator) out.emplace_back();
   return out;
+}
+
+std::vector<std::string> split_commas(const std::string& text) {
+  return split_on(text, ',');
 }
 
 bool valid_name(const std::string& name) {
@@ -108,7 +123,11 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
       "duration", po::value(&duration)->value_name("S"), "stop after S seconds of servo time")(
       "until-idle", po::value(&idle)->value_name("S"),
       "stop once a run was recorded and enable has then stayed false for S seconds (the "
-      "program has finished)")(
+      "program has finished); with --program, only once every run the program announces "
+      "(circgen's segments header) was recorded")(
+      "run-wait", po::value<double>()->value_name("S"),
+      "with --until-idle and runs still missing: stop after S seconds with enable false and "
+      "report them (default: twice the program's longest pause between two runs, plus 10 s)")(
       "ini", po::value(&o.ini)->value_name("FILE.ini"),
       "the machine's LinuxCNC INI: its path and SHA-256 go into the metadata (ini, ini_sha256), "
       "so circcomp can tell whether a correction was measured on the configuration it edits")(
@@ -144,16 +163,27 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
   }
   if (o.output.empty()) throw UsageError("-o FILE is required");
   if (vm.count("duration")) {
-    if (!(duration > 0.0) || !std::isfinite(duration)) {
-      throw UsageError("--duration must be a positive number of seconds");
+    if (!(duration > 0.0 && duration <= kMaxDuration_s)) {
+      throw UsageError(fmt::format("--duration must be a number of seconds in (0, {:.0f}] (a week)",
+                                   kMaxDuration_s));
     }
     o.duration_s = duration;
   }
   if (vm.count("until-idle")) {
-    if (!(idle >= 0.0) || !std::isfinite(idle)) {
-      throw UsageError("--until-idle must be a number of seconds >= 0");
+    if (!(idle >= 0.0 && idle <= kMaxWait_s)) {
+      throw UsageError(
+          fmt::format("--until-idle must be a number of seconds in 0..{:.0f} (a day)", kMaxWait_s));
     }
     o.idle_s = idle;
+  }
+  if (vm.count("run-wait")) {
+    const double wait = vm["run-wait"].as<double>();
+    if (!o.idle_s) throw UsageError("--run-wait is only used with --until-idle");
+    if (!(wait > 0.0 && wait <= kMaxWait_s)) {
+      throw UsageError(
+          fmt::format("--run-wait must be a number of seconds in (0, {:.0f}] (a day)", kMaxWait_s));
+    }
+    o.run_wait_s = wait;
   }
   if (o.decimals < 0 || o.decimals > 12) throw UsageError("--decimals must be in 0..12");
   if (!(o.poll_s > 0.0) || o.poll_s > 1.0) throw UsageError("--poll must be in (0, 1] s");
@@ -186,15 +216,54 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
     }
     o.descriptions.emplace_back(d.substr(0, eq), d.substr(eq + 1));
   }
+  // Before any HAL work: a program that cannot be read, or announces runs that cannot be
+  // told apart, is refused before the recording starts.
+  if (!o.program.empty()) o.program_plan = read_program_plan(o.program);
   return o;
 }
 
-std::vector<std::pair<std::string, std::string>> read_program_header(const std::string& path) {
+namespace {
+
+struct HeaderLine {
+  std::string key;
+  std::string value;
+  std::size_t line = 0;
+};
+
+// A header is a few dozen short comment lines, and LinuxCNC reads lines of at most 256
+// characters: past these limits the file is not a program (a device such as /dev/zero, or
+// endless blank lines, would otherwise be read without end).
+constexpr std::size_t kMaxLineBytes = 4096;
+constexpr std::size_t kMaxHeaderLines = 10000;
+
+// One line without its '\n'; false at the end of the input.
+bool read_line(std::istream& in, std::string& line, const std::string& path, std::size_t line_no) {
+  line.clear();
+  for (int c = in.get(); c != std::char_traits<char>::eof(); c = in.get()) {
+    if (c == '\n') return true;
+    if (line.size() == kMaxLineBytes) {
+      throw ParseError(
+          path, line_no,
+          fmt::format("a line longer than {} bytes: not a G-code program", kMaxLineBytes));
+    }
+    line.push_back(static_cast<char>(c));
+  }
+  return !line.empty();
+}
+
+std::vector<HeaderLine> read_header_lines(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw IoError(path, "cannot open the G-code program");
-  std::vector<std::pair<std::string, std::string>> out;
+  std::vector<HeaderLine> out;
   std::string line;
-  while (std::getline(in, line)) {
+  std::size_t line_no = 0;
+  while (read_line(in, line, path, line_no + 1)) {
+    if (++line_no > kMaxHeaderLines) {
+      throw ParseError(path, line_no,
+                       fmt::format("more than {} lines before the first line of code: not a "
+                                   "G-code program header",
+                                   kMaxHeaderLines));
+    }
     const std::string s(trim(line));
     if (s.empty() || s == "%") continue;
     if (s.front() != '(' || s.back() != ')') break;  // the first line of code ends the header
@@ -211,10 +280,124 @@ std::vector<std::pair<std::string, std::string>> read_program_header(const std::
       value = std::string(trim(value.substr(second + 1)));
     }
     if (!valid_header_key(key)) continue;
-    out.emplace_back(std::move(key), std::move(value));
+    out.push_back({std::move(key), std::move(value), line_no});
   }
   if (in.bad()) throw IoError(path, "read failed");
   return out;
+}
+
+const HeaderLine* find_line(const std::vector<HeaderLine>& lines, std::string_view key) {
+  for (const HeaderLine& l : lines)
+    if (l.key == key) return &l;
+  return nullptr;
+}
+
+// "1:CCW:F500,2:CW:F500": each run's segment id, direction and feed word, in program order.
+std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLine& line) {
+  std::vector<AnnouncedRun> runs;
+  std::set<int> ids;
+  // An empty value announces nothing, which a program that writes the key never means.
+  const std::vector<std::string> items =
+      line.value.empty() ? std::vector<std::string>{""} : split_commas(line.value);
+  for (const std::string& item : items) {
+    const std::vector<std::string> parts = split_on(std::string(trim(item)), ':');
+    int id = 0;
+    const std::string id_text = parts.empty() ? std::string() : parts[0];
+    const auto [end, ec] = std::from_chars(id_text.data(), id_text.data() + id_text.size(), id);
+    const auto direction = parts.size() == 3 ? parse_direction(parts[1]) : std::nullopt;
+    const double feed = parts.size() == 3 && parts[2].size() > 1 && parts[2][0] == 'F'
+                            ? parse_finite(parts[2].substr(1)).value_or(0.0)
+                            : 0.0;
+    const bool ok = parts.size() == 3 && ec == std::errc() &&
+                    end == id_text.data() + id_text.size() && id > 0 && direction && feed > 0.0;
+    if (!ok) {
+      throw ParseError(path, line.line,
+                       fmt::format("segments: '{}' is not ID:DIRECTION:FFEED (e.g. 1:CCW:F500, "
+                                   "ID a whole number from 1)",
+                                   std::string(trim(item))));
+    }
+    if (!ids.insert(id).second) {
+      throw ParseError(path, line.line,
+                       fmt::format("segments: run {} is announced twice: the recorder could not "
+                                   "tell the runs apart",
+                                   id));
+    }
+    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2])});
+  }
+  return runs;
+}
+
+// The header's number for `key`, if it has one.
+std::optional<double> header_number(const std::vector<HeaderLine>& lines, std::string_view key) {
+  const HeaderLine* l = find_line(lines, key);
+  if (!l) return std::nullopt;
+  const auto v = parse_finite(l->value);
+  if (!v || *v < 0.0) return std::nullopt;
+  return v;
+}
+
+// circgen's moves between the end of one measured arc and the start of the next
+// (docs/circgen.md "Program layout"): the lead-out at the first run's feed, a ballbar's
+// feed-out and feed-in at the approach feed, the way back over the circle at the next run's
+// feed when both runs turn the same way, the dwell where the direction reverses, and the
+// lead-in. nullopt when the header lacks a number it needs.
+std::optional<double> longest_pause_s(const std::vector<HeaderLine>& lines,
+                                      const std::vector<AnnouncedRun>& runs) {
+  if (runs.size() < 2) return 0.0;
+  const auto radius = header_number(lines, meta_key::radius_mm);
+  const auto lead = header_number(lines, meta_key::lead_deg);
+  const auto arc = header_number(lines, meta_key::arc_deg);
+  const HeaderLine* units = find_line(lines, meta_key::units);
+  if (!radius || !lead || !arc || !units) return std::nullopt;
+  const double mm_per_unit = units->value == "inch" ? 25.4 : 1.0;
+  const HeaderLine* profile = find_line(lines, "instrument_profile");
+  const bool ballbar = profile && profile->value == "ballbar";
+  const double feed_in_mm = ballbar ? header_number(lines, "feed_in_mm").value_or(0.0) : 0.0;
+  const double approach = header_number(lines, "approach_feed_mm_per_min").value_or(0.0);
+  if (ballbar && !(approach > 0.0)) return std::nullopt;
+  const double dwell_s = header_number(lines, meta_key::dwell_s).value_or(0.0);
+  const double lead_mm = 2.0 * std::numbers::pi * *radius * *lead / 360.0;
+  double gap_deg = std::fmod(*arc + 2.0 * *lead, 360.0);
+  if (gap_deg > 360.0 - 1e-9) gap_deg = 0.0;
+  const double back_mm = 2.0 * std::numbers::pi * (*radius + feed_in_mm) * gap_deg / 360.0;
+  double longest = 0.0;
+  for (std::size_t i = 1; i < runs.size(); ++i) {
+    const double from = runs[i - 1].feed_per_min * mm_per_unit / 60.0;
+    const double to = runs[i].feed_per_min * mm_per_unit / 60.0;
+    const bool same_way = runs[i - 1].direction == runs[i].direction;
+    double t = lead_mm / from + lead_mm / to;
+    if (ballbar) t += 2.0 * feed_in_mm / (approach / 60.0);
+    t += same_way ? back_mm / to : dwell_s;
+    longest = std::max(longest, t);
+  }
+  return longest;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, std::string>> read_program_header(const std::string& path) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (HeaderLine& l : read_header_lines(path)) out.emplace_back(std::move(l.key), l.value);
+  return out;
+}
+
+ProgramPlan read_program_plan(const std::string& path) {
+  const std::vector<HeaderLine> lines = read_header_lines(path);
+  ProgramPlan plan;
+  for (const HeaderLine& l : lines) plan.header.emplace_back(l.key, l.value);
+  if (const HeaderLine* segments = find_line(lines, meta_key::segments)) {
+    plan.runs = parse_segments(path, *segments);
+    plan.longest_pause_s = longest_pause_s(lines, plan.runs);
+  }
+  return plan;
+}
+
+double run_wait_s(const Options& options) {
+  if (options.run_wait_s) return *options.run_wait_s;
+  if (options.program_plan.longest_pause_s) {
+    return 2.0 * *options.program_plan.longest_pause_s + 10.0;
+  }
+  return kDefaultRunWait_s;
 }
 
 namespace {
@@ -232,6 +415,9 @@ class Loop {
   std::unique_ptr<TraceWriter> open_writer(const std::vector<std::string>& names);
   std::size_t drain(TraceWriter& writer);
   void note_gap(std::uint64_t lost, std::uint64_t period, bool at_end);
+  void track_run(bool marker, std::int32_t segment, bool run_start);
+  bool every_announced_run_recorded() const;
+  std::vector<std::string> missing_runs() const;
   const char* should_stop();
   void wait_for_producer_to_see_release();
 
@@ -251,6 +437,13 @@ class Loop {
   double last_progress_s_ = 0.0;
   bool seen_marker_ = false;
   bool reloaded_ = false;
+  // The run being read (marker set), and whether its start was recorded: enable rose, or
+  // the segment changed while enabled. Segment ids seen, and those recorded whole.
+  bool in_run_ = false;
+  std::int32_t run_segment_ = 0;
+  bool run_start_recorded_ = false;
+  std::set<std::int32_t> runs_seen_;
+  std::set<std::int32_t> runs_whole_;
   std::vector<unsigned char> buffer_;
   std::vector<double> row_;
   Summary summary_;
@@ -305,7 +498,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
   }
   if (!options_.program.empty()) {
     meta.set(meta_key::program, options_.program);
-    for (auto& [key, value] : read_program_header(options_.program)) {
+    for (const auto& [key, value] : options_.program_plan.header) {
       const bool given = std::any_of(options_.conditions.begin(), options_.conditions.end(),
                                      [&k = key](const auto& c) { return c.first == k; });
       if (given) continue;  // the command line states it
@@ -357,6 +550,7 @@ std::size_t Loop::drain(TraceWriter& writer) {
       if (rec->seq != expected_seq_) note_gap(rec->seq - expected_seq_, rec->period, false);
       expected_seq_ = rec->seq + 1;
       const bool marker = (rec->flags & circlog::kMarker) != 0;
+      track_run(marker, rec->segment, (rec->flags & circlog::kRunStart) != 0);
       if (marker && ((rec->flags & circlog::kRunStart) != 0 || !seen_marker_)) ++summary_.runs;
       if (marker) {
         seen_marker_ = true;
@@ -373,6 +567,36 @@ std::size_t Loop::drain(TraceWriter& writer) {
     total += n;
     if (n < kBatch) return total;
   }
+}
+
+void Loop::track_run(bool marker, std::int32_t segment, bool run_start) {
+  bool boundary = false;
+  if (in_run_ && (!marker || segment != run_segment_)) {
+    if (run_start_recorded_) runs_whole_.insert(run_segment_);
+    in_run_ = false;
+    boundary = marker;  // the segment changed while enabled: the next run starts here
+  }
+  if (marker && !in_run_) {
+    in_run_ = true;
+    run_segment_ = segment;
+    run_start_recorded_ = run_start || boundary;
+    runs_seen_.insert(segment);
+  }
+}
+
+bool Loop::every_announced_run_recorded() const {
+  return std::all_of(options_.program_plan.runs.begin(), options_.program_plan.runs.end(),
+                     [this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id); });
+}
+
+std::vector<std::string> Loop::missing_runs() const {
+  std::vector<std::string> out;
+  for (const AnnouncedRun& r : options_.program_plan.runs) {
+    if (runs_whole_.count(r.segment_id)) continue;
+    out.push_back(fmt::format("{} ({}) {}", r.segment_id, r.label,
+                              runs_seen_.count(r.segment_id) ? "incomplete" : "not recorded"));
+  }
+  return out;
 }
 
 const char* Loop::should_stop() {
@@ -394,10 +618,18 @@ const char* Loop::should_stop() {
       static_cast<double>(periods - start_period_) * period_s_ >= *options_.duration_s) {
     return "duration";
   }
+  // Idle only counts once every run the program announced is in: the pauses between a
+  // program's runs (a ballbar's feed-out and feed-in, the way back of a one-direction sweep)
+  // can be longer than --until-idle. With a run still missing, a longer silence means the
+  // program ended without it.
   if (options_.idle_s && seen_marker_ && h_.enabled.load(std::memory_order_acquire) == 0 &&
-      periods > last_active_period_ &&
-      static_cast<double>(periods - last_active_period_) * period_s_ >= *options_.idle_s) {
-    return "idle";
+      periods > last_active_period_) {
+    const double idle_s = static_cast<double>(periods - last_active_period_) * period_s_;
+    if (every_announced_run_recorded()) {
+      if (idle_s >= *options_.idle_s) return "idle";
+    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_))) {
+      return "idle with runs missing";
+    }
   }
   return nullptr;
 }
@@ -466,6 +698,7 @@ Summary Loop::run(std::int32_t pid) {
   summary_.overruns = reloaded_ ? 0 : h_.overruns.load(std::memory_order_acquire) - overruns0_;
   summary_.rows = writer->rows_written();
   summary_.stop_reason = reason;
+  summary_.missing_runs = missing_runs();
 
   writer->add_trailer(meta_key::rows, std::to_string(summary_.rows));
   writer->add_trailer(meta_key::runs, std::to_string(summary_.runs));
@@ -476,6 +709,12 @@ Summary Loop::run(std::int32_t pid) {
   writer->add_trailer(meta_key::ring_high_water,
                       std::to_string(h_.high_water.load(std::memory_order_acquire)));
   writer->add_trailer(meta_key::stop_reason, summary_.stop_reason);
+  if (!options_.program_plan.runs.empty()) {
+    writer->add_trailer(kRunsAnnouncedKey, std::to_string(options_.program_plan.runs.size()));
+    writer->add_trailer(kRunsMissingKey, summary_.missing_runs.empty()
+                                             ? std::string("none")
+                                             : join(summary_.missing_runs, "; "));
+  }
   writer->commit();
   return summary_;
 }

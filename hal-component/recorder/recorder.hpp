@@ -10,8 +10,34 @@
 #include <vector>
 
 #include "circlog_kernel.hpp"
+#include "circtest/core/plane.hpp"
 
 namespace circtest::circlog_record {
+
+// A measured run a program announces: circgen's `segments` header ("1:CCW:F500,2:CW:F500"),
+// one entry per run in program order.
+struct AnnouncedRun {
+  int segment_id = 0;
+  Direction direction = Direction::CCW;
+  double feed_per_min = 0.0;  // in the program's units
+  std::string label;          // "CCW F500", as the header writes it
+};
+
+// What the recorder takes from the G-code program (--program).
+struct ProgramPlan {
+  std::vector<std::pair<std::string, std::string>> header;  // (key: value) comments, in order
+  std::vector<AnnouncedRun> runs;                           // empty: none announced
+  // The longest pause the program plans between the end of one run and the start of the
+  // next (lead arcs, radial moves, the way back, the dwell at the feeds written), when the
+  // header says enough to compute it.
+  std::optional<double> longest_pause_s;
+};
+
+// How long --until-idle waits with enable false while an announced run is still missing,
+// when the header does not say enough to compute it.
+inline constexpr double kDefaultRunWait_s = 120.0;
+// The largest wait the recorder accepts (--until-idle, --run-wait): a day.
+inline constexpr double kMaxWait_s = 86400.0;
 
 struct Options {
   std::string output;
@@ -20,7 +46,11 @@ struct Options {
   std::optional<double> duration_s;
   std::optional<double> idle_s;  // --until-idle
   std::string program;           // G-code file whose (key: value) header is copied
-  std::string ini;               // the machine's INI: its path and SHA-256 go into the metadata
+  ProgramPlan program_plan;      // read from `program` (read_program_plan)
+  // --run-wait: with enable false this long while an announced run is missing, the program
+  // has ended without it; unset: twice the program's longest pause plus 10 s.
+  std::optional<double> run_wait_s;
+  std::string ini;  // the machine's INI: its path and SHA-256 go into the metadata
   // --machine, --operator, ...: metadata key and value; they win over the program header.
   std::vector<std::pair<std::string, std::string>> conditions;
   int decimals = 6;
@@ -34,6 +64,14 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
 // The `(key: value)` comments at the top of a G-code program (before its first line of
 // code), in file order. Throws IoError.
 std::vector<std::pair<std::string, std::string>> read_program_header(const std::string& path);
+
+// The header, the announced runs and the planned pauses of a program. Throws IoError, and
+// ParseError (file and line) for a `segments` entry that is not ID:DIRECTION:FFEED with a
+// positive whole ID given once.
+ProgramPlan read_program_plan(const std::string& path);
+
+// How long --until-idle waits, enable false, for a run that is still missing.
+double run_wait_s(const Options& options);
 
 // What the loop needs from the world outside the ring.
 class Environment {
@@ -53,6 +91,9 @@ struct Summary {
   std::uint64_t gaps = 0;      // places where records are missing
   std::uint64_t lost = 0;      // records missing in all
   std::string stop_reason;
+  // Announced runs (ProgramPlan::runs) the trace does not hold whole, e.g. "2 (CW F1000)";
+  // the caller reports them and exits non-zero.
+  std::vector<std::string> missing_runs;
 };
 
 // Claims the ring, writes options.output (an unnamed temporary that appears there when complete)

@@ -88,7 +88,7 @@ std::vector<BadCase> usage_cases() {
       {"lead_zero",
        {"--d", "150", "--f", "300", "--lead", "0"},
        2,
-       "--lead: the lead arcs must be longer than 0 deg"},
+       "--lead: the lead arcs must be at least 1 deg, got 0"},
       {"bad_direction",
        {"--d", "150", "--f", "300", "--dir", "up"},
        2,

@@ -48,7 +48,7 @@ TEST(AnnexC, RefusalsNameTheSettingInTheFrontEndsWords) {
   EXPECT_EQ(message([] { annex_c_note(125, 100, 5e6, LengthUnit::mm); }).substr(0, 16),
             "reference_feed: ");
   EXPECT_EQ(message([] { check_plausible(plausible::lead, 200.0); }),
-            "lead_deg: lead arc of 200 deg is outside the plausible range 0..180 deg "
+            "lead_deg: lead arc of 200 deg is outside the plausible range 1..180 deg "
             "(docs/circgen.md)");
   EXPECT_EQ(
       message([] { check_plausible(plausible::lead, 200.0, circgen_option_words); }).substr(0, 8),

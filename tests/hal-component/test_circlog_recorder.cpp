@@ -200,6 +200,7 @@ TEST_F(Recorder, RecordsARunAndStopsWhenIdle) {
   o.idle_s = 0.1;
   std::ofstream(path("p.ngc")) << "(plane: XY)\n(rows: 12)\n(machine: from program)\nG0 X0\n";
   o.program = path("p.ngc");
+  o.program_plan = rec::read_program_plan(o.program);
   o.conditions = {{"machine", "VMC-3"}, {"temperature_machine_C", "21.5"}};
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.rows, 301u);  // 300 enabled periods and the one where enable fell
@@ -365,6 +366,188 @@ TEST_F(Recorder, ColumnsMustMatchTheModulesChannels) {
   o.descriptions = {{"w", "nope"}};
   EXPECT_THROW(rec::record(servo.consumer, 42, o, servo, log_), circtest::UsageError);
   EXPECT_FALSE(servo.status().reader_attached);
+}
+
+// A ballbar program as circgen writes it: two runs at F1000 on R50 with 20 deg overshoot,
+// and between them the overshoot arcs and the radial feed-out and feed-in (about 3 s).
+std::string ballbar_header(const std::string& segments) {
+  return "(circtest: generator: circgen 0.1.0)\n(circtest: units: mm)\n"
+         "(circtest: radius_mm: 50)\n(circtest: arc_deg: 360)\n(circtest: lead_deg: 20)\n"
+         "(circtest: dwell_s: 0)\n(circtest: instrument_profile: ballbar)\n"
+         "(circtest: approach_feed_mm_per_min: 200)\n(circtest: feed_in_mm: 1.5)\n"
+         "(circtest: segments: " +
+         segments + ")\nM5 M9\n";
+}
+
+// Runs of a script: [first, last) periods with enable set, each with its segment id.
+struct ScriptedRun {
+  std::uint64_t first, last;
+  double segment;
+};
+
+void script(FakeServo& servo, std::vector<ScriptedRun> runs) {
+  servo.enable = [runs](std::uint64_t p) {
+    return std::any_of(runs.begin(), runs.end(),
+                       [p](const ScriptedRun& r) { return p >= r.first && p < r.last; });
+  };
+  servo.segment = [runs](std::uint64_t p) {
+    for (const ScriptedRun& r : runs)
+      if (p >= r.first && p < r.last) return r.segment;
+    return 0.0;
+  };
+}
+
+// Recording into t.csv with a ballbar program (p.ngc) that announces `segments`.
+rec::Options with_program(const fs::path& dir, const std::string& segments) {
+  std::ofstream(dir / "p.ngc") << ballbar_header(segments);
+  rec::Options o = options_for((dir / "t.csv").string());
+  o.program = (dir / "p.ngc").string();
+  o.program_plan = rec::read_program_plan(o.program);
+  return o;
+}
+
+TEST_F(Recorder, WaitsForEveryAnnouncedRunThroughAPauseLongerThanTheIdleTime) {
+  FakeServo servo(1, 1 << 14);
+  // CCW 100..1100, a 4 s pause (the ballbar's feed-out and feed-in), CW 5100..6100.
+  script(servo, {{100, 1100, 1.0}, {5100, 6100, 2.0}});
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+  o.idle_s = 2.0;  // as the README shows it
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.runs, 2u);
+  EXPECT_EQ(s.stop_reason, "idle");
+  EXPECT_TRUE(s.missing_runs.empty());
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(t.column("segment")->at(t.rows() - 2), 2.0);
+  EXPECT_EQ(*t.metadata.find("runs_announced"), "2");
+  EXPECT_EQ(*t.metadata.find("runs_missing"), "none");
+  // Stopped 2 s after the last run, not later.
+  EXPECT_LE(servo.monotonic_s(), 6.1 + 2.0 + 0.1);
+}
+
+TEST_F(Recorder, AProgramThatEndsWithoutARunSaysWhichIsMissing) {
+  FakeServo servo(1, 1 << 14);
+  // Runs 1 and 2 of three; run 3 never comes.
+  script(servo, {{100, 1100, 1.0}, {3000, 4000, 2.0}});
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000,3:CCW:F2000");
+  o.idle_s = 2.0;
+  const double wait_s = rec::run_wait_s(o);
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.stop_reason, "idle with runs missing");
+  EXPECT_EQ(s.missing_runs, (std::vector<std::string>{"3 (CCW F2000) not recorded"}));
+  EXPECT_EQ(s.lost, 0u);
+  // The program's silence, not --until-idle, ended it.
+  EXPECT_GE(servo.monotonic_s(), 4.0 + wait_s);
+  EXPECT_LE(servo.monotonic_s(), 4.0 + wait_s + 0.1);
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(t.rows(), s.rows);
+  EXPECT_EQ(t.rows(), 1000u + 1 + 1000 + 1);  // both runs whole, each with its falling row
+  EXPECT_EQ(*t.metadata.find("runs_announced"), "3");
+  EXPECT_EQ(*t.metadata.find("runs_missing"), "3 (CCW F2000) not recorded");
+  EXPECT_EQ(*t.metadata.find("stop_reason"), "idle with runs missing");
+}
+
+TEST_F(Recorder, ARunWhoseStartWasNotRecordedIsIncomplete) {
+  FakeServo servo(1, 1 << 14);
+  // Run 1 is already under way when the recorder attaches.
+  script(servo, {{0, 1000, 1.0}, {2000, 3000, 2.0}});
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+  o.idle_s = 0.5;
+  o.run_wait_s = 1.0;
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.missing_runs, (std::vector<std::string>{"1 (CCW F1000) incomplete"}));
+  EXPECT_EQ(s.stop_reason, "idle with runs missing");
+}
+
+TEST_F(Recorder, ASignalBeforeTheLastRunListsIt) {
+  FakeServo servo(1, 1 << 14);
+  script(servo, {{100, 1100, 1.0}, {50000, 51000, 2.0}});
+  servo.stop_after_sleeps = 400;  // 2 s of 5 ms polls
+  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.stop_reason, "signal");
+  EXPECT_EQ(s.missing_runs, (std::vector<std::string>{"2 (CW F1000) not recorded"}));
+}
+
+// The wait for a missing run: twice the longest planned pause between two runs plus 10 s.
+TEST_F(Recorder, TheWaitForAMissingRunComesFromTheProgramsPauses) {
+  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000,2:CW:F1000");
+  rec::Options o;
+  o.program_plan = rec::read_program_plan(path("p.ngc"));
+  // Two 20 deg overshoots of R50 at F1000 (17.45 mm each, 1.047 s) and the 1.5 mm feed-out
+  // and feed-in at F200 (0.45 s each).
+  const double lead_s = 2.0 * 3.141592653589793 * 50.0 * 20.0 / 360.0 / (1000.0 / 60.0);
+  ASSERT_TRUE(o.program_plan.longest_pause_s);
+  EXPECT_NEAR(*o.program_plan.longest_pause_s, 2.0 * lead_s + 2.0 * 1.5 / (200.0 / 60.0), 1e-9);
+  EXPECT_NEAR(rec::run_wait_s(o), 2.0 * *o.program_plan.longest_pause_s + 10.0, 1e-9);
+  // One direction at two feeds: the way back (2 x 20 deg on R51.5) at the second feed.
+  std::ofstream(path("q.ngc")) << ballbar_header("1:CCW:F500,2:CCW:F1000");
+  const auto q = rec::read_program_plan(path("q.ngc"));
+  const double back_s = 2.0 * 3.141592653589793 * 51.5 * 40.0 / 360.0 / (1000.0 / 60.0);
+  EXPECT_NEAR(*q.longest_pause_s, lead_s * 2.0 + lead_s + 0.9 + back_s, 1e-9);
+  o.run_wait_s = 7.0;
+  EXPECT_EQ(rec::run_wait_s(o), 7.0);
+  // Without the numbers it takes, a fixed wait.
+  std::ofstream(path("r.ngc")) << "(segments: 1:CCW:F500,2:CW:F500)\nG0 X0\n";
+  rec::Options r;
+  r.program_plan = rec::read_program_plan(path("r.ngc"));
+  EXPECT_EQ(r.program_plan.runs.size(), 2u);
+  EXPECT_EQ(rec::run_wait_s(r), rec::kDefaultRunWait_s);
+}
+
+// circgen's own programs (tests/gcode-gen/golden): the recorder reads the runs and the
+// numbers of the pauses from the header keys circgen writes.
+TEST(CirclogRecordProgram, ReadsTheRunsAndPausesCircgenAnnounces) {
+  const std::string golden = std::string(CIRCTEST_SOURCE_DIR) + "/tests/gcode-gen/golden/";
+  const auto ballbar = rec::read_program_plan(golden + "ballbar_xy_safe.ngc");
+  ASSERT_EQ(ballbar.runs.size(), 2u);
+  EXPECT_EQ(ballbar.runs[1].segment_id, 2);
+  EXPECT_EQ(ballbar.runs[1].direction, circtest::Direction::CW);
+  EXPECT_EQ(ballbar.runs[1].label, "CW F1000");
+  // R100, 20 deg overshoots at F1000 (2 x 2.094 s), 1.5 mm feed-out and feed-in at F200.
+  ASSERT_TRUE(ballbar.longest_pause_s);
+  EXPECT_NEAR(*ballbar.longest_pause_s, 2 * 2.0943951 + 0.9, 1e-6);
+  // Inch, CW at F10 then F20 in/min on R2 in (50.8 mm), 10 deg leads: the lead-out at
+  // 254 mm/min (2.094 s), the 20 deg way back and the lead-in at 508 mm/min (2.094 s, 1.047 s).
+  const auto inch = rec::read_program_plan(golden + "inch_sweep_cw.ngc");
+  ASSERT_EQ(inch.runs.size(), 2u);
+  ASSERT_TRUE(inch.longest_pause_s);
+  EXPECT_NEAR(*inch.longest_pause_s, 2.0943951 + 2.0943951 + 1.0471976, 1e-6);
+}
+
+std::string parse_error(const std::string& file) {
+  try {
+    rec::read_program_plan(file);
+  } catch (const circtest::ParseError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST_F(Recorder, AnnouncedRunsThatCannotBeToldApartAreRefused) {
+  for (const std::string bad : {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5",
+                                "1:CCW", "1.5:CW:F5", "1:CCW:F500:9", ""}) {
+    std::ofstream(path("p.ngc")) << "(circtest: plane: XY)\n(circtest: segments: " << bad
+                                 << ")\nG0 X0\n";
+    const std::string e = parse_error(path("p.ngc"));
+    EXPECT_NE(e.find("p.ngc:2"), std::string::npos) << bad << ": " << e;
+    EXPECT_NE(e.find("is not ID:DIRECTION:FFEED"), std::string::npos) << bad << ": " << e;
+  }
+  std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500,1:CW:F500)\nG0 X0\n";
+  EXPECT_NE(parse_error(path("p.ngc")).find("p.ngc:1: segments: run 1 is announced twice"),
+            std::string::npos)
+      << parse_error(path("p.ngc"));
+}
+
+TEST(CirclogRecordOptions, WaitsAreBounded) {
+  EXPECT_THROW(parse({"-o", "a", "--run-wait", "5"}), circtest::UsageError);  // no --until-idle
+  EXPECT_THROW(parse({"-o", "a", "--until-idle", "2", "--run-wait", "0"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--until-idle", "2", "--run-wait", "1e300"}),
+               circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--until-idle", "1e300"}), circtest::UsageError);
+  EXPECT_THROW(parse({"-o", "a", "--duration", "1e300"}), circtest::UsageError);
+  const auto o = parse({"-o", "a", "--until-idle", "2", "--run-wait", "30"});
+  ASSERT_TRUE(o);
+  EXPECT_EQ(*o->run_wait_s, 30.0);
 }
 
 }  // namespace

@@ -28,7 +28,9 @@ void expect_refused_write(const std::vector<std::string>& argv) {
   SCOPED_TRACE(argv.at(0) + (argv.size() > 1 ? " " + argv[1] : std::string()));
   const CommandResult r = to_full_disk(argv);
   EXPECT_EQ(r.exit_code, 3) << r.err;  // ExitCode::io
-  EXPECT_NE(r.err.find(": error: standard output: write failed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(": error: standard output: write failed: No space left on device"),
+            std::string::npos)
+      << r.err;
 }
 
 TEST(HostileOutput, AFullDiskUnderEveryDocumentIsAnError) {

@@ -33,7 +33,7 @@ sleep 0.3
 echo "no reader: written=$(halcmd getp circlog.0.written) overruns=$(halcmd getp circlog.0.overruns)"
 try "wrong column count" "names 3 channel(s) but circlog.0 has 2" \
   "$CIRCLOG_RECORDER" -o a.csv --columns x,y,z --duration 1
-try "bad option" "--duration must be a positive" "$CIRCLOG_RECORDER" -o a.csv --duration -1
+try "bad option" "--duration must be a number of seconds in (0, 604800]" "$CIRCLOG_RECORDER" -o a.csv --duration -1
 "$CIRCLOG_RECORDER" -o first.csv 2>first.err &
 first=$!
 wait_for_value circlog.0.reading TRUE

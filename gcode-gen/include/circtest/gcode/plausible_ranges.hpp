@@ -38,7 +38,12 @@ inline constexpr PlausibleRange offset{SpecSetting::work_offset_values, "work of
                                        100'000.0, "mm"};
 inline constexpr PlausibleRange start{SpecSetting::start, "start angle", -360.0, 360.0, "deg"};
 inline constexpr PlausibleRange arc{SpecSetting::arc, "measured arc", 90.0, 360.0, "deg"};
-inline constexpr PlausibleRange lead{SpecSetting::lead, "lead arc", 0.0, 180.0, "deg"};  // > 0
+// The smallest angle circgen writes as one arc, and the smallest gap it leaves between two
+// points of the circle that are not the same point. Below it, on a small circle, the end
+// point written with the program's decimals lands on (or just behind) the start point, and
+// the interpreter then runs a full circle (a G2/G3 whose end is its start, or nearly).
+inline constexpr double kMinArcStepDeg = 1.0;
+inline constexpr PlausibleRange lead{SpecSetting::lead, "lead arc", kMinArcStepDeg, 180.0, "deg"};
 inline constexpr PlausibleRange dwell{SpecSetting::dwell, "dwell", 0.0, 2.0, "s"};
 // One run per direction per feed: a sweep is a handful of feeds, not a data file.
 inline constexpr std::size_t kMaxFeeds = 100;
