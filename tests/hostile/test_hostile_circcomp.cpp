@@ -471,7 +471,7 @@ TEST_F(Hostile, ADiagnosisThatIsNotCircanasIsAnInputError) {
       [&] {
         return circcomp({"plan", "--ini", ini_, huge});
       },
-      3, "larger than 4194304 bytes");
+      3, "larger than the limit of 4 MiB");
   expect_refused(
       [&] {
         return circcomp({"plan", "--ini", ini_, "/dev/zero"});

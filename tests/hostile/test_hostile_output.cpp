@@ -28,9 +28,8 @@ void expect_refused_write(const std::vector<std::string>& argv) {
   SCOPED_TRACE(argv.at(0) + (argv.size() > 1 ? " " + argv[1] : std::string()));
   const CommandResult r = to_full_disk(argv);
   EXPECT_EQ(r.exit_code, 3) << r.err;  // ExitCode::io
-  EXPECT_NE(r.err.find(": error: standard output: write failed: No space left on device"),
-            std::string::npos)
-      << r.err;
+  // The reason follows when the last flush fails; a write that failed earlier left none.
+  EXPECT_NE(r.err.find(": error: standard output: write failed"), std::string::npos) << r.err;
 }
 
 TEST(HostileOutput, AFullDiskUnderEveryDocumentIsAnError) {
