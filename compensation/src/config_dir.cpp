@@ -16,19 +16,7 @@ namespace circtest::compensation {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-const char* kind_of(mode_t mode) {
-  if (S_ISLNK(mode)) return "a symbolic link";
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISSOCK(mode)) return "a socket";
-  return "not a regular file";
-}
-
-}  // namespace
+namespace {}  // namespace
 
 ConfigDir::ConfigDir(const std::string& ini_path) {
   std::string dir = fs::path(ini_path).parent_path().string();
@@ -101,10 +89,10 @@ bool ConfigDir::regular_or_absent(const std::string& name) const {
     throw UnsafePathError(
         at, last ? fmt::format("is {}, expected a regular file; circcomp reads back, writes and "
                                "removes only regular files inside {}",
-                               kind_of(st.st_mode), root_)
+                               file_kind_name(st.st_mode), root_)
                  : fmt::format("is {}, expected a directory inside {}; circcomp follows no link "
                                "out of the configuration",
-                               kind_of(st.st_mode), root_));
+                               file_kind_name(st.st_mode), root_));
   }
 }
 
@@ -135,7 +123,7 @@ bool ConfigDir::state_folder(const std::string& name, bool create) const {
     if (S_ISDIR(st.st_mode)) return true;
     throw UnsafePathError(full, fmt::format("is {}, expected circcomp's own directory; move it "
                                             "away (circcomp follows no link out of {})",
-                                            kind_of(st.st_mode), root_));
+                                            file_kind_name(st.st_mode), root_));
   }
   if (errno != ENOENT) throw IoError(full, std::string("cannot inspect: ") + std::strerror(errno));
   if (!create) return false;
@@ -152,7 +140,7 @@ std::optional<std::string> read_config_file(const std::string& path) {
     throw IoError(path, std::string("cannot inspect: ") + std::strerror(errno));
   }
   if (!S_ISREG(st.st_mode)) {
-    throw IoError(path, fmt::format("is {}, expected a regular file", kind_of(st.st_mode)));
+    throw IoError(path, fmt::format("is {}, expected a regular file", file_kind_name(st.st_mode)));
   }
   return read_input_text(path, kMaxConfigFileBytes);
 }

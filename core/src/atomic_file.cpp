@@ -35,16 +35,6 @@ std::string name_of(const std::string& path) {
   return std::filesystem::path(path).filename().string();
 }
 
-const char* kind_of(mode_t mode) {
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISSOCK(mode)) return "a socket";
-  if (S_ISLNK(mode)) return "a symbolic link";
-  return "not a regular file";
-}
-
 void write_all(int fd, std::string_view content, const std::string& path) {
   const char* p = content.data();
   std::size_t left = content.size();
@@ -116,7 +106,7 @@ std::string checked_output_target(const std::string& path) {
   }
   if (S_ISREG(st.st_mode)) return path;
   if (!S_ISLNK(st.st_mode)) {
-    throw IoError(path, std::string("is ") + kind_of(st.st_mode) +
+    throw IoError(path, std::string("is ") + file_kind_name(st.st_mode) +
                             ", not a regular file; refusing to replace it");
   }
   // A symbolic link: the file it names is the output, and the link stays.
@@ -131,7 +121,8 @@ std::string checked_output_target(const std::string& path) {
     throw IoError(path, "cannot inspect the link target " + target + ": " + errno_text());
   }
   if (!S_ISREG(st.st_mode)) {
-    throw IoError(path, "is a symbolic link to " + target + ", which is " + kind_of(st.st_mode) +
+    throw IoError(path, "is a symbolic link to " + target + ", which is " +
+                            file_kind_name(st.st_mode) +
                             ", not a regular file; refusing to replace it");
   }
   return target;

@@ -15,19 +15,23 @@ namespace circtest {
 
 namespace {
 
-const char* kind_of(mode_t mode) {
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISSOCK(mode)) return "a socket";
-  return "not a regular file";
-}
-
 bool same_file(const struct stat& a, const struct stat& b) {
   return a.st_dev == b.st_dev && a.st_ino == b.st_ino && a.st_rdev == b.st_rdev;
 }
 
 }  // namespace
+
+const char* file_kind_name(unsigned int st_mode) noexcept {
+  const auto mode = static_cast<mode_t>(st_mode);
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISLNK(mode)) return "a symbolic link";
+  if (S_ISREG(mode)) return "a regular file";
+  return "not a regular file";
+}
 
 InputFile::InputFile(const std::string& path) : path_(path) {
   if (path == "-") {
@@ -56,8 +60,8 @@ InputFile::InputFile(const std::string& path) : path_(path) {
   }
   if (!ok) {
     if (owned_) ::close(fd_);
-    throw IoError(path,
-                  std::string("is ") + kind_of(st.st_mode) + ": expected a regular file or a pipe");
+    throw IoError(path, std::string("is ") + file_kind_name(st.st_mode) +
+                            ": expected a regular file or a pipe");
   }
   if (owned_) {
     const int flags = ::fcntl(fd_, F_GETFL);

@@ -13,6 +13,10 @@ namespace circtest {
 // The longest line any circtest text reader accepts (a trace row, an INI line).
 inline constexpr std::size_t kMaxInputLineBytes = std::size_t{1} << 20;
 
+// "a directory", "a character device", "a FIFO", "a symbolic link", ...: what a file of this
+// st_mode is, for the refusals of every reader and writer ("X: is a FIFO, expected ...").
+const char* file_kind_name(unsigned int st_mode) noexcept;
+
 class InputFile {
  public:
   // "-" is standard input. A character device is accepted only when it is standard input
