@@ -133,13 +133,15 @@ TEST(CircFricKernel, CircleReversalsCountedExactlyUnderNoise) {
 }
 
 TEST(CircFricKernel, NoChatterAtStandstillWithNoise) {
-  std::mt19937 rng(3);
-  std::vector<double> v;
-  ramp(v, 10.0, 10.0, 500, 0.0, rng);    // a move in + ...
-  ramp(v, 0.0, 0.0, 60000, 0.004, rng);  // ... then a minute at rest, noise 1/5 of the band
-  const Trace r = run(v, tuned());
-  EXPECT_EQ(r.reversals, 0u);
-  for (std::size_t i = 0; i < v.size(); ++i) ASSERT_EQ(r.offset[i], 0.0) << i;
+  for (const double move : {10.0, -10.0}) {
+    std::mt19937 rng(3);
+    std::vector<double> v;
+    ramp(v, move, move, 500, 0.0, rng);    // a move ...
+    ramp(v, 0.0, 0.0, 60000, 0.004, rng);  // ... then a minute at rest, noise 1/5 of the band
+    const Trace r = run(v, tuned());
+    EXPECT_EQ(r.reversals, 0u) << move;
+    for (std::size_t i = 0; i < v.size(); ++i) ASSERT_EQ(r.offset[i], 0.0) << i;
+  }
 }
 
 // Noise beyond the band (a vel-threshold set too low: the limit docs/circfric.md states)
@@ -216,6 +218,13 @@ TEST(CircFricKernel, FirstMoveAndShortStrokesAreNotReversals) {
   EXPECT_EQ(r.reversal_at[0], 100u);
   EXPECT_EQ(r.reversal_at[1], 125u);
   EXPECT_EQ(r.direction[0], -1);
+
+  // Also with no stroke required, the first move is not a reversal.
+  fric::Params p = tuned();
+  p.min_travel = 0.0;
+  const Trace first = run(std::vector<double>(10, 1.0), p);
+  EXPECT_EQ(first.reversals, 0u);
+  EXPECT_EQ(first.offset[0], 0.0);
 }
 
 TEST(CircFricKernel, PulseShapeIsTheDecayingExponentialInTheNewDirection) {
@@ -265,6 +274,13 @@ TEST(CircFricKernel, AmplitudeIsBoundedByAmplitudeMaxAlsoWhenLoweredMidPulse) {
   EXPECT_EQ(c.step(-1.0, kPeriodS, p), -0.001);
   p.amplitude_max = 0.0;
   EXPECT_EQ(c.step(-1.0, kPeriodS, p), 0.0);
+
+  // Raised again mid-pulse, the bound does not lift the pulse above the amplitude it started
+  // with (the smaller of amplitude and amplitude-max at the reversal).
+  p.amplitude_max = 0.5;
+  const double raised = c.step(-1.0, kPeriodS, p);
+  EXPECT_LT(raised, 0.0);
+  EXPECT_GE(raised, -0.003);
 }
 
 TEST(CircFricKernel, EnableFalseGivesZeroInTheNextPeriodAndDetectionGoesOn) {
