@@ -115,17 +115,24 @@ bool same(const char* a, const char* b) {
   return *a == *b;
 }
 
-// Checks names= (the given entries are names[0 .. *how_many-1]); prints why it refuses.
-bool check_names(int* how_many) {
+// The entries names= gave (rtapi leaves the others null).
+int given_names() {
   int n = 0;
-  while (n < fric::kMaxInstances && names[n] != nullptr && names[n][0] != '\0') ++n;
+  for (int i = 0; i < fric::kMaxInstances; ++i) {
+    if (names[i] != nullptr) n = i + 1;
+  }
+  return n;
+}
+
+// Checks the N entries of names=; prints why it refuses.
+bool check_names(int n) {
   for (int i = 0; i < n; ++i) {
-    const char* name = names[i];
+    const char* name = names[i] != nullptr ? names[i] : "";
     int length = 0;
     for (; name[length] != '\0'; ++length) {
       if (!name_char_ok(name[length]) || length >= kMaxNameLength) break;
     }
-    if (name[length] != '\0') {
+    if (length == 0 || name[length] != '\0') {
       rtapi_print_msg(RTAPI_MSG_ERR,
                       "circfric: names=: '%s' (name %d): a name is 1..%d characters of "
                       "A-Z a-z 0-9 _ - .\n",
@@ -139,26 +146,26 @@ bool check_names(int* how_many) {
       }
     }
   }
-  *how_many = n;
   return true;
 }
 
 }  // namespace
 
 int rtapi_app_main(void) {
-  const bool by_names = names[0] != nullptr && names[0][0] != '\0';
+  const int named = given_names();
+  const bool by_names = named > 0;
   if (by_names && count != 0) {
     rtapi_print_msg(RTAPI_MSG_ERR, "circfric: give count= or names=, not both\n");
     return -EINVAL;
   }
-  int how_many = count;
+  const int how_many = by_names ? named : count;
   if (by_names) {
-    if (!check_names(&how_many)) return -EINVAL;
+    if (!check_names(named)) return -EINVAL;
   } else if (count < 1 || count > fric::kMaxInstances) {
     rtapi_print_msg(RTAPI_MSG_ERR,
-                    "circfric: count=%d: give count=N with N in 1..%d (one per joint), or "
-                    "names=a,b,...\n",
-                    count, fric::kMaxInstances);
+                    "circfric: count=%d: give count=N with N in 1..%d (one instance per "
+                    "joint) or names=a,b,... (at most %d)\n",
+                    count, fric::kMaxInstances, fric::kMaxInstances);
     return -EINVAL;
   }
   comp_id = hal_init("circfric");
