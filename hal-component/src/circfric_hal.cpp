@@ -45,7 +45,9 @@ struct Instance {
   hal_float_t* decay_ms;
   hal_float_t* vel_threshold;
   hal_float_t* min_travel;
+  hal_float_t* pos_in;
   hal_float_t* offset;
+  hal_float_t* pos_out;
   hal_bit_t* active;
   hal_s32_t* direction;
   hal_u32_t* reversals;
@@ -65,7 +67,11 @@ void update(void* arg, long period) {
   p.vel_threshold = *inst->vel_threshold;
   p.min_travel = *inst->min_travel;
   const double vel_cmd = *inst->vel_cmd;
-  *inst->offset = inst->compensator.step(vel_cmd, static_cast<double>(period) * 1e-9, p);
+  const double offset = inst->compensator.step(vel_cmd, static_cast<double>(period) * 1e-9, p);
+  *inst->offset = offset;
+  // The position command passed through with the offset added, so that no sum2 (which a
+  // configuration may already load under other names) is needed.
+  *inst->pos_out = *inst->pos_in + offset;
   *inst->active = inst->compensator.active();
   *inst->direction = inst->compensator.direction();
   *inst->reversals = inst->compensator.reversals();
@@ -88,7 +94,9 @@ int export_instance(Instance* inst, const char* name) {
   if (r == 0) r = float_pin(HAL_IN, &inst->decay_ms, name, "decay-ms", d.decay_ms);
   if (r == 0) r = float_pin(HAL_IN, &inst->vel_threshold, name, "vel-threshold", d.vel_threshold);
   if (r == 0) r = float_pin(HAL_IN, &inst->min_travel, name, "min-travel", d.min_travel);
+  if (r == 0) r = float_pin(HAL_IN, &inst->pos_in, name, "pos-in", 0.0);
   if (r == 0) r = float_pin(HAL_OUT, &inst->offset, name, "offset", 0.0);
+  if (r == 0) r = float_pin(HAL_OUT, &inst->pos_out, name, "pos-out", 0.0);
   if (r == 0) r = hal_pin_bit_newf(HAL_OUT, &inst->active, comp_id, "%s.active", name);
   if (r == 0) r = hal_pin_s32_newf(HAL_OUT, &inst->direction, comp_id, "%s.direction", name);
   if (r == 0) r = hal_pin_u32_newf(HAL_OUT, &inst->reversals, comp_id, "%s.reversals", name);

@@ -1,5 +1,6 @@
 """Checks circfric's outputs period by period on halsampler's rows of the fric-reversal test:
-   vel-cmd enable offset0 active0 direction0 reversals0 offset1 reversals1 rejected1
+   vel-cmd enable offset0 active0 direction0 reversals0 offset1 reversals1 rejected1 pos-in0
+   pos-out0
 (instance 0: amplitude 0.5, bound 0.6, decay 20 ms, enable switched; instance 1: amplitude
 0.5, bound 0.2, decay 50 ms, always on; both vel-threshold 0.01, min-travel 0.001; 1 ms)."""
 import math
@@ -17,7 +18,7 @@ for line in open(sys.argv[1]):
         continue
     f = line.split()
     rows.append((float(f[0]), int(f[1]), float(f[2]), int(f[3]), int(f[4]), int(f[5]),
-                 float(f[6]), int(f[7]), int(f[8])))
+                 float(f[6]), int(f[7]), int(f[8]), float(f[9]), float(f[10])))
 n = len(rows)
 vel = [r[0] for r in rows]
 en = [r[1] for r in rows]
@@ -28,6 +29,8 @@ rev0 = [r[5] for r in rows]
 off1 = [r[6] for r in rows]
 rev1 = [r[7] for r in rows]
 rej1 = [r[8] for r in rows]
+pos_in = [r[9] for r in rows]
+pos_out = [r[10] for r in rows]
 
 
 def yes(ok):
@@ -109,3 +112,7 @@ for k, i in enumerate(got1):
             print(f"  instance 1 row {j}: offset {off1[j]}, want {want:.6f}")
 print(f"instance 1 = 0.2 exp(-t / 50 ms): the pulse starts at amplitude-max: {yes(bound_ok)}")
 print(f"instance 1 rejected nothing: {yes(all(r == 0 for r in rej1))}")
+print(f"pos-out = pos-in + offset in every period: "
+      f"{yes(all(abs(pos_out[i] - pos_in[i] - off0[i]) <= TOL for i in range(n)))}")
+print(f"pos-out = pos-in exactly while no pulse runs: "
+      f"{yes(all(pos_out[i] == pos_in[i] for i in range(n) if not act0[i]))}")
