@@ -37,7 +37,7 @@ def yes(ok):
     return "yes" if ok else "NO"
 
 
-print(f"more than 3500 periods sampled: {yes(n > 3500)}")
+print(f"more than 3000 periods sampled: {yes(n > 3000)}")
 
 
 def reversal_rows(counts):
@@ -60,7 +60,7 @@ for i in range(1, n):
     stroke += vel[i] * PERIOD_S
 got = reversal_rows(rev0)
 print(f"reversals where a Schmitt trigger on the sampled vel-cmd puts them: {yes(got == expected)}")
-print(f"at least 6 reversals in 3.8 s of a 1 Hz sine: {yes(len(got) >= 6)}")
+print(f"at least 5 reversals in 3.6 s or more of a 1 Hz sine: {yes(len(got) >= 5)}")
 print(f"each counted once (count steps by 1): {yes(all(rev0[i] - rev0[i - 1] == 1 for i in got))}")
 print(f"direction is the sign of vel-cmd at each reversal: "
       f"{yes(all(dir0[i] == (1 if vel[i] > 0 else -1) for i in got))}")
