@@ -263,6 +263,20 @@ TEST(CircFricKernel, PulseShapeIsTheDecayingExponentialInTheNewDirection) {
   EXPECT_GT(flip.offset[111], 0.0);
 }
 
+// The decay is in time, not in periods: a 4 kHz servo thread gives the same pulse.
+TEST(CircFricKernel, DecayIsInMillisecondsWhateverThePeriod) {
+  const fric::Params p = tuned();
+  for (const double period_s : {250e-6, 2e-3}) {
+    fric::Compensator c;
+    for (int i = 0; i < 400; ++i) c.step(1.0, period_s, p);
+    ASSERT_EQ(c.step(-1.0, period_s, p), -p.amplitude);
+    const auto periods = static_cast<int>(std::lround(0.020 / period_s));
+    double at_decay = 0.0;
+    for (int k = 1; k <= periods; ++k) at_decay = c.step(-1.0, period_s, p);
+    EXPECT_NEAR(at_decay, -p.amplitude / std::numbers::e, 1e-12) << period_s;
+  }
+}
+
 TEST(CircFricKernel, AmplitudeIsBoundedByAmplitudeMaxAlsoWhenLoweredMidPulse) {
   fric::Params p = tuned();
   p.amplitude = 0.05;
