@@ -41,8 +41,9 @@ in_root() { chroot "$root" env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root 
 # Fresh as far as circtest goes: no earlier install may answer for the package.
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record /usr/bin/circcomp \
   /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
+  /usr/lib/linuxcnc/modules/circfric.so \
   /usr/share/man/man1/circana.1 /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9 \
-  /usr/share/man/man9/circtest_kins.9; do
+  /usr/share/man/man9/circtest_kins.9 /usr/share/man/man9/circfric.9; do
   rm -f "$root$f"
 done
 in_root dpkg -s circtest >/dev/null 2>&1 && in_root dpkg --purge circtest >/dev/null
@@ -53,9 +54,11 @@ in_root dpkg -i /tmp/circtest.deb >"$work/dpkg.log" 2>&1 || { cat "$work/dpkg.lo
 in_root dpkg --verify circtest || fail "dpkg --verify: installed files differ from the package"
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record \
   /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
+  /usr/lib/linuxcnc/modules/circfric.so \
   /usr/share/man/man1/circgen.1 \
   /usr/share/man/man1/circana.1 /usr/share/man/man1/circlog-record.1 \
   /usr/share/man/man9/circlog.9 /usr/share/man/man9/circtest_kins.9 \
+  /usr/share/man/man9/circfric.9 \
   /usr/share/bash-completion/completions/circana \
   /usr/bin/circcomp /usr/share/man/man1/circcomp.1; do
   in_root dpkg -S "$f" | grep -q '^circtest: ' || fail "$f is not installed by the package"

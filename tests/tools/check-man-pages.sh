@@ -2,9 +2,9 @@
 # The man pages (docs/man) and the markdown docs describe the programs as they are: every
 # option a program's --help lists is in its man page and in its markdown doc, every pin the
 # circlog HAL adapter creates is in circlog(9) and docs/circlog.md, every pin and loadrt
-# parameter of circtest_kins is in circtest_kins(9) (its pins also in docs/kinematics.md), and
-# each page renders
-# without a groff warning.
+# parameter of circtest_kins is in circtest_kins(9) (its pins also in docs/kinematics.md), every
+# pin and loadrt parameter of circfric is in circfric(9) and docs/circfric.md, and each page
+# renders without a groff warning.
 #   check-man-pages.sh SOURCE_DIR CIRCGEN CIRCANA CIRCLOG_RECORD CIRCCOMP
 set -u  # no pipefail: grep -q may close a pipe early
 src=$1 circgen=$2 circana=$3 recorder=$4 circcomp=$5
@@ -61,16 +61,35 @@ for pin in $pins; do
 done
 echo "ok: circlog: $(wc -w <<<"$pins") pins and parameters in circlog(9) and docs/circlog.md"
 
-kins_pins=$(grep -o '"circtest-kins\.[a-z-]*"' "$src/hal-component/src/circtest_kins_hal.cpp" | tr -d '"' | sort -u)
-[ -n "$kins_pins" ] || fail "no pin names found in hal-component/src/circtest_kins_hal.cpp"
-for pin in $kins_pins; do
-  plain "$src/docs/man/circtest_kins.9" | grep -qF "$pin" || fail "circtest_kins(9) does not name $pin"
-  grep -qF "$pin" "$src/docs/kinematics.md" || fail "docs/kinematics.md does not name $pin"
-done
-for param in $(grep -o 'RTAPI_MP_[A-Z]*([a-z_]*' "$src/hal-component/src/circtest_kins_hal.cpp" | sed 's/.*(//'); do
-  plain "$src/docs/man/circtest_kins.9" | grep -qF "$param=" || fail "circtest_kins(9) does not name $param="
-done
+# check_documented PAGE DOC NAME...: each NAME is in docs/man/PAGE and, unless DOC is -, in
+# the markdown doc DOC, as a whole name (a pin not only as the start of a longer one).
+check_documented() {
+  local page=$1 doc=$2 name pattern
+  shift 2
+  for name in "$@"; do
+    pattern=${name//./\\.}
+    [ "${name: -1}" = "=" ] || pattern="$pattern([^a-z-]|\$)"
+    plain "$src/docs/man/$page" | grep -qE -- "$pattern" || fail "${page%.*}(${page##*.}) does not name $name"
+    [ "$doc" = - ] || grep -qE -- "$pattern" "$src/$doc" || fail "$doc does not name $name"
+  done
+}
+# The loadrt parameters (RTAPI_MP_*) of a module's adapter, as NAME=.
+loadrt_params() { grep -o 'RTAPI_MP_[A-Z_]*([a-z_]*' "$1" | sed -e 's/.*(//' -e 's/$/=/'; }
+
+kins_src=$src/hal-component/src/circtest_kins_hal.cpp
+kins_pins=$(grep -o '"circtest-kins\.[a-z-]*"' "$kins_src" | tr -d '"' | sort -u)
+[ -n "$kins_pins" ] || fail "no pin names found in $kins_src"
+check_documented circtest_kins.9 docs/kinematics.md $kins_pins
+check_documented circtest_kins.9 - $(loadrt_params "$kins_src")
 echo "ok: circtest_kins: $(wc -w <<<"$kins_pins") pins in circtest_kins(9) and docs/kinematics.md"
+
+# circfric's pins are "%s.SUFFIX" (the instance name first): each as circfric.N.SUFFIX.
+fric_src=$src/hal-component/src/circfric_hal.cpp
+fric_pins=$( (grep -o '"%s\.[a-z-]*"' "$fric_src"; grep -o 'name, "[a-z-]*"' "$fric_src") |
+  sed -e 's/.*"%s\./circfric.N./' -e 's/name, "/circfric.N./' -e 's/"$//' | sort -u)
+[ "$(wc -w <<<"$fric_pins")" -ge 10 ] || fail "too few pin names found in $fric_src: $fric_pins"
+check_documented circfric.9 docs/circfric.md $fric_pins $(loadrt_params "$fric_src")
+echo "ok: circfric: $(wc -w <<<"$fric_pins") pins in circfric(9) and docs/circfric.md"
 
 for page in "$src"/docs/man/*.[19]; do
   warnings=$(groff -man -Tutf8 -ww -z "$page" 2>&1)
