@@ -2,7 +2,7 @@
 # Times `circana analyze --json` on a 1e6-sample CCW+CW trace, text and binary, against the
 # floors measured in the same rounds by bench/parse_baseline (parsing every number with
 # std::from_chars; reading the .ctb's bytes), prints the ratios and circana's peak memory;
-# then `circana diagnose --json` on the same files against analyze (issue 9: at most 2x).
+# then `circana diagnose --json` on the same files against analyze (target: at most 2x).
 # Rounds interleave circana and the floors, so a busy machine slows both alike; the best
 # round of each counts.
 # Wall and CPU times come from bash's `time` at 1 ms resolution (/usr/bin/time's 10 ms was too

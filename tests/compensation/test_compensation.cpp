@@ -372,7 +372,7 @@ TEST(Compensation, Refusals) {
   EXPECT_NO_THROW(require_fresh(ini, no_hash, true));
 }
 
-// Library text names no command-line option (issue 8): used as a library, the refusals name
+// Library text names no command-line option: used as a library, the refusals name
 // the PlanOptions settings in plain words; circcomp words them as its options (CliExitCodes).
 TEST(Compensation, LibraryRefusalsNameNoOption) {
   Scratch s;

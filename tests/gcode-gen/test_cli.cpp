@@ -157,7 +157,7 @@ std::vector<BadCase> usage_cases() {
        {"--d", "200", "--f", "1000", "--feed-in", "1"},
        2,
        "--feed-in is only used with --instrument ballbar"},
-      // Numbers no program word can carry (issue 12): each refused naming its option,
+      // Numbers no program word can carry: each refused naming its option,
       // instead of writing Xinf, X-nan, a 309-digit feed or arcs of radius 0.
       {"huge_diameter",
        {"--d", "1e308", "--f", "300"},

@@ -219,7 +219,7 @@ TEST(Commands, RunGenerateWritesTheProgramAndItsWarnings) {
   EXPECT_EQ(none.str(), "");
 }
 
-// Library text names no command-line option (issue 8): validate() and program_warnings()
+// Library text names no command-line option: validate() and program_warnings()
 // used as a library name the spec's fields; circgen words them as its options (test_cli.cpp
 // holds those messages).
 TEST(Commands, LibraryRefusalsNameTheSpecFieldsNotOptions) {

@@ -519,7 +519,7 @@ TEST(HistoryPostgres, AStoreWhileTheServerIsStoppedFailsAndWritesNothing) {
   fs::remove_all(dir);
 }
 
-// Library text names no command-line option (issue 8): history_record used as a library says
+// Library text names no command-line option: history_record used as a library says
 // what to give in its own words; circana store words it as --machine (BadRequestsGiveClearErrors).
 TEST(HistoryRecord, NoMachineNameNamesNoOption) {
   const fs::path dir =
