@@ -22,6 +22,8 @@
 #include <regex>
 #include <sstream>
 
+#include "rows_context.hpp"
+
 namespace circtest {
 
 namespace {
@@ -91,6 +93,20 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
   };
 }
 
+// FN(), whose refusals name `path` when they come from code that sees bare numbers (a circle
+// fit, a model fit): the file is the one thing they cannot know, and "<input>" tells the user
+// nothing.
+template <typename Fn>
+auto naming_file(const std::string& path, const Fn& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const InputError& e) {
+    if (!e.file().empty()) throw;
+    if (e.code() == ExitCode::parse) throw ParseError(path, e.line(), e.detail());
+    throw DataError(path, e.line(), e.detail());
+  }
+}
+
 // Stores a test (its diagnosis too, when given); returns the line that says so.
 std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
                          const std::string& trace_path, const std::string& db_url) {
@@ -140,24 +156,26 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& a
     if (!c->empty()) ro.required.push_back(*c);
   }
   Trace read = read_trace(path, ro);
-  // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
-  const std::optional<std::string> units = resolve_units(
-      read, trace_plane(read, given.plane), given.nominal_radius_mm, given.input_checks);
-  EvaluationOptions options = given;
-  // A ball bar's trace: positions from the bar's length along the commanded angle.
-  std::optional<RadialPositions> radial = radial_set_up(read, radial_forced, options);
-  EvaluatedTrace out;
-  out.radial = radial.has_value();
-  out.trace = radial ? std::move(radial->trace) : std::move(read);
-  out.evaluation = evaluate(out.trace, options);
-  if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
-  if (units) out.evaluation.notes.insert(out.evaluation.notes.begin(), *units);
-  if (!out.trace.column(column_name::t)) {
-    out.evaluation.notes.push_back(
-        "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
-  }
-  require_finite_results(out.evaluation, circana_option_words);
-  return out;
+  return naming_file(path, [&] {
+    // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
+    const std::optional<std::string> units = resolve_units(
+        read, trace_plane(read, given.plane), given.nominal_radius_mm, given.input_checks);
+    EvaluationOptions options = given;
+    // A ball bar's trace: positions from the bar's length along the commanded angle.
+    std::optional<RadialPositions> radial = radial_set_up(read, radial_forced, options);
+    EvaluatedTrace out;
+    out.radial = radial.has_value();
+    out.trace = radial ? std::move(radial->trace) : std::move(read);
+    out.evaluation = evaluate(out.trace, options);
+    if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
+    if (units) out.evaluation.notes.insert(out.evaluation.notes.begin(), *units);
+    if (!out.trace.column(column_name::t)) {
+      out.evaluation.notes.push_back(
+          "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
+    }
+    require_finite_results(out.evaluation, circana_option_words);
+    return out;
+  });
 }
 
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
@@ -175,7 +193,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   std::string diagnosis_error;
   if (!request.json || !request.svg_path.empty()) {
     try {
-      diagnosis = diagnose(trace, ev);
+      diagnosis = naming_file(request.trace_path, [&] { return diagnose(trace, ev); });
     } catch (const Error& e) {
       diagnosis_error = e.what();
     }
@@ -210,7 +228,8 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   DiagnosisOptions options = request.options;
   // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
-  Diagnosis d = diagnose(evaluated.trace, evaluated.evaluation, options);
+  Diagnosis d = naming_file(
+      request.trace_path, [&] { return diagnose(evaluated.trace, evaluated.evaluation, options); });
   // What was evaluated: the units and radial notes lead the evaluation's notes.
   const auto& en = evaluated.evaluation.notes;
   const std::size_t lead =
@@ -313,7 +332,10 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   }
   const auto& a = *trace.column(request.column_a);
   const auto& b = *trace.column(request.column_b);
-  const FitReport report = fit_all(request.points_path, a, b);
+  const FitReport report = naming_file(request.points_path, [&] {
+    return detail::with_rows_context(trace, 0, trace.rows(), "the points",
+                                     [&] { return fit_all(request.points_path, a, b); });
+  });
   out << (request.json ? to_json(report).dump(2) + "\n" : text_report(report));
   out.flush();
   return 0;

@@ -17,6 +17,7 @@
 #include "circtest/core/parallel.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -26,6 +27,10 @@ constexpr double kPi = std::numbers::pi;
 // exp(-kSpikeCut) = 1e-304: a spike term further from its reversal than this many time
 // constants is taken as zero (it changes no sum; exp's underflow path is slow).
 constexpr double kSpikeCut = 700.0;
+// Samples the model fit needs per candidate term (docs/diagnosis.md): two left over for each
+// term's residual, so that its standard error and the identifiability test have something to
+// go on.
+constexpr std::size_t kSamplesPerTerm = 3;
 
 enum class Kind {
   centre_a,
@@ -1227,7 +1232,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       xb.insert(xb.end(), col_b.begin() + static_cast<std::ptrdiff_t>(r.run.begin),
                 col_b.begin() + static_cast<std::ptrdiff_t>(r.run.end));
     }
-    const Circle all = fit_lsc(xa, xb);
+    const Circle all =
+        detail::with_rows_context(trace, ev.runs.front().run.begin, ev.runs.back().run.end,
+                                  "the runs together", [&] { return fit_lsc(xa, xb); });
     ca = ev.centre ? ev.centre->a_mm : all.centre_a_mm;
     cb = ev.centre ? ev.centre->b_mm : all.centre_b_mm;
     R = ev.nominal_radius_mm.value_or(all.radius_mm);
@@ -1388,6 +1395,22 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         B, B));
   }
 
+  // A fit of p terms on a handful of samples has no residual left to judge it by: its
+  // standard errors and identifiability test mean nothing and the later stages (periodogram,
+  // decay search) work on noise. Refused up front, naming what it needs.
+  const std::size_t needed = kSamplesPerTerm * cand.size();
+  if (S.size() < needed) {
+    const Run& first = ev.runs.front().run;
+    throw DataError(
+        trace.source, trace.line_of_row[first.begin],
+        fmt::format("diagnosis not measurable ({} samples, needs {}): the model's {} terms "
+                    "need {} samples each over the measured runs ({} run{}, lines {}-{}); "
+                    "record more samples per run (a lower feed or a shorter sample period)",
+                    S.size(), needed, cand.size(), kSamplesPerTerm, ev.runs.size(),
+                    ev.runs.size() == 1 ? "" : "s", trace.line_of_row[first.begin],
+                    trace.line_of_row[ev.runs.back().run.end - 1]));
+  }
+
   const std::size_t stride =
       std::max<std::size_t>(1, (S.size() + options.max_fit_samples - 1) / options.max_fit_samples);
   const double vif_floor = 1.0 / options.max_variance_inflation;
@@ -1466,8 +1489,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   // Cyclic errors: a given pitch, else a periodogram of the residual over axis position.
   {
     std::vector<double> res;
-    std::vector<Column> res_cols;
-    State res_st;
+    // The columns and state `res` was taken at; none before the first residual (an empty
+    // column set at the default state is a state like any other, not "already taken").
+    std::optional<std::pair<std::vector<Column>, State>> res_at;
     const std::size_t cstride = std::max<std::size_t>(1, (S.size() + 199999) / 200000);
     for (int ax = 0; ax < 2; ++ax) {
       const char letter = ax == 0 ? la : lb;
@@ -1487,10 +1511,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
           reserve_huge(*v, count);
           v->resize(count);
         }
-        if (!(res_cols == cols && res_st == st)) {
+        if (!res_at || !(res_at->first == cols && res_at->second == st)) {
           residual_every(S, st, cols, sol.x, cstride, res);
-          res_cols = cols;
-          res_st = st;
+          res_at.emplace(cols, st);
         }
         for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t) {
           for (std::size_t i = (lo + cstride - 1) / cstride * cstride; i < hi; i += cstride) {

@@ -15,6 +15,7 @@
 #include "circtest/core/parallel.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -137,21 +138,7 @@ void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evalua
   ev.temperature_factor = ev.temperatures.radius_factor();
 }
 
-// FIT() (circle fits over rows [BEGIN, END) of the trace): the fits see bare points, so a
-// refusal of theirs gets the file and the rows' lines here, with WHAT the points are.
-template <typename Fit>
-auto with_rows_context(const Trace& trace, std::size_t begin, std::size_t end,
-                       const std::string& what, const Fit& fit) -> decltype(fit()) {
-  try {
-    return fit();
-  } catch (const DataError& e) {
-    if (!e.file().empty()) throw;
-    const std::size_t first = trace.line_of_row[begin];
-    const std::size_t last = trace.line_of_row[end - 1];
-    throw DataError(trace.source, first,
-                    fmt::format("{} (lines {}-{}): {}", what, first, last, e.detail()));
-  }
-}
+using detail::with_rows_context;
 
 // The commanded columns of the first run give the nominal circle when nothing else did.
 void resolve_from_commanded(const Trace& trace, const Segmentation& seg, RemedyWords words,

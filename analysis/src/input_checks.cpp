@@ -10,6 +10,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "median.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 namespace {
@@ -124,7 +125,11 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
       va.push_back((*a)[i]);
       vb.push_back((*b)[i]);
     });
-    const double r = va.size() >= 3 ? fit_lsc(va, vb).radius_mm : 0.0;
+    const double r = va.size() >= 3 ? detail::with_rows_context(trace, 0, trace.rows(),
+                                                                "the measured rows' circle",
+                                                                [&] { return fit_lsc(va, vb); })
+                                          .radius_mm
+                                    : 0.0;
     const double nominal = *nominal_radius_mm;
     const bool as_mm = std::abs(r - nominal) <= 0.1 * nominal;
     const bool as_inch = std::abs(r * kMmPerInch - nominal) <= 0.1 * nominal;

@@ -13,6 +13,7 @@
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -115,8 +116,12 @@ std::vector<Span> split_at_reversals(const double* a, const double* b, Span s, c
 // Finds the arcs at constant radius inside [lo, hi): moving samples near the circle,
 // split where the rotation changes sign; stretches under min_sweep are dropped (lead arcs,
 // feed-in moves), overtravel beyond 360 deg is trimmed evenly.
-std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
+std::vector<Run> automatic_runs(const Trace& trace, const double* a, const double* b, Span range,
                                 const SegmentationOptions& o) {
+  const auto fit = [&](const std::vector<double>& fa, const std::vector<double>& fb) {
+    return detail::with_rows_context(trace, range.begin, range.end, "the moving samples",
+                                     [&] { return fit_lsc_algebraic(fa, fb); });
+  };
   std::vector<Run> out;
   const std::size_t n = range.end - range.begin;
   if (n < o.min_points) return out;
@@ -154,7 +159,7 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
   } else {
     // Refit on the samples near the first estimate: feed-in lines and lead arcs of another
     // radius pull the first algebraic fit away from the test circle.
-    c = fit_lsc_algebraic(sa, sb);
+    c = fit(sa, sb);
     for (int pass = 0; pass < 3; ++pass) {
       const double tol = std::max(0.05 * c.radius_mm, 0.2);
       std::vector<double> ta, tb;
@@ -166,7 +171,7 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
         }
       }
       if (ta.size() < o.min_points) break;
-      c = fit_lsc_algebraic(ta, tb);
+      c = fit(ta, tb);
     }
   }
   const double tol = std::max(0.01 * c.radius_mm, 0.2);
@@ -346,7 +351,8 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       const Span& s = spans[k];
       if (s.end - s.begin < options.min_points) return;  // refused below
       try {
-        const Circle centre = centre_of(a, b, s, options);
+        const Circle centre = detail::with_rows_context(
+            trace, s.begin, s.end, "marked span", [&] { return centre_of(a, b, s, options); });
         worked[k].parts = split_at_reversals(a, b, s, centre, options.min_points);
         for (const Span& part : worked[k].parts)
           worked[k].runs.push_back(make_run(a, b, part, centre));
@@ -405,7 +411,7 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       }
       result.runs.insert(result.runs.end(), runs.begin(), runs.end());
     } else {
-      for (Run r : automatic_runs(a, b, s, options)) {
+      for (Run r : automatic_runs(trace, a, b, s, options)) {
         r.segment_id = seg_id(r.begin);
         result.runs.push_back(r);
       }
