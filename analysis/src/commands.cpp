@@ -54,9 +54,9 @@ std::string_view circana_option_words(Remedy remedy) noexcept {
 }
 
 // The columns the evaluation reads: time, marker, segment, the plane's actual and commanded
-// positions, the radial channel, and any named with --columns. The plane is known only at the
-// header (option, else metadata), so the reader asks then; an XY trace's z and z_cmd are
-// never parsed.
+// positions, the normal axis's actual position (it must stand still during a run), the radial
+// channel, and any named with --columns. The plane is known only at the header (option, else
+// metadata), so the reader asks then; an XY trace's z_cmd is never parsed.
 TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
   return [plane = options.plane, a = options.column_a,
           b = options.column_b](const TraceMetadata& metadata) {
@@ -73,6 +73,7 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
                                      column_name::segment,
                                      column_name::actual(axes.first),
                                      column_name::actual(axes.second),
+                                     column_name::actual(axes.normal),
                                      column_name::commanded(axes.first),
                                      column_name::commanded(axes.second),
                                      std::string(kRadialColumn)};

@@ -258,7 +258,8 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
   ev.g_method = options.g_method;
   resolve_set_up(trace, options, ev);
-  check_plane_motion(trace, ev.plane, ev.columns, options.input_checks.remedy_words);
+  check_plane_motion(trace, ev.plane, ev.columns, options.input_checks.remedy_words,
+                     ev.nominal_radius_mm);
 
   SegmentationOptions so;
   so.centre = ev.centre;
@@ -269,6 +270,10 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   ev.segmentation = seg.method;
   ev.notes.insert(ev.notes.end(), seg.notes.begin(), seg.notes.end());
   resolve_from_commanded(trace, seg, options.input_checks.remedy_words, ev);
+  for (auto note : {check_announced_runs(trace, seg.runs, options.input_checks),
+                    check_time_column(trace, seg.runs, options.input_checks)}) {
+    if (note) ev.notes.push_back(*note);
+  }
 
   // Each run's results, and each H pair's common circle and profiles, depend on no other
   // run's: they are worked out side by side, then gathered in run order.
@@ -281,6 +286,16 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   const auto& col_a = trace.values[ev.columns.a];
   const auto& col_b = trace.values[ev.columns.b];
 
+  // Without arc_deg the longest run the program marked stands for the arc it ran (runs found
+  // automatically are the circle's stretches, not the program's runs).
+  std::optional<double> longest_sweep_deg;
+  if (runs.size() >= 2 && seg.method != SegmentationMethod::automatic) {
+    for (const Run& run : runs) {
+      if (std::isfinite(run.sweep_deg)) {
+        longest_sweep_deg = std::max(longest_sweep_deg.value_or(0.0), run.sweep_deg);
+      }
+    }
+  }
   std::vector<RunResult> results(runs.size());
   std::vector<std::vector<std::string>> run_notes(runs.size());
   std::vector<Circle> common(pairs.size());
@@ -308,8 +323,10 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     const Run& run = runs[k];
     const std::size_t number = k + 1;
     std::vector<std::string>& notes = run_notes[k];
-    if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
-      notes.push_back(*note);
+    for (auto note :
+         {check_run_arc(trace, number, run, options.input_checks, longest_sweep_deg),
+          check_off_plane(trace, ev.plane, ev.columns, number, run, options.input_checks)}) {
+      if (note) notes.push_back(*note);
     }
     RunResult rr = with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
       return evaluate_run(trace, ev, number, run, options.f_centre,

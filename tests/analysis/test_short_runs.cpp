@@ -114,7 +114,9 @@ void expect_finite(const Diagnosis& d) {
                 finite(c->amplitude_se_mm));
   }
   for (const auto& r : d.backlash_reversals_mm) {
-    if (r) EXPECT_TRUE(finite((*r)[0]) && finite((*r)[1]));
+    if (r) {
+      EXPECT_TRUE(finite((*r)[0]) && finite((*r)[1]));
+    }
   }
   for (const Contribution& c : d.contributions) {
     EXPECT_TRUE(finite(c.g_mm) && finite(c.share_mm) && finite(c.percent)) << c.source;
