@@ -1017,8 +1017,14 @@ struct Peak {
 
 // Periodogram of the residual projected on one axis, over that axis's position: the residual
 // is first reduced to a least-squares axis deviation per position bin.
+constexpr std::size_t kMinPeriodogramBins = 16;
+
+// `bins` gets the number of position bins the samples fill (the search needs
+// kMinPeriodogramBins).
 std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vector<double>& proj,
-                                const std::vector<double>& resid, double radius, double min_pitch) {
+                                const std::vector<double>& resid, double radius, double min_pitch,
+                                std::size_t& bins) {
+  bins = 0;
   const auto [mn, mx] = std::minmax_element(pos.begin(), pos.end());
   const double span = *mx - *mn;
   if (!(span > 0)) return std::nullopt;
@@ -1039,7 +1045,8 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
     w.push_back(sw[b]);
     bin.push_back(b);
   }
-  if (x.size() < 16) return std::nullopt;
+  bins = x.size();
+  if (x.size() < kMinPeriodogramBins) return std::nullopt;
   // Remove the weighted mean so the zero frequency does not leak.
   const double wsum = std::accumulate(w.begin(), w.end(), 0.0);
   double ym = 0.0;
@@ -1521,7 +1528,15 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
             proj[i / cstride] = ax == 0 ? S.c[i] : S.s[i];
           }
         });
-        const auto peak = periodogram(pos, proj, res, R, std::max(0.5, R / 400.0));
+        const double min_pitch = std::max(0.5, R / 400.0);
+        std::size_t bins = 0;
+        const auto peak = periodogram(pos, proj, res, R, min_pitch, bins);
+        if (bins < kMinPeriodogramBins) {
+          D.notes.push_back(fmt::format(
+              "cyclic error of {} not measurable ({} samples fill {} position bins of {:.3g} "
+              "mm, needs {}): give its pitch with --pitch to fit it",
+              ax == 0 ? A : B, pos.size(), bins, min_pitch / 8.0, kMinPeriodogramBins));
+        }
         if (peak && peak->ratio >= options.cyclic_detection_factor) {
           pitch = peak->pitch_mm;
           ce.pitch_source = "periodogram";

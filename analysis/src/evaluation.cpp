@@ -369,9 +369,17 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     h.h_mm = d.max_mm;
     h.at_angle_deg = d.at_angle_deg;
     h.overlap_deg = d.overlap_deg;
+    // H compares the two runs where both went: on a sliver of shared arc (or none, where it
+    // read 0.0 um) it says nothing about the machine.
+    if (!(h.overlap_deg >= options.min_arc_deg)) {
+      ev.notes.push_back(fmt::format(
+          "H of runs {} and {} not measurable: they share {:.1f} deg of arc, needs {:.0f} deg",
+          first + 1, first + 2, h.overlap_deg, options.min_arc_deg));
+      continue;
+    }
     ev.hysteresis.push_back(h);
   }
-  if (ev.hysteresis.empty()) {
+  if (pairs.empty()) {
     ev.notes.push_back("H not computed: no CCW run followed by a CW run (or the reverse)");
   }
   return ev;

@@ -239,3 +239,33 @@ TEST(ShortRuns, RandomSmallTracesAreFiniteOrRefused) {
     check_trace(trace_text(runs, radius(rng), static_cast<unsigned>(k), rng() % 2 == 0));
   }
 }
+
+// Two runs that share no arc: H read 0.0 um there. Not measurable, with the reason.
+TEST(ShortRuns, RunsSharingNoArcGiveNoH) {
+  const Trace trace = parse_trace(
+      trace_text({{500, 120.0, true, 0.0, 0.0}, {500, 120.0, false, 300.0, 0.0}}), kSource);
+  const Evaluation ev = evaluate(trace, {});
+  ASSERT_EQ(ev.runs.size(), 2u);
+  EXPECT_TRUE(ev.hysteresis.empty());
+  bool said = false;
+  for (const std::string& n : ev.notes) {
+    said = said || n.find(
+                       "H of runs 1 and 2 not measurable: they share 0.0 deg of arc, needs "
+                       "90 deg") != std::string::npos;
+  }
+  EXPECT_TRUE(said);
+}
+
+// A few dozen samples fill too few position bins for the periodogram: the cyclic error is
+// named as not measurable instead of silently absent.
+TEST(ShortRuns, TheCyclicSearchSaysWhenItHasTooFewSamples) {
+  const Trace trace = parse_trace(
+      trace_text({{14, 350.0, true, 0.0, 0.001}, {14, 350.0, false, 0.0, 0.001}}), kSource);
+  const Diagnosis d = diagnose(trace, evaluate(trace, {}));
+  bool said = false;
+  for (const std::string& n : d.notes) {
+    said = said || n.find("cyclic error of X not measurable (28 samples fill") != std::string::npos;
+  }
+  EXPECT_TRUE(said) << text_report(d);
+  EXPECT_FALSE(d.cyclic[0].has_value());
+}
