@@ -203,6 +203,8 @@ std::vector<Run> automatic_runs(const Trace& trace, const double* a, const doubl
         --sp.end;
       }
     }
+    // Trimming a stretch of few samples can leave fewer than a run needs.
+    if (sp.end - sp.begin < o.min_points) return;
     out.push_back(make_run(a, b, sp, c));
   };
 
