@@ -241,6 +241,34 @@ std::vector<Run> automatic_runs(const Trace& trace, const double* a, const doubl
   return out;
 }
 
+// A run id is a whole number from 0 (idle) that an int holds (circgen writes 1, 2, ...), and
+// a marker 0 or 1 (a HAL bit); anything else (-1, 1.5, a glitch of 1e300) is refused at its
+// line instead of becoming an arbitrary run or a half-marked row.
+void check_run_columns(const Trace& trace, const std::vector<double>* marker,
+                       const std::vector<double>* segment) {
+  const auto line = [&](std::size_t row) { return trace.line_of_row[row]; };
+  const std::size_t n = trace.rows();
+  if (segment) {
+    for (std::size_t row = 0; row < n; ++row) {
+      const double v = (*segment)[row];
+      if (!(v >= 0.0 && v <= 2147483647.0 && std::floor(v) == v)) {
+        throw DataError(trace.source, line(row),
+                        fmt::format("segment: expected a run id, a whole number 0..2147483647 "
+                                    "(0 = idle), got {}",
+                                    v));
+      }
+    }
+  }
+  if (marker) {
+    for (std::size_t row = 0; row < n; ++row) {
+      const double v = (*marker)[row];
+      if (v != 0.0 && v != 1.0) {
+        throw DataError(trace.source, line(row), fmt::format("marker: expected 0 or 1, got {}", v));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 const char* segmentation_method_name(SegmentationMethod method) noexcept {
@@ -287,28 +315,7 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     throw DataError(trace.source, n == 0 ? trace.header_line : line(n - 1),
                     fmt::format("too few points: {} rows, expected at least 3 per run", n));
   }
-  // A run id is a whole number from 0 (idle) that an int holds (circgen writes 1, 2, ...), and
-  // a marker 0 or 1 (a HAL bit); anything else (-1, 1.5, a glitch of 1e300) is refused at its
-  // line instead of becoming an arbitrary run or a half-marked row.
-  if (segment) {
-    for (std::size_t row = 0; row < n; ++row) {
-      const double v = (*segment)[row];
-      if (!(v >= 0.0 && v <= 2147483647.0 && std::floor(v) == v)) {
-        throw DataError(trace.source, line(row),
-                        fmt::format("segment: expected a run id, a whole number 0..2147483647 "
-                                    "(0 = idle), got {}",
-                                    v));
-      }
-    }
-  }
-  if (marker) {
-    for (std::size_t row = 0; row < n; ++row) {
-      const double v = (*marker)[row];
-      if (v != 0.0 && v != 1.0) {
-        throw DataError(trace.source, line(row), fmt::format("marker: expected 0 or 1, got {}", v));
-      }
-    }
-  }
+  check_run_columns(trace, marker, segment);
   auto seg_id = [&](std::size_t row) -> long { return segment ? std::lround((*segment)[row]) : 0; };
   // Whether `row` carries run `id`, the id of row `first`: the same value as that row's needs
   // no check or rounding again (nearly every row of a run).
