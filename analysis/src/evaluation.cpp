@@ -23,6 +23,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kRadToDeg = 180.0 / kPi;
+constexpr double kMaxFeedMmPerMin = 1e6;  // as the feed_mm_per_min metadata is checked
 
 std::span<const double> slice(const std::vector<double>& v, const Run& r) {
   return {v.data() + r.begin, r.size()};
@@ -193,6 +194,17 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, std::size_t num
   if (const std::vector<double>* t = trace.column(column_name::t); t && run.size() > 1) {
     const double dt = (*t)[run.end - 1] - (*t)[run.begin];
     if (dt > 0) rr.feed_mm_per_min = run.sweep_deg / kRadToDeg * rr.lsc.radius_mm / dt * 60.0;
+    // The bound of feed_mm_per_min metadata: a time column that makes the run faster than any
+    // machine does not belong to its motion, and the diagnosis would take its servo terms from
+    // it. The feed is then not measured.
+    if (rr.feed_mm_per_min && !(*rr.feed_mm_per_min <= kMaxFeedMmPerMin)) {
+      notes.push_back(fmt::format(
+          "run {} (lines {}-{}): feed not measurable: its time column gives {:.0f} mm/min (t "
+          "from {:g} to {:g} s), above any machine's {:.0f}",
+          number, rr.first_line, rr.last_line, *rr.feed_mm_per_min, (*t)[run.begin],
+          (*t)[run.end - 1], kMaxFeedMmPerMin));
+      rr.feed_mm_per_min.reset();
+    }
   }
 
   const bool full = run.sweep_deg >= 359.0;

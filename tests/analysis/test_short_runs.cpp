@@ -160,7 +160,8 @@ std::string check_trace(const std::string& text) {
 }  // namespace
 
 // The case of the report: 8 samples at 45 deg steps on R25, marker and segment 1. The
-// diagnosis segfaulted in the periodogram; it is refused, naming the samples it needs.
+// diagnosis segfaulted in the periodogram; it is refused, naming the samples it needs (7
+// terms: 1 ms apart the samples give no plausible feed, so no servo term).
 TEST(ShortRuns, EightSamplesAtFortyFiveDegreesAreNotMeasurableForTheDiagnosis) {
   const std::string text = trace_text({{8, 315.0, true, 0.0, 0.0}}, 25.0, 1, false);
   const Trace trace = parse_trace(text, kSource);
@@ -168,7 +169,7 @@ TEST(ShortRuns, EightSamplesAtFortyFiveDegreesAreNotMeasurableForTheDiagnosis) {
   ASSERT_EQ(ev.runs.size(), 1u);
   EXPECT_NEAR(ev.runs[0].g_mzc_mm, 0.0, 1e-6);
   EXPECT_ERROR(diagnose(trace, ev), ExitCode::data,
-               "short-runs.csv:4: diagnosis not measurable (8 samples, needs 24");
+               "short-runs.csv:4: diagnosis not measurable (8 samples, needs 21");
 }
 
 TEST(ShortRuns, EverySizeFromTwoToTwentyIsFiniteOrRefused) {
@@ -270,68 +271,36 @@ TEST(ShortRuns, TheCyclicSearchSaysWhenItHasTooFewSamples) {
   EXPECT_FALSE(d.cyclic[0].has_value());
 }
 
-// Found by a random search of small traces: 48 samples on R300 with a time column that stalls
-// and jumps (feeds from 11927 to 12007704 mm/min), evaluated with the warnings only. The fit
-// gave NaN for backlash and squareness; it is refused instead.
+// Found by a random search of small traces: two runs on R0.5 with 1 mm of noise and a time
+// column that stalls and jumps, evaluated with the warnings only. The fit gave NaN for
+// backlash and squareness; it is refused instead.
 TEST(ShortRuns, AFitWithoutAFiniteSolutionIsRefused) {
-  const std::string text =
-      "# plane: XY\n"
-      "# radius_mm: 300\n"
-      "t,x,y,x_cmd,y_cmd,marker\n"
-      "0.000000,299.428647687,-18.205348257,299.447031370,-18.206465990,1\n"
-      "0.001000,300.028910609,0.709607462,299.999160927,0.709537100,1\n"
-      "0.002000,299.353458052,19.622447955,299.357560424,19.622716863,1\n"
-      "0.003000,297.527891343,38.458217451,297.524782859,38.457815651,1\n"
-      "0.004000,294.516773464,57.141565232,294.508121059,57.139886509,1\n"
-      "0.504000,290.307188839,75.591365286,290.319578657,75.594591397,1\n"
-      "0.505000,284.996286359,93.755229042,284.975822329,93.748496990,1\n"
-      "1.005000,278.479612145,111.521956898,278.498115477,111.529366876,1\n"
-      "1.006000,270.908208538,128.864534360,270.912233618,128.866448994,1\n"
-      "1.506000,262.246372792,145.689652171,262.248361819,145.690757165,1\n"
-      "1.506000,252.541283415,161.935543617,252.540974592,161.935345592,1\n"
-      "1.507000,241.831488953,177.537623673,241.828698711,177.535575251,1\n"
-      "1.507000,230.149004877,192.425061354,230.154159514,192.429371090,1\n"
-      "1.508000,217.556609471,206.550631549,217.563811293,206.557469038,1\n"
-      "1.508000,204.105348780,219.861062607,204.107752445,219.863651820,1\n"
-      "1.509000,189.831475772,232.285121930,189.839526126,232.294972654,1\n"
-      "2.009000,174.824842771,243.814427670,174.815907197,243.801965929,1\n"
-      "2.009000,159.085265519,254.320602252,159.096676311,254.338844039,1\n"
-      "2.010000,142.746544549,263.867676986,142.744382036,263.863679572,1\n"
-      "2.011000,125.818613727,272.326714816,125.824091974,272.338572147,1\n"
-      "2.012000,108.409163648,279.745358889,108.403133841,279.729799223,1\n"
-      "2.013000,90.555217408,286.021815742,90.550827570,286.007950285,1\n"
-      "2.014000,72.335832463,291.138476835,72.338209475,291.148043871,1\n"
-      "2.015000,53.839233688,295.137762552,53.837749590,295.129626976,1\n"
-      "2.515000,35.124312075,297.947449314,35.123063306,297.936856438,1\n"
-      "2.515000,16.268646099,299.559071214,16.268618443,299.558561977,1\n"
-      "2.516000,-2.650533900,299.985216287,-2.650561064,299.988290648,1\n"
-      "2.517000,-21.559039492,299.222192321,-21.559193694,299.224332512,1\n"
-      "2.518000,-40.382937167,297.276332677,-40.382039891,297.269727443,1\n"
-      "2.518000,-59.041616416,294.119375499,-59.044201457,294.132253033,1\n"
-      "2.519000,-77.473338652,289.831573021,-77.471419571,289.824393642,1\n"
-      "2.520000,-95.590250781,284.362935230,-95.590370281,284.363290721,1\n"
-      "3.020000,-113.327477797,277.767050862,-113.328956266,277.770674607,1\n"
-      "3.020000,-130.608513255,270.056070279,-130.616593716,270.072778054,1\n"
-      "3.021000,-147.382798621,261.297227507,-147.384493198,261.300231850,1\n"
-      "3.521000,-163.569034553,251.492711096,-163.565933373,251.487942931,1\n"
-      "3.522000,-179.105399158,240.686878831,-179.096526489,240.674955489,1\n"
-      "3.523000,-193.906261165,228.894600156,-193.914474587,228.904295604,1\n"
-      "4.023000,0,0,0,0,0\n"
-      "4.024000,-291.161163254,72.354397054,-291.145018480,72.350385030,1\n"
-      "4.025000,-216.947863460,207.201221700,-216.949404127,207.202693151,1\n"
-      "4.026000,-85.644427351,287.503816043,-85.647562026,287.514338980,1\n"
-      "4.027000,68.197270675,292.139058484,68.198749384,292.145392882,1\n"
-      "4.028000,204.101285193,219.885203633,204.093532741,219.876851654,1\n"
-      "4.029000,286.261368799,89.730039044,286.266058554,89.731509070,1\n"
-      "4.030000,293.085514706,-64.033064089,293.086569450,-64.033294529,1\n"
-      "4.030000,222.762215047,-200.945244502,222.759745224,-200.943016569,1\n"
-      "4.031000,93.790488529,-284.939158043,93.797273692,-284.959771631,1\n"
-      "4.031000,-59.855776104,-293.972834597,-59.854864516,-293.968357470,1\n"
-      "4.031000,0,0,0,0,0\n";
+  const std::string path =
+      std::string(CIRCTEST_SOURCE_DIR) + "/tests/analysis/data/diagnosis-no-finite-fit.csv";
   EvaluationOptions options;
   options.input_checks.warn_only = true;
-  const Trace trace = parse_trace(text, kSource);
+  const Trace trace = read_trace(path);
   const Evaluation ev = evaluate(trace, options);
   EXPECT_ERROR(diagnose(trace, ev), ExitCode::data,
-               "short-runs.csv:4: diagnosis not measurable: the model fit gives no finite");
+               path + ":5: diagnosis not measurable: the model fit gives no finite");
+}
+
+// A time column that makes a run faster than any machine (here 50 samples of R300 in 49 us)
+// does not belong to the motion: the feed is not measured, with a note.
+TEST(ShortRuns, AFeedFromTheTimeColumnBeyondAnyMachineIsNotMeasured) {
+  std::string text = "# plane: XY\n# radius_mm: 300\nt,x,y,marker,segment\n";
+  for (int i = 0; i < 50; ++i) {
+    const double a = 2 * kPi * i / 50.0;
+    text += std::to_string(i * 1e-6) + "," + std::to_string(300 * std::cos(a)) + "," +
+            std::to_string(300 * std::sin(a)) + ",1,1\n";
+  }
+  const Evaluation ev = evaluate(parse_trace(text, kSource), {});
+  ASSERT_EQ(ev.runs.size(), 1u);
+  EXPECT_FALSE(ev.runs[0].feed_mm_per_min.has_value());
+  bool said = false;
+  for (const std::string& n : ev.notes) {
+    said = said || n.find("run 1 (lines 4-53): feed not measurable: its time column gives") !=
+                       std::string::npos;
+  }
+  EXPECT_TRUE(said);
 }

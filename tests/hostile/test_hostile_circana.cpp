@@ -95,7 +95,8 @@ class HostileCircana : public ::testing::Test {
 // 8 samples at 45 deg steps on R25, marker and segment 1: the diagnosis segfaulted in its
 // periodogram (exit 139). H, G and F stand; the diagnosis is "not measurable".
 TEST_F(HostileCircana, ARunOfEightSamplesIsNotMeasurableForTheDiagnosis) {
-  const std::string t = write("eight.csv", TraceSpec{.runs = {{8, 315.0, true}}});
+  const std::string t =
+      write("eight.csv", TraceSpec{.runs = {{8, 315.0, true}}, .time_scale = 10.0});
   const std::string why = t + ":4: diagnosis not measurable (8 samples, needs 24)";
   const CommandResult text = circana({"analyze", t});
   EXPECT_EQ(text.exit_code, 0) << text.err;
