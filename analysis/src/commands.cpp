@@ -25,6 +25,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "rows_context.hpp"
+
 namespace circtest {
 
 namespace {
@@ -55,9 +57,9 @@ std::string_view circana_option_words(Remedy remedy) noexcept {
 }
 
 // The columns the evaluation reads: time, marker, segment, the plane's actual and commanded
-// positions, the radial channel, and any named with --columns. The plane is known only at the
-// header (option, else metadata), so the reader asks then; an XY trace's z and z_cmd are
-// never parsed.
+// positions, the normal axis's actual position (it must stand still during a run), the radial
+// channel, and any named with --columns. The plane is known only at the header (option, else
+// metadata), so the reader asks then; an XY trace's z_cmd is never parsed.
 TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
   return [plane = options.plane, a = options.column_a,
           b = options.column_b](const TraceMetadata& metadata) {
@@ -74,6 +76,7 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
                                      column_name::segment,
                                      column_name::actual(axes.first),
                                      column_name::actual(axes.second),
+                                     column_name::actual(axes.normal),
                                      column_name::commanded(axes.first),
                                      column_name::commanded(axes.second),
                                      std::string(kRadialColumn)};
@@ -111,6 +114,20 @@ void require_utf8_metadata(const TraceMetadata& metadata, const std::string& pat
                       utf8_replacing_invalid(key), static_cast<unsigned char>((*text)[bad]),
                       bad + 1, text == &key ? "key" : "value"));
     }
+  }
+}
+
+// FN(), whose refusals name `path` when they come from code that sees bare numbers (a circle
+// fit, a model fit): the file is the one thing they cannot know, and "<input>" tells the user
+// nothing.
+template <typename Fn>
+auto naming_file(const std::string& path, const Fn& fn) -> decltype(fn()) {
+  try {
+    return fn();
+  } catch (const InputError& e) {
+    if (!e.file().empty()) throw;
+    if (e.code() == ExitCode::parse) throw ParseError(path, e.line(), e.detail());
+    throw DataError(path, e.line(), e.detail());
   }
 }
 
@@ -166,24 +183,26 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& a
   }
   Trace read = read_trace(path, ro);
   require_utf8_metadata(read.metadata, path);
-  // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
-  const std::optional<std::string> units = resolve_units(
-      read, trace_plane(read, given.plane), given.nominal_radius_mm, given.input_checks);
-  EvaluationOptions options = given;
-  // A ball bar's trace: positions from the bar's length along the commanded angle.
-  std::optional<RadialPositions> radial = radial_set_up(read, radial_forced, options);
-  EvaluatedTrace out;
-  out.radial = radial.has_value();
-  out.trace = radial ? std::move(radial->trace) : std::move(read);
-  out.evaluation = evaluate(out.trace, options);
-  if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
-  if (units) out.evaluation.notes.insert(out.evaluation.notes.begin(), *units);
-  if (!out.trace.column(column_name::t)) {
-    out.evaluation.notes.push_back(
-        "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
-  }
-  require_finite_results(out.evaluation, circana_option_words);
-  return out;
+  return naming_file(path, [&] {
+    // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
+    const std::optional<std::string> units = resolve_units(
+        read, trace_plane(read, given.plane), given.nominal_radius_mm, given.input_checks);
+    EvaluationOptions options = given;
+    // A ball bar's trace: positions from the bar's length along the commanded angle.
+    std::optional<RadialPositions> radial = radial_set_up(read, radial_forced, options);
+    EvaluatedTrace out;
+    out.radial = radial.has_value();
+    out.trace = radial ? std::move(radial->trace) : std::move(read);
+    out.evaluation = evaluate(out.trace, options);
+    if (radial) out.evaluation.notes.insert(out.evaluation.notes.begin(), radial->note);
+    if (units) out.evaluation.notes.insert(out.evaluation.notes.begin(), *units);
+    if (!out.trace.column(column_name::t)) {
+      out.evaluation.notes.push_back(
+          "no 't' column: time order not checked, feed not reported (docs/trace-format.md)");
+    }
+    require_finite_results(out.evaluation, circana_option_words);
+    return out;
+  });
 }
 
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
@@ -201,7 +220,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   std::string diagnosis_error;
   if (!request.json || !request.svg_path.empty()) {
     try {
-      diagnosis = diagnose(trace, ev);
+      diagnosis = naming_file(request.trace_path, [&] { return diagnose(trace, ev); });
     } catch (const Error& e) {
       diagnosis_error = e.what();
     }
@@ -237,7 +256,8 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
   DiagnosisOptions options = request.options;
   // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
-  Diagnosis d = diagnose(evaluated.trace, evaluated.evaluation, options);
+  Diagnosis d = naming_file(
+      request.trace_path, [&] { return diagnose(evaluated.trace, evaluated.evaluation, options); });
   // What was evaluated: the units and radial notes lead the evaluation's notes.
   const auto& en = evaluated.evaluation.notes;
   const std::size_t lead =
@@ -372,7 +392,10 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   }
   const auto& a = *trace.column(request.column_a);
   const auto& b = *trace.column(request.column_b);
-  const FitReport report = fit_all(request.points_path, a, b);
+  const FitReport report = naming_file(request.points_path, [&] {
+    return detail::with_rows_context(trace, 0, trace.rows(), "the points",
+                                     [&] { return fit_all(request.points_path, a, b); });
+  });
   out << (request.json ? json_text(to_json(report), 2) + "\n" : text_report(report));
   out.flush();
   return 0;

@@ -17,6 +17,7 @@
 #include "circtest/core/parallel.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -26,6 +27,10 @@ constexpr double kPi = std::numbers::pi;
 // exp(-kSpikeCut) = 1e-304: a spike term further from its reversal than this many time
 // constants is taken as zero (it changes no sum; exp's underflow path is slow).
 constexpr double kSpikeCut = 700.0;
+// Samples the model fit needs per candidate term (docs/diagnosis.md): two left over for each
+// term's residual, so that its standard error and the identifiability test have something to
+// go on.
+constexpr std::size_t kSamplesPerTerm = 3;
 
 enum class Kind {
   centre_a,
@@ -1012,8 +1017,14 @@ struct Peak {
 
 // Periodogram of the residual projected on one axis, over that axis's position: the residual
 // is first reduced to a least-squares axis deviation per position bin.
+constexpr std::size_t kMinPeriodogramBins = 16;
+
+// `bins` gets the number of position bins the samples fill (the search needs
+// kMinPeriodogramBins).
 std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vector<double>& proj,
-                                const std::vector<double>& resid, double radius, double min_pitch) {
+                                const std::vector<double>& resid, double radius, double min_pitch,
+                                std::size_t& bins) {
+  bins = 0;
   const auto [mn, mx] = std::minmax_element(pos.begin(), pos.end());
   const double span = *mx - *mn;
   if (!(span > 0)) return std::nullopt;
@@ -1034,7 +1045,8 @@ std::optional<Peak> periodogram(const std::vector<double>& pos, const std::vecto
     w.push_back(sw[b]);
     bin.push_back(b);
   }
-  if (x.size() < 16) return std::nullopt;
+  bins = x.size();
+  if (x.size() < kMinPeriodogramBins) return std::nullopt;
   // Remove the weighted mean so the zero frequency does not leak.
   const double wsum = std::accumulate(w.begin(), w.end(), 0.0);
   double ym = 0.0;
@@ -1184,6 +1196,49 @@ void reversal_steps(const Samples& S, const std::vector<double>& resid,
   }
 }
 
+// The first number of the diagnosis that is not finite, by name; none when all are. A fit the
+// samples do not determine (noise far above the radius, feeds from a time column that stalls
+// and jumps) can leave NaN in its solution, which no output may carry.
+std::optional<std::string> first_not_finite(const Diagnosis& D) {
+  const auto bad = [](const std::optional<double>& v) { return v && !std::isfinite(*v); };
+  const auto bad_estimate = [&](const Estimate& e) {
+    return bad(e.value) || bad(e.standard_error);
+  };
+  for (std::size_t ax = 0; ax < 2; ++ax) {
+    const std::string axis(1, D.axes[ax]);
+    if (bad_estimate(D.backlash_mm[ax])) return "backlash " + axis;
+    if (bad_estimate(D.spike_mm[ax]) || bad_estimate(D.spike_ms[ax])) return "spike " + axis;
+    if (bad_estimate(D.scale_ppm[ax])) return "scale " + axis;
+    if (bad_estimate(D.centre_offset_mm[ax])) return "centre offset " + axis;
+    if (const auto& r = D.backlash_reversals_mm[ax]; r && (bad((*r)[0]) || bad((*r)[1]))) {
+      return "backlash at the reversals of " + axis;
+    }
+    if (const auto& c = D.cyclic[ax];
+        c && !(std::isfinite(c->amplitude_mm) && std::isfinite(c->pitch_mm) &&
+               std::isfinite(c->phase_rad) && std::isfinite(c->amplitude_se_mm))) {
+      return "cyclic error " + axis;
+    }
+  }
+  if (bad_estimate(D.scale_mismatch_ppm)) return std::string("scale mismatch");
+  if (bad_estimate(D.squareness_urad)) return std::string("squareness");
+  if (bad_estimate(D.servo_mismatch_ms)) return std::string("servo mismatch");
+  if (bad_estimate(D.kv_per_s)) return std::string("Kv");
+  if (bad_estimate(D.lag_ms)) return std::string("following lag");
+  for (const FeedRadius& f : D.radius_change) {
+    if (bad_estimate(f.dr_mm)) return std::string("radius change");
+  }
+  for (const Contribution& c : D.contributions) {
+    if (!std::isfinite(c.g_mm) || !std::isfinite(c.share_mm) || !std::isfinite(c.percent)) {
+      return "contribution of " + c.source;
+    }
+  }
+  if (!std::isfinite(D.model_g_mm)) return std::string("modelled G");
+  if (!std::isfinite(D.residual_rms_mm) || !std::isfinite(D.residual_g_mm)) {
+    return std::string("residual");
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 Diagnosis diagnose(const Trace& trace, const DiagnosisOptions& options) {
@@ -1227,7 +1282,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
       xb.insert(xb.end(), col_b.begin() + static_cast<std::ptrdiff_t>(r.run.begin),
                 col_b.begin() + static_cast<std::ptrdiff_t>(r.run.end));
     }
-    const Circle all = fit_lsc(xa, xb);
+    const Circle all =
+        detail::with_rows_context(trace, ev.runs.front().run.begin, ev.runs.back().run.end,
+                                  "the runs together", [&] { return fit_lsc(xa, xb); });
     ca = ev.centre ? ev.centre->a_mm : all.centre_a_mm;
     cb = ev.centre ? ev.centre->b_mm : all.centre_b_mm;
     R = ev.nominal_radius_mm.value_or(all.radius_mm);
@@ -1388,6 +1445,22 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
         B, B));
   }
 
+  // A fit of p terms on a handful of samples has no residual left to judge it by: its
+  // standard errors and identifiability test mean nothing and the later stages (periodogram,
+  // decay search) work on noise. Refused up front, naming what it needs.
+  const std::size_t needed = kSamplesPerTerm * cand.size();
+  if (S.size() < needed) {
+    const Run& first = ev.runs.front().run;
+    throw DataError(
+        trace.source, trace.line_of_row[first.begin],
+        fmt::format("diagnosis not measurable ({} samples, needs {}): the model's {} terms "
+                    "need {} samples each over the measured runs ({} run{}, lines {}-{}); "
+                    "record more samples per run (a lower feed or a shorter sample period)",
+                    S.size(), needed, cand.size(), kSamplesPerTerm, ev.runs.size(),
+                    ev.runs.size() == 1 ? "" : "s", trace.line_of_row[first.begin],
+                    trace.line_of_row[ev.runs.back().run.end - 1]));
+  }
+
   const std::size_t stride =
       std::max<std::size_t>(1, (S.size() + options.max_fit_samples - 1) / options.max_fit_samples);
   const double vif_floor = 1.0 / options.max_variance_inflation;
@@ -1466,8 +1539,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   // Cyclic errors: a given pitch, else a periodogram of the residual over axis position.
   {
     std::vector<double> res;
-    std::vector<Column> res_cols;
-    State res_st;
+    // The columns and state `res` was taken at; none before the first residual (an empty
+    // column set at the default state is a state like any other, not "already taken").
+    std::optional<std::pair<std::vector<Column>, State>> res_at;
     const std::size_t cstride = std::max<std::size_t>(1, (S.size() + 199999) / 200000);
     for (int ax = 0; ax < 2; ++ax) {
       const char letter = ax == 0 ? la : lb;
@@ -1487,10 +1561,9 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
           reserve_huge(*v, count);
           v->resize(count);
         }
-        if (!(res_cols == cols && res_st == st)) {
+        if (!res_at || !(res_at->first == cols && res_at->second == st)) {
           residual_every(S, st, cols, sol.x, cstride, res);
-          res_cols = cols;
-          res_st = st;
+          res_at.emplace(cols, st);
         }
         for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t) {
           for (std::size_t i = (lo + cstride - 1) / cstride * cstride; i < hi; i += cstride) {
@@ -1498,7 +1571,15 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
             proj[i / cstride] = ax == 0 ? S.c[i] : S.s[i];
           }
         });
-        const auto peak = periodogram(pos, proj, res, R, std::max(0.5, R / 400.0));
+        const double min_pitch = std::max(0.5, R / 400.0);
+        std::size_t bins = 0;
+        const auto peak = periodogram(pos, proj, res, R, min_pitch, bins);
+        if (bins < kMinPeriodogramBins) {
+          D.notes.push_back(fmt::format(
+              "cyclic error of {} not measurable ({} samples fill {} position bins of {:.3g} "
+              "mm, needs {}): give its pitch with --pitch to fit it",
+              ax == 0 ? A : B, pos.size(), bins, min_pitch / 8.0, kMinPeriodogramBins));
+        }
         if (peak && peak->ratio >= options.cyclic_detection_factor) {
           pitch = peak->pitch_mm;
           ce.pitch_source = "periodogram";
@@ -2161,6 +2242,16 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   }
   std::stable_sort(D.contributions.begin(), D.contributions.end(),
                    [](const Contribution& a, const Contribution& b) { return a.g_mm > b.g_mm; });
+  if (const auto what = first_not_finite(D)) {
+    const Run& first = ev.runs.front().run;
+    throw DataError(trace.source, trace.line_of_row[first.begin],
+                    fmt::format("diagnosis not measurable: the model fit gives no finite {} on "
+                                "these {} samples (lines {}-{}): the samples do not determine "
+                                "the model (noise far above the errors, or a time column that "
+                                "stalls and jumps)",
+                                *what, S.size(), trace.line_of_row[first.begin],
+                                trace.line_of_row[ev.runs.back().run.end - 1]));
+  }
   return D;
 }
 

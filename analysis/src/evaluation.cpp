@@ -15,6 +15,7 @@
 #include "circtest/core/parallel.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -22,6 +23,7 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 constexpr double kRadToDeg = 180.0 / kPi;
+constexpr double kMaxFeedMmPerMin = 1e6;  // as the feed_mm_per_min metadata is checked
 
 std::span<const double> slice(const std::vector<double>& v, const Run& r) {
   return {v.data() + r.begin, r.size()};
@@ -137,21 +139,7 @@ void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evalua
   ev.temperature_factor = ev.temperatures.radius_factor();
 }
 
-// FIT() (circle fits over rows [BEGIN, END) of the trace): the fits see bare points, so a
-// refusal of theirs gets the file and the rows' lines here, with WHAT the points are.
-template <typename Fit>
-auto with_rows_context(const Trace& trace, std::size_t begin, std::size_t end,
-                       const std::string& what, const Fit& fit) -> decltype(fit()) {
-  try {
-    return fit();
-  } catch (const DataError& e) {
-    if (!e.file().empty()) throw;
-    const std::size_t first = trace.line_of_row[begin];
-    const std::size_t last = trace.line_of_row[end - 1];
-    throw DataError(trace.source, first,
-                    fmt::format("{} (lines {}-{}): {}", what, first, last, e.detail()));
-  }
-}
+using detail::with_rows_context;
 
 // The commanded columns of the first run give the nominal circle when nothing else did.
 void resolve_from_commanded(const Trace& trace, const Segmentation& seg, RemedyWords words,
@@ -206,6 +194,17 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, std::size_t num
   if (const std::vector<double>* t = trace.column(column_name::t); t && run.size() > 1) {
     const double dt = (*t)[run.end - 1] - (*t)[run.begin];
     if (dt > 0) rr.feed_mm_per_min = run.sweep_deg / kRadToDeg * rr.lsc.radius_mm / dt * 60.0;
+    // The bound of feed_mm_per_min metadata: a time column that makes the run faster than any
+    // machine does not belong to its motion, and the diagnosis would take its servo terms from
+    // it. The feed is then not measured.
+    if (rr.feed_mm_per_min && !(*rr.feed_mm_per_min <= kMaxFeedMmPerMin)) {
+      notes.push_back(fmt::format(
+          "run {} (lines {}-{}): feed not measurable: its time column gives {:.0f} mm/min (t "
+          "from {:g} to {:g} s), above any machine's {:.0f}",
+          number, rr.first_line, rr.last_line, *rr.feed_mm_per_min, (*t)[run.begin],
+          (*t)[run.end - 1], kMaxFeedMmPerMin));
+      rr.feed_mm_per_min.reset();
+    }
   }
 
   const bool full = run.sweep_deg >= 359.0;
@@ -271,7 +270,8 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
   ev.g_method = options.g_method;
   resolve_set_up(trace, options, ev);
-  check_plane_motion(trace, ev.plane, ev.columns, options.input_checks.remedy_words);
+  check_plane_motion(trace, ev.plane, ev.columns, options.input_checks.remedy_words,
+                     ev.nominal_radius_mm);
 
   SegmentationOptions so;
   so.centre = ev.centre;
@@ -282,6 +282,10 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   ev.segmentation = seg.method;
   ev.notes.insert(ev.notes.end(), seg.notes.begin(), seg.notes.end());
   resolve_from_commanded(trace, seg, options.input_checks.remedy_words, ev);
+  for (auto note : {check_announced_runs(trace, seg.runs, options.input_checks),
+                    check_time_column(trace, seg.runs, options.input_checks)}) {
+    if (note) ev.notes.push_back(*note);
+  }
 
   // Each run's results, and each H pair's common circle and profiles, depend on no other
   // run's: they are worked out side by side, then gathered in run order.
@@ -294,6 +298,16 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   const auto& col_a = trace.values[ev.columns.a];
   const auto& col_b = trace.values[ev.columns.b];
 
+  // Without arc_deg the longest run the program marked stands for the arc it ran (runs found
+  // automatically are the circle's stretches, not the program's runs).
+  std::optional<double> longest_sweep_deg;
+  if (runs.size() >= 2 && seg.method != SegmentationMethod::automatic) {
+    for (const Run& run : runs) {
+      if (std::isfinite(run.sweep_deg)) {
+        longest_sweep_deg = std::max(longest_sweep_deg.value_or(0.0), run.sweep_deg);
+      }
+    }
+  }
   std::vector<RunResult> results(runs.size());
   std::vector<std::vector<std::string>> run_notes(runs.size());
   std::vector<Circle> common(pairs.size());
@@ -321,8 +335,10 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     const Run& run = runs[k];
     const std::size_t number = k + 1;
     std::vector<std::string>& notes = run_notes[k];
-    if (auto note = check_run_arc(trace, number, run, options.input_checks)) {
-      notes.push_back(*note);
+    for (auto note :
+         {check_run_arc(trace, number, run, options.input_checks, longest_sweep_deg),
+          check_off_plane(trace, ev.plane, ev.columns, number, run, options.input_checks)}) {
+      if (note) notes.push_back(*note);
     }
     RunResult rr = with_rows_context(trace, run.begin, run.end, fmt::format("run {}", number), [&] {
       return evaluate_run(trace, ev, number, run, options.f_centre,
@@ -365,9 +381,17 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
     h.h_mm = d.max_mm;
     h.at_angle_deg = d.at_angle_deg;
     h.overlap_deg = d.overlap_deg;
+    // H compares the two runs where both went: on a sliver of shared arc (or none, where it
+    // read 0.0 um) it says nothing about the machine.
+    if (!(h.overlap_deg >= options.min_arc_deg)) {
+      ev.notes.push_back(fmt::format(
+          "H of runs {} and {} not measurable: they share {:.1f} deg of arc, needs {:.0f} deg",
+          first + 1, first + 2, h.overlap_deg, options.min_arc_deg));
+      continue;
+    }
     ev.hysteresis.push_back(h);
   }
-  if (ev.hysteresis.empty()) {
+  if (pairs.empty()) {
     ev.notes.push_back("H not computed: no CCW run followed by a CW run (or the reverse)");
   }
   return ev;

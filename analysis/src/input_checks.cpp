@@ -8,8 +8,11 @@
 #include <vector>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
+#include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "median.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 namespace {
@@ -124,7 +127,11 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
       va.push_back((*a)[i]);
       vb.push_back((*b)[i]);
     });
-    const double r = va.size() >= 3 ? fit_lsc(va, vb).radius_mm : 0.0;
+    const double r = va.size() >= 3 ? detail::with_rows_context(trace, 0, trace.rows(),
+                                                                "the measured rows' circle",
+                                                                [&] { return fit_lsc(va, vb); })
+                                          .radius_mm
+                                    : 0.0;
     const double nominal = *nominal_radius_mm;
     const bool as_mm = std::abs(r - nominal) <= 0.1 * nominal;
     const bool as_inch = std::abs(r * kMmPerInch - nominal) <= 0.1 * nominal;
@@ -152,7 +159,7 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
 }
 
 void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& columns,
-                        RemedyWords words) {
+                        RemedyWords words, std::optional<double> nominal_radius_mm) {
   if (trace.rows() < 3) return;  // segmentation says "too few points"
   const std::vector<double>& a = trace.values[columns.a];
   const std::vector<double>& b = trace.values[columns.b];
@@ -168,7 +175,11 @@ void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& col
   const double wb = rb.width();
   const double small = std::min(wa, wb);
   const double large = std::max(wa, wb);
-  if (small >= std::max(0.001, 0.02 * large)) return;
+  const bool flat = small < std::max(0.001, 0.02 * large);
+  // A radius beyond any machine is the result checks' to name (they refuse what it gives).
+  const bool plausible = nominal_radius_mm && *nominal_radius_mm <= 100'000.0;
+  const double least_mm = plausible ? 0.1 * *nominal_radius_mm : 0.0;
+  if (!flat && large >= least_mm) return;
   std::string others;
   for (const char axis : {'x', 'y', 'z'}) {
     const std::vector<double>* v = trace.column(column_name::actual(axis));
@@ -179,12 +190,175 @@ void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& col
   }
   const std::string& na = trace.columns[columns.a];
   const std::string& nb = trace.columns[columns.b];
+  const std::string too_little =
+      flat ? std::string()
+           : fmt::format(", less than a circle of radius {:.3f} mm moves them (at least {:.3f} mm)",
+                         *nominal_radius_mm, least_mm);
   throw DataError(
       trace.source, 0,
-      fmt::format("plane {}: {} moves {:.3f} mm and {} {:.3f} mm over lines {}-{}: no circle in "
+      fmt::format("plane {}: {} moves {:.3f} mm and {} {:.3f} mm over lines {}-{}{}: no circle in "
                   "that plane (position ranges: {}); give the plane of the test with {}",
                   plane_name(plane), na, wa, nb, wb, line_of(trace, first), line_of(trace, last),
-                  others.empty() ? "none" : others, words(Remedy::give_plane)));
+                  too_little, others.empty() ? "none" : others, words(Remedy::give_plane)));
+}
+
+std::optional<std::string> check_off_plane(const Trace& trace, Plane plane,
+                                           const PlaneColumns& columns, std::size_t run_number,
+                                           const Run& run, const InputCheckOptions& options) {
+  const char normal = plane_axes(plane).normal;
+  const std::vector<double>* n = trace.column(column_name::actual(normal));
+  if (!n || run.size() == 0) return std::nullopt;
+  Range ra, rb, rn;
+  for (std::size_t i = run.begin; i < run.end; ++i) {
+    ra.add(trace.values[columns.a][i]);
+    rb.add(trace.values[columns.b][i]);
+    rn.add((*n)[i]);
+  }
+  const double limit = std::max(0.05, 0.1 * std::max(ra.width(), rb.width()));
+  if (rn.width() <= limit) return std::nullopt;
+  return refuse_or_note(
+      trace, line_of(trace, run.begin),
+      fmt::format("run {} (lines {}-{}): {} moves {:.3f} mm while {} moves {:.3f} mm and {} "
+                  "{:.3f} mm: the run is not in the plane {} ({} may move at most {:.3f} mm); "
+                  "give the plane of the test with {}",
+                  run_number, line_of(trace, run.begin), line_of(trace, run.end - 1),
+                  column_name::actual(normal), rn.width(), trace.columns[columns.a], ra.width(),
+                  trace.columns[columns.b], rb.width(), plane_name(plane),
+                  column_name::actual(normal), limit, options.remedy_words(Remedy::give_plane)),
+      options);
+}
+
+std::optional<std::string> check_time_column(const Trace& trace, const std::vector<Run>& runs,
+                                             const InputCheckOptions& options) {
+  const std::vector<double>* t = trace.column(column_name::t);
+  if (!t) return std::nullopt;
+  constexpr double kMaxTimeS = 1e10;  // 317 years: beyond any clock a recorder keeps
+  std::size_t steps = 0;
+  for (const Run& run : runs) {
+    for (std::size_t i = run.begin; i < run.end; ++i) {
+      if (!(std::abs((*t)[i]) <= kMaxTimeS)) {
+        throw DataError(trace.source, line_of(trace, i),
+                        fmt::format("t: {} s is beyond +-1e10 s: expected the time of the sample "
+                                    "in seconds (is the time column scaled?)",
+                                    (*t)[i]));
+      }
+    }
+    steps += run.size() > 0 ? run.size() - 1 : 0;
+  }
+  if (steps == 0) return std::nullopt;
+  // The k-th step between successive samples of a run, over the runs in order.
+  const double step_s = detail::median_of(steps, [&](std::size_t k) {
+    for (const Run& run : runs) {
+      const std::size_t m = run.size() > 0 ? run.size() - 1 : 0;
+      if (k < m) return (*t)[run.begin + k + 1] - (*t)[run.begin + k];
+      k -= m;
+    }
+    return 0.0;
+  });
+  const std::size_t first = line_of(trace, runs.front().begin);
+  if (step_s > 0.0 && (step_s < 1e-7 || step_s > 10.0)) {
+    throw DataError(trace.source, first,
+                    fmt::format("t: the samples of the runs are {:g} s apart (median step): "
+                                "expected a sample period from 1e-7 s to 10 s (is the time "
+                                "column scaled, or not in seconds?)",
+                                step_s));
+  }
+  const std::optional<double> period =
+      trace.metadata.number(meta_key::sample_period_s, trace.source);
+  if (!period || !(step_s > 0.0) || (step_s >= 0.5 * *period && step_s <= 2.0 * *period)) {
+    return std::nullopt;
+  }
+  return refuse_or_note(
+      trace, first,
+      fmt::format("t: the samples of the runs are {:g} s apart (median step), but "
+                  "sample_period_s (line {}) says {:g} s: the time column is scaled or in other "
+                  "units, and the feed and the servo terms would be wrong",
+                  step_s, trace.metadata.line_of(meta_key::sample_period_s), *period),
+      options);
+}
+
+namespace {
+
+struct Announced {
+  std::string key;                // the metadata key they came from
+  std::vector<long> ids;          // run ids, when `segments` gives them
+  std::vector<std::string> dirs;  // each run's direction as announced
+};
+
+std::vector<std::string> split_list(std::string_view text) {
+  std::vector<std::string> out;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', pos), text.size());
+    const std::string_view item = trim(text.substr(pos, comma - pos));
+    if (!item.empty()) out.emplace_back(item);
+    pos = comma + 1;
+  }
+  return out;
+}
+
+// circgen's `segments` (id:DIR:Ffeed, ...), else `directions` once per feed; none when the
+// trace says nothing of its runs (or says it in a form not understood).
+std::optional<Announced> announced_runs(const Trace& trace) {
+  Announced a;
+  if (const std::string* segments = trace.metadata.find(meta_key::segments)) {
+    a.key = meta_key::segments;
+    for (const std::string& item : split_list(*segments)) {
+      const auto colon = item.find(':');
+      const auto id = parse_finite(std::string_view(item).substr(0, colon));
+      if (!id || *id < 1 || *id > 2147483647.0 || std::floor(*id) != *id) return std::nullopt;
+      a.ids.push_back(static_cast<long>(*id));
+      const std::string_view rest = colon == std::string::npos
+                                        ? std::string_view()
+                                        : std::string_view(item).substr(colon + 1);
+      a.dirs.emplace_back(rest.substr(0, rest.find(':')));
+    }
+    return a.ids.empty() ? std::nullopt : std::optional<Announced>(a);
+  }
+  const std::string* directions = trace.metadata.find(meta_key::directions);
+  if (!directions) return std::nullopt;
+  a.key = meta_key::directions;
+  const std::vector<std::string> dirs = split_list(*directions);
+  std::size_t feeds = 1;
+  if (const std::string* f = trace.metadata.find(meta_key::feeds_mm_per_min)) {
+    feeds = std::max<std::size_t>(1, split_list(*f).size());
+    a.key += " x feeds_mm_per_min";
+  }
+  for (std::size_t k = 0; k < feeds; ++k) a.dirs.insert(a.dirs.end(), dirs.begin(), dirs.end());
+  return a.dirs.empty() ? std::nullopt : std::optional<Announced>(a);
+}
+
+}  // namespace
+
+std::optional<std::string> check_announced_runs(const Trace& trace, const std::vector<Run>& runs,
+                                                const InputCheckOptions& options) {
+  const std::optional<Announced> announced = announced_runs(trace);
+  if (!announced) return std::nullopt;
+  std::string missing;
+  const bool by_id =
+      !announced->ids.empty() && trace.column(column_name::segment) &&
+      std::all_of(runs.begin(), runs.end(), [](const Run& r) { return r.segment_id != 0; });
+  if (by_id) {
+    for (std::size_t k = 0; k < announced->ids.size(); ++k) {
+      const long id = announced->ids[k];
+      if (std::any_of(runs.begin(), runs.end(), [&](const Run& r) { return r.segment_id == id; }))
+        continue;
+      missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", id, announced->dirs[k]);
+    }
+  } else if (runs.size() < announced->dirs.size()) {
+    for (std::size_t k = runs.size(); k < announced->dirs.size(); ++k) {
+      missing += fmt::format("{}{} ({})", missing.empty() ? "" : ", ", k + 1, announced->dirs[k]);
+    }
+  }
+  if (missing.empty()) return std::nullopt;
+  const std::string first_key = announced->key.substr(0, announced->key.find(' '));
+  return refuse_or_note(
+      trace, trace.metadata.line_of(first_key),
+      fmt::format("the program announced {} runs ({}, line {}), the trace holds {}: run{} {} "
+                  "missing (the recording stopped early?)",
+                  announced->dirs.size(), announced->key, trace.metadata.line_of(first_key),
+                  runs.size(), missing.find(',') == std::string::npos ? "" : "s", missing),
+      options);
 }
 
 std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,
@@ -208,17 +382,25 @@ std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t 
 }
 
 std::optional<std::string> check_run_arc(const Trace& trace, std::size_t run_number, const Run& run,
-                                         const InputCheckOptions& options) {
+                                         const InputCheckOptions& options,
+                                         std::optional<double> longest_sweep_deg) {
   const std::optional<double> arc = trace.metadata.number(meta_key::arc_deg, trace.source);
-  if (!arc) return std::nullopt;
-  const double shortest = *arc - std::max(1.0, 0.03 * *arc);
+  const std::optional<double> expected = arc ? arc : longest_sweep_deg;
+  // A sweep that is not a number comes from coordinates the run's fit refuses by name.
+  if (!expected || !std::isfinite(run.sweep_deg) || !std::isfinite(*expected)) return std::nullopt;
+  const double shortest = *expected - std::max(1.0, 0.03 * *expected);
   if (run.sweep_deg >= shortest) return std::nullopt;
+  const std::string against =
+      arc ? fmt::format("of the {:.1f} deg the program ran (arc_deg, line {})", *arc,
+                        trace.metadata.line_of(meta_key::arc_deg))
+          : fmt::format(
+                "against the {:.1f} deg of the longest run (no arc_deg metadata: the "
+                "runs of one program sweep the same arc)",
+                *expected);
   return refuse_or_note(
       trace, line_of(trace, run.begin),
-      fmt::format("run {} (lines {}-{}) sweeps {:.1f} deg of the {:.1f} deg the program ran "
-                  "(arc_deg, line {}): the run is cut off",
-                  run_number, line_of(trace, run.begin), line_of(trace, run.end - 1), run.sweep_deg,
-                  *arc, trace.metadata.line_of(meta_key::arc_deg)),
+      fmt::format("run {} (lines {}-{}) sweeps {:.1f} deg {}: the run is cut off", run_number,
+                  line_of(trace, run.begin), line_of(trace, run.end - 1), run.sweep_deg, against),
       options);
 }
 

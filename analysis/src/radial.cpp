@@ -10,6 +10,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -81,7 +82,9 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
                       "a radial trace without centre_mm metadata needs at least 3 commanded "
                       "points on the measured arcs to find the pivot");
     }
-    const Circle fit = fit_lsc(a, b);
+    const Circle fit = detail::with_rows_context(trace, 0, trace.rows(),
+                                                 "the commanded points of the measured arcs",
+                                                 [&] { return fit_lsc(a, b); });
     out.centre_a_mm = fit.centre_a_mm;
     out.centre_b_mm = fit.centre_b_mm;
     out.centre_source = ValueSource::commanded;

@@ -152,11 +152,10 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
                                                             meta_key::radius_mm,
                                                             meta_key::diameter_mm,
                                                             meta_key::channels};
-  std::set<std::string, std::less<>> seen;
-  for (const auto& [key, value] : ev.conditions.entries()) {
+  for (const std::size_t i : ev.conditions.distinct()) {
+    const auto& [key, value] = ev.conditions.entries()[i];
     if (kShown.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) continue;
-    if (!seen.insert(key).second) continue;
-    line(key, *ev.conditions.find(key));
+    line(key, value);
   }
   return sections;
 }

@@ -113,9 +113,14 @@ json to_json(const Evaluation& ev) {
   }
   j["runs"] = runs;
   j["notes"] = ev.notes;
-  json conditions = json::object();
-  for (const auto& [k, v] : ev.conditions.entries()) conditions[k] = v;
-  j["conditions"] = conditions;
+  // Each key once (its last value), appended: the object's operator[] searches its keys one by
+  // one, which made 80,000 keys take seconds.
+  json::object_t conditions;
+  for (const std::size_t i : ev.conditions.distinct()) {
+    const auto& [k, v] = ev.conditions.entries()[i];
+    conditions.emplace_back(k, v);
+  }
+  j["conditions"] = std::move(conditions);
   return j;
 }
 

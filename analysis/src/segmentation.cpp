@@ -13,6 +13,7 @@
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
+#include "rows_context.hpp"
 
 namespace circtest {
 
@@ -115,8 +116,12 @@ std::vector<Span> split_at_reversals(const double* a, const double* b, Span s, c
 // Finds the arcs at constant radius inside [lo, hi): moving samples near the circle,
 // split where the rotation changes sign; stretches under min_sweep are dropped (lead arcs,
 // feed-in moves), overtravel beyond 360 deg is trimmed evenly.
-std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
+std::vector<Run> automatic_runs(const Trace& trace, const double* a, const double* b, Span range,
                                 const SegmentationOptions& o) {
+  const auto fit = [&](const std::vector<double>& fa, const std::vector<double>& fb) {
+    return detail::with_rows_context(trace, range.begin, range.end, "the moving samples",
+                                     [&] { return fit_lsc_algebraic(fa, fb); });
+  };
   std::vector<Run> out;
   const std::size_t n = range.end - range.begin;
   if (n < o.min_points) return out;
@@ -154,7 +159,7 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
   } else {
     // Refit on the samples near the first estimate: feed-in lines and lead arcs of another
     // radius pull the first algebraic fit away from the test circle.
-    c = fit_lsc_algebraic(sa, sb);
+    c = fit(sa, sb);
     for (int pass = 0; pass < 3; ++pass) {
       const double tol = std::max(0.05 * c.radius_mm, 0.2);
       std::vector<double> ta, tb;
@@ -166,7 +171,7 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
         }
       }
       if (ta.size() < o.min_points) break;
-      c = fit_lsc_algebraic(ta, tb);
+      c = fit(ta, tb);
     }
   }
   const double tol = std::max(0.01 * c.radius_mm, 0.2);
@@ -198,6 +203,8 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
         --sp.end;
       }
     }
+    // Trimming a stretch of few samples can leave fewer than a run needs.
+    if (sp.end - sp.begin < o.min_points) return;
     out.push_back(make_run(a, b, sp, c));
   };
 
@@ -232,6 +239,34 @@ std::vector<Run> automatic_runs(const double* a, const double* b, Span range,
     }
   }
   return out;
+}
+
+// A run id is a whole number from 0 (idle) that an int holds (circgen writes 1, 2, ...), and
+// a marker 0 or 1 (a HAL bit); anything else (-1, 1.5, a glitch of 1e300) is refused at its
+// line instead of becoming an arbitrary run or a half-marked row.
+void check_run_columns(const Trace& trace, const std::vector<double>* marker,
+                       const std::vector<double>* segment) {
+  const auto line = [&](std::size_t row) { return trace.line_of_row[row]; };
+  const std::size_t n = trace.rows();
+  if (segment) {
+    for (std::size_t row = 0; row < n; ++row) {
+      const double v = (*segment)[row];
+      if (!(v >= 0.0 && v <= 2147483647.0 && std::floor(v) == v)) {
+        throw DataError(trace.source, line(row),
+                        fmt::format("segment: expected a run id, a whole number 0..2147483647 "
+                                    "(0 = idle), got {}",
+                                    v));
+      }
+    }
+  }
+  if (marker) {
+    for (std::size_t row = 0; row < n; ++row) {
+      const double v = (*marker)[row];
+      if (v != 0.0 && v != 1.0) {
+        throw DataError(trace.source, line(row), fmt::format("marker: expected 0 or 1, got {}", v));
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -280,17 +315,8 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
     throw DataError(trace.source, n == 0 ? trace.header_line : line(n - 1),
                     fmt::format("too few points: {} rows, expected at least 3 per run", n));
   }
-  // A run id is a whole number an int holds (circgen writes 1, 2, ...); anything else (a
-  // glitch of 1e300, 2^63) is refused at its line instead of becoming an arbitrary integer.
-  auto seg_id = [&](std::size_t row) -> long {
-    if (!segment) return 0;
-    const double v = (*segment)[row];
-    if (!(std::abs(v) <= 2147483647.0)) {
-      throw DataError(trace.source, line(row),
-                      fmt::format("segment: expected a run id 0..2147483647, got {}", v));
-    }
-    return std::lround(v);
-  };
+  check_run_columns(trace, marker, segment);
+  auto seg_id = [&](std::size_t row) -> long { return segment ? std::lround((*segment)[row]) : 0; };
   // Whether `row` carries run `id`, the id of row `first`: the same value as that row's needs
   // no check or rounding again (nearly every row of a run).
   auto in_run = [&](std::size_t row, std::size_t first, long id) {
@@ -346,7 +372,8 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       const Span& s = spans[k];
       if (s.end - s.begin < options.min_points) return;  // refused below
       try {
-        const Circle centre = centre_of(a, b, s, options);
+        const Circle centre = detail::with_rows_context(
+            trace, s.begin, s.end, "marked span", [&] { return centre_of(a, b, s, options); });
         worked[k].parts = split_at_reversals(a, b, s, centre, options.min_points);
         for (const Span& part : worked[k].parts)
           worked[k].runs.push_back(make_run(a, b, part, centre));
@@ -405,7 +432,7 @@ Segmentation segment_trace(const Trace& trace, PlaneColumns columns,
       }
       result.runs.insert(result.runs.end(), runs.begin(), runs.end());
     } else {
-      for (Run r : automatic_runs(a, b, s, options)) {
+      for (Run r : automatic_runs(trace, a, b, s, options)) {
         r.segment_id = seg_id(r.begin);
         result.runs.push_back(r);
       }

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -39,6 +40,7 @@ namespace circtest {
 // ---------------------------------------------------------------- metadata
 
 void TraceMetadata::set(std::string key, std::string value) {
+  last_.insert_or_assign(key, entries_.size());
   entries_.emplace_back(std::move(key), std::move(value));
   lines_.push_back(0);
 }
@@ -47,18 +49,35 @@ void TraceMetadata::set_line(std::size_t index, std::size_t line) {
   if (index < lines_.size()) lines_[index] = line;
 }
 
+std::optional<std::size_t> TraceMetadata::last_index(std::string_view key) const {
+  const auto it = last_.find(key);
+  if (it == last_.end()) return std::nullopt;
+  return it->second;
+}
+
 const std::string* TraceMetadata::find(std::string_view key) const {
-  for (auto it = entries_.rbegin(); it != entries_.rend(); ++it) {
-    if (it->first == key) return &it->second;
-  }
-  return nullptr;
+  const auto i = last_index(key);
+  return i ? &entries_[*i].second : nullptr;
 }
 
 std::size_t TraceMetadata::line_of(std::string_view key) const {
-  for (std::size_t i = entries_.size(); i-- > 0;) {
-    if (entries_[i].first == key) return lines_[i];
+  const auto i = last_index(key);
+  return i ? lines_[*i] : 0;
+}
+
+std::vector<std::size_t> TraceMetadata::distinct() const {
+  std::vector<std::size_t> out;
+  out.reserve(last_.size());
+  // Each key at its first entry, as its last entry's index; marked there, so that the key's
+  // later entries are passed over.
+  std::vector<char> listed(entries_.size(), 0);
+  for (std::size_t i = 0; i < entries_.size(); ++i) {
+    const std::size_t last = last_.find(entries_[i].first)->second;
+    if (listed[last]) continue;
+    listed[last] = 1;
+    out.push_back(last);
   }
-  return 0;
+  return out;
 }
 
 namespace {
@@ -104,6 +123,50 @@ constexpr char kBom[] = "\xEF\xBB\xBF";
 
 bool blank(char c) {
   return c == ' ' || c == '\t';
+}
+
+// Whether a line where the header row belongs is a line of a G-code program (what circgen
+// writes, or any RS274 text): `%`, a `(comment)` or `; comment` line, or words of a letter
+// and a number (`N10 G1 X5 F300`, comments allowed) with at least one G, M or N word, or an
+// O-code (`o100 sub`). A header row is column names separated by commas, none of which reads
+// like that.
+bool gcode_line(std::string_view text) {
+  const std::string_view t = trim(text);
+  if (t.empty()) return false;
+  if (t.front() == '%' || t.front() == ';' || (t.front() == '(' && t.back() == ')')) return true;
+  bool program_word = false;
+  std::size_t i = 0;
+  while (i < t.size()) {
+    const char c = t[i];
+    if (blank(c)) {
+      ++i;
+    } else if (c == '(') {
+      const auto close = t.find(')', i);
+      if (close == std::string_view::npos) return false;
+      i = close + 1;
+    } else if (c == ';') {
+      break;
+    } else if (std::isalpha(static_cast<unsigned char>(c))) {
+      const char letter = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      ++i;
+      while (i < t.size() && blank(t[i])) ++i;
+      // An O-code (`o100 sub`, `o<probe> call`): a keyword follows the number or name.
+      if (letter == 'O' && i < t.size() &&
+          (t[i] == '<' || std::isdigit(static_cast<unsigned char>(t[i])))) {
+        return true;
+      }
+      if (i < t.size() && (t[i] == '-' || t[i] == '+')) ++i;
+      bool digits = false;
+      for (; i < t.size() && (std::isdigit(static_cast<unsigned char>(t[i])) || t[i] == '.'); ++i) {
+        digits = digits || t[i] != '.';
+      }
+      if (!digits) return false;
+      program_word = program_word || letter == 'G' || letter == 'M' || letter == 'N';
+    } else {
+      return false;
+    }
+  }
+  return program_word;
 }
 
 class TraceParser {
@@ -279,6 +342,12 @@ class TraceParser {
   }
 
   void header(std::string_view text) {
+    if (gcode_line(text)) {
+      fail(
+          fmt::format("this is a G-code program, not a trace: run it and record with "
+                      "circlog-record (docs/circlog.md); got '{}'",
+                      shorten(trim(text))));
+    }
     std::vector<std::string> names;
     split_quoted(text, names);
     const std::size_t n = names.size();

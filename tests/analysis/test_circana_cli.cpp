@@ -209,7 +209,8 @@ TEST_F(CircanaCli, SegmentIdsNoIntegerHoldsAreRefusedAtTheirLine) {
         edited_example(dir_, "seg.csv", 3000, [&](std::vector<std::string>& f) { f[8] = v; });
     const CommandResult r = run("analyze " + t);
     EXPECT_EQ(r.exit_code, 5) << v << r.err;
-    EXPECT_NE(r.err.find(t + ":3006: segment: expected a run id 0..2147483647, got"),
+    EXPECT_NE(r.err.find(t + ":3006: segment: expected a run id, a whole number 0..2147483647 "
+                             "(0 = idle), got"),
               std::string::npos)
         << r.err;
   }

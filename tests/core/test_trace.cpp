@@ -89,6 +89,71 @@ TEST(TraceReader, LaterMetadataWins) {
   EXPECT_EQ(*t.metadata.find("overruns"), "5");
 }
 
+// Every key of a large set of metadata (a hostile trace of 200,000 keys, a key given three
+// times) is found at its last value and line, and listed once where it first appears.
+TEST(TraceReader, ManyMetadataKeysKeepTheirLastValueAndFirstPlace) {
+  constexpr std::size_t kKeys = 200000;
+  std::string text;
+  text.reserve(kKeys * 24);
+  text += "# twice: first\n";
+  for (std::size_t i = 0; i < kKeys; ++i) text += fmt::format("# key{}: value {}\n", i, i);
+  text += "# twice: second\nt,x\n0,1\n# key7: trailer\n# twice: third\n";
+  const Trace t = parse_trace(text, "in.csv");
+  EXPECT_EQ(t.metadata.entries().size(), kKeys + 4);
+  EXPECT_EQ(*t.metadata.find("key0"), "value 0");
+  EXPECT_EQ(*t.metadata.find("key199999"), "value 199999");
+  EXPECT_EQ(*t.metadata.find("key7"), "trailer");
+  EXPECT_EQ(t.metadata.line_of("key7"), kKeys + 5);
+  EXPECT_EQ(t.metadata.line_of("key123456"), 123458u);
+  EXPECT_EQ(*t.metadata.find("twice"), "third");
+  EXPECT_EQ(t.metadata.find("key200000"), nullptr);
+  EXPECT_EQ(t.metadata.line_of("absent"), 0u);
+  const std::vector<std::size_t> distinct = t.metadata.distinct();
+  ASSERT_EQ(distinct.size(), kKeys + 1);
+  // "twice" first (where it first stood) with its last value, then the keys in file order.
+  EXPECT_EQ(t.metadata.entries()[distinct[0]].first, "twice");
+  EXPECT_EQ(t.metadata.entries()[distinct[0]].second, "third");
+  EXPECT_EQ(t.metadata.entries()[distinct[8]].first, "key7");
+  EXPECT_EQ(t.metadata.entries()[distinct[8]].second, "trailer");
+  EXPECT_EQ(t.metadata.entries()[distinct[kKeys]].first, "key199999");
+}
+
+// A copy keeps its own index: lookups in it see what was set in it.
+TEST(TraceReader, MetadataCopiesLookUpTheirOwnEntries) {
+  TraceMetadata a;
+  a.set("k", "1");
+  TraceMetadata b = a;
+  b.set("k", "2");
+  b.set("m", "3");
+  EXPECT_EQ(*a.find("k"), "1");
+  EXPECT_EQ(a.find("m"), nullptr);
+  EXPECT_EQ(*b.find("k"), "2");
+  EXPECT_EQ(b.distinct().size(), 2u);
+}
+
+// A G-code program given as a trace is named as one, by its content (whatever the file is
+// called): circgen's header comments, `%`, `;` comments, numbered or plain G/M words.
+TEST(TraceReaderErrors, AGCodeProgramIsNamedAsOne) {
+  const std::string expected =
+      "this is a G-code program, not a trace: run it and record with circlog-record";
+  for (const std::string program :
+       {"(circtest: generator: circgen 0.1.0)\nG21 G17\n", "%\nG21\n%\n", "; setup\nG0 X0\n",
+        "\n\nN10 G1 X5 F300 ; feed\nN20 M2\n", "G21 G17 G90 G91.1 G94 G40 G80\n",
+        "# name: value\nM5 M9 (spindle and coolant off)\n", "O100 sub\n", "o100 (sub)\n"}) {
+    SCOPED_TRACE(program);
+    const std::string m = message_of(program);
+    EXPECT_NE(m.find(expected), std::string::npos) << m;
+    EXPECT_EQ(m.rfind("in.csv:", 0), 0u) << m;
+    EXPECT_EQ(code_of(program), ExitCode::parse);
+  }
+  // Header rows that only look alike are read as header rows.
+  for (const std::string trace :
+       {"t,x,y\n0,1,2\n", "x,y\n1,2\n", "g1,m2\n1,2\n", "\"(x)\",y\n1,2\n", "x\n1\n", "G\n1\n"}) {
+    SCOPED_TRACE(trace);
+    EXPECT_EQ(code_of(trace), ExitCode::ok) << message_of(trace);
+  }
+}
+
 TEST(TraceReaderErrors, EmptyFile) {
   EXPECT_EQ(message_of(""), "in.csv:1: empty file: expected a header row of column names");
   EXPECT_EQ(code_of(""), ExitCode::parse);
