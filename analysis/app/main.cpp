@@ -12,6 +12,7 @@
 
 #include "circtest/analysis/commands.hpp"
 #include "circtest/core/cli.hpp"
+#include "circtest/core/cli_options.hpp"
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
@@ -86,9 +87,7 @@ po::variables_map parse(const po::options_description& desc,
       }
     }
   } catch (const po::unknown_option& e) {
-    std::vector<std::string> known;
-    for (const auto& o : desc.options()) known.push_back("--" + o->long_name());
-    throw UsageError(unknown_option_message(e.get_option_name(), known));
+    throw option_usage_error(e, desc);
   } catch (const po::required_option& e) {
     // A missing positional argument is not an option the user could have given as --name.
     const std::string name = e.get_option_name();

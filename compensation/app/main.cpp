@@ -11,6 +11,7 @@
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/compensation/plan.hpp"
 #include "circtest/core/cli.hpp"
+#include "circtest/core/cli_options.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/version.hpp"
@@ -123,7 +124,7 @@ int run(int argc, char** argv) {
     po::store(po::command_line_parser(argc - 1, argv + 1).options(opts).positional(pos).run(), vm);
     po::notify(vm);
   } catch (const po::error& e) {
-    throw UsageError(e.what());
+    throw option_usage_error(e, opts);
   }
   if (vm.count("help")) {
     std::cout << kUsage;

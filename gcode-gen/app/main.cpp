@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "circtest/core/cli.hpp"
+#include "circtest/core/cli_options.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/utc_time.hpp"
@@ -98,7 +99,7 @@ int run(int argc, char** argv) {
     po::store(po::command_line_parser(argc, argv).options(options).style(style).run(), vm);
     po::notify(vm);
   } catch (const po::error& e) {
-    throw UsageError(e.what());
+    throw option_usage_error(e, options);
   }
   if (vm.count("help")) {
     std::cout << options << '\n';

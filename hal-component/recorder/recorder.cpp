@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "circtest/core/cli.hpp"
+#include "circtest/core/cli_options.hpp"
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
@@ -149,7 +150,7 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
     po::store(po::command_line_parser(argc, argv).options(desc).run(), vm);
     po::notify(vm);
   } catch (const po::error& e) {
-    throw UsageError(e.what());
+    throw option_usage_error(e, desc);
   }
   if (vm.count("help")) {
     std::ostringstream text;

@@ -107,7 +107,7 @@ std::vector<BadCase> usage_cases() {
        {"--d", "125", "--ref-d", "0", "--ref-f", "500"},
        2,
        "--ref-d: the reference diameter must be positive"},
-      {"unknown_option", {"--d", "150", "--f", "300", "--fast"}, 2, "unrecognised option '--fast'"},
+      {"unknown_option", {"--d", "150", "--f", "300", "--fast"}, 2, "unknown option --fast"},
       {"bad_marker",
        {"--d", "150", "--f", "300", "--marker", "-1"},
        2,
