@@ -1,0 +1,200 @@
+// The servo machine built the way pncconf builds one (configs/sim-servo: per joint a pid from
+// [JOINT_n] driving circdrive, a velocity-mode drive with motor lag, integral action and
+// friction), run in the real LinuxCNC: circgen's circle D150 F1000, logged by circlog,
+// evaluated by circana diagnose and from the trace's commanded and feedback columns. The truth
+// is the analytic model: a P-only loop with FF1 = 0 follows with the lag 1 / P (the pid
+// compares the previous period's command with the feedback, error-previous-target, so the
+// servo period adds nothing), the reversal spike exists only with friction, and the
+// geometry of [SIM] is recovered as on sim-mill.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "circtest/core/trace.hpp"
+#include "scratch.hpp"
+
+namespace fs = std::filesystem;
+using circtest::testing::run_command;
+using circtest::testing::slurp_if_exists;
+using nlohmann::json;
+
+namespace {
+
+// The configuration's values (configs/sim-servo/sim-servo.ini), which the test sets again
+// with --set so that a change of the INI's defaults cannot pass unnoticed.
+constexpr double kPx = 30.0, kPy = 31.0;  // 1/s
+constexpr double kBacklashX = 0.010;      // mm
+constexpr double kSquareness = 100e-6;    // rad
+constexpr double kRadius = 75.0;          // mm
+constexpr double kFeed = 1000.0;          // mm/min
+
+struct Lag {
+  double x_ms = NAN, y_ms = NAN;
+};
+
+// Following error over velocity per axis, least squares over the marked rows at constant
+// feed (path speed within 1 % of the feed): FE = x_cmd - x_fb, v from x_cmd's differences.
+Lag measure_lag(const fs::path& trace_path) {
+  const circtest::Trace t = circtest::read_trace(trace_path.string());
+  const auto* marker = t.column("marker");
+  const auto* time = t.column("t");
+  const auto col = [&](const char* name) {
+    const auto* c = t.column(name);
+    if (c == nullptr) throw std::runtime_error(std::string("trace has no column ") + name);
+    return c;
+  };
+  const auto *xc = col("x_cmd"), *yc = col("y_cmd"), *xf = col("x_fb"), *yf = col("y_fb");
+  double sx = 0, sxx = 0, sy = 0, syy = 0;
+  const double v_feed = kFeed / 60.0;
+  for (std::size_t i = 1; i + 1 < t.rows(); ++i) {
+    if (marker == nullptr || (*marker)[i] != 1.0) continue;
+    const double dt = (*time)[i + 1] - (*time)[i - 1];
+    if (!(dt > 0)) continue;
+    const double vx = ((*xc)[i + 1] - (*xc)[i - 1]) / dt;
+    const double vy = ((*yc)[i + 1] - (*yc)[i - 1]) / dt;
+    if (std::abs(std::hypot(vx, vy) - v_feed) > 0.01 * v_feed) continue;
+    sx += ((*xc)[i] - (*xf)[i]) * vx;
+    sxx += vx * vx;
+    sy += ((*yc)[i] - (*yf)[i]) * vy;
+    syy += vy * vy;
+  }
+  return {sx / sxx * 1e3, sy / syy * 1e3};
+}
+
+class SimServo : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circdrive.so")) {
+      GTEST_SKIP() << "needs root (private namespaces) or circlog and circdrive installed";
+    }
+    scratch_ = std::make_unique<circtest::testing::ScratchDir>(
+        std::string("circtest-e2e-servo-") +
+        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    out_ = scratch_->dir();
+    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
+    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
+                              fs::perms::others_read | fs::perms::others_exec);
+    const auto r = run_command({CIRCGEN_PATH, "--d", "150", "--f", "1000", "--ini",
+                                CIRCTEST_SERVO_INI, "-o", (out_ / "test.ngc").string()});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  void TearDown() override {
+    if (HasFailure() && scratch_) scratch_->keep();
+  }
+
+  // Runs the circle with these --set SECTION.KEY=VALUE on top of the configuration.
+  void run_machine(const std::vector<std::string>& sets) {
+    std::vector<std::string> argv = {CIRCTEST_RUN_PATH,
+                                     "--ini",
+                                     CIRCTEST_SERVO_INI,
+                                     "--program",
+                                     (out_ / "test.ngc").string(),
+                                     "--out",
+                                     (out_ / "run").string(),
+                                     "--timeout",
+                                     "300"};
+    for (const auto& s : sets) {
+      argv.push_back("--set");
+      argv.push_back(s);
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = run_command(argv, {std::string("CIRCTEST_BIN=") + CIRCTEST_BINARY_DIR});
+    run_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err << slurp_if_exists(out_ / "run" / "linuxcnc.log");
+  }
+
+  json diagnose() {
+    const auto r =
+        run_command({CIRCANA_PATH, "diagnose", (out_ / "run" / "trace.csv").string(), "--json"});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return json::parse(r.out);
+  }
+
+  static double num(const json& v) { return v.is_null() ? NAN : v.get<double>(); }
+
+  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
+  fs::path out_;
+  double run_s_ = 0;
+};
+
+const std::vector<std::string> kMachine = {"JOINT_0.P=30",
+                                           "JOINT_1.P=31",
+                                           "JOINT_0.FF1=0",
+                                           "JOINT_1.FF1=0",
+                                           "SIM.BACKLASH_X=0.010",
+                                           "SIM.BACKLASH_Y=0",
+                                           "SIM.SQUARENESS_XY=100e-6",
+                                           "SIM.SCALE_X=0",
+                                           "SIM.SCALE_Y=0",
+                                           "SIM.CYCLIC_X=0",
+                                           "SIM.CYCLIC_Y=0"};
+
+std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+}  // namespace
+
+// The untuned machine as it arrives, friction on: each axis lags by 1 / P, the lag
+// difference is the servo mismatch, friction makes a reversal spike of micrometres on both
+// axes, and the geometry is recovered as on sim-mill.
+TEST_F(SimServo, LagIsOneOverPAndFrictionMakesTheSpike) {
+  run_machine(with(kMachine, {"SIM.FRICTION_X=0.5", "SIM.BREAKAWAY_X=0.8", "SIM.FRICTION_Y=0.5",
+                              "SIM.BREAKAWAY_Y=0.8"}));
+  const Lag lag = measure_lag(out_ / "run" / "trace.csv");
+  const double lx = 1e3 / kPx, ly = 1e3 / kPy, mismatch = lx - ly;
+  const json d = diagnose();
+  const double spike_x = num(d["reversal_spike_mm"]["X"]),
+               spike_y = num(d["reversal_spike_mm"]["Y"]);
+  std::printf(
+      "sim-servo, friction on (run %.0f s): lag X %.3f ms (1/P %.3f), Y %.3f ms (%.3f), "
+      "difference %.4f ms (%.4f); diagnose: backlash X %.3f um (10), Y %.3f um, squareness "
+      "%.2f urad (100), servo mismatch %.4f ms, spike X %.3f um decay %.1f ms, Y %.3f um decay "
+      "%.1f ms, G %.3f um\n",
+      run_s_, lag.x_ms, lx, lag.y_ms, ly, lag.x_ms - lag.y_ms, mismatch,
+      num(d["backlash_mm"]["X"]) * 1e3, num(d["backlash_mm"]["Y"]) * 1e3, num(d["squareness_urad"]),
+      num(d["servo_mismatch_ms"]), spike_x * 1e3, num(d["reversal_spike_ms"]["X"]), spike_y * 1e3,
+      num(d["reversal_spike_ms"]["Y"]), num(d["residual"]["G_mm"]) * 1e3);
+  EXPECT_NEAR(lag.x_ms, lx, 0.05 * lx);
+  EXPECT_NEAR(lag.y_ms, ly, 0.05 * ly);
+  EXPECT_NEAR(lag.x_ms - lag.y_ms, mismatch, 0.05 * mismatch) << "X lags Y by 1/30 - 1/31 s";
+  EXPECT_GE(spike_x, 0.002) << "friction makes a spike on X";
+  EXPECT_GE(spike_y, 0.002) << "friction makes a spike on Y";
+  EXPECT_NEAR(num(d["backlash_mm"]["X"]), kBacklashX, 0.05 * kBacklashX);
+  EXPECT_NEAR(num(d["backlash_mm"]["Y"]), 0.0, 0.3e-3) << "Y has no play";
+  EXPECT_NEAR(num(d["squareness_urad"]), kSquareness * 1e6, 0.05 * kSquareness * 1e6);
+}
+
+// The same machine without friction: no spike (the spike is the friction's, not a signal
+// added to the table), the lag and the geometry unchanged.
+TEST_F(SimServo, WithoutFrictionThereIsNoSpike) {
+  run_machine(with(kMachine, {"SIM.FRICTION_X=0", "SIM.BREAKAWAY_X=0", "SIM.FRICTION_Y=0",
+                              "SIM.BREAKAWAY_Y=0"}));
+  const Lag lag = measure_lag(out_ / "run" / "trace.csv");
+  const json d = diagnose();
+  const auto spike = [&](const char* axis) {
+    const json& s = d["reversal_spike_mm"][axis];
+    return s.is_null() ? 0.0 : std::abs(s.get<double>());
+  };
+  std::printf(
+      "sim-servo, no friction (run %.0f s): lag X %.3f ms, Y %.3f ms; spike X %.3f um, Y %.3f "
+      "um; backlash X %.3f um; squareness %.2f urad; G %.3f um\n",
+      run_s_, lag.x_ms, lag.y_ms, spike("X") * 1e3, spike("Y") * 1e3,
+      num(d["backlash_mm"]["X"]) * 1e3, num(d["squareness_urad"]),
+      num(d["residual"]["G_mm"]) * 1e3);
+  EXPECT_LT(spike("X"), 0.0005);
+  EXPECT_LT(spike("Y"), 0.0005);
+  EXPECT_NEAR(lag.x_ms, 1e3 / kPx, 0.05e3 / kPx);
+  EXPECT_NEAR(lag.y_ms, 1e3 / kPy, 0.05e3 / kPy);
+  EXPECT_NEAR(num(d["backlash_mm"]["X"]), kBacklashX, 0.05 * kBacklashX);
+  EXPECT_NEAR(num(d["squareness_urad"]), kSquareness * 1e6, 0.05 * kSquareness * 1e6);
+}
