@@ -5,7 +5,8 @@
 // is the analytic model: a P-only loop with FF1 = 0 follows with the lag 1 / P (the pid
 // compares the previous period's command with the feedback, error-previous-target, so the
 // servo period adds nothing), the reversal spike exists only with friction, and the
-// geometry of [SIM] is recovered as on sim-mill.
+// geometry of [SIM] is recovered as on sim-mill. The stepper variant (configs/sim-stepper)
+// runs the same circle.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -81,19 +82,20 @@ class SimServo : public ::testing::Test {
     // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
     fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
                               fs::perms::others_read | fs::perms::others_exec);
-    const auto r = run_command({CIRCGEN_PATH, "--d", "150", "--f", "1000", "--ini",
-                                CIRCTEST_SERVO_INI, "-o", (out_ / "test.ngc").string()});
-    ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   void TearDown() override {
     if (HasFailure() && scratch_) scratch_->keep();
   }
 
-  // Runs the circle with these --set SECTION.KEY=VALUE on top of the configuration.
-  void run_machine(const std::vector<std::string>& sets) {
+  // Runs circgen's D150 F1000 circle on the configuration INI with these
+  // --set SECTION.KEY=VALUE on top.
+  void run_machine(const std::vector<std::string>& sets, const char* ini = CIRCTEST_SERVO_INI) {
+    const auto g = run_command({CIRCGEN_PATH, "--d", "150", "--f", "1000", "--ini", ini, "-o",
+                                (out_ / "test.ngc").string()});
+    ASSERT_EQ(g.exit_code, 0) << g.err;
     std::vector<std::string> argv = {CIRCTEST_RUN_PATH,
                                      "--ini",
-                                     CIRCTEST_SERVO_INI,
+                                     ini,
                                      "--program",
                                      (out_ / "test.ngc").string(),
                                      "--out",
@@ -210,5 +212,33 @@ TEST_F(SimServo, WithoutFrictionThereIsNoSpike) {
   EXPECT_NEAR(lag.x_ms, 1e3 / kPx, 0.01e3 / kPx);
   EXPECT_NEAR(lag.y_ms, 1e3 / kPy, 0.01e3 / kPy);
   EXPECT_NEAR(num(d["backlash_mm"]["X"]), kBacklashX, 0.05 * kBacklashX);
+  EXPECT_NEAR(num(d["squareness_urad"]), kSquareness * 1e6, 0.05 * kSquareness * 1e6);
+}
+
+// The stepper variant (configs/sim-stepper: stepgen in position mode, position-fb as the
+// encoder): no position loop, so both axes follow within a few servo periods and there is
+// no servo mismatch; no friction model, so no spike; the geometry as on the servo machine.
+TEST_F(SimServo, StepperFollowsWithinPeriodsAndKeepsTheGeometry) {
+  run_machine({"SIM.BACKLASH_X=0.010", "SIM.BACKLASH_Y=0", "SIM.SQUARENESS_XY=100e-6",
+               "SIM.SCALE_X=0", "SIM.SCALE_Y=0", "SIM.CYCLIC_X=0", "SIM.CYCLIC_Y=0"},
+              CIRCTEST_STEPPER_INI);
+  const Lag lag = measure_lag(out_ / "run" / "trace.csv");
+  const json d = diagnose();
+  std::printf(
+      "sim-stepper (run %.0f s): lag X %.3f ms, Y %.3f ms; servo mismatch %.4f ms; spike X "
+      "%.3f um, Y %.3f um; backlash X %.3f um, Y %.3f um; squareness %.2f urad; model G %.3f "
+      "um\n",
+      run_s_, lag.x_ms, lag.y_ms, num(d["servo_mismatch_ms"]), spike(d, "X") * 1e3,
+      spike(d, "Y") * 1e3, num(d["backlash_mm"]["X"]) * 1e3, num(d["backlash_mm"]["Y"]) * 1e3,
+      num(d["squareness_urad"]), num(d["model_G_mm"]) * 1e3);
+  for (const double l : {lag.x_ms, lag.y_ms}) {
+    EXPECT_GT(l, 0.0);
+    EXPECT_LT(l, 3.0) << "stepgen follows within a few 1 ms servo periods";
+  }
+  EXPECT_LT(std::abs(num(d["servo_mismatch_ms"])), 0.05);
+  EXPECT_LT(spike(d, "X"), 0.0005);
+  EXPECT_LT(spike(d, "Y"), 0.0005);
+  EXPECT_NEAR(num(d["backlash_mm"]["X"]), kBacklashX, 0.05 * kBacklashX);
+  EXPECT_NEAR(num(d["backlash_mm"]["Y"]), 0.0, 0.3e-3) << "Y has no play";
   EXPECT_NEAR(num(d["squareness_urad"]), kSquareness * 1e6, 0.05 * kSquareness * 1e6);
 }
