@@ -74,7 +74,9 @@ double Drive::step(double vel_cmd, double period_s, const Params& p) {
     friction_ = sliding * sign(velocity_);
     const double v = velocity_ + (effort_ - friction_) * t;
     // Friction cannot push the motor backwards: a sign change within the period is a stop.
-    velocity_ = (sliding > 0.0 && v * velocity_ <= 0.0) ? 0.0 : v;
+    const bool reversed = v * velocity_ <= 0.0;
+    const bool settled = std::abs(v) < kRestVelocity && std::abs(effort_) <= sticking;
+    velocity_ = (sliding > 0.0 && (reversed || settled)) ? 0.0 : v;
   }
   position_ += velocity_ * t;
   return position_;

@@ -12,7 +12,8 @@
 //   sliding (v != 0):  a = effort - coulomb / tau * sign(v)
 //   at rest (v == 0):  stays at rest while |effort| <= breakaway / tau, else
 //                      a = effort - coulomb / tau * sign(effort)
-//   v += a T; when v changes sign within a period the motor stops there (v = 0, at rest)
+//   v += a T; when v changes sign within a period the motor stops there (v = 0, at rest), and
+//   so it does below kRestVelocity with the effort within the breakaway
 //   pos += v T
 // Without friction and integral action the motor velocity follows the command with the time
 // constant tau. Friction is given as the velocity a drive without integral action would lose
@@ -25,6 +26,10 @@
 namespace circtest::drive {
 
 inline constexpr int kMaxInstances = 8;
+// Below this speed (units/s: 1 nm/s on a mm machine) a sliding motor whose effort is within
+// the breakaway is at rest: without it a position loop would bring the motor to its target
+// asymptotically, sliding for ever at a vanishing velocity instead of sticking.
+inline constexpr double kRestVelocity = 1e-6;
 // Servo periods the kernel accepts (LinuxCNC's servo thread runs at 0.1..10 ms).
 inline constexpr double kMinPeriodS = 1e-6;
 inline constexpr double kMaxPeriodS = 0.1;

@@ -137,3 +137,17 @@ TEST(CircdriveKernel, RejectsNonsenseWithoutNaN) {
   EXPECT_TRUE(std::isfinite(d.position()));
   EXPECT_TRUE(std::isfinite(d.velocity()));
 }
+
+// A motor that a position loop brings to its target with the integral action holding the
+// friction does not creep on forever at a vanishing velocity: below kRestVelocity, with the
+// effort within the breakaway, it is at rest, and then exactly still.
+TEST(CircdriveKernel, ComesToRestAfterAMove) {
+  drive::Drive d;
+  const auto p = params(0.004, 0.02, 0.5, 0.8);
+  // A P-only position loop (30 1/s) moving the motor to 1 mm, as the pid does.
+  for (int k = 0; k < 3000; ++k) d.step(30.0 * (1.0 - d.position()), kT, p);
+  EXPECT_TRUE(d.stuck()) << "velocity " << d.velocity();
+  const double at_rest = d.position();
+  for (int k = 0; k < 1000; ++k) d.step(30.0 * (1.0 - d.position()), kT, p);
+  EXPECT_EQ(d.position(), at_rest);
+}
