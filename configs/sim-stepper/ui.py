@@ -1,0 +1,1 @@
+../sim-mill/ui.py
