@@ -145,8 +145,8 @@ int run(int argc, char** argv) {
     for (std::string w; std::getline(in, w, ',');) {
       if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic" &&
           w != "friction") {
-        throw UsageError(
-            "--only: expected backlash, scale, squareness, cyclic or friction, got '" + w + "'");
+        throw UsageError("--only: expected backlash, scale, squareness, cyclic or friction, got '" +
+                         w + "'");
       }
       options.only.insert(w);
     }

@@ -27,7 +27,9 @@ constexpr double kFricMaxUnits = 1.0;
 constexpr double kFricMinDecayMs = 0.001;
 constexpr double kFricMaxDecayMs = 1000.0;
 
-bool is_arrow(const std::string& w) { return w == "=>" || w == "<=" || w == "<=>"; }
+bool is_arrow(const std::string& w) {
+  return w == "=>" || w == "<=" || w == "<=>";
+}
 
 // halcmd's words of one logical line: blanks split, '#' at a word's start ends the line,
 // [SECTION]KEY and [SECTION](KEY) replaced by the INI's value (when it has one).
@@ -186,11 +188,11 @@ std::string list_text(const std::vector<std::string>& items) {
 struct Splice {
   char axis = 'X';
   int joint = 0;
-  std::string instance;      // fric-x, or fric-x-j3 for a second joint of the axis
-  std::string pos_signal;    // carries joint.N.motor-pos-cmd
-  HalPlace pos_place;        // its net
-  std::string target;        // pid.x.command or stepgen.0.position-cmd
-  std::string vel_signal;    // empty: circcomp nets joint.N.vel-cmd itself
+  std::string instance;       // fric-x, or fric-x-j3 for a second joint of the axis
+  std::string pos_signal;     // carries joint.N.motor-pos-cmd
+  HalPlace pos_place;         // its net
+  std::string target;         // pid.x.command or stepgen.0.position-cmd
+  std::string vel_signal;     // empty: circcomp nets joint.N.vel-cmd itself
   std::string enable_signal;  // empty: circcomp nets joint.N.amp-enable-out itself
 };
 
@@ -207,20 +209,25 @@ Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int jo
   s.instance = instance;
   const std::string cmd = fmt::format("joint.{}.motor-pos-cmd", joint);
   const auto it = w.pin_signal.find(cmd);
-  if (it == w.pin_signal.end()) {
+  // A pid or stepgen command given a literal (setp, on no net) is named as the reason.
+  auto refuse_literal = [&] {
     for (const auto& [pin, place] : w.setp) {
-      if (!is_command_target(w, pin)) continue;
-      throw DataError(place.file, place.line,
-                      fmt::format("{} is a literal (setp) and no net carries {} (axis {}): "
-                                  "circcomp finds no position command to compensate; {}",
-                                  pin, cmd, axis, refusal_tail(o)));
+      if (!is_command_target(w, pin) || w.pin_signal.count(pin)) continue;
+      throw DataError(
+          place.file, place.line,
+          fmt::format("{} is a literal (setp) and no pid or stepgen reads {} (axis {}): "
+                      "circcomp finds no position command to compensate; {}",
+                      pin, cmd, axis, refusal_tail(o)));
     }
+  };
+  if (it == w.pin_signal.end()) {
+    refuse_literal();
     const HalPlace p = halfile_place(ini);
-    throw DataError(p.file, p.line,
-                    fmt::format("no net in the HAL files read ({}) carries {} (axis {}); not "
-                                "read: {}: {}",
-                                list_text(w.read), cmd, axis, list_text(w.unread),
-                                refusal_tail(o)));
+    throw DataError(
+        p.file, p.line,
+        fmt::format("no net in the HAL files read ({}) carries {} (axis {}); not "
+                    "read: {}: {}",
+                    list_text(w.read), cmd, axis, list_text(w.unread), refusal_tail(o)));
   }
   s.pos_signal = it->second;
   const auto& signal = w.signals.at(s.pos_signal);
@@ -230,6 +237,7 @@ Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int jo
     if (pin == cmd) continue;
     (is_command_target(w, pin) ? targets : others).push_back(pin);
   }
+  if (targets.empty()) refuse_literal();
   if (targets.size() != 1) {
     throw DataError(
         s.pos_place.file, s.pos_place.line,
@@ -337,8 +345,8 @@ std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const 
   const char axis = d.axes[k];
   const Measured& m = d.reversal_spike_mm[k];
   if (!m.value) {
-    notes.push_back(fmt::format("{} {}: not in the diagnosis (null), friction not changed", axis,
-                                what));
+    notes.push_back(
+        fmt::format("{} {}: not in the diagnosis (null), friction not changed", axis, what));
     return std::nullopt;
   }
   const double v = *m.value;
@@ -419,8 +427,8 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
 }
 
 // Step 2 of one axis: the amplitude refined from the residual spike.
-void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
-                const PlanOptions& o, Plan& plan) {
+void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, const PlanOptions& o,
+                Plan& plan) {
   const char axis = d.axes[k];
   const std::string sec = std::string("FRICTION_") + axis;
   const double first_mm = friction_value(ini, sec, "SPIKE_MM", "the spike first measured, mm");
@@ -440,17 +448,17 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
   const double limit = std::min(max_now, bound);
   if (max_now > bound) {
     ini.set(sec, "AMPLITUDE_MAX", number_text(bound));
-    plan.notes.push_back(fmt::format("[{}] AMPLITUDE_MAX {} -> {}: at most twice the spike first "
-                                     "measured ({:.2f} um)",
-                                     sec, number_text(max_now), number_text(bound),
-                                     first_mm * 1e3));
+    plan.notes.push_back(
+        fmt::format("[{}] AMPLITUDE_MAX {} -> {}: at most twice the spike first "
+                    "measured ({:.2f} um)",
+                    sec, number_text(max_now), number_text(bound), first_mm * 1e3));
   }
   const double wanted = amplitude + o.gain * *residual * upm;
   const double next = std::clamp(wanted, 0.0, limit);
   if (next != wanted) {
-    plan.notes.push_back(fmt::format("[{}] AMPLITUDE {} + {} clamped to {} (0..AMPLITUDE_MAX)",
-                                     sec, number_text(amplitude),
-                                     number_text(o.gain * *residual * upm), number_text(next)));
+    plan.notes.push_back(fmt::format("[{}] AMPLITUDE {} + {} clamped to {} (0..AMPLITUDE_MAX)", sec,
+                                     number_text(amplitude), number_text(o.gain * *residual * upm),
+                                     number_text(next)));
   }
   ini.set(sec, "AMPLITUDE", number_text(next));
   plan.changes.push_back(fmt::format(
@@ -490,8 +498,9 @@ HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip) {
   const std::string dir = ini_dir(ini.path());
   for (const auto& h : ini.get_all("HAL", "HALFILE")) {
     if (h.value == skip) continue;
-    const fs::path path =
-        fs::path(h.value).is_absolute() ? fs::path(h.value) : fs::path(dir.empty() ? "." : dir) / h.value;
+    const fs::path path = fs::path(h.value).is_absolute()
+                              ? fs::path(h.value)
+                              : fs::path(dir.empty() ? "." : dir) / h.value;
     bool existed = false;
     const std::string text =
         fs::path(h.value).extension() == ".hal" ? slurp_if(path.string(), existed) : "";
@@ -540,8 +549,8 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
     for (const char axis : axes) {
       const auto joints = joints_of(ini, axis);
       for (const int j : joints) {
-        const std::string name = joints.size() == 1 ? "fric-" + lower(axis)
-                                                    : fmt::format("fric-{}-j{}", lower(axis), j);
+        const std::string name =
+            joints.size() == 1 ? "fric-" + lower(axis) : fmt::format("fric-{}-j{}", lower(axis), j);
         out.push_back(find_splice(hal, ini, axis, j, name, o));
       }
     }

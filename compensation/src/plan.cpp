@@ -15,12 +15,12 @@
 #include "circtest/compensation/comp_table.hpp"
 #include "circtest/compensation/config_dir.hpp"
 #include "circtest/compensation/friction.hpp"
-#include "plan_internal.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/sha256.hpp"
+#include "plan_internal.hpp"
 
 namespace circtest::compensation {
 
@@ -806,8 +806,9 @@ void require_module(const char* env_name, const char* file_name, const char* wha
       "the plan loads {} but {} is not there{}, so LinuxCNC could not start this configuration: "
       "install circtest's realtime modules (the circtest package, or cmake's install step as "
       "root), set {} to the {} your run loads (circtest-run's build tree), or {}; nothing changed",
-      what, module, from_env ? fmt::format(" ({})", env_name)
-                             : std::string(" (where LinuxCNC's loadrt looks for modules)"),
+      what, module,
+      from_env ? fmt::format(" ({})", env_name)
+               : std::string(" (where LinuxCNC's loadrt looks for modules)"),
       env_name, file_name, words(without)));
 }
 

@@ -40,14 +40,14 @@ struct HalWiring {
     HalPlace place;  // the first net or link naming it
   };
   std::map<std::string, Signal> signals;
-  std::map<std::string, std::string> pin_signal;  // pin -> signal
-  std::map<std::string, HalPlace> setp;           // pin -> the setp giving it a literal
+  std::map<std::string, std::string> pin_signal;            // pin -> signal
+  std::map<std::string, HalPlace> setp;                     // pin -> the setp giving it a literal
   std::map<std::string, std::vector<std::string>> threads;  // thread -> functions
-  std::map<std::string, HalPlace> addf;                    // function -> its addf
-  std::vector<std::string> pid_instances;                  // from loadrt pid
-  std::optional<HalPlace> loads_circfric;                  // a loadrt circfric of its own
-  std::vector<std::string> read;                           // the files read
-  std::vector<std::string> unread;                         // HALFILEs not read (.tcl, LIB:)
+  std::map<std::string, HalPlace> addf;                     // function -> its addf
+  std::vector<std::string> pid_instances;                   // from loadrt pid
+  std::optional<HalPlace> loads_circfric;                   // a loadrt circfric of its own
+  std::vector<std::string> read;                            // the files read
+  std::vector<std::string> unread;                          // HALFILEs not read (.tcl, LIB:)
 };
 
 // Reads the configuration's HAL files as halcmd would run them, skipping SKIP (circcomp's own
