@@ -584,10 +584,13 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   if (!loaded) ini.append("HAL", "HALFILE", kFrictionHalFile);
   files[path.string()] = {existed, text};
   plan.needs_fric_module = true;
-  for (const auto& s : splices_of(added)) {
+  const auto splices = splices_of(all);
+  for (std::size_t i = 0; i < splices.size(); ++i) {
+    if (!added.count(splices[i].axis)) continue;
     plan.changes.push_back(fmt::format("{}: circfric {} spliced between {} and {} ({} position {})",
-                                       kFrictionHalFile, s.instance, s.pos_signal, s.target, thread,
-                                       position));
+                                       kFrictionHalFile, splices[i].instance,
+                                       splices[i].pos_signal, splices[i].target, thread,
+                                       position + i));
   }
 }
 
