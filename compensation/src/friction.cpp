@@ -39,6 +39,10 @@ std::vector<std::string> hal_words(const std::string& line, const IniDocument& i
   std::istringstream in(line);
   for (std::string w; in >> w;) {
     if (w.front() == '#') break;
+    if (w.find('[') == std::string::npos) {
+      words.push_back(w);
+      continue;
+    }
     std::string out;
     auto begin = std::sregex_iterator(w.begin(), w.end(), ref);
     std::size_t last = 0;
@@ -97,10 +101,10 @@ void load_module(HalWiring& w, const std::vector<std::string>& words, const HalP
       std::istringstream in(words[i].substr(6));
       for (std::string n; std::getline(in, n, ',');) w.pid_instances.push_back(n);
     } else if (words[i].starts_with("num_chan=")) {
-      count = static_cast<int>(parse_finite(words[i].substr(9)).value_or(3));
+      count = static_cast<int>(std::clamp(parse_finite(words[i].substr(9)).value_or(3), 0.0, 64.0));
     }
   }
-  for (int i = 0; !named && i < std::clamp(count, 0, 64); ++i) {
+  for (int i = 0; !named && i < count; ++i) {
     w.pid_instances.push_back(fmt::format("pid.{}", i));
   }
 }
@@ -588,9 +592,8 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   for (std::size_t i = 0; i < splices.size(); ++i) {
     if (!added.count(splices[i].axis)) continue;
     plan.changes.push_back(fmt::format("{}: circfric {} spliced between {} and {} ({} position {})",
-                                       kFrictionHalFile, splices[i].instance,
-                                       splices[i].pos_signal, splices[i].target, thread,
-                                       position + i));
+                                       kFrictionHalFile, splices[i].instance, splices[i].pos_signal,
+                                       splices[i].target, thread, position + i));
   }
 }
 
