@@ -229,9 +229,10 @@ Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int jo
     const HalPlace p = halfile_place(ini);
     throw DataError(
         p.file, p.line,
-        fmt::format("no net in the HAL files read ({}) carries {} (axis {}); not "
-                    "read: {}: {}",
-                    list_text(w.read), cmd, axis, list_text(w.unread), refusal_tail(o)));
+        fmt::format("no net in the HAL files read ({}) carries {} (axis {}){}: {}",
+                    list_text(w.read), cmd, axis,
+                    w.unread.empty() ? "" : fmt::format(" (not read: {})", list_text(w.unread)),
+                    refusal_tail(o)));
   }
   s.pos_signal = it->second;
   const auto& signal = w.signals.at(s.pos_signal);
@@ -502,9 +503,8 @@ HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip) {
   const std::string dir = ini_dir(ini.path());
   for (const auto& h : ini.get_all("HAL", "HALFILE")) {
     if (h.value == skip) continue;
-    const fs::path path = fs::path(h.value).is_absolute()
-                              ? fs::path(h.value)
-                              : fs::path(dir.empty() ? "." : dir) / h.value;
+    const fs::path path = fs::path(h.value).is_absolute() || dir.empty() ? fs::path(h.value)
+                                                                         : fs::path(dir) / h.value;
     bool existed = false;
     const std::string text =
         fs::path(h.value).extension() == ".hal" ? slurp_if(path.string(), existed) : "";
