@@ -189,6 +189,29 @@ TEST(Friction, InchMachineGetsMachineUnits) {
   EXPECT_EQ(after.get("FRICTION_X", "SPIKE_MM"), "0.00508");
 }
 
+TEST(Friction, GantryGetsOneInstancePerJoint) {
+  Config c("servo-mill");
+  std::string ini = c.read("servo-mill.ini");
+  ini.replace(ini.find("coordinates=XYZ"), 15, "coordinates=XYYZ");
+  ini.replace(ini.find("JOINTS = 3"), 10, "JOINTS = 4");
+  c.write("servo-mill.ini", ini);
+  // Joint 2 is the second Y motor (pid.z stands in for its pid), joint 3 is Z.
+  std::string hal = c.read("servo-mill.hal");
+  const std::string z = "net z-pos-cmd    joint.2.motor-pos-cmd";
+  hal.replace(hal.find(z), z.size(), "net y2-pos-cmd   joint.2.motor-pos-cmd");
+  c.write("servo-mill.hal", hal);
+  const Plan plan = make_plan(c.ini, spikes(std::nullopt, 0.004), friction_only());
+  const FileChange* f = file_of(plan, "circtest-fric.hal");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(f->after.find("loadrt circfric names=fric-y-j1,fric-y-j2\n"), std::string::npos)
+      << f->after;
+  EXPECT_NE(f->after.find("net y2-pos-cmd => fric-y-j2.pos-in\n"
+                          "net fric-y-j2-pos-out fric-y-j2.pos-out => pid.z.command\n"),
+            std::string::npos)
+      << f->after;
+  EXPECT_NE(f->after.find("setp fric-y-j2.amplitude [FRICTION_Y]AMPLITUDE\n"), std::string::npos);
+}
+
 TEST(Friction, NoSpikeNoFrictionChange) {
   Config c("servo-mill");
   // Below 2 um, not significant against its standard error, null, inwards, decay unknown.
