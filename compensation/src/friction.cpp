@@ -589,6 +589,21 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   files[path.string()] = {existed, text};
   plan.needs_fric_module = true;
   const auto splices = splices_of(all);
+  // The function reading the spliced input should run after circfric; one that runs before
+  // motion-controller reads every command a period late, circfric's pulse too.
+  const auto& order = hal.threads.at(thread);
+  for (const auto& s : splices) {
+    const std::string reader = s.target.ends_with(".command")
+                                   ? s.target.substr(0, s.target.size() - 8) + ".do-pid-calcs"
+                                   : "stepgen.update-freq";
+    const auto at = std::find(order.begin(), order.end(), reader);
+    if (at != order.end() && static_cast<std::size_t>(at - order.begin()) + 2 < position + 1) {
+      plan.notes.push_back(fmt::format(
+          "{} runs before motion-controller in {}: it reads the position command (and "
+          "circfric's pulse) a servo period late; move its addf after motion-controller",
+          reader, thread));
+    }
+  }
   for (std::size_t i = 0; i < splices.size(); ++i) {
     if (!added.count(splices[i].axis)) continue;
     plan.changes.push_back(fmt::format("{}: circfric {} spliced between {} and {} ({} position {})",

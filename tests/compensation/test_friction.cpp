@@ -177,6 +177,24 @@ TEST(Friction, StepperSplicesBeforeStepgenAfterMotionController) {
   EXPECT_TRUE(has_text(plan.notes, "Y reversal spike of 0.00 um is below 2 um"));
 }
 
+TEST(Friction, APidBeforeMotionControllerIsNoted) {
+  Config c("servo-mill");
+  // In pncconf's order (the pids after motion-controller) no such note.
+  EXPECT_FALSE(has_text(make_plan(c.ini, spikes(0.004, std::nullopt), friction_only()).notes,
+                        "before motion-controller"));
+  std::string hal = c.read("servo-mill.hal");
+  const std::string pid = "addf pid.x.do-pid-calcs servo-thread\n";
+  hal.erase(hal.find(pid), pid.size());
+  hal.insert(hal.find("addf motion-command-handler"), pid);
+  c.write("servo-mill.hal", hal);
+  const Plan plan = make_plan(c.ini, spikes(0.004, std::nullopt), friction_only());
+  EXPECT_TRUE(has_text(plan.notes,
+                       "pid.x.do-pid-calcs runs before motion-controller in "
+                       "servo-thread"));
+  EXPECT_NE(file_of(plan, "circtest-fric.hal")->after.find("addf fric-x servo-thread 4\n"),
+            std::string::npos);
+}
+
 TEST(Friction, InchMachineGetsMachineUnits) {
   Config c("servo-mill");
   std::string text = c.read("servo-mill.ini");
