@@ -18,7 +18,8 @@
 namespace circtest::compensation {
 
 inline constexpr const char* kFrictionHalFile = "circtest-fric.hal";
-// A spike below this is not compensated (issue: the circle's resolution of a transient).
+// A spike below this is not compensated: smaller ones are within what a circle resolves of a
+// transient, and a pulse tuned to them would mostly add noise.
 inline constexpr double kMinFrictionSpikeMm = 0.002;
 // A measured spike above this is implausible for friction (refused without the force setting).
 inline constexpr double kMaxFrictionSpikeMm = 0.1;
