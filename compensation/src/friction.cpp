@@ -6,7 +6,6 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
-#include <regex>
 #include <set>
 #include <sstream>
 
@@ -31,30 +30,57 @@ bool is_arrow(const std::string& w) {
   return w == "=>" || w == "<=" || w == "<=>";
 }
 
+bool ini_key_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
+}
+
+// WORD with every [SECTION]KEY and [SECTION](KEY) replaced by the INI's value (kept as it is
+// when the INI has none). A scan, not a regular expression: a word of megabytes is read in
+// linear time and constant stack.
+std::string substituted(const std::string& w, const IniDocument& ini) {
+  std::string out;
+  std::size_t i = 0;
+  std::size_t close = 0;  // the first ']' after the last '[' looked at (found once per ']')
+  while (i < w.size()) {
+    const std::size_t open = w.find('[', i);
+    if (open == std::string::npos) break;
+    if (close <= open) close = w.find(']', open + 1);
+    if (close == std::string::npos) break;
+    if (close == open + 1 || w.find('[', open + 1) < close) {
+      out.append(w, i, open + 1 - i);
+      i = open + 1;
+      continue;
+    }
+    std::size_t k = close + 1;
+    const bool paren = k < w.size() && w[k] == '(';
+    if (paren) ++k;
+    const std::size_t key_begin = k;
+    while (k < w.size() && ini_key_char(w[k])) ++k;
+    const bool closed = !paren || (k < w.size() && w[k] == ')');
+    if (k == key_begin || !closed) {
+      out.append(w, i, close + 1 - i);
+      i = close + 1;
+      continue;
+    }
+    const std::size_t end = paren ? k + 1 : k;
+    out.append(w, i, open - i);
+    const auto v = ini.get(std::string_view(w).substr(open + 1, close - open - 1),
+                           std::string_view(w).substr(key_begin, k - key_begin));
+    out += v ? *v : w.substr(open, end - open);
+    i = end;
+  }
+  out.append(w, i);
+  return out;
+}
+
 // halcmd's words of one logical line: blanks split, '#' at a word's start ends the line,
-// [SECTION]KEY and [SECTION](KEY) replaced by the INI's value (when it has one).
+// [SECTION]KEY words replaced from the INI.
 std::vector<std::string> hal_words(const std::string& line, const IniDocument& ini) {
-  static const std::regex ref(R"(\[([^\]\s]+)\]\(?([A-Za-z0-9_]+)\)?)");
   std::vector<std::string> words;
   std::istringstream in(line);
   for (std::string w; in >> w;) {
     if (w.front() == '#') break;
-    if (w.find('[') == std::string::npos) {
-      words.push_back(w);
-      continue;
-    }
-    std::string out;
-    auto begin = std::sregex_iterator(w.begin(), w.end(), ref);
-    std::size_t last = 0;
-    for (auto it = begin; it != std::sregex_iterator(); ++it) {
-      const auto& m = *it;
-      out += w.substr(last, static_cast<std::size_t>(m.position()) - last);
-      const auto v = ini.get(m[1].str(), m[2].str());
-      out += v ? *v : m.str();
-      last = static_cast<std::size_t>(m.position() + m.length());
-    }
-    out += w.substr(last);
-    words.push_back(out);
+    words.push_back(w.find('[') == std::string::npos ? w : substituted(w, ini));
   }
   return words;
 }
@@ -64,10 +90,9 @@ void link_pin(HalWiring& w, const std::string& signal, const std::string& pin,
   auto [it, fresh] = w.signals.try_emplace(signal);
   if (fresh) it->second.place = place;
   if (const auto old = w.pin_signal.find(pin); old != w.pin_signal.end()) {
-    auto& pins = w.signals[old->second].pins;
-    pins.erase(std::remove(pins.begin(), pins.end(), pin), pins.end());
+    w.signals[old->second].pins.erase(pin);
   }
-  it->second.pins.push_back(pin);
+  it->second.pins.insert(pin);
   w.pin_signal[pin] = signal;
 }
 
@@ -147,8 +172,7 @@ void hal_command(HalWiring& w, const std::vector<std::string>& words, const HalP
   } else if (cmd == "unlinkp") {
     need_words(words, 2, place, "unlinkp PIN");
     if (const auto it = w.pin_signal.find(words[1]); it != w.pin_signal.end()) {
-      auto& pins = w.signals[it->second].pins;
-      pins.erase(std::remove(pins.begin(), pins.end(), words[1]), pins.end());
+      w.signals[it->second].pins.erase(words[1]);
       w.pin_signal.erase(it);
     }
   } else if (cmd == "setp" || cmd == "sets") {

@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -419,4 +420,32 @@ TEST(Friction, CliPlansAndRefusesWithExitCodes) {
   const std::string err = read_file(out);
   EXPECT_NE(err.find("servo-mill.hal:17: pid.x.command is a literal"), std::string::npos) << err;
   EXPECT_NE(err.find("--only backlash,scale,squareness,cyclic"), std::string::npos) << err;
+}
+
+// A HAL file built to be slow or deep: a word of a megabyte of '[' references and a signal
+// relinked with every one of 100,000 pins a second time parse in linear time, without
+// recursion that grows with the input.
+TEST(Friction, HostileHalTextParsesInLinearTime) {
+  const IniDocument ini = IniDocument::parse("[A]\nB = x\n", "f.ini");
+  std::string word = "setp p.q ";
+  for (int i = 0; i < 100000; ++i) word += "[A]B[";
+  word += std::string(500000, 'a') + "\n";
+  std::string relink = "net s";
+  for (int i = 0; i < 100000; ++i) relink += " p" + std::to_string(i) + ".x";
+  relink += "\n";
+  const auto start = std::chrono::steady_clock::now();
+  const HalWiring w = parse_hal_text(word + relink + relink, "big.hal", ini);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(w.signals.at("s").pins.size(), 100000u);
+  EXPECT_LT(seconds, 5.0);
+}
+
+TEST(Friction, IniReferencesInHalWordsAreReplacedAsHalcmdDoes) {
+  const IniDocument ini = IniDocument::parse("[A]\nB = x\n[JOINT_0]\nP = 50\n", "f.ini");
+  const HalWiring w =
+      parse_hal_text("net [A]B [A](B).y [[A]B] [A]C [A] [A](B [JOINT_0]P.q\n", "h.hal", ini);
+  ASSERT_EQ(w.signals.count("x"), 1u);
+  EXPECT_EQ(w.signals.at("x").pins,
+            (std::set<std::string>{"x.y", "[x]", "[A]C", "[A]", "[A](B", "50.q"}));
 }

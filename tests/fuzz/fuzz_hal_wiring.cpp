@@ -30,7 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (const auto& [pin, signal] : w.pin_signal) {
       const auto it = w.signals.find(signal);
       check(it != w.signals.end());
-      check(std::count(it->second.pins.begin(), it->second.pins.end(), pin) == 1);
+      check(it->second.pins.count(pin) == 1);
     }
     for (const auto& [name, signal] : w.signals) {
       for (const auto& pin : signal.pins) {

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -37,7 +38,7 @@ struct HalPlace {
 // set by setp, and each thread's functions in order after every addf and delf.
 struct HalWiring {
   struct Signal {
-    std::vector<std::string> pins;
+    std::set<std::string> pins;
     HalPlace place;  // the first net or link naming it
   };
   std::map<std::string, Signal> signals;
