@@ -586,8 +586,9 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   };
   std::set<char> all = wired;
   all.insert(added.begin(), added.end());
-  const std::string text = fric_hal_text(splices_of(all), thread, position);
-  for (const auto& s : splices_of(all)) {
+  const auto splices = splices_of(all);
+  const std::string text = fric_hal_text(splices, thread, position);
+  for (const auto& s : splices) {
     for (const char* suffix : {"-pos-out", "-vel-cmd", "-enable"}) {
       const auto it = hal.signals.find(s.instance + suffix);
       if (it != hal.signals.end()) {
@@ -612,7 +613,6 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   if (!loaded) ini.append("HAL", "HALFILE", kFrictionHalFile);
   files[path.string()] = {existed, text};
   plan.needs_fric_module = true;
-  const auto splices = splices_of(all);
   // The function reading the spliced input should run after circfric; one that runs before
   // motion-controller reads every command a period late, circfric's pulse too.
   const auto& order = hal.threads.at(thread);
@@ -621,7 +621,8 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
                                    ? s.target.substr(0, s.target.size() - 8) + ".do-pid-calcs"
                                    : "stepgen.update-freq";
     const auto at = std::find(order.begin(), order.end(), reader);
-    if (at != order.end() && static_cast<std::size_t>(at - order.begin()) + 2 < position + 1) {
+    // POSITION is motion-controller's place from 1, plus 1.
+    if (at != order.end() && static_cast<std::size_t>(at - order.begin()) + 2 < position) {
       plan.notes.push_back(fmt::format(
           "{} runs before motion-controller in {}: it reads the position command (and "
           "circfric's pulse) a servo period late; move its addf after motion-controller",
