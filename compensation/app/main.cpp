@@ -24,7 +24,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
-    "backlash,scale,squareness,cyclic]\n"
+    "backlash,scale,squareness,cyclic,friction]\n"
     "                       [--gain F] [--force]\n"
     "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
     "       circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
@@ -40,7 +40,9 @@ std::string_view circcomp_option_words(PlanSetting setting) noexcept {
     case PlanSetting::record_with_ini:
       return "with circtest-run or circlog-record --ini";
     case PlanSetting::without_squareness:
-      return "leave squareness out (--only backlash,scale,cyclic)";
+      return "leave squareness out (--only backlash,scale,cyclic,friction)";
+    case PlanSetting::without_friction:
+      return "leave friction out (--only backlash,scale,squareness,cyclic)";
   }
   return library_setting_words(setting);
 }
@@ -142,8 +144,10 @@ int run(int argc, char** argv) {
     options.only.clear();
     std::istringstream in(only);
     for (std::string w; std::getline(in, w, ',');) {
-      if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic") {
-        throw UsageError("--only: expected backlash, scale, squareness or cyclic, got '" + w + "'");
+      if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic" &&
+          w != "friction") {
+        throw UsageError("--only: expected backlash, scale, squareness, cyclic or friction, got '" +
+                         w + "'");
       }
       options.only.insert(w);
     }

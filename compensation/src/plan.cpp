@@ -14,17 +14,19 @@
 
 #include "circtest/compensation/comp_table.hpp"
 #include "circtest/compensation/config_dir.hpp"
+#include "circtest/compensation/friction.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/sha256.hpp"
+#include "plan_internal.hpp"
 
 namespace circtest::compensation {
 
 namespace fs = std::filesystem;
 
-namespace {
+namespace detail {
 
 // Plausibility bounds (issue 10): beyond these a correction is more likely a mistake.
 constexpr double kMaxBacklashMm = 0.2;
@@ -337,7 +339,9 @@ void plan_squareness(IniDocument& ini, const ConfigDir& config, const DiagnosisI
   }
 }
 
-}  // namespace
+}  // namespace detail
+
+using namespace detail;
 
 std::string_view library_setting_words(PlanSetting setting) noexcept {
   switch (setting) {
@@ -349,6 +353,8 @@ std::string_view library_setting_words(PlanSetting setting) noexcept {
       return "with circtest-run, or with circlog-record given the INI";
     case PlanSetting::without_squareness:
       return "leave squareness out of the corrections";
+    case PlanSetting::without_friction:
+      return "leave friction out of the corrections";
   }
   return "a setting";
 }
@@ -639,13 +645,15 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
         "{} or lower {}'s; no INI value of circcomp's changes that",
         slow, fast, std::fabs(m), joints, how, fast));
   }
-  for (int k = 0; k < 2; ++k) {
+  // Friction: circfric wired by circtest-fric.hal, its values in [FRICTION_<axis>].
+  if (wants("friction")) plan_friction(ini, config, d, o, plan, tables);
+  for (int k = 0; k < 2 && !wants("friction"); ++k) {
     const auto& s = d.reversal_spike_mm[k];
     if (s.value && std::fabs(*s.value) >= 1e-3) {
       plan.advice.push_back(fmt::format(
           "{} reversal spikes of {:.1f} um{}: friction (stick-slip at the reversal), not play; "
           "compensating them as backlash makes parts worse: check gibs and lubrication, or "
-          "add friction feed-forward",
+          "let circcomp plan friction compensation (circfric)",
           d.axes[k], *s.value * 1e3,
           d.reversal_spike_ms[k] ? fmt::format(" decaying in {:.0f} ms", *d.reversal_spike_ms[k])
                                  : ""));
@@ -782,21 +790,40 @@ std::string linuxcnc_module_dir() {
   return dir;
 }
 
-void require_kins_module(const Plan& plan, PlanSettingWords words) {
-  if (!plan.needs_kins_module) return;
-  const char* chosen = std::getenv("CIRCTEST_KINS_MODULE");
+namespace {
+
+// Refuses unless the module the plan loads is a file: ENV_NAME's value, else FILE_NAME in
+// linuxcnc_module_dir().
+void require_module(const char* env_name, const char* file_name, const char* what,
+                    PlanSetting without, PlanSettingWords words) {
+  const char* chosen = std::getenv(env_name);
   const bool from_env = chosen != nullptr && *chosen != '\0';
   const std::string module =
-      from_env ? std::string(chosen) : linuxcnc_module_dir() + "/circtest_kins.so";
+      from_env ? std::string(chosen) : linuxcnc_module_dir() + "/" + file_name;
   std::error_code ec;
   if (fs::is_regular_file(module, ec)) return;
   throw HalError(fmt::format(
-      "the plan loads the circtest_kins kinematics (squareness) but {} is not there{}, so "
-      "LinuxCNC could not start this configuration: install circtest's realtime modules (the "
-      "circtest package, or cmake's install step as root), set CIRCTEST_KINS_MODULE to the "
-      "circtest_kins.so your run loads (circtest-run's build tree), or {}; nothing changed",
-      module, from_env ? " (CIRCTEST_KINS_MODULE)" : " (where LinuxCNC's loadrt looks for modules)",
-      words(PlanSetting::without_squareness)));
+      "the plan loads {} but {} is not there{}, so LinuxCNC could not start this configuration: "
+      "install circtest's realtime modules (the circtest package, or cmake's install step as "
+      "root), set {} to the {} your run loads (circtest-run's build tree), or {}; nothing changed",
+      what, module,
+      from_env ? fmt::format(" ({})", env_name)
+               : std::string(" (where LinuxCNC's loadrt looks for modules)"),
+      env_name, file_name, words(without)));
+}
+
+}  // namespace
+
+void require_kins_module(const Plan& plan, PlanSettingWords words) {
+  if (plan.needs_kins_module) {
+    require_module("CIRCTEST_KINS_MODULE", "circtest_kins.so",
+                   "the circtest_kins kinematics (squareness)", PlanSetting::without_squareness,
+                   words);
+  }
+  if (plan.needs_fric_module) {
+    require_module("CIRCTEST_FRIC_MODULE", "circfric.so", "circfric (friction compensation)",
+                   PlanSetting::without_friction, words);
+  }
 }
 
 }  // namespace circtest::compensation

@@ -572,3 +572,79 @@ TEST_F(Hostile, OneFileUnderTwoNamesIsRefused) {
   EXPECT_EQ(slurp(ini_), text);
   EXPECT_EQ(slurp(cfg_ / "x.comp"), "-300 0 0\n300 0 0\n");
 }
+
+// Friction compensation (circfric): a HAL that circcomp cannot splice, a HAL file that is not
+// a file, circcomp's own HAL file name taken by a link or by a stranger, nonsense in a HAL
+// command, and no circfric.so: each refused with its code, nothing touched anywhere.
+TEST_F(Hostile, FrictionWiringThatCannotBeSplicedIsRefused) {
+  const std::string servo_hal =
+      "loadrt trivkins coordinates=XYZ\nloadrt motmod\nloadrt pid names=pid.x,pid.y\n"
+      "addf motion-command-handler servo-thread\naddf motion-controller servo-thread\n"
+      "net x-pos-cmd joint.0.motor-pos-cmd => pid.x.command\n"
+      "net y-pos-cmd joint.1.motor-pos-cmd => pid.y.command\n";
+  spit(cfg_ / "mill.hal", servo_hal);
+  spit(top() / "circfric.so", "");
+  auto fric = [&](const std::string& diagnosis_path) {
+    return run_command({CIRCCOMP_PATH, "apply", "--ini", ini_, diagnosis_path},
+                       {"CIRCTEST_FRIC_MODULE=" + (top() / "circfric.so").string()});
+  };
+  const std::string spike = R"(, "reversal_spike_mm": {"X": 0.004, "Y": null},
+      "reversal_spike_ms": {"X": 20.0, "Y": null})";
+  auto refused = [&](int code, const std::string& words) {
+    const Snapshot before = snapshot(top(), "");
+    const CommandResult r = fric(diagnosis(0.0, spike));
+    EXPECT_EQ(r.exit_code, code) << r.err << r.out;
+    EXPECT_NE(r.err.find(words), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+    EXPECT_EQ(changes(before, snapshot(top(), "")), "") << r.err;  // inside cfg/ too
+  };
+  // No motion-controller in any thread.
+  spit(cfg_ / "mill.hal", "loadrt trivkins coordinates=XYZ\nloadrt motmod\n");
+  refused(5, "m.ini:10: no HAL file read");
+  // The command a literal; the joint's command to something that is no pid.
+  std::string hal = servo_hal;
+  hal.replace(hal.find("net x-pos-cmd joint.0.motor-pos-cmd => pid.x.command"), 53,
+              "setp pid.x.command 0");
+  spit(cfg_ / "mill.hal", hal);
+  refused(5, "mill.hal:6: pid.x.command is a literal (setp)");
+  hal = servo_hal;
+  hal.replace(hal.find("=> pid.x.command"), 16, "=> offset.0.in");
+  spit(cfg_ / "mill.hal", hal);
+  refused(5, "mill.hal:6: signal x-pos-cmd carries joint.0.motor-pos-cmd (axis X) to offset.0.in");
+  // Nonsense in a HAL command: the file and line, exit 4.
+  spit(cfg_ / "mill.hal", servo_hal + "net\n");
+  refused(4, "mill.hal:8: expected 'net SIGNAL PIN...'");
+  spit(cfg_ / "mill.hal", servo_hal + "addf pid.x.do-pid-calcs servo-thread 1e300\n");
+  refused(4, "mill.hal:8: addf pid.x.do-pid-calcs servo-thread 1e300: expected a position");
+  // The HAL file a FIFO: never opened (it would block).
+  fs::remove(cfg_ / "mill.hal");
+  ASSERT_EQ(::mkfifo((cfg_ / "mill.hal").c_str(), 0644), 0);
+  refused(3, "is a FIFO");
+  fs::remove(cfg_ / "mill.hal");
+  spit(cfg_ / "mill.hal", servo_hal);
+  // circtest-fric.hal a link out of the configuration, or a stranger's file.
+  fs::create_symlink(top() / "victim.txt", cfg_ / "circtest-fric.hal");
+  refused(12, "circtest-fric.hal: is a symbolic link");
+  fs::remove(cfg_ / "circtest-fric.hal");
+  spit(cfg_ / "circtest-fric.hal", "# mine\n");
+  refused(5, "circtest-fric.hal: exists but is not [HAL] HALFILE and not circcomp's");
+  fs::remove(cfg_ / "circtest-fric.hal");
+  // No circfric.so where the run loads it.
+  const std::string missing = (top() / "nowhere" / "circfric.so").string();
+  const Snapshot before = snapshot(top(), "");
+  const CommandResult r =
+      run_command({CIRCCOMP_PATH, "apply", "--ini", ini_, diagnosis(0.0, spike)},
+                  {"CIRCTEST_FRIC_MODULE=" + missing});
+  EXPECT_EQ(r.exit_code, 7) << r.err;
+  EXPECT_NE(r.err.find(missing + " is not there (CIRCTEST_FRIC_MODULE)"), std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--only backlash,scale,squareness,cyclic"), std::string::npos) << r.err;
+  EXPECT_EQ(changes(before, snapshot(top(), "")), "");
+  // And the same configuration applies and reverts cleanly with the module there.
+  const CommandResult ok = fric(diagnosis(0.0, spike));
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(slurp(cfg_ / "circtest-fric.hal").find("unlinkp pid.x.command\n"), std::string::npos);
+  EXPECT_EQ(revert().exit_code, 0);
+  EXPECT_EQ(slurp(ini_), kMachineIni);
+  EXPECT_FALSE(fs::exists(cfg_ / "circtest-fric.hal"));
+}

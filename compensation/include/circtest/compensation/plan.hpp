@@ -22,13 +22,14 @@ enum class PlanSetting {
   gain,                // the share of the residual to apply
   record_with_ini,     // how to record a trace whose diagnosis carries the INI's SHA-256
   without_squareness,  // the corrections without squareness (no circtest_kins needed)
+  without_friction,    // the corrections without friction compensation (no circfric wiring)
 };
 using PlanSettingWords = std::string_view (*)(PlanSetting setting);
 // The library's words: "the force setting", "the gain setting", ...
 std::string_view library_setting_words(PlanSetting setting) noexcept;
 
 struct PlanOptions {
-  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic"};
+  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic", "friction"};
   double gain = 1.0;   // share of the measured residual to apply, (0, 1]
   bool force = false;  // apply implausible or uncertain corrections, or to a changed INI
   PlanSettingWords setting_words = library_setting_words;  // for the refusals' text
@@ -50,6 +51,7 @@ struct Plan {
   std::vector<std::string> notes;    // what was skipped and why
   bool provenance_checked = false;   // the diagnosis's ini_sha256 matched the INI
   bool needs_kins_module = false;    // the plan loads the circtest_kins kinematics
+  bool needs_fric_module = false;    // the plan loads circfric (friction compensation)
 };
 
 // Reads the INI (with its #INCLUDEd files and COMP_FILEs) and builds the plan. Throws
@@ -70,10 +72,11 @@ std::string unified_diff(const Plan& plan);
 // Where LinuxCNC's loadrt finds realtime modules: RTLIB_DIR of /etc/linuxcnc/rtapi.conf, else
 // /usr/lib/linuxcnc/modules.
 std::string linuxcnc_module_dir();
-// The circtest_kins module a run of the configuration loads: $CIRCTEST_KINS_MODULE when set
-// (circtest-run loads that file, e.g. the build tree's, beside the system modules), else
-// circtest_kins.so in linuxcnc_module_dir(). Throws HalError (exit 7) with the fix spelled out
-// when the plan needs the module and that file is not there.
+// The realtime modules a run of the configuration loads: circtest_kins.so (squareness) from
+// $CIRCTEST_KINS_MODULE when set (circtest-run loads that file, e.g. the build tree's, beside
+// the system modules), circfric.so (friction) from $CIRCTEST_FRIC_MODULE, else each in
+// linuxcnc_module_dir(). Throws HalError (exit 7) with the fix spelled out when the plan needs
+// a module and that file is not there.
 void require_kins_module(const Plan& plan, PlanSettingWords words = library_setting_words);
 
 // Writes the originals and a manifest (manifest.hpp) into <ini dir>/.circcomp/, then every

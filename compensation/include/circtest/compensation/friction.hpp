@@ -1,0 +1,70 @@
+#pragma once
+// circcomp's friction compensation: circfric(9) parameters from the reversal spikes of a
+// diagnosis, wired by a HAL file of its own (circtest-fric.hal, the last [HAL] HALFILE) that
+// splices circfric between motion's position command and the pid or stepgen reading it. The
+// values live in the INI ([FRICTION_<axis>] AMPLITUDE, AMPLITUDE_MAX, DECAY_MS, SPIKE_MM), so
+// a refinement changes only INI values.
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "circtest/compensation/config_dir.hpp"
+#include "circtest/compensation/plan.hpp"
+#include "circtest/core/ini.hpp"
+
+namespace circtest::compensation {
+
+inline constexpr const char* kFrictionHalFile = "circtest-fric.hal";
+// A spike below this is not compensated: smaller ones are within what a circle resolves of a
+// transient, and a pulse tuned to them would mostly add noise.
+inline constexpr double kMinFrictionSpikeMm = 0.002;
+// A measured spike above this is implausible for friction (refused without the force setting).
+inline constexpr double kMaxFrictionSpikeMm = 0.1;
+// Step 2 runs when the residual spike exceeds this share of the first measured one.
+inline constexpr double kFrictionRefineShare = 0.3;
+
+// Where a HAL command stands.
+struct HalPlace {
+  std::string file;
+  std::size_t line = 0;
+};
+
+// What circcomp needs to know of a configuration's HAL files (the .hal ones, read in load
+// order with [SECTION]KEY words replaced from the INI): the signals and their pins, the pins
+// set by setp, and each thread's functions in order after every addf and delf.
+struct HalWiring {
+  struct Signal {
+    std::set<std::string> pins;
+    HalPlace place;  // the first net or link naming it
+  };
+  std::map<std::string, Signal> signals;
+  std::map<std::string, std::string> pin_signal;            // pin -> signal
+  std::map<std::string, HalPlace> setp;                     // pin -> the setp giving it a literal
+  std::map<std::string, std::vector<std::string>> threads;  // thread -> functions
+  std::map<std::string, HalPlace> addf;                     // function -> its addf
+  std::vector<std::string> pid_instances;                   // from loadrt pid
+  std::optional<HalPlace> loads_circfric;                   // a loadrt circfric of its own
+  std::vector<std::string> read;                            // the files read
+  std::vector<std::string> unread;                          // HALFILEs not read (.tcl, LIB:)
+};
+
+// Reads the configuration's HAL files as halcmd would run them, skipping SKIP (circcomp's own
+// file). Throws ParseError (file, line) for a command with too few words.
+HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip);
+HalWiring parse_hal_text(const std::string& text, const std::string& file, const IniDocument& ini,
+                         HalWiring wiring = {});
+
+// Plans [FRICTION_<axis>] for both axes of the diagnosis (step 1: first tuning; step 2:
+// refinement of what circtest-fric.hal already loads) and, for a first tuning, the HAL file
+// into FILES (path -> (existed, content)). Throws DataError naming the HAL file and line when
+// the joint's position command cannot be found or spliced, or the servo thread has no
+// motion-controller.
+void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& diagnosis,
+                   const PlanOptions& options, Plan& plan,
+                   std::map<std::string, std::pair<bool, std::string>>& files);
+
+}  // namespace circtest::compensation

@@ -1,0 +1,640 @@
+#include "circtest/compensation/friction.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <sstream>
+
+#include "circtest/core/error.hpp"
+#include "circtest/core/numbers.hpp"
+#include "plan_internal.hpp"
+
+namespace circtest::compensation {
+
+namespace fs = std::filesystem;
+using namespace detail;
+
+namespace {
+
+// circfric's own bounds (circfric(9)): amplitude and amplitude-max 0..1 machine unit, decay
+// 0.001..1000 ms.
+constexpr double kFricMaxUnits = 1.0;
+constexpr double kFricMinDecayMs = 0.001;
+constexpr double kFricMaxDecayMs = 1000.0;
+
+bool is_arrow(const std::string& w) {
+  return w == "=>" || w == "<=" || w == "<=>";
+}
+
+bool ini_key_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
+}
+
+// WORD with every [SECTION]KEY and [SECTION](KEY) replaced by the INI's value (kept as it is
+// when the INI has none). A scan, not a regular expression: a word of megabytes is read in
+// linear time and constant stack.
+std::string substituted(const std::string& w, const IniDocument& ini) {
+  std::string out;
+  std::size_t i = 0;
+  std::size_t close = 0;  // the first ']' after the last '[' looked at (found once per ']')
+  while (i < w.size()) {
+    const std::size_t open = w.find('[', i);
+    if (open == std::string::npos) break;
+    if (close <= open) close = w.find(']', open + 1);
+    if (close == std::string::npos) break;
+    if (close == open + 1 || w.find('[', open + 1) < close) {
+      out.append(w, i, open + 1 - i);
+      i = open + 1;
+      continue;
+    }
+    std::size_t k = close + 1;
+    const bool paren = k < w.size() && w[k] == '(';
+    if (paren) ++k;
+    const std::size_t key_begin = k;
+    while (k < w.size() && ini_key_char(w[k])) ++k;
+    const bool closed = !paren || (k < w.size() && w[k] == ')');
+    if (k == key_begin || !closed) {
+      out.append(w, i, close + 1 - i);
+      i = close + 1;
+      continue;
+    }
+    const std::size_t end = paren ? k + 1 : k;
+    out.append(w, i, open - i);
+    const auto v = ini.get(std::string_view(w).substr(open + 1, close - open - 1),
+                           std::string_view(w).substr(key_begin, k - key_begin));
+    out += v ? *v : w.substr(open, end - open);
+    i = end;
+  }
+  out.append(w, i);
+  return out;
+}
+
+// halcmd's words of one logical line: blanks split, '#' at a word's start ends the line,
+// [SECTION]KEY words replaced from the INI.
+std::vector<std::string> hal_words(const std::string& line, const IniDocument& ini) {
+  std::vector<std::string> words;
+  std::istringstream in(line);
+  for (std::string w; in >> w;) {
+    if (w.front() == '#') break;
+    words.push_back(w.find('[') == std::string::npos ? w : substituted(w, ini));
+  }
+  return words;
+}
+
+void link_pin(HalWiring& w, const std::string& signal, const std::string& pin,
+              const HalPlace& place) {
+  auto [it, fresh] = w.signals.try_emplace(signal);
+  if (fresh) it->second.place = place;
+  if (const auto old = w.pin_signal.find(pin); old != w.pin_signal.end()) {
+    w.signals[old->second].pins.erase(pin);
+  }
+  it->second.pins.insert(pin);
+  w.pin_signal[pin] = signal;
+}
+
+void add_function(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
+  auto& list = w.threads[words[2]];
+  long position = -1;
+  if (words.size() > 3) {
+    const auto v = parse_finite(words[3]);
+    if (!v || *v != std::floor(*v) || *v == 0 || std::fabs(*v) > 1e6) {
+      throw ParseError(place.file, place.line,
+                       fmt::format("addf {} {} {}: expected a position (1 = first, -1 = last)",
+                                   words[1], words[2], words[3]));
+    }
+    position = static_cast<long>(*v);
+  }
+  const long size = static_cast<long>(list.size());
+  long index = position > 0 ? position - 1 : size + 1 + position;
+  index = std::clamp(index, 0L, size);
+  list.insert(list.begin() + index, words[1]);
+  w.addf[words[1]] = place;
+}
+
+void load_module(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
+  if (words[1] == "circfric") w.loads_circfric = place;
+  if (words[1] != "pid") return;
+  bool named = false;
+  int count = 3;  // pid's default
+  for (std::size_t i = 2; i < words.size(); ++i) {
+    if (words[i].starts_with("names=")) {
+      named = true;
+      std::istringstream in(words[i].substr(6));
+      for (std::string n; std::getline(in, n, ',');) w.pid_instances.push_back(n);
+    } else if (words[i].starts_with("num_chan=")) {
+      count = static_cast<int>(std::clamp(parse_finite(words[i].substr(9)).value_or(3), 0.0, 64.0));
+    }
+  }
+  for (int i = 0; !named && i < count; ++i) {
+    w.pid_instances.push_back(fmt::format("pid.{}", i));
+  }
+}
+
+void need_words(const std::vector<std::string>& words, std::size_t n, const HalPlace& place,
+                const std::string& form) {
+  if (words.size() < n) {
+    throw ParseError(place.file, place.line, fmt::format("expected '{}'", form));
+  }
+}
+
+// Pins of WORDS from index FROM on, arrows left out.
+std::vector<std::string> pins_from(const std::vector<std::string>& words, std::size_t from) {
+  std::vector<std::string> pins;
+  for (std::size_t i = from; i < words.size(); ++i) {
+    if (!is_arrow(words[i])) pins.push_back(words[i]);
+  }
+  return pins;
+}
+
+void hal_command(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
+  const std::string& cmd = words[0];
+  if (cmd == "loadrt") {
+    need_words(words, 2, place, "loadrt MODULE [ARGS]");
+    load_module(w, words, place);
+  } else if (cmd == "net") {
+    need_words(words, 2, place, "net SIGNAL PIN...");
+    if (auto [it, fresh] = w.signals.try_emplace(words[1]); fresh) it->second.place = place;
+    for (const auto& pin : pins_from(words, 2)) link_pin(w, words[1], pin, place);
+  } else if (cmd == "linksp" || cmd == "linkps") {
+    const auto rest = pins_from(words, 1);
+    if (rest.size() != 2) throw ParseError(place.file, place.line, "expected '" + cmd + " A B'");
+    if (cmd == "linksp") link_pin(w, rest[0], rest[1], place);
+    if (cmd == "linkps") link_pin(w, rest[1], rest[0], place);
+  } else if (cmd == "linkpp") {
+    const auto rest = pins_from(words, 1);
+    if (rest.size() != 2) throw ParseError(place.file, place.line, "expected 'linkpp PIN PIN'");
+    link_pin(w, rest[0], rest[0], place);
+    link_pin(w, rest[0], rest[1], place);
+  } else if (cmd == "unlinkp") {
+    need_words(words, 2, place, "unlinkp PIN");
+    if (const auto it = w.pin_signal.find(words[1]); it != w.pin_signal.end()) {
+      w.signals[it->second].pins.erase(words[1]);
+      w.pin_signal.erase(it);
+    }
+  } else if (cmd == "setp" || cmd == "sets") {
+    need_words(words, 3, place, cmd + " NAME VALUE");
+    if (cmd == "setp") w.setp[words[1]] = place;
+  } else if (cmd == "addf") {
+    need_words(words, 3, place, "addf FUNCTION THREAD [POSITION]");
+    add_function(w, words, place);
+  } else if (cmd == "delf") {
+    need_words(words, 2, place, "delf FUNCTION [THREAD]");
+    for (auto& [thread, list] : w.threads) {
+      if (words.size() > 2 && thread != words[2]) continue;
+      list.erase(std::remove(list.begin(), list.end(), words[1]), list.end());
+    }
+  }
+}
+
+// A pin circfric is spliced in front of: a pid's command or a stepgen's position command.
+bool is_command_target(const HalWiring& w, const std::string& pin) {
+  if (pin.ends_with(".position-cmd") && pin.find("stepgen.") != std::string::npos) return true;
+  if (!pin.ends_with(".command")) return false;
+  const std::string instance = pin.substr(0, pin.size() - 8);
+  return instance.starts_with("pid.") || std::find(w.pid_instances.begin(), w.pid_instances.end(),
+                                                   instance) != w.pid_instances.end();
+}
+
+// Where a refusal about the HAL as a whole points: the INI's first [HAL] HALFILE.
+HalPlace halfile_place(const IniDocument& ini) {
+  const auto all = ini.get_all("HAL", "HALFILE");
+  if (all.empty()) return {ini.path(), 0};
+  return {all.front().file, all.front().line};
+}
+
+std::string list_text(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& i : items) out += (out.empty() ? "" : ", ") + i;
+  return out.empty() ? "none" : out;
+}
+
+// How one joint is spliced.
+struct Splice {
+  char axis = 'X';
+  int joint = 0;
+  std::string instance;       // fric-x, or fric-x-j3 for a second joint of the axis
+  std::string pos_signal;     // carries joint.N.motor-pos-cmd
+  HalPlace pos_place;         // its net
+  std::string target;         // pid.x.command or stepgen.0.position-cmd
+  std::string vel_signal;     // empty: circcomp nets joint.N.vel-cmd itself
+  std::string enable_signal;  // empty: circcomp nets joint.N.amp-enable-out itself
+};
+
+std::string refusal_tail(const PlanOptions& o) {
+  return fmt::format("wire circfric by hand (docs/circfric.md, WIRING), or {}",
+                     o.setting_words(PlanSetting::without_friction));
+}
+
+Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int joint,
+                   const std::string& instance, const PlanOptions& o) {
+  Splice s;
+  s.axis = axis;
+  s.joint = joint;
+  s.instance = instance;
+  const std::string cmd = fmt::format("joint.{}.motor-pos-cmd", joint);
+  const auto it = w.pin_signal.find(cmd);
+  // A pid or stepgen command given a literal (setp, on no net) is named as the reason.
+  auto refuse_literal = [&] {
+    for (const auto& [pin, place] : w.setp) {
+      if (!is_command_target(w, pin) || w.pin_signal.count(pin)) continue;
+      throw DataError(
+          place.file, place.line,
+          fmt::format("{} is a literal (setp) and no pid or stepgen reads {} (axis {}): "
+                      "circcomp finds no position command to compensate; {}",
+                      pin, cmd, axis, refusal_tail(o)));
+    }
+  };
+  if (it == w.pin_signal.end()) {
+    refuse_literal();
+    const HalPlace p = halfile_place(ini);
+    throw DataError(
+        p.file, p.line,
+        fmt::format("no net in the HAL files read ({}) carries {} (axis {}){}: {}",
+                    list_text(w.read), cmd, axis,
+                    w.unread.empty() ? "" : fmt::format(" (not read: {})", list_text(w.unread)),
+                    refusal_tail(o)));
+  }
+  s.pos_signal = it->second;
+  const auto& signal = w.signals.at(s.pos_signal);
+  s.pos_place = signal.place;
+  std::vector<std::string> targets, others;
+  for (const auto& pin : signal.pins) {
+    if (pin == cmd) continue;
+    (is_command_target(w, pin) ? targets : others).push_back(pin);
+  }
+  if (targets.empty()) refuse_literal();
+  if (targets.size() != 1) {
+    throw DataError(
+        s.pos_place.file, s.pos_place.line,
+        fmt::format("signal {} carries {} (axis {}) to {}: {}; {}", s.pos_signal, cmd, axis,
+                    list_text(targets.empty() ? others : targets),
+                    targets.empty() ? "no pid command or stepgen position-cmd, the only inputs "
+                                      "circcomp splices circfric in front of"
+                                    : "more than one pid or stepgen, circcomp cannot tell which "
+                                      "drives the joint",
+                    refusal_tail(o)));
+  }
+  s.target = targets.front();
+  if (const auto v = w.pin_signal.find(fmt::format("joint.{}.vel-cmd", joint));
+      v != w.pin_signal.end()) {
+    s.vel_signal = v->second;
+  }
+  if (const auto e = w.pin_signal.find(fmt::format("joint.{}.amp-enable-out", joint));
+      e != w.pin_signal.end()) {
+    s.enable_signal = e->second;
+  }
+  return s;
+}
+
+// The servo thread and circfric's position in it: right after motion-controller.
+std::pair<std::string, std::size_t> after_motion_controller(const HalWiring& w,
+                                                            const IniDocument& ini,
+                                                            const PlanOptions& o) {
+  for (const auto& [thread, list] : w.threads) {
+    const auto it = std::find(list.begin(), list.end(), "motion-controller");
+    if (it != list.end()) {
+      return {thread, static_cast<std::size_t>(it - list.begin()) + 2};
+    }
+  }
+  const HalPlace p = halfile_place(ini);
+  throw DataError(p.file, p.line,
+                  fmt::format("no HAL file read ({}) adds motion-controller to a thread ('addf "
+                              "motion-controller servo-thread'): circfric must run right after "
+                              "it; {}",
+                              list_text(w.read), refusal_tail(o)));
+}
+
+std::string lower(char c) {
+  return std::string(1, static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+}
+
+std::string fric_hal_text(const std::vector<Splice>& splices, const std::string& thread,
+                          std::size_t position) {
+  std::string t =
+      "# Written by circcomp (circtest): friction compensation at reversals, circfric(9)\n"
+      "# (docs/circfric.md) spliced between motion's position command and the pid or stepgen.\n"
+      "# The values live in the INI's [FRICTION_<axis>] sections; `circcomp revert` removes\n"
+      "# this file and its [HAL] HALFILE line.\n";
+  std::string names;
+  for (const auto& s : splices) names += (names.empty() ? "" : ",") + s.instance;
+  t += "loadrt circfric names=" + names + "\n";
+  for (std::size_t i = 0; i < splices.size(); ++i) {
+    t += fmt::format("addf {} {} {}\n", splices[i].instance, thread, position + i);
+  }
+  for (const auto& s : splices) {
+    const std::string& n = s.instance;
+    t += fmt::format("# axis {}, joint {}: {} ({}:{}) into {}\n", s.axis, s.joint, s.pos_signal,
+                     fs::path(s.pos_place.file).filename().string(), s.pos_place.line, s.target);
+    t += fmt::format("unlinkp {}\n", s.target);
+    t += fmt::format("net {} => {}.pos-in\n", s.pos_signal, n);
+    t += fmt::format("net {}-pos-out {}.pos-out => {}\n", n, n, s.target);
+    if (s.vel_signal.empty()) {
+      t += fmt::format("net {}-vel-cmd joint.{}.vel-cmd => {}.vel-cmd\n", n, s.joint, n);
+    } else {
+      t += fmt::format("net {} => {}.vel-cmd\n", s.vel_signal, n);
+    }
+    if (s.enable_signal.empty()) {
+      t += fmt::format("net {}-enable joint.{}.amp-enable-out => {}.enable\n", n, s.joint, n);
+    } else {
+      t += fmt::format("net {} => {}.enable\n", s.enable_signal, n);
+    }
+    const std::string sec = "FRICTION_" + std::string(1, s.axis);
+    t += fmt::format("setp {}.amplitude [{}]AMPLITUDE\n", n, sec);
+    t += fmt::format("setp {}.amplitude-max [{}]AMPLITUDE_MAX\n", n, sec);
+    t += fmt::format("setp {}.decay-ms [{}]DECAY_MS\n", n, sec);
+  }
+  return t;
+}
+
+// A number of [FRICTION_X] KEY that step 2 reads.
+double friction_value(const IniDocument& ini, const std::string& section, const char* key,
+                      const char* what) {
+  const auto e = ini.find(section, key);
+  const auto v = e ? parse_finite(e->value) : std::nullopt;
+  if (!e) {
+    throw DataError(ini.path(), 0,
+                    fmt::format("[{}] has no {} ({}): circcomp refines only what it wrote; "
+                                "remove the section, or add the key",
+                                section, key, what));
+  }
+  if (!v || *v < 0) {
+    throw DataError(e->file, e->line,
+                    fmt::format("[{}] {} = '{}': expected {}", section, key, e->value, what));
+  }
+  return *v;
+}
+
+// The measured spike of one axis, when it is one circfric should answer; else a note.
+std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const char* what,
+                                          const PlanOptions& o, std::vector<std::string>& notes) {
+  const char axis = d.axes[k];
+  const Measured& m = d.reversal_spike_mm[k];
+  if (!m.value) {
+    notes.push_back(
+        fmt::format("{} {}: not in the diagnosis (null), friction not changed", axis, what));
+    return std::nullopt;
+  }
+  const double v = *m.value;
+  if (std::fabs(v) < kMinFrictionSpikeMm) {
+    notes.push_back(fmt::format("{} {} of {:.2f} um is below {:.0f} um: no friction change", axis,
+                                what, v * 1e3, kMinFrictionSpikeMm * 1e3));
+    return std::nullopt;
+  }
+  if (m.standard_error && std::fabs(v) < 2.0 * *m.standard_error) {
+    notes.push_back(fmt::format(
+        "{} {} of {:.2f} um is not significant (standard error {:.2f} um, needs |spike| >= "
+        "2 standard errors): no friction change; measure again",
+        axis, what, v * 1e3, *m.standard_error * 1e3));
+    return std::nullopt;
+  }
+  if (!o.force && std::fabs(v) > kMaxFrictionSpikeMm) {
+    throw DataError(d.source, 0,
+                    fmt::format("{} {} = {:.1f} um is implausible for friction (more than {:.0f} "
+                                "um); check the measurement, or {}",
+                                axis, what, v * 1e3, kMaxFrictionSpikeMm * 1e3,
+                                o.setting_words(PlanSetting::force)));
+  }
+  return v;
+}
+
+// Step 1 of one axis: the INI values from the measured spike and decay. Returns false when
+// the axis is skipped (a note says why).
+bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
+                  const PlanOptions& o, Plan& plan) {
+  const char axis = d.axes[k];
+  const auto spike = spike_to_compensate(d, k, "reversal spike", o, plan.notes);
+  if (!spike) return false;
+  if (*spike < 0) {
+    plan.notes.push_back(fmt::format(
+        "{} reversal spike of {:.2f} um points inwards: not friction's outward spike, not "
+        "compensated",
+        axis, *spike * 1e3));
+    return false;
+  }
+  const auto decay = d.reversal_spike_ms[k];
+  if (!decay || !(*decay >= kFricMinDecayMs && *decay <= kFricMaxDecayMs)) {
+    plan.notes.push_back(fmt::format(
+        "{} reversal spike of {:.2f} um: its decay {} is not within circfric's {} to {} ms, "
+        "not compensated",
+        axis, *spike * 1e3, decay ? fmt::format("{} ms", number_text(*decay)) : "was not measured",
+        kFricMinDecayMs, kFricMaxDecayMs));
+    return false;
+  }
+  const double amplitude = o.gain * *spike * upm, amplitude_max = 2.0 * *spike * upm;
+  if (amplitude_max > kFricMaxUnits) {
+    throw DataError(d.source, 0,
+                    fmt::format("{} reversal spike {:.1f} um: twice it is beyond circfric's "
+                                "bound of 1 machine unit",
+                                axis, *spike * 1e3));
+  }
+  const std::string sec = std::string("FRICTION_") + axis;
+  if (ini.has_section(sec)) {
+    plan.notes.push_back(fmt::format(
+        "[{}] was not in effect ({} is not a [HAL] HALFILE): the measurement saw none of it, so "
+        "it is replaced",
+        sec, kFrictionHalFile));
+  }
+  ini.set(sec, "AMPLITUDE", number_text(amplitude));
+  ini.set(sec, "AMPLITUDE_MAX", number_text(amplitude_max));
+  ini.set(sec, "DECAY_MS", number_text(*decay));
+  ini.set(sec, "SPIKE_MM", number_text(*spike));
+  ini.comment_before(sec, "AMPLITUDE",
+                     fmt::format("circcomp: friction compensation of axis {} by circfric (set by "
+                                 "{}): AMPLITUDE and AMPLITUDE_MAX in machine units, DECAY_MS "
+                                 "in ms; SPIKE_MM is the spike first measured, and AMPLITUDE_MAX "
+                                 "stays at most twice it",
+                                 axis, kFrictionHalFile));
+  plan.changes.push_back(fmt::format(
+      "[{}] step 1 (first tuning): AMPLITUDE {} (spike {:.2f} um), DECAY_MS {}, AMPLITUDE_MAX {} "
+      "(2 x spike); rerun the circle and plan again for step 2",
+      sec, number_text(amplitude), *spike * 1e3, number_text(*decay), number_text(amplitude_max)));
+  return true;
+}
+
+// Step 2 of one axis: the amplitude refined from the residual spike.
+void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, const PlanOptions& o,
+                Plan& plan) {
+  const char axis = d.axes[k];
+  const std::string sec = std::string("FRICTION_") + axis;
+  const double first_mm = friction_value(ini, sec, "SPIKE_MM", "the spike first measured, mm");
+  const double amplitude = friction_value(ini, sec, "AMPLITUDE", "a length in machine units");
+  const double max_now = friction_value(ini, sec, "AMPLITUDE_MAX", "a length in machine units");
+  const double bound = 2.0 * first_mm * upm;
+  const auto residual = spike_to_compensate(d, k, "residual reversal spike", o, plan.notes);
+  if (!residual) return;
+  if (std::fabs(*residual) <= kFrictionRefineShare * first_mm) {
+    plan.notes.push_back(fmt::format(
+        "{} residual reversal spike of {:.2f} um is {:.0f} % of the {:.2f} um compensated, not "
+        "more than {:.0f} %: no step 2, [{}] unchanged",
+        axis, *residual * 1e3, std::fabs(*residual) / first_mm * 100.0, first_mm * 1e3,
+        kFrictionRefineShare * 100.0, sec));
+    return;
+  }
+  const double limit = std::min(max_now, bound);
+  if (max_now > bound) {
+    ini.set(sec, "AMPLITUDE_MAX", number_text(bound));
+    plan.notes.push_back(
+        fmt::format("[{}] AMPLITUDE_MAX {} -> {}: at most twice the spike first "
+                    "measured ({:.2f} um)",
+                    sec, number_text(max_now), number_text(bound), first_mm * 1e3));
+  }
+  const double wanted = amplitude + o.gain * *residual * upm;
+  const double next = std::clamp(wanted, 0.0, limit);
+  if (next != wanted) {
+    plan.notes.push_back(fmt::format("[{}] AMPLITUDE {} + {} clamped to {} (0..AMPLITUDE_MAX)", sec,
+                                     number_text(amplitude), number_text(o.gain * *residual * upm),
+                                     number_text(next)));
+  }
+  ini.set(sec, "AMPLITUDE", number_text(next));
+  plan.changes.push_back(fmt::format(
+      "[{}] step 2 (refinement): AMPLITUDE {} -> {} (residual spike {:.2f} um, {:.0f} % of the "
+      "{:.2f} um compensated)",
+      sec, number_text(amplitude), number_text(next), *residual * 1e3,
+      std::fabs(*residual) / first_mm * 100.0, first_mm * 1e3));
+}
+
+}  // namespace
+
+HalWiring parse_hal_text(const std::string& text, const std::string& file, const IniDocument& ini,
+                         HalWiring wiring) {
+  std::istringstream in(text);
+  std::size_t number = 0;
+  std::string logical;
+  std::size_t first = 0;
+  for (std::string line; std::getline(in, line);) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (logical.empty()) first = number;
+    if (!line.empty() && line.back() == '\\') {
+      logical += line.substr(0, line.size() - 1) + " ";
+      continue;
+    }
+    logical += line;
+    const auto words = hal_words(logical, ini);
+    logical.clear();
+    if (!words.empty()) hal_command(wiring, words, {file, first});
+  }
+  wiring.read.push_back(file);
+  return wiring;
+}
+
+HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip) {
+  HalWiring wiring;
+  const std::string dir = ini_dir(ini.path());
+  for (const auto& h : ini.get_all("HAL", "HALFILE")) {
+    if (h.value == skip) continue;
+    const fs::path path = fs::path(h.value).is_absolute() || dir.empty() ? fs::path(h.value)
+                                                                         : fs::path(dir) / h.value;
+    bool existed = false;
+    const std::string text =
+        fs::path(h.value).extension() == ".hal" ? slurp_if(path.string(), existed) : "";
+    if (!existed) {
+      wiring.unread.push_back(h.value);
+      continue;
+    }
+    wiring = parse_hal_text(text, path.string(), ini, std::move(wiring));
+  }
+  return wiring;
+}
+
+void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& d,
+                   const PlanOptions& o, Plan& plan,
+                   std::map<std::string, std::pair<bool, std::string>>& files) {
+  const double upm = units_per_mm(ini);
+  bool loaded = false;
+  for (const auto& h : ini.get_all("HAL", "HALFILE")) loaded |= h.value == kFrictionHalFile;
+  // The axes circtest-fric.hal wires now, and those a first tuning adds.
+  std::set<char> wired;
+  if (loaded) {
+    for (const auto& s : ini.sections()) {
+      if (s.size() == 10 && s.starts_with("FRICTION_")) wired.insert(s[9]);
+    }
+  }
+  std::set<char> added;
+  for (int k = 0; k < 2; ++k) {
+    if (wired.count(d.axes[k])) {
+      refinement(ini, d, k, upm, o, plan);
+    } else if (first_tuning(ini, d, k, upm, o, plan)) {
+      added.insert(d.axes[k]);
+    }
+  }
+  if (added.empty()) return;
+
+  const HalWiring hal = read_hal_wiring(ini, kFrictionHalFile);
+  if (hal.loads_circfric) {
+    throw DataError(hal.loads_circfric->file, hal.loads_circfric->line,
+                    fmt::format("the configuration loads circfric itself: circcomp does not "
+                                "wire it a second time; {}",
+                                refusal_tail(o)));
+  }
+  const auto [thread, position] = after_motion_controller(hal, ini, o);
+  auto splices_of = [&](const std::set<char>& axes) {
+    std::vector<Splice> out;
+    for (const char axis : axes) {
+      const auto joints = joints_of(ini, axis);
+      for (const int j : joints) {
+        const std::string name =
+            joints.size() == 1 ? "fric-" + lower(axis) : fmt::format("fric-{}-j{}", lower(axis), j);
+        out.push_back(find_splice(hal, ini, axis, j, name, o));
+      }
+    }
+    return out;
+  };
+  std::set<char> all = wired;
+  all.insert(added.begin(), added.end());
+  const auto splices = splices_of(all);
+  const std::string text = fric_hal_text(splices, thread, position);
+  for (const auto& s : splices) {
+    for (const char* suffix : {"-pos-out", "-vel-cmd", "-enable"}) {
+      const auto it = hal.signals.find(s.instance + suffix);
+      if (it != hal.signals.end()) {
+        throw DataError(it->second.place.file, it->second.place.line,
+                        fmt::format("signal {} exists already: circcomp's circfric wiring would "
+                                    "join it; rename it",
+                                    s.instance + suffix));
+      }
+    }
+  }
+  const std::string dir = ini_dir(ini.path());
+  const fs::path path = fs::path(dir.empty() ? "." : dir) / kFrictionHalFile;
+  bool existed = false;
+  const std::string before = read_target(config, path.string(), existed);
+  if (existed && before != text &&
+      !(loaded && before == fric_hal_text(splices_of(wired), thread, position))) {
+    throw DataError(path.string(), 0,
+                    loaded ? "changed since circcomp wrote it: revert, or move it away first"
+                           : "exists but is not [HAL] HALFILE and not circcomp's: move it away "
+                             "first");
+  }
+  if (!loaded) ini.append("HAL", "HALFILE", kFrictionHalFile);
+  files[path.string()] = {existed, text};
+  plan.needs_fric_module = true;
+  // The function reading the spliced input should run after circfric; one that runs before
+  // motion-controller reads every command a period late, circfric's pulse too.
+  const auto& order = hal.threads.at(thread);
+  for (const auto& s : splices) {
+    const std::string reader = s.target.ends_with(".command")
+                                   ? s.target.substr(0, s.target.size() - 8) + ".do-pid-calcs"
+                                   : "stepgen.update-freq";
+    const auto at = std::find(order.begin(), order.end(), reader);
+    // POSITION is motion-controller's place from 1, plus 1.
+    if (at != order.end() && static_cast<std::size_t>(at - order.begin()) + 2 < position) {
+      plan.notes.push_back(fmt::format(
+          "{} runs before motion-controller in {}: it reads the position command (and "
+          "circfric's pulse) a servo period late; move its addf after motion-controller",
+          reader, thread));
+    }
+  }
+  for (std::size_t i = 0; i < splices.size(); ++i) {
+    if (!added.count(splices[i].axis)) continue;
+    plan.changes.push_back(fmt::format("{}: circfric {} spliced between {} and {} ({} position {})",
+                                       kFrictionHalFile, splices[i].instance, splices[i].pos_signal,
+                                       splices[i].target, thread, position + i));
+  }
+}
+
+}  // namespace circtest::compensation
