@@ -150,6 +150,7 @@ int run(int argc, char** argv) {
                          w + "'");
       }
       options.only.insert(w);
+      if (w == "friction") options.friction_requested = true;
     }
   }
   const DiagnosisInput d = read_diagnosis(diagnosis);

@@ -646,8 +646,29 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
         slow, fast, std::fabs(m), joints, how, fast));
   }
   // Friction: circfric wired by circtest-fric.hal, its values in [FRICTION_<axis>].
-  if (wants("friction")) plan_friction(ini, config, d, o, plan, tables);
-  for (int k = 0; k < 2 && !wants("friction"); ++k) {
+  bool friction_planned = wants("friction");
+  if (friction_planned && o.friction_requested) {
+    plan_friction(ini, config, d, o, plan, tables);
+  } else if (friction_planned) {
+    // Tried on copies: a configuration without a pid or stepgen to splice into (a simulated
+    // machine, a HAL of its own kind) keeps every other correction.
+    IniDocument ini_tried = ini;
+    Plan plan_tried = plan;
+    auto tables_tried = tables;
+    try {
+      plan_friction(ini_tried, config, d, o, plan_tried, tables_tried);
+      ini = std::move(ini_tried);
+      plan = std::move(plan_tried);
+      tables = std::move(tables_tried);
+    } catch (const DataError& e) {
+      // What the measurement says (an implausible spike) is refused as ever; only where to
+      // wire the compensator is in question here.
+      if (e.file() == d.source) throw;
+      plan.notes.push_back(fmt::format("friction compensation not planned: {}", e.what()));
+      friction_planned = false;
+    }
+  }
+  for (int k = 0; k < 2 && !friction_planned; ++k) {
     const auto& s = d.reversal_spike_mm[k];
     if (s.value && std::fabs(*s.value) >= 1e-3) {
       plan.advice.push_back(fmt::format(

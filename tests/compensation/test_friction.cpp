@@ -74,6 +74,7 @@ DiagnosisInput spikes(std::optional<double> x_mm, std::optional<double> y_mm, do
 PlanOptions friction_only() {
   PlanOptions o;
   o.only = {"friction"};
+  o.friction_requested = true;
   return o;
 }
 

@@ -585,8 +585,9 @@ TEST_F(Hostile, FrictionWiringThatCannotBeSplicedIsRefused) {
   spit(cfg_ / "mill.hal", servo_hal);
   spit(top() / "circfric.so", "");
   auto fric = [&](const std::string& diagnosis_path) {
-    return run_command({CIRCCOMP_PATH, "apply", "--ini", ini_, diagnosis_path},
-                       {"CIRCTEST_FRIC_MODULE=" + (top() / "circfric.so").string()});
+    return run_command(
+        {CIRCCOMP_PATH, "apply", "--ini", ini_, diagnosis_path, "--only", "friction"},
+        {"CIRCTEST_FRIC_MODULE=" + (top() / "circfric.so").string()});
   };
   const std::string spike = R"(, "reversal_spike_mm": {"X": 0.004, "Y": null},
       "reversal_spike_ms": {"X": 20.0, "Y": null})";
@@ -611,6 +612,13 @@ TEST_F(Hostile, FrictionWiringThatCannotBeSplicedIsRefused) {
   hal.replace(hal.find("=> pid.x.command"), 16, "=> offset.0.in");
   spit(cfg_ / "mill.hal", hal);
   refused(5, "mill.hal:6: signal x-pos-cmd carries joint.0.motor-pos-cmd (axis X) to offset.0.in");
+  // Not asked for by name, friction that cannot be wired is a note: the other corrections go on.
+  const CommandResult plain =
+      run_command({CIRCCOMP_PATH, "plan", "--ini", ini_, diagnosis(0.0, spike)});
+  EXPECT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_NE(plain.out.find("# note: friction compensation not planned: "), std::string::npos)
+      << plain.out;
+  EXPECT_NE(plain.out.find("to offset.0.in"), std::string::npos) << plain.out;
   // Nonsense in a HAL command: the file and line, exit 4.
   spit(cfg_ / "mill.hal", servo_hal + "net\n");
   refused(4, "mill.hal:8: expected 'net SIGNAL PIN...'");

@@ -30,6 +30,9 @@ std::string_view library_setting_words(PlanSetting setting) noexcept;
 
 struct PlanOptions {
   std::set<std::string> only{"backlash", "scale", "squareness", "cyclic", "friction"};
+  // Friction asked for by name: a configuration circfric cannot be wired into is then refused;
+  // when it is only part of the default set, that is a note and the other corrections go on.
+  bool friction_requested = false;
   double gain = 1.0;   // share of the measured residual to apply, (0, 1]
   bool force = false;  // apply implausible or uncertain corrections, or to a changed INI
   PlanSettingWords setting_words = library_setting_words;  // for the refusals' text
