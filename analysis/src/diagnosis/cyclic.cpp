@@ -161,6 +161,17 @@ Kind cyclic_cos(int ax) {
 
 }  // namespace
 
+void take_cyclic_fit(const DiagnosisState& ds, int ax, CyclicEstimate& ce) {
+  const Solution& sol = ds.sol;
+  const auto js = static_cast<Eigen::Index>(*find(ds.cols, cyclic_sin(ax)));
+  const auto jc = static_cast<Eigen::Index>(*find(ds.cols, cyclic_cos(ax)));
+  const double a = sol.x[js], b = sol.x[jc];
+  ce.amplitude_mm = std::hypot(a, b);
+  ce.phase_rad = std::atan2(b, a);
+  // Amplitude standard error: the larger of the two components' (a conservative bound).
+  ce.amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+}
+
 // Cyclic errors: a given pitch, else a periodogram of the residual over axis position.
 void find_cyclic(DiagnosisState& ds) {
   const DiagnosisOptions& options = ds.options;
@@ -245,14 +256,8 @@ void find_cyclic(DiagnosisState& ds) {
     cols.push_back({ks});
     cols.push_back({kc});
     fit();
-    const auto js = static_cast<Eigen::Index>(*find(cols, ks));
-    const auto jc = static_cast<Eigen::Index>(*find(cols, kc));
-    const double a = sol.x[js], b = sol.x[jc];
     ce.pitch_mm = pitch;
-    ce.amplitude_mm = std::hypot(a, b);
-    ce.phase_rad = std::atan2(b, a);
-    // Amplitude standard error: the larger of the two components' (a conservative bound).
-    ce.amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+    take_cyclic_fit(ds, ax, ce);
     if (ce.pitch_source == "periodogram" && (ce.amplitude_mm < options.min_cyclic_amplitude_mm ||
                                              ce.amplitude_mm < 5.0 * ce.amplitude_se_mm)) {
       // A peak of a residual that is itself negligible: not a cyclic error.
@@ -298,12 +303,8 @@ bool refine_cyclic(DiagnosisState& ds) {
     cols.push_back({ks});
     cols.push_back({kc});
     fit();
-    const auto js = static_cast<Eigen::Index>(*find(cols, ks));
-    const auto jc = static_cast<Eigen::Index>(*find(cols, kc));
     cy->pitch_mm = pitch;
-    cy->amplitude_mm = std::hypot(sol.x[js], sol.x[jc]);
-    cy->phase_rad = std::atan2(sol.x[jc], sol.x[js]);
-    cy->amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+    take_cyclic_fit(ds, ax, *cy);
     refined = true;
     // The peak may have been the spikes' residual before they were fitted: the same test as
     // when it was found, now with the spikes in the model.

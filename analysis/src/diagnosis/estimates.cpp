@@ -38,13 +38,7 @@ void report_estimates(DiagnosisState& ds) {
   for (int ax = 0; ax < 2; ++ax) {
     auto& cy = D.cyclic[static_cast<std::size_t>(ax)];
     if (!cy) continue;
-    const auto js =
-        static_cast<Eigen::Index>(*find(cols, ax == 0 ? Kind::cyclic_a_sin : Kind::cyclic_b_sin));
-    const auto jc =
-        static_cast<Eigen::Index>(*find(cols, ax == 0 ? Kind::cyclic_a_cos : Kind::cyclic_b_cos));
-    cy->amplitude_mm = std::hypot(sol.x[js], sol.x[jc]);
-    cy->phase_rad = std::atan2(sol.x[jc], sol.x[js]);
-    cy->amplitude_se_mm = std::sqrt(sol.sigma2 * std::max(sol.inv(js, js), sol.inv(jc, jc)));
+    take_cyclic_fit(ds, ax, *cy);
   }
   D.centre_offset_mm = {est(Kind::centre_a, 1.0), est(Kind::centre_b, 1.0)};
   D.backlash_mm = {est(Kind::backlash_a, 1.0), est(Kind::backlash_b, 1.0)};

@@ -77,6 +77,9 @@ void choose_terms(DiagnosisState& ds);
 void fit(DiagnosisState& ds);
 // cyclic.cpp: a cyclic error per axis at a given pitch or a periodogram's peak.
 void find_cyclic(DiagnosisState& ds);
+// cyclic.cpp: the amplitude, phase and standard error of axis ax's cyclic error from its
+// columns in the current fit.
+void take_cyclic_fit(const DiagnosisState& ds, int ax, CyclicEstimate& ce);
 // cyclic.cpp: the periodogram's pitches refined with the spikes in the model; true when one was.
 bool refine_cyclic(DiagnosisState& ds);
 // spikes.cpp: the reversal spikes' decays searched and their heights fitted.
