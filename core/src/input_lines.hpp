@@ -1,5 +1,6 @@
 #pragma once
-// Internal: the line-length cap shared by the text readers of core; not installed.
+// Internal: the line-length cap shared by the text readers of core, and the shortening of a
+// value quoted in their messages; not installed.
 #include <cstddef>
 #include <cstring>
 #include <string>
@@ -15,6 +16,12 @@ namespace circtest::detail {
 inline std::string line_too_long_message() {
   return fmt::format("line longer than {} bytes (1 MiB): expected one record per line",
                      kMaxInputLineBytes);
+}
+
+// A value quoted in a message, cut to 40 characters.
+inline std::string shorten(std::string_view s) {
+  if (s.size() > 40) return std::string(s.substr(0, 37)) + "...";
+  return std::string(s);
 }
 
 }  // namespace circtest::detail
