@@ -23,6 +23,8 @@ double servo_offset_per_s2(const Samples& S, std::size_t i) {
 void add_rows(const Samples& S, const State& st, const std::vector<Column>& cols,
               const std::size_t* idx, const Reversal* rvs, std::size_t m, bool split_servo,
               Sums& out) {
+  // No rows add nothing; an empty design matrix has no storage to point into.
+  if (m == 0) return;
   const auto p = static_cast<Eigen::Index>(cols.size());
   const auto mi = static_cast<Eigen::Index>(m);
   Eigen::MatrixXd Xt(p, mi);
