@@ -1,20 +1,26 @@
 #!/usr/bin/env bash
 # The second build of scripts/test.sh: clang with CIRCTEST_SANITIZE (ASan + UBSan with
 # float-cast-overflow) and CIRCTEST_FUZZ, in its own build dir; runs the unit tests once
-# under the sanitizers and each fuzz harness for 30 s (docs/fuzzing.md). The HAL part and
+# under the sanitizers and each fuzz harness for CIRCTEST_FUZZ_SECONDS (docs/fuzzing.md). The HAL part and
 # the benchmarks are left out: they are not unit-tested code paths and would double the build.
+#   scripts/sanitize.sh [all|build|test] [CTEST ARGS...]   (default all: build, then test)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+phase=all
+case "${1:-}" in all|build|test) phase=$1; shift ;; esac
 SAN_DIR=${CIRCTEST_SANITIZE_DIR:-build-sanitize}
 launcher=()
 if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
 fi
-cmake -S . -B "$SAN_DIR" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCIRCTEST_SANITIZE=ON -DCIRCTEST_FUZZ=ON \
-  -DCIRCTEST_BUILD_HAL=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
-  "${launcher[@]}"
-cmake --build "$SAN_DIR" -j"$(nproc)"
+if [ "$phase" != test ]; then
+  cmake -S . -B "$SAN_DIR" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCIRCTEST_SANITIZE=ON -DCIRCTEST_FUZZ=ON \
+    -DCIRCTEST_BUILD_HAL=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
+    "${launcher[@]}"
+  cmake --build "$SAN_DIR" -j"$(nproc)"
+fi
+[ "$phase" != build ] || exit 0
 # halt_on_error: the first report fails the test; detect_leaks: a leak is a finding too.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-halt_on_error=1:detect_leaks=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}
