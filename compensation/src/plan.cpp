@@ -379,6 +379,382 @@ void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis,
   }
 }
 
+namespace {
+
+using TableFiles = std::map<std::string, std::pair<bool, std::string>>;  // path -> (existed, after)
+
+// What every step of a plan reads and adds to.
+struct PlanContext {
+  const std::string& ini_path;
+  const DiagnosisInput& d;
+  const PlanOptions& o;
+  IniDocument& ini;
+  const ConfigDir& config;
+  double upm;       // machine units per mm
+  std::string dir;  // the INI's folder
+  Plan& plan;
+  TableFiles& tables;
+  bool wants(const char* what) const { return o.only.count(what) > 0; }
+};
+
+// The corrections of axis k that pass their checks (refusals name the diagnosis).
+Correction accepted_correction(const PlanContext& c, int k) {
+  const char letter = c.d.axes[k];
+  Correction corr;
+  try {
+    if (c.wants("backlash")) {
+      corr.backlash_mm = accepted(c.d.backlash_mm[k], fmt::format("{} backlash", letter),
+                                  kMinBacklashMm, kMaxBacklashMm, "mm", c.o, c.plan.notes);
+    }
+    if (c.wants("scale")) {
+      if (!c.d.scale_ppm[k].value && c.d.scale_mismatch_ppm.value) {
+        c.plan.notes.push_back(fmt::format(
+            "{} scale: only the mismatch of the plane's axes is known (relative channels); "
+            "no absolute scale to write",
+            letter));
+      } else {
+        corr.scale_ppm = accepted(c.d.scale_ppm[k], fmt::format("{} scale", letter), kMinScalePpm,
+                                  kMaxScalePpm, "ppm", c.o, c.plan.notes);
+      }
+    }
+    if (c.wants("cyclic") && c.d.cyclic[k]) {
+      const Cyclic& cy = *c.d.cyclic[k];
+      if (accepted({cy.amplitude_mm, cy.amplitude_se_mm}, fmt::format("{} cyclic", letter),
+                   kMinCyclicMm, kMaxCyclicMm, "mm", c.o, c.plan.notes)) {
+        corr.cyclic = cy;
+      }
+    }
+  } catch (const DataError& e) {
+    throw DataError(c.d.source, 0, e.detail());
+  }
+  return corr;
+}
+
+// [section] KEY (MIN_LIMIT, MAX_LIMIT) as the travel a compensation table is laid over.
+double travel_limit(const PlanContext& c, const std::string& section, const char* key) {
+  const auto e = c.ini.find(section, key);
+  const auto v = e ? parse_finite(e->value) : std::nullopt;
+  if (!v) {
+    throw DataError(c.ini_path, 0,
+                    fmt::format("[{}] {} is needed to lay out a compensation table", section, key));
+  }
+  if (std::fabs(*v) > kMaxTravelMm * c.upm) {
+    throw DataError(e->file, e->line,
+                    fmt::format("[{}] {} = {}: a compensation table needs the real travel "
+                                "(within +-{} mm)",
+                                section, key, e->value, kMaxTravelMm));
+  }
+  return *v;
+}
+
+// The cyclic correction of a joint with its table's point count: at least 16 points a pitch
+// over the whole travel, within LinuxCNC's 256; counted in double first, so that no pitch and
+// travel overflow the count. Empty (with a note) when the table cannot hold it.
+std::optional<std::pair<Cyclic, std::size_t>> cyclic_for_joint(const PlanContext& c, char letter,
+                                                               const std::string& section,
+                                                               const Cyclic& cyclic) {
+  const double span = travel_limit(c, section, "MAX_LIMIT") - travel_limit(c, section, "MIN_LIMIT");
+  const double points = std::ceil(span / (cyclic.pitch_mm * c.upm / 16.0)) + 1;
+  if (!(points <= static_cast<double>(kMaxCompEntries))) {
+    c.plan.notes.push_back(
+        fmt::format("{} cyclic: a {} mm pitch over [{}] MIN_LIMIT..MAX_LIMIT needs {:.0f} points, "
+                    "more than LinuxCNC's 256: not written",
+                    letter, number_text(cyclic.pitch_mm), section, points));
+    return std::nullopt;
+  }
+  return std::pair{cyclic, static_cast<std::size_t>(std::max(points, 2.0))};
+}
+
+double backlash_in_ini(const IniDocument& ini, const std::string& section) {
+  const auto e = ini.find(section, "BACKLASH");
+  if (!e || e->value.empty()) return 0.0;
+  const auto v = parse_finite(e->value);
+  if (!v) throw ParseError(e->file, e->line, "[" + section + "] BACKLASH: not a number");
+  return *v;
+}
+
+// A joint without a table: the backlash correction goes into [section] BACKLASH.
+void plan_backlash_key(PlanContext& c, const std::string& section, char letter, double backlash_mm,
+                       double backlash_now) {
+  const double add = c.o.gain * backlash_mm * c.upm;
+  double next = backlash_now + add;
+  if (next < 0) {
+    c.plan.notes.push_back(
+        fmt::format("[{}] BACKLASH {} + {} is negative: set to 0 (the machine is over-compensated)",
+                    section, number_text(backlash_now), number_text(add)));
+    next = 0;
+  }
+  if (!std::isfinite(next)) {
+    throw DataError(c.d.source, 0,
+                    fmt::format("[{}] BACKLASH {} + {} is not a finite number", section,
+                                number_text(backlash_now), number_text(add)));
+  }
+  c.ini.set(section, "BACKLASH", number_text(next));
+  c.plan.changes.push_back(fmt::format("[{}] BACKLASH {} -> {} (axis {} backlash {:+.4f} mm)",
+                                       section, number_text(backlash_now), number_text(next),
+                                       letter, backlash_mm));
+}
+
+struct JointTable {
+  CompTable table;
+  std::string path;
+  bool existed = false;
+};
+
+// The joint's table: its COMP_FILE, or a new one over MIN_LIMIT..MAX_LIMIT with BACKLASH in it.
+JointTable table_of_joint(PlanContext& c, const std::string& section, int j, double lo, double hi,
+                          double backlash_now) {
+  JointTable t;
+  if (const auto comp_file = c.ini.get(section, "COMP_FILE")) {
+    t.path =
+        fs::path(*comp_file).is_absolute() ? *comp_file : (fs::path(c.dir) / *comp_file).string();
+    const auto type_text = c.ini.get(section, "COMP_FILE_TYPE").value_or("0");
+    const auto type = parse_finite(type_text);
+    if (!type || (*type != 0 && *type != 1)) {
+      throw DataError(
+          c.ini_path, 0,
+          fmt::format("[{}] COMP_FILE_TYPE = {} (expected 0 or 1)", section, type_text));
+    }
+    const auto it = c.tables.find(t.path);
+    const std::string text =
+        it != c.tables.end() ? it->second.second : read_target(c.config, t.path, t.existed);
+    if (it != c.tables.end()) t.existed = it->second.first;
+    if (!t.existed && it == c.tables.end()) {
+      throw DataError(c.ini_path, 0,
+                      fmt::format("[{}] COMP_FILE {}: no such file", section, *comp_file));
+    }
+    t.table = parse_comp_table(text, static_cast<int>(*type), t.path);
+    if (backlash_now != 0.0) {
+      c.plan.notes.push_back(fmt::format(
+          "[{}] BACKLASH = {} has no effect: LinuxCNC ignores it when a COMP_FILE is set", section,
+          number_text(backlash_now)));
+    }
+    return t;
+  }
+  const std::string name = fmt::format("circtest-joint{}.comp", j);
+  t.path = (fs::path(c.dir) / name).string();
+  t.table.type = 1;
+  t.table.entries = {{lo, backlash_now / 2, -backlash_now / 2},
+                     {hi, backlash_now / 2, -backlash_now / 2}};
+  read_target(c.config, t.path, t.existed);
+  if (t.existed) {
+    throw DataError(t.path, 0,
+                    fmt::format("exists but [{}] has no COMP_FILE: move it away first", section));
+  }
+  c.ini.set(section, "COMP_FILE", name);
+  c.ini.set(section, "COMP_FILE_TYPE", "1");
+  c.ini.set(section, "BACKLASH", "0");
+  c.ini.comment_before(section, "BACKLASH",
+                       fmt::format("circcomp: backlash ({}) is in {}; LinuxCNC ignores "
+                                   "BACKLASH when a COMP_FILE is set",
+                                   number_text(backlash_now), name));
+  c.plan.changes.push_back(
+      fmt::format("[{}] COMP_FILE {} created (type 1, BACKLASH {} moved into it)", section, name,
+                  number_text(backlash_now)));
+  return t;
+}
+
+// The nominal points of the corrected table: the table's own, the travel's ends (a scale trim
+// grows along the whole travel), and for a cyclic term at least 16 points a pitch.
+std::vector<double> corrected_nominals(const CompTable& table, const Correction& corr,
+                                       const std::optional<std::pair<Cyclic, std::size_t>>& cyclic,
+                                       double lo, double hi, const std::string& table_path) {
+  std::vector<double> nominal;
+  for (const auto& e : table.entries) nominal.push_back(e.nominal);
+  if (corr.scale_ppm || cyclic) {
+    nominal.push_back(lo);
+    nominal.push_back(hi);
+  }
+  if (cyclic) {
+    const std::size_t n = cyclic->second;
+    for (std::size_t i = 0; i < n; ++i) {
+      nominal.push_back(
+          std::min(hi, lo + static_cast<double>(i) * (hi - lo) / static_cast<double>(n - 1)));
+    }
+  }
+  std::sort(nominal.begin(), nominal.end());
+  nominal.erase(std::unique(nominal.begin(), nominal.end(),
+                            [](double a, double b) { return std::fabs(a - b) < 1e-9; }),
+                nominal.end());
+  if (nominal.size() > kMaxCompEntries) {
+    throw DataError(
+        table_path, 0,
+        fmt::format("the merged table would have {} entries, more than 256", nominal.size()));
+  }
+  return nominal;
+}
+
+// The table with the corrections added to its trims at every nominal point.
+CompTable corrected_table(const PlanContext& c, const JointTable& t, const Correction& corr,
+                          const std::optional<std::pair<Cyclic, std::size_t>>& cyclic, double lo,
+                          double hi) {
+  CompTable next;
+  next.type = t.table.type;
+  for (const double x : corrected_nominals(t.table, corr, cyclic, lo, hi, t.path)) {
+    CompEntry e = t.table.at(x);
+    double common = 0.0;
+    if (corr.scale_ppm) common -= c.o.gain * *corr.scale_ppm * 1e-6 * x;
+    if (cyclic) {
+      const Cyclic& cy = cyclic->first;
+      common -= c.o.gain * cy.amplitude_mm * c.upm *
+                std::sin(2 * std::numbers::pi * x / (cy.pitch_mm * c.upm) + cy.phase_rad);
+    }
+    e.forward_trim += common;
+    e.reverse_trim += common;
+    if (corr.backlash_mm) {
+      e.forward_trim += c.o.gain * *corr.backlash_mm * c.upm / 2;
+      e.reverse_trim -= c.o.gain * *corr.backlash_mm * c.upm / 2;
+    }
+    if (!std::isfinite(e.forward_trim) || !std::isfinite(e.reverse_trim)) {
+      throw DataError(t.path, 0,
+                      fmt::format("the corrected trim at {} is not a finite number: the "
+                                  "correction is out of any range a table can hold",
+                                  number_text(x)));
+    }
+    next.entries.push_back(e);
+  }
+  return next;
+}
+
+// Joint j of axis `letter`: its BACKLASH, or its compensation table with every correction.
+void plan_joint(PlanContext& c, char letter, const Correction& corr, int j) {
+  const std::string section = fmt::format("JOINT_{}", j);
+  if (!c.ini.has_section(section)) {
+    throw DataError(c.ini_path, 0, fmt::format("no [{}] section for axis {}", section, letter));
+  }
+  const auto cyclic =
+      corr.cyclic ? cyclic_for_joint(c, letter, section, *corr.cyclic) : std::nullopt;
+  const bool needs_table = c.ini.get(section, "COMP_FILE") || corr.scale_ppm || cyclic;
+  if (!needs_table && !corr.backlash_mm) return;
+  const double backlash_now = backlash_in_ini(c.ini, section);
+  if (!needs_table) {
+    plan_backlash_key(c, section, letter, *corr.backlash_mm, backlash_now);
+    return;
+  }
+  const double lo = travel_limit(c, section, "MIN_LIMIT"),
+               hi = travel_limit(c, section, "MAX_LIMIT");
+  if (!(hi > lo))
+    throw DataError(c.ini_path, 0, fmt::format("[{}] MAX_LIMIT <= MIN_LIMIT", section));
+  const JointTable t = table_of_joint(c, section, j, lo, hi, backlash_now);
+  const CompTable next = corrected_table(c, t, corr, cyclic, lo, hi);
+  c.tables[t.path] = {t.existed, render_comp_table(next)};
+  std::string what;
+  if (corr.backlash_mm) what += fmt::format(" backlash {:+.4f} mm", c.o.gain * *corr.backlash_mm);
+  if (corr.scale_ppm) what += fmt::format(" scale {:+.2f} ppm", -c.o.gain * *corr.scale_ppm);
+  if (cyclic) {
+    what += fmt::format(" cyclic {:.4f} mm / {} mm", cyclic->first.amplitude_mm,
+                        number_text(cyclic->first.pitch_mm));
+  }
+  c.plan.changes.push_back(fmt::format("[{}] {} ({} entries, type {}):{}", section,
+                                       fs::path(t.path).filename().string(), next.entries.size(),
+                                       next.type, what));
+}
+
+// Squareness: through the circtest_kins kinematics module.
+void plan_squareness_step(PlanContext& c) {
+  std::optional<double> v;
+  try {
+    v = accepted(c.d.squareness_urad, fmt::format("{}/{} squareness", c.d.axes[0], c.d.axes[1]),
+                 kMinSquarenessUrad, kMaxSquarenessUrad, "urad", c.o, c.plan.notes);
+  } catch (const DataError& e) {
+    throw DataError(c.d.source, 0, e.detail());
+  }
+  if (v) {
+    plan_squareness(c.ini, c.config, c.d, c.o.gain * *v, c.plan, c.tables);
+    c.plan.needs_kins_module = true;
+  }
+}
+
+// Advice: the servo mismatch, which no configuration value of circcomp's changes.
+void servo_advice(PlanContext& c) {
+  const DiagnosisInput& d = c.d;
+  if (!d.servo_mismatch_ms.value || std::fabs(*d.servo_mismatch_ms.value) < 0.05) return;
+  const double m = *d.servo_mismatch_ms.value;
+  const char slow = m > 0 ? d.axes[0] : d.axes[1];
+  const char fast = m > 0 ? d.axes[1] : d.axes[0];
+  std::string joints;
+  for (int j : joints_of(c.ini, slow)) joints += fmt::format(" [JOINT_{}]", j);
+  std::string how = "until their lag times 1/Kv agree";
+  if (d.kv_per_s && *d.kv_per_s > 0) {
+    const double kv = *d.kv_per_s;
+    const double lag_slow = 1.0 / kv + std::fabs(m) * 1e-3 / 2;
+    const double lag_fast = 1.0 / kv - std::fabs(m) * 1e-3 / 2;
+    how = fmt::format("(about Kv {:.1f} 1/s now against {:.1f} 1/s: raise it by {:.1f} %)",
+                      1.0 / lag_slow, 1.0 / lag_fast, (lag_slow / lag_fast - 1.0) * 100.0);
+  }
+  c.plan.advice.push_back(fmt::format(
+      "servo mismatch: {} lags {} by {:.2f} ms: raise the position-loop gain (P, Kv) of{} "
+      "{} or lower {}'s; no INI value of circcomp's changes that",
+      slow, fast, std::fabs(m), joints, how, fast));
+}
+
+// Friction: circfric wired by circtest-fric.hal, its values in [FRICTION_<axis>]. Returns
+// whether it was planned.
+bool friction_step(PlanContext& c) {
+  if (!c.wants("friction")) return false;
+  if (c.o.friction_requested) {
+    plan_friction(c.ini, c.config, c.d, c.o, c.plan, c.tables);
+    return true;
+  }
+  // Tried on copies: a configuration without a pid or stepgen to splice into (a simulated
+  // machine, a HAL of its own kind) keeps every other correction.
+  IniDocument ini_tried = c.ini;
+  Plan plan_tried = c.plan;
+  TableFiles tables_tried = c.tables;
+  try {
+    plan_friction(ini_tried, c.config, c.d, c.o, plan_tried, tables_tried);
+  } catch (const DataError& e) {
+    // What the measurement says (an implausible spike) is refused as ever; only where to
+    // wire the compensator is in question here.
+    if (e.file() == c.d.source) throw;
+    c.plan.notes.push_back(fmt::format("friction compensation not planned: {}", e.what()));
+    return false;
+  }
+  c.ini = std::move(ini_tried);
+  c.plan = std::move(plan_tried);
+  c.tables = std::move(tables_tried);
+  return true;
+}
+
+void spike_advice(PlanContext& c) {
+  for (int k = 0; k < 2; ++k) {
+    const auto& s = c.d.reversal_spike_mm[k];
+    if (!s.value || std::fabs(*s.value) < 1e-3) continue;
+    c.plan.advice.push_back(fmt::format(
+        "{} reversal spikes of {:.1f} um{}: friction (stick-slip at the reversal), not play; "
+        "compensating them as backlash makes parts worse: check gibs and lubrication, or "
+        "let circcomp plan friction compensation (circfric)",
+        c.d.axes[k], *s.value * 1e3,
+        c.d.reversal_spike_ms[k] ? fmt::format(" decaying in {:.0f} ms", *c.d.reversal_spike_ms[k])
+                                 : ""));
+  }
+}
+
+// Every file whose content changes: the INI and its includes, then the tables and HAL files.
+void collect_files(PlanContext& c) {
+  auto add = [&](const std::string& path, std::string after) {
+    FileChange f;
+    f.path = path;
+    f.name = target_name(c.config, path);
+    for (const FileChange& other : c.plan.files) {
+      if (other.name == f.name) {
+        throw DataError(c.ini_path, 0,
+                        fmt::format("{} and {} are the same file ({}): name it one way", other.path,
+                                    path, c.config.path(f.name)));
+      }
+    }
+    f.before = slurp_if(path, f.existed);
+    f.after = std::move(after);
+    if (f.before != f.after) c.plan.files.push_back(std::move(f));
+  };
+  for (std::size_t i = 0; i < c.ini.file_count(); ++i) {
+    if (c.ini.file_modified(i)) add(c.ini.file_path(i), c.ini.render_file(i));
+  }
+  for (const auto& [path, t] : c.tables) add(path, t.second);
+}
+
+}  // namespace
+
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanOptions& o) {
   if (!(o.gain > 0.0 && o.gain <= 1.0)) {
     throw UsageError(fmt::format("{}: expected 0 < F <= 1", o.setting_words(PlanSetting::gain)));
@@ -387,319 +763,19 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
   plan.ini_path = ini_path;
   IniDocument ini = IniDocument::load(ini_path);
   const ConfigDir config(ini_path);
-  const double upm = units_per_mm(ini);
-  const std::string dir = ini_dir(ini_path);
   plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == sha256_hex(ini_text(ini_path));
-
-  auto wants = [&o](const char* what) { return o.only.count(what) > 0; };
-  std::map<std::string, std::pair<bool, std::string>> tables;  // path -> (existed, after)
+  TableFiles tables;
+  PlanContext c{ini_path, d, o, ini, config, units_per_mm(ini), ini_dir(ini_path), plan, tables};
 
   for (int k = 0; k < 2; ++k) {
-    const char letter = d.axes[k];
-    Correction c;
-    try {
-      if (wants("backlash")) {
-        c.backlash_mm = accepted(d.backlash_mm[k], fmt::format("{} backlash", letter),
-                                 kMinBacklashMm, kMaxBacklashMm, "mm", o, plan.notes);
-      }
-      if (wants("scale")) {
-        if (!d.scale_ppm[k].value && d.scale_mismatch_ppm.value) {
-          plan.notes.push_back(fmt::format(
-              "{} scale: only the mismatch of the plane's axes is known (relative channels); "
-              "no absolute scale to write",
-              letter));
-        } else {
-          c.scale_ppm = accepted(d.scale_ppm[k], fmt::format("{} scale", letter), kMinScalePpm,
-                                 kMaxScalePpm, "ppm", o, plan.notes);
-        }
-      }
-      if (wants("cyclic") && d.cyclic[k]) {
-        const Cyclic& cy = *d.cyclic[k];
-        if (accepted({cy.amplitude_mm, cy.amplitude_se_mm}, fmt::format("{} cyclic", letter),
-                     kMinCyclicMm, kMaxCyclicMm, "mm", o, plan.notes)) {
-          c.cyclic = cy;
-        }
-      }
-    } catch (const DataError& e) {
-      throw DataError(d.source, 0, e.detail());
-    }
-    if (!c.backlash_mm && !c.scale_ppm && !c.cyclic) continue;
-
-    for (const int j : joints_of(ini, letter)) {
-      const std::string section = fmt::format("JOINT_{}", j);
-      if (!ini.has_section(section)) {
-        throw DataError(ini_path, 0, fmt::format("no [{}] section for axis {}", section, letter));
-      }
-      auto limit = [&](const char* key) {
-        const auto e = ini.find(section, key);
-        const auto v = e ? parse_finite(e->value) : std::nullopt;
-        if (!v) {
-          throw DataError(
-              ini_path, 0,
-              fmt::format("[{}] {} is needed to lay out a compensation table", section, key));
-        }
-        if (std::fabs(*v) > kMaxTravelMm * upm) {
-          throw DataError(e->file, e->line,
-                          fmt::format("[{}] {} = {}: a compensation table needs the real travel "
-                                      "(within +-{} mm)",
-                                      section, key, e->value, kMaxTravelMm));
-        }
-        return *v;
-      };
-      std::optional<Cyclic> cyclic = c.cyclic;
-      std::size_t cyclic_points = 0;
-      if (cyclic) {
-        // At least 16 points a pitch over the whole travel, within LinuxCNC's 256; counted in
-        // double first, so that no pitch and travel overflow the count.
-        const double span = limit("MAX_LIMIT") - limit("MIN_LIMIT");
-        const double points = std::ceil(span / (cyclic->pitch_mm * upm / 16.0)) + 1;
-        if (!(points <= static_cast<double>(kMaxCompEntries))) {
-          plan.notes.push_back(fmt::format(
-              "{} cyclic: a {} mm pitch over [{}] MIN_LIMIT..MAX_LIMIT needs {:.0f} points, "
-              "more than LinuxCNC's 256: not written",
-              letter, number_text(cyclic->pitch_mm), section, points));
-          cyclic.reset();
-        } else {
-          cyclic_points = static_cast<std::size_t>(std::max(points, 2.0));
-        }
-      }
-      const auto comp_file = ini.get(section, "COMP_FILE");
-      const bool needs_table = comp_file || c.scale_ppm || cyclic;
-      if (!needs_table && !c.backlash_mm) continue;
-      const double backlash_now = [&] {
-        const auto e = ini.find(section, "BACKLASH");
-        if (!e || e->value.empty()) return 0.0;
-        const auto v = parse_finite(e->value);
-        if (!v) throw ParseError(e->file, e->line, "[" + section + "] BACKLASH: not a number");
-        return *v;
-      }();
-      if (!needs_table) {
-        const double add = o.gain * *c.backlash_mm * upm;
-        double next = backlash_now + add;
-        if (next < 0) {
-          plan.notes.push_back(fmt::format(
-              "[{}] BACKLASH {} + {} is negative: set to 0 (the machine is over-compensated)",
-              section, number_text(backlash_now), number_text(add)));
-          next = 0;
-        }
-        if (!std::isfinite(next)) {
-          throw DataError(d.source, 0,
-                          fmt::format("[{}] BACKLASH {} + {} is not a finite number", section,
-                                      number_text(backlash_now), number_text(add)));
-        }
-        ini.set(section, "BACKLASH", number_text(next));
-        plan.changes.push_back(fmt::format("[{}] BACKLASH {} -> {} (axis {} backlash {:+.4f} mm)",
-                                           section, number_text(backlash_now), number_text(next),
-                                           letter, *c.backlash_mm));
-        continue;
-      }
-
-      // A table: the existing one, or a new one over MIN_LIMIT..MAX_LIMIT with BACKLASH in it.
-      CompTable table;
-      std::string table_path;
-      bool existed = false;
-      const double lo = limit("MIN_LIMIT"), hi = limit("MAX_LIMIT");
-      if (!(hi > lo))
-        throw DataError(ini_path, 0, fmt::format("[{}] MAX_LIMIT <= MIN_LIMIT", section));
-      if (comp_file) {
-        table_path =
-            fs::path(*comp_file).is_absolute() ? *comp_file : (fs::path(dir) / *comp_file).string();
-        const auto type_text = ini.get(section, "COMP_FILE_TYPE").value_or("0");
-        const auto type = parse_finite(type_text);
-        if (!type || (*type != 0 && *type != 1)) {
-          throw DataError(
-              ini_path, 0,
-              fmt::format("[{}] COMP_FILE_TYPE = {} (expected 0 or 1)", section, type_text));
-        }
-        const auto it = tables.find(table_path);
-        const std::string text =
-            it != tables.end() ? it->second.second : read_target(config, table_path, existed);
-        if (it != tables.end()) existed = it->second.first;
-        if (!existed && it == tables.end()) {
-          throw DataError(ini_path, 0,
-                          fmt::format("[{}] COMP_FILE {}: no such file", section, *comp_file));
-        }
-        table = parse_comp_table(text, static_cast<int>(*type), table_path);
-        if (backlash_now != 0.0) {
-          plan.notes.push_back(fmt::format(
-              "[{}] BACKLASH = {} has no effect: LinuxCNC ignores it when a COMP_FILE is set",
-              section, number_text(backlash_now)));
-        }
-      } else {
-        const std::string name = fmt::format("circtest-joint{}.comp", j);
-        table_path = (fs::path(dir) / name).string();
-        table.type = 1;
-        table.entries = {{lo, backlash_now / 2, -backlash_now / 2},
-                         {hi, backlash_now / 2, -backlash_now / 2}};
-        read_target(config, table_path, existed);
-        if (existed) {
-          throw DataError(
-              table_path, 0,
-              fmt::format("exists but [{}] has no COMP_FILE: move it away first", section));
-        }
-        ini.set(section, "COMP_FILE", name);
-        ini.set(section, "COMP_FILE_TYPE", "1");
-        ini.set(section, "BACKLASH", "0");
-        ini.comment_before(section, "BACKLASH",
-                           fmt::format("circcomp: backlash ({}) is in {}; LinuxCNC ignores "
-                                       "BACKLASH when a COMP_FILE is set",
-                                       number_text(backlash_now), name));
-        plan.changes.push_back(
-            fmt::format("[{}] COMP_FILE {} created (type 1, BACKLASH {} moved into it)", section,
-                        name, number_text(backlash_now)));
-      }
-
-      // The nominal points: the table's own, the travel's ends (a scale trim grows along the
-      // whole travel), and for a cyclic term at least 16 points a pitch.
-      std::vector<double> nominal;
-      for (const auto& e : table.entries) nominal.push_back(e.nominal);
-      if (c.scale_ppm || cyclic) {
-        nominal.push_back(lo);
-        nominal.push_back(hi);
-      }
-      if (cyclic) {
-        const std::size_t n = cyclic_points;
-        for (std::size_t i = 0; i < n; ++i) {
-          nominal.push_back(
-              std::min(hi, lo + static_cast<double>(i) * (hi - lo) / static_cast<double>(n - 1)));
-        }
-      }
-      std::sort(nominal.begin(), nominal.end());
-      nominal.erase(std::unique(nominal.begin(), nominal.end(),
-                                [](double a, double b) { return std::fabs(a - b) < 1e-9; }),
-                    nominal.end());
-      if (nominal.size() > kMaxCompEntries) {
-        throw DataError(
-            table_path, 0,
-            fmt::format("the merged table would have {} entries, more than 256", nominal.size()));
-      }
-      CompTable next;
-      next.type = table.type;
-      for (const double x : nominal) {
-        CompEntry e = table.at(x);
-        double common = 0.0;
-        if (c.scale_ppm) common -= o.gain * *c.scale_ppm * 1e-6 * x;
-        if (cyclic) {
-          common -=
-              o.gain * cyclic->amplitude_mm * upm *
-              std::sin(2 * std::numbers::pi * x / (cyclic->pitch_mm * upm) + cyclic->phase_rad);
-        }
-        e.forward_trim += common;
-        e.reverse_trim += common;
-        if (c.backlash_mm) {
-          e.forward_trim += o.gain * *c.backlash_mm * upm / 2;
-          e.reverse_trim -= o.gain * *c.backlash_mm * upm / 2;
-        }
-        if (!std::isfinite(e.forward_trim) || !std::isfinite(e.reverse_trim)) {
-          throw DataError(table_path, 0,
-                          fmt::format("the corrected trim at {} is not a finite number: the "
-                                      "correction is out of any range a table can hold",
-                                      number_text(x)));
-        }
-        next.entries.push_back(e);
-      }
-      tables[table_path] = {existed, render_comp_table(next)};
-      std::string what;
-      if (c.backlash_mm) what += fmt::format(" backlash {:+.4f} mm", o.gain * *c.backlash_mm);
-      if (c.scale_ppm) what += fmt::format(" scale {:+.2f} ppm", -o.gain * *c.scale_ppm);
-      if (cyclic)
-        what += fmt::format(" cyclic {:.4f} mm / {} mm", cyclic->amplitude_mm,
-                            number_text(cyclic->pitch_mm));
-      plan.changes.push_back(fmt::format("[{}] {} ({} entries, type {}):{}", section,
-                                         fs::path(table_path).filename().string(),
-                                         next.entries.size(), next.type, what));
-    }
+    const Correction corr = accepted_correction(c, k);
+    if (!corr.backlash_mm && !corr.scale_ppm && !corr.cyclic) continue;
+    for (const int j : joints_of(ini, d.axes[k])) plan_joint(c, d.axes[k], corr, j);
   }
-
-  // Squareness: through the circtest_kins kinematics module.
-  if (wants("squareness")) {
-    std::optional<double> v;
-    try {
-      v = accepted(d.squareness_urad, fmt::format("{}/{} squareness", d.axes[0], d.axes[1]),
-                   kMinSquarenessUrad, kMaxSquarenessUrad, "urad", o, plan.notes);
-    } catch (const DataError& e) {
-      throw DataError(d.source, 0, e.detail());
-    }
-    if (v) {
-      plan_squareness(ini, config, d, o.gain * *v, plan, tables);
-      plan.needs_kins_module = true;
-    }
-  }
-  // Advice: what a configuration file cannot fix.
-  if (d.servo_mismatch_ms.value && std::fabs(*d.servo_mismatch_ms.value) >= 0.05) {
-    const double m = *d.servo_mismatch_ms.value;
-    const char slow = m > 0 ? d.axes[0] : d.axes[1];
-    const char fast = m > 0 ? d.axes[1] : d.axes[0];
-    std::string joints;
-    for (int j : joints_of(ini, slow)) joints += fmt::format(" [JOINT_{}]", j);
-    std::string how = "until their lag times 1/Kv agree";
-    if (d.kv_per_s && *d.kv_per_s > 0) {
-      const double kv = *d.kv_per_s;
-      const double lag_slow = 1.0 / kv + std::fabs(m) * 1e-3 / 2;
-      const double lag_fast = 1.0 / kv - std::fabs(m) * 1e-3 / 2;
-      how = fmt::format("(about Kv {:.1f} 1/s now against {:.1f} 1/s: raise it by {:.1f} %)",
-                        1.0 / lag_slow, 1.0 / lag_fast, (lag_slow / lag_fast - 1.0) * 100.0);
-    }
-    plan.advice.push_back(fmt::format(
-        "servo mismatch: {} lags {} by {:.2f} ms: raise the position-loop gain (P, Kv) of{} "
-        "{} or lower {}'s; no INI value of circcomp's changes that",
-        slow, fast, std::fabs(m), joints, how, fast));
-  }
-  // Friction: circfric wired by circtest-fric.hal, its values in [FRICTION_<axis>].
-  bool friction_planned = wants("friction");
-  if (friction_planned && o.friction_requested) {
-    plan_friction(ini, config, d, o, plan, tables);
-  } else if (friction_planned) {
-    // Tried on copies: a configuration without a pid or stepgen to splice into (a simulated
-    // machine, a HAL of its own kind) keeps every other correction.
-    IniDocument ini_tried = ini;
-    Plan plan_tried = plan;
-    auto tables_tried = tables;
-    try {
-      plan_friction(ini_tried, config, d, o, plan_tried, tables_tried);
-      ini = std::move(ini_tried);
-      plan = std::move(plan_tried);
-      tables = std::move(tables_tried);
-    } catch (const DataError& e) {
-      // What the measurement says (an implausible spike) is refused as ever; only where to
-      // wire the compensator is in question here.
-      if (e.file() == d.source) throw;
-      plan.notes.push_back(fmt::format("friction compensation not planned: {}", e.what()));
-      friction_planned = false;
-    }
-  }
-  for (int k = 0; k < 2 && !friction_planned; ++k) {
-    const auto& s = d.reversal_spike_mm[k];
-    if (s.value && std::fabs(*s.value) >= 1e-3) {
-      plan.advice.push_back(fmt::format(
-          "{} reversal spikes of {:.1f} um{}: friction (stick-slip at the reversal), not play; "
-          "compensating them as backlash makes parts worse: check gibs and lubrication, or "
-          "let circcomp plan friction compensation (circfric)",
-          d.axes[k], *s.value * 1e3,
-          d.reversal_spike_ms[k] ? fmt::format(" decaying in {:.0f} ms", *d.reversal_spike_ms[k])
-                                 : ""));
-    }
-  }
-
-  auto add = [&](const std::string& path, std::string after) {
-    FileChange f;
-    f.path = path;
-    f.name = target_name(config, path);
-    for (const FileChange& other : plan.files) {
-      if (other.name == f.name) {
-        throw DataError(ini_path, 0,
-                        fmt::format("{} and {} are the same file ({}): name it one way", other.path,
-                                    path, config.path(f.name)));
-      }
-    }
-    f.before = slurp_if(path, f.existed);
-    f.after = std::move(after);
-    if (f.before != f.after) plan.files.push_back(std::move(f));
-  };
-  for (std::size_t i = 0; i < ini.file_count(); ++i) {
-    if (ini.file_modified(i)) add(ini.file_path(i), ini.render_file(i));
-  }
-  for (const auto& [path, t] : tables) add(path, t.second);
+  if (c.wants("squareness")) plan_squareness_step(c);
+  servo_advice(c);
+  if (!friction_step(c)) spike_advice(c);
+  collect_files(c);
   return plan;
 }
 
