@@ -1,4 +1,4 @@
-#include "circtest/analysis/commands.hpp"
+#include "circtest/circana/commands.hpp"
 
 #include <fmt/format.h>
 
@@ -6,16 +6,17 @@
 #include <optional>
 
 #include "circtest/analysis/diagnosis.hpp"
-#include "circtest/analysis/history_record.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/remedy.hpp"
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_checks.hpp"
+#include "circtest/circana/history_record.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/json_text.hpp"
+#include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "circtest/core/utc_time.hpp"
@@ -139,7 +140,7 @@ std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
   history::TestRecord record = history_record(ev, diagnosis, {}, circana_option_words, source);
   std::error_code ec;
   if (!trace_path.empty() && std::filesystem::is_regular_file(trace_path, ec)) {
-    record.trace_sha256 = history::sha256_file(trace_path);
+    record.trace_sha256 = sha256_of_file(trace_path);
     record.trace_path = utf8_replacing_invalid(std::filesystem::absolute(trace_path, ec).string());
   }
   const auto store = history::open_store(db_url, "--db");
