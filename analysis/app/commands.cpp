@@ -13,6 +13,7 @@
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/circana/history_record.hpp"
 #include "circtest/core/atomic_file.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/json_text.hpp"
@@ -315,9 +316,9 @@ std::optional<nlohmann::ordered_json> store_document(const std::string& path) {
 int run_store(const StoreRequest& request, std::ostream& out) {
   if (std::optional<nlohmann::ordered_json> document = store_document(request.path)) {
     if (!document->is_object()) throw ParseError(request.path, 0, "expected a JSON object");
-    const auto schema = document->find("schema");
+    const auto schema = document->find(diagnosis_json::key::schema);
     if (schema != document->end() && schema->is_string() &&
-        schema->get<std::string>().starts_with("circtest.diagnosis/")) {
+        schema->get<std::string>().starts_with(diagnosis_json::kSchemaFamily)) {
       throw DataError(request.path, 0,
                       "a diagnosis document: store the trace (circana diagnose --store) or its "
                       "evaluation (circana analyze --json)");
