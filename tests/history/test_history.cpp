@@ -24,6 +24,7 @@
 #include "circtest/history/history.hpp"
 #include "expect_error.hpp"
 #include "machine_sim.hpp"
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -31,11 +32,9 @@ using namespace circtest::history;
 
 namespace {
 
+// A file that is not there reads as "" (the checks below then say what is missing).
 std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return circtest::testing::slurp_if_exists(p);
 }
 
 struct Result {

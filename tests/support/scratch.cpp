@@ -26,6 +26,16 @@ ScratchDir::~ScratchDir() {
   std::filesystem::remove_all(path_, ignored);
 }
 
+std::string ScratchDir::write(const std::string& name, const std::string& text) const {
+  const std::string path = file(name);
+  spit(path, text);
+  return path;
+}
+
+std::string ScratchDir::read(const std::string& name) const {
+  return slurp(file(name));
+}
+
 std::string slurp(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot read " + path.string());

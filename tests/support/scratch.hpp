@@ -17,6 +17,10 @@ class ScratchDir {
   const std::string& path() const { return path_; }
   std::filesystem::path dir() const { return path_; }
   std::string file(const std::string& name) const { return path_ + "/" + name; }
+  // Writes (replaces) the file NAME in the folder; its path.
+  std::string write(const std::string& name, const std::string& text) const;
+  // The whole file NAME of the folder; throws std::runtime_error when it cannot be read.
+  std::string read(const std::string& name) const;
   // Leave the folder for a post-mortem (a failed test's logs).
   void keep() { keep_ = true; }
 

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/core/setting_words.hpp"
 
 namespace circtest::compensation {
 
@@ -23,7 +24,7 @@ enum class PlanSetting {
   record_with_ini,     // how to record a trace whose diagnosis carries the INI's SHA-256
   without_squareness,  // the corrections without squareness (no circtest_kins needed)
 };
-using PlanSettingWords = std::string_view (*)(PlanSetting setting);
+using PlanSettingWords = SettingWords<PlanSetting>;
 // The library's words: "the force setting", "the gain setting", ...
 std::string_view library_setting_words(PlanSetting setting) noexcept;
 
