@@ -25,12 +25,7 @@ using circtest::testing::CommandResult;
 using circtest::testing::run_command;
 using circtest::testing::slurp;
 
-std::vector<std::string> words(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  for (std::string w; in >> w;) out.push_back(w);
-  return out;
-}
+using circtest::testing::words;
 
 std::string mm(double v) {
   char buf[64];

@@ -36,6 +36,9 @@ std::string slurp_if_exists(const std::filesystem::path& path);
 // Writes (replaces) the whole file; throws std::runtime_error on failure.
 void spit(const std::filesystem::path& path, const std::string& text);
 
+// The blank-separated words of a command line (for tests whose paths have no blanks).
+std::vector<std::string> words(const std::string& text);
+
 struct CommandResult {
   int exit_code = -1;  // 128 + signal when killed
   std::string out;
