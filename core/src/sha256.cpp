@@ -1,6 +1,8 @@
 #include "circtest/core/sha256.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 #include "circtest/core/input_file.hpp"
@@ -14,14 +16,22 @@ namespace {
 class Sha256 {
  public:
   void update(std::string_view data) {
-    for (const char c : data) {
-      block_[fill_++] = static_cast<std::uint8_t>(c);
-      if (fill_ == block_.size()) {
-        compress();
-        fill_ = 0;
-      }
+    const auto* p = reinterpret_cast<const std::uint8_t*>(data.data());
+    std::size_t n = data.size();
+    bytes_ += n;
+    if (fill_ > 0) {
+      const std::size_t take = std::min(n, block_.size() - fill_);
+      std::copy_n(p, take, block_.begin() + static_cast<std::ptrdiff_t>(fill_));
+      fill_ += take;
+      p += take;
+      n -= take;
+      if (fill_ < block_.size()) return;
+      compress(block_.data());
+      fill_ = 0;
     }
-    bytes_ += data.size();
+    for (; n >= block_.size(); p += block_.size(), n -= block_.size()) compress(p);
+    std::copy_n(p, n, block_.begin());
+    fill_ = n;
   }
 
   std::string hex() {
@@ -29,12 +39,12 @@ class Sha256 {
     block_[fill_++] = 0x80;
     if (fill_ > 56) {
       while (fill_ < 64) block_[fill_++] = 0;
-      compress();
+      compress(block_.data());
       fill_ = 0;
     }
     while (fill_ < 56) block_[fill_++] = 0;
     for (int i = 7; i >= 0; --i) block_[fill_++] = static_cast<std::uint8_t>(bits >> (8 * i));
-    compress();
+    compress(block_.data());
     static constexpr char kDigits[] = "0123456789abcdef";
     std::string out;
     for (const std::uint32_t word : h_) {
@@ -46,7 +56,7 @@ class Sha256 {
  private:
   static std::uint32_t rotr(std::uint32_t x, int n) { return (x >> n) | (x << (32 - n)); }
 
-  void compress() {
+  void compress(const std::uint8_t* block) {
     static constexpr std::array<std::uint32_t, 64> k = {
         0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4,
         0xab1c5ed5, 0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe,
@@ -60,24 +70,31 @@ class Sha256 {
         0xc67178f2};
     std::array<std::uint32_t, 64> w{};
     for (std::size_t i = 0; i < 16; ++i) {
-      w[i] = std::uint32_t{block_[4 * i]} << 24 | std::uint32_t{block_[4 * i + 1]} << 16 |
-             std::uint32_t{block_[4 * i + 2]} << 8 | std::uint32_t{block_[4 * i + 3]};
+      w[i] = std::uint32_t{block[4 * i]} << 24 | std::uint32_t{block[4 * i + 1]} << 16 |
+             std::uint32_t{block[4 * i + 2]} << 8 | std::uint32_t{block[4 * i + 3]};
     }
     for (std::size_t i = 16; i < 64; ++i) {
       const std::uint32_t s0 = rotr(w[i - 15], 7) ^ rotr(w[i - 15], 18) ^ (w[i - 15] >> 3);
       const std::uint32_t s1 = rotr(w[i - 2], 17) ^ rotr(w[i - 2], 19) ^ (w[i - 2] >> 10);
       w[i] = w[i - 16] + s0 + w[i - 7] + s1;
     }
-    std::array<std::uint32_t, 8> v = h_;
+    std::uint32_t a = h_[0], b = h_[1], c = h_[2], d = h_[3];
+    std::uint32_t e = h_[4], f = h_[5], g = h_[6], h = h_[7];
     for (std::size_t i = 0; i < 64; ++i) {
-      const std::uint32_t s1 = rotr(v[4], 6) ^ rotr(v[4], 11) ^ rotr(v[4], 25);
-      const std::uint32_t ch = (v[4] & v[5]) ^ (~v[4] & v[6]);
-      const std::uint32_t t1 = v[7] + s1 + ch + k[i] + w[i];
-      const std::uint32_t s0 = rotr(v[0], 2) ^ rotr(v[0], 13) ^ rotr(v[0], 22);
-      const std::uint32_t maj = (v[0] & v[1]) ^ (v[0] & v[2]) ^ (v[1] & v[2]);
-      const std::uint32_t t2 = s0 + maj;
-      v = {t1 + t2, v[0], v[1], v[2], v[3] + t1, v[4], v[5], v[6]};
+      const std::uint32_t t1 =
+          h + (rotr(e, 6) ^ rotr(e, 11) ^ rotr(e, 25)) + ((e & f) ^ (~e & g)) + k[i] + w[i];
+      const std::uint32_t t2 =
+          (rotr(a, 2) ^ rotr(a, 13) ^ rotr(a, 22)) + ((a & b) ^ (a & c) ^ (b & c));
+      h = g;
+      g = f;
+      f = e;
+      e = d + t1;
+      d = c;
+      c = b;
+      b = a;
+      a = t1 + t2;
     }
+    const std::array<std::uint32_t, 8> v = {a, b, c, d, e, f, g, h};
     for (std::size_t i = 0; i < 8; ++i) h_[i] += v[i];
   }
 
