@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "circtest/analysis/commands.hpp"
+#include "circtest/circana/commands.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/cli_options.hpp"
 #include "circtest/core/conditions.hpp"

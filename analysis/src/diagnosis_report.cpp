@@ -1,16 +1,19 @@
-// The diagnosis as JSON (schema circtest.diagnosis/1, read by the compensation part) and text.
+// The diagnosis as JSON (diagnosis_keys.hpp, docs/diagnosis-json.md; read by the compensation
+// part) and as text.
 #include <fmt/format.h>
 
 #include <cmath>
 #include <iterator>
 
 #include "circtest/analysis/diagnosis.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
 
 namespace circtest {
 
 namespace {
 
 using json = nlohmann::ordered_json;
+namespace K = diagnosis_json::key;
 
 json opt(const std::optional<double>& v) {
   return v ? json(*v) : json(nullptr);
@@ -37,85 +40,89 @@ std::string pm_um(const Estimate& e) {
 
 json to_json(const Diagnosis& d) {
   json j;
-  j["units"] = "mm";
-  j["schema"] = "circtest.diagnosis/1";
-  j["plane"] = std::string(plane_name(d.plane));
-  j["axes"] = {std::string(1, d.axes[0]), std::string(1, d.axes[1])};
-  j["feeds_mm_per_min"] = d.feeds_mm_per_min;
-  j["backlash_mm"] = per_axis(d, d.backlash_mm);
+  j[K::units] = "mm";
+  j[K::schema] = diagnosis_json::kSchema;
+  j[K::version] = diagnosis_json::kVersion;
+  j[K::plane] = std::string(plane_name(d.plane));
+  j[K::axes] = {std::string(1, d.axes[0]), std::string(1, d.axes[1])};
+  j[K::feeds_mm_per_min] = d.feeds_mm_per_min;
+  j[K::backlash_mm] = per_axis(d, d.backlash_mm);
   // The step at each end of the axis' travel on its own (added in circtest.diagnosis/1).
   json ends = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     const auto& e = d.backlash_reversals_mm[k];
     ends[std::string(1, d.axes[k])] =
-        e ? json{{"positive_end", (*e)[0]}, {"negative_end", (*e)[1]}} : json(nullptr);
+        e ? json{{K::positive_end, (*e)[0]}, {K::negative_end, (*e)[1]}} : json(nullptr);
   }
-  j["backlash_reversals_mm"] = ends;
-  j["reversal_spike_mm"] = per_axis(d, d.spike_mm);
-  j["reversal_spike_ms"] = per_axis(d, d.spike_ms);
-  j["scale_ppm"] = per_axis(d, d.scale_ppm);
-  j["scale_mismatch_ppm"] = opt(d.scale_mismatch_ppm.value);
-  j["squareness_urad"] = opt(d.squareness_urad.value);
-  j["servo_mismatch_ms"] = opt(d.servo_mismatch_ms.value);
+  j[K::backlash_reversals_mm] = ends;
+  j[K::reversal_spike_mm] = per_axis(d, d.spike_mm);
+  j[K::reversal_spike_ms] = per_axis(d, d.spike_ms);
+  j[K::scale_ppm] = per_axis(d, d.scale_ppm);
+  j[K::scale_mismatch_ppm] = opt(d.scale_mismatch_ppm.value);
+  j[K::squareness_urad] = opt(d.squareness_urad.value);
+  j[K::servo_mismatch_ms] = opt(d.servo_mismatch_ms.value);
   json rc = json::array();
   for (const auto& fr : d.radius_change) {
-    rc.push_back({{"feed_mm_per_min", fr.feed_mm_per_min}, {"dr", opt(fr.dr_mm.value)}});
+    rc.push_back({{K::feed_mm_per_min, fr.feed_mm_per_min}, {K::dr, opt(fr.dr_mm.value)}});
   }
-  j["radius_change_mm"] = rc;
-  j["kv_per_s"] = opt(d.kv_per_s.value);
+  j[K::radius_change_mm] = rc;
+  j[K::kv_per_s] = opt(d.kv_per_s.value);
   json cyc = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     const auto& c = d.cyclic[k];
     cyc[std::string(1, d.axes[k])] =
-        c ? json{{"amplitude_mm", c->amplitude_mm},
-                 {"pitch_mm", c->pitch_mm},
-                 {"phase_rad", c->phase_rad},
-                 {"pitch_source", c->pitch_source},
-                 {"peak_to_median_power", opt(c->peak_to_median_power)}}
+        c ? json{{K::amplitude_mm, c->amplitude_mm},
+                 {K::pitch_mm, c->pitch_mm},
+                 {K::phase_rad, c->phase_rad},
+                 {K::pitch_source, c->pitch_source},
+                 {K::peak_to_median_power, opt(c->peak_to_median_power)}}
           : json(nullptr);
   }
-  j["cyclic"] = cyc;
-  j["centre_offset_mm"] = {opt(d.centre_offset_mm[0].value), opt(d.centre_offset_mm[1].value)};
+  j[K::cyclic] = cyc;
+  j[K::centre_offset_mm] = {opt(d.centre_offset_mm[0].value), opt(d.centre_offset_mm[1].value)};
   json con = json::array();
   for (const auto& c : d.contributions) {
-    con.push_back(
-        {{"source", c.source}, {"G_mm", c.g_mm}, {"percent", c.percent}, {"share_mm", c.share_mm}});
+    con.push_back({{K::source, c.source},
+                   {K::g_mm, c.g_mm},
+                   {K::percent, c.percent},
+                   {K::share_mm, c.share_mm}});
   }
-  j["contributions"] = con;
-  j["model_G_mm"] = d.model_g_mm;
-  j["residual"] = {{"rms_mm", d.residual_rms_mm}, {"G_mm", d.residual_g_mm}};
+  j[K::contributions] = con;
+  j[K::model_g_mm] = d.model_g_mm;
+  j[K::residual] = {{K::rms_mm, d.residual_rms_mm}, {K::g_mm, d.residual_g_mm}};
   json se;
-  se["backlash_mm"] = per_axis(d, d.backlash_mm, true);
-  se["reversal_spike_mm"] = per_axis(d, d.spike_mm, true);
-  se["reversal_spike_ms"] = per_axis(d, d.spike_ms, true);
-  se["scale_ppm"] = per_axis(d, d.scale_ppm, true);
-  se["scale_mismatch_ppm"] = opt(d.scale_mismatch_ppm.standard_error);
-  se["squareness_urad"] = opt(d.squareness_urad.standard_error);
-  se["servo_mismatch_ms"] = opt(d.servo_mismatch_ms.standard_error);
+  se[K::backlash_mm] = per_axis(d, d.backlash_mm, true);
+  se[K::reversal_spike_mm] = per_axis(d, d.spike_mm, true);
+  se[K::reversal_spike_ms] = per_axis(d, d.spike_ms, true);
+  se[K::scale_ppm] = per_axis(d, d.scale_ppm, true);
+  se[K::scale_mismatch_ppm] = opt(d.scale_mismatch_ppm.standard_error);
+  se[K::squareness_urad] = opt(d.squareness_urad.standard_error);
+  se[K::servo_mismatch_ms] = opt(d.servo_mismatch_ms.standard_error);
   json rcs = json::array();
   for (const auto& fr : d.radius_change) {
-    rcs.push_back({{"feed_mm_per_min", fr.feed_mm_per_min}, {"dr", opt(fr.dr_mm.standard_error)}});
+    rcs.push_back(
+        {{K::feed_mm_per_min, fr.feed_mm_per_min}, {K::dr, opt(fr.dr_mm.standard_error)}});
   }
-  se["radius_change_mm"] = rcs;
-  se["kv_per_s"] = opt(d.kv_per_s.standard_error);
+  se[K::radius_change_mm] = rcs;
+  se[K::kv_per_s] = opt(d.kv_per_s.standard_error);
   json cse = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     cse[std::string(1, d.axes[k])] =
-        d.cyclic[k] ? json{{"amplitude_mm", d.cyclic[k]->amplitude_se_mm}} : json(nullptr);
+        d.cyclic[k] ? json{{K::amplitude_mm, d.cyclic[k]->amplitude_se_mm}} : json(nullptr);
   }
-  se["cyclic"] = cse;
-  se["centre_offset_mm"] = {opt(d.centre_offset_mm[0].standard_error),
-                            opt(d.centre_offset_mm[1].standard_error)};
-  j["standard_error"] = se;
-  j["kv_source"] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
-  j["lag_ms"] = opt(d.lag_ms.value);
-  j["nominal_radius_mm"] = d.radius_mm;
-  j["absolute_channels"] = d.absolute_channels;
-  j["runs"] = d.runs;
-  j["samples"] = d.samples;
-  j["ini_sha256"] = d.ini_sha256 ? json(*d.ini_sha256) : json(nullptr);
-  j["source"] = d.source;
-  j["notes"] = d.notes;
+  se[K::cyclic] = cse;
+  se[K::centre_offset_mm] = {opt(d.centre_offset_mm[0].standard_error),
+                             opt(d.centre_offset_mm[1].standard_error)};
+  j[K::standard_error] = se;
+  j[K::kv_source] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
+  j[K::lag_ms] = opt(d.lag_ms.value);
+  j[K::nominal_radius_mm] = d.radius_mm;
+  j[K::absolute_channels] = d.absolute_channels;
+  j[K::runs] = d.runs;
+  j[K::samples] = d.samples;
+  j[K::ini_sha256] = d.ini_sha256 ? json(*d.ini_sha256) : json(nullptr);
+  j[K::source] = d.source;
+  j[K::notes] = d.notes;
   return j;
 }
 

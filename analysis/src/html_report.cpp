@@ -9,6 +9,7 @@
 
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_json.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
 #include "circtest/core/strings.hpp"
@@ -291,28 +292,33 @@ DiagnosisChart diagnosis_chart_from_json(const nlohmann::json& j, const std::str
   constexpr double kMaxPercent = 1000.0, kMaxGmm = 1000.0;
   const JsonReader<nlohmann::json> rd(path, "diagnosis JSON", kMaxGmm);
   const JsonReader<nlohmann::json> percent(path, "diagnosis JSON", kMaxPercent);
-  if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
-      j["schema"].get<std::string>() != "circtest.diagnosis/1") {
-    throw ParseError(path, 0, "expected a circtest.diagnosis/1 document (circana diagnose --json)");
+  namespace K = diagnosis_json::key;
+  if (!j.is_object() || !j.contains(K::schema) || !j[K::schema].is_string() ||
+      j[K::schema].get<std::string>() != diagnosis_json::kSchema) {
+    throw ParseError(
+        path, 0,
+        fmt::format("expected a {} document (circana diagnose --json)", diagnosis_json::kSchema));
   }
+  if (j.contains(K::version))
+    diagnosis_json::check_version(rd.text(j, K::version, ""), path, "circana");
   DiagnosisChart d;
-  if (j.contains("source")) d.source = rd.text(j, "source", "");
-  const auto plane = parse_plane(rd.text(j, "plane", ""));
-  if (!plane) rd.fail("plane", "XY, YZ or ZX");
+  if (j.contains(K::source)) d.source = rd.text(j, K::source, "");
+  const auto plane = parse_plane(rd.text(j, K::plane, ""));
+  if (!plane) rd.fail(K::plane, "XY, YZ or ZX");
   d.plane = *plane;
-  const auto& contributions = rd.array(j, "contributions", "");
+  const auto& contributions = rd.array(j, K::contributions, "");
   for (std::size_t i = 0; i < contributions.size(); ++i) {
-    const std::string at = fmt::format("contributions[{}]", i);
+    const std::string at = fmt::format("{}[{}]", K::contributions, i);
     const auto& c = contributions[i];
     Contribution k;
-    k.source = rd.text(c, "source", at);
-    k.g_mm = rd.number(c, "G_mm", at);
-    k.percent = percent.number(c, "percent", at);
-    if (c.is_object() && c.contains("share_mm")) k.share_mm = rd.number(c, "share_mm", at);
+    k.source = rd.text(c, K::source, at);
+    k.g_mm = rd.number(c, K::g_mm, at);
+    k.percent = percent.number(c, K::percent, at);
+    if (c.is_object() && c.contains(K::share_mm)) k.share_mm = rd.number(c, K::share_mm, at);
     d.contributions.push_back(std::move(k));
   }
-  d.model_g_mm = rd.number(j, "model_G_mm", "");
-  d.residual_g_mm = rd.number(rd.at(j, "residual", ""), "G_mm", "residual");
+  d.model_g_mm = rd.number(j, K::model_g_mm, "");
+  d.residual_g_mm = rd.number(rd.at(j, K::residual, ""), K::g_mm, K::residual);
   return d;
 }
 

@@ -144,17 +144,6 @@ bool insertion_sort(std::vector<AngleRadius>& p, std::size_t budget) {
 
 // sqrt instead of std::hypot below: coordinates in mm about a centre near the data neither
 // overflow nor underflow when squared, and hypot costs several times more.
-PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre) {
-  PathPolar p;
-  const std::size_t n = a.size();
-  reserve_huge(p.angle_rad, n);
-  reserve_huge(p.radius_mm, n);
-  p.angle_rad.resize(n);
-  p.radius_mm.resize(n);
-  path_polar_into(a, b, centre, p.angle_rad.data(), p.radius_mm.data());
-  return p;
-}
-
 void path_polar_into(std::span<const double> a, std::span<const double> b, PlanePoint centre,
                      double* angle_rad, double* radius_mm) {
   polar_walk(a, b, centre, [&](std::size_t i, double angle, double radius) {

@@ -44,14 +44,7 @@ void turn_angles(const double* a, const double* b, double ca, double cb, std::si
                  double* out);
 
 // Angle about `centre`, unwrapped along the path (successive samples are far less than pi
-// apart), and radius; in path order.
-struct PathPolar {
-  std::vector<double> angle_rad;
-  std::vector<double> radius_mm;
-  std::size_t size() const { return angle_rad.size(); }
-};
-PathPolar path_polar(std::span<const double> a, std::span<const double> b, PlanePoint centre);
-// The same into arrays the caller holds (a.size() values each), without a copy of its own.
+// apart), and radius; in path order, into arrays the caller holds (a.size() values each).
 void path_polar_into(std::span<const double> a, std::span<const double> b, PlanePoint centre,
                      double* angle_rad, double* radius_mm);
 

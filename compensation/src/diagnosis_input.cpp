@@ -5,8 +5,10 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
+#include "circtest/core/strings.hpp"
 
 namespace circtest::compensation {
 
@@ -14,25 +16,15 @@ namespace {
 
 using json = nlohmann::json;
 
-constexpr const char* kSchema = "circtest.diagnosis/1";
-constexpr const char* kSchemaFamily = "circtest.diagnosis/";
+namespace K = diagnosis_json::key;
+using diagnosis_json::kSchema;
+using diagnosis_json::kSchemaFamily;
 // A diagnosis is a few kB with objects three levels deep.
 constexpr int kMaxDepth = 16;
 // A cyclic error's pitch: finer than 1 um or coarser than 10 m is no lead screw, rack or
 // encoder period, and the pitch sizes the compensation table.
 constexpr double kMinPitchMm = 1e-3;
 constexpr double kMaxPitchMm = 1e4;
-
-// The library's message with the input's bytes it quotes made printable: an error line never
-// carries the invalid UTF-8 or control bytes that caused it.
-std::string printable(std::string_view text) {
-  std::string out;
-  for (const char c : text) {
-    const auto b = static_cast<unsigned char>(c);
-    out += b >= 0x20 && b < 0x7f ? std::string(1, c) : fmt::format("\\x{:02x}", b);
-  }
-  return out;
-}
 
 // Parses TEXT, refusing a document nested deeper than kMaxDepth; every library error becomes
 // a ParseError naming SOURCE and, where it is known, the key being read.
@@ -61,12 +53,12 @@ json parse_json(const std::string& text, const std::string& source) {
   try {
     return json::parse(text, track);
   } catch (const json::parse_error& e) {
-    throw ParseError(source, 0, where() + "not JSON: " + printable(e.what()));
+    throw ParseError(source, 0, where() + "not JSON: " + printable_ascii(e.what()));
   } catch (const json::out_of_range& e) {
     throw ParseError(source, 0,
-                     where() + "a number beyond a double's range: " + printable(e.what()));
+                     where() + "a number beyond a double's range: " + printable_ascii(e.what()));
   } catch (const json::exception& e) {
-    throw ParseError(source, 0, where() + printable(e.what()));
+    throw ParseError(source, 0, where() + printable_ascii(e.what()));
   }
 }
 
@@ -117,23 +109,27 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
     throw ParseError(source, 0,
                      fmt::format("expected a {} document (circana diagnose --json)", kSchema));
   }
-  const auto schema = r.text(r.member(doc, "schema", "schema"), "schema");
+  const auto schema = r.text(r.member(doc, K::schema, K::schema), K::schema);
   if (schema && schema->starts_with(kSchemaFamily) && *schema != kSchema) {
-    r.fail("schema", fmt::format("{} is a version this circcomp does not read (it reads {}): "
-                                 "use the circcomp of the circana that wrote it",
-                                 *schema, kSchema));
+    r.fail(K::schema, fmt::format("{} is a version this circcomp does not read (it reads {}): "
+                                  "use the circcomp of the circana that wrote it",
+                                  *schema, kSchema));
   }
   if (schema != kSchema) {
     throw ParseError(source, 0,
                      fmt::format("expected a {} document (circana diagnose --json)", kSchema));
   }
-  if (r.text(r.member(doc, "units", "units"), "units").value_or("mm") != "mm") {
-    r.fail("units", "expected mm");
+  // Absent in the documents written before the field: those are 1.0.
+  if (const auto version = r.text(r.member(doc, K::version, K::version), K::version)) {
+    diagnosis_json::check_version(*version, source, "circcomp");
+  }
+  if (r.text(r.member(doc, K::units, K::units), K::units).value_or("mm") != "mm") {
+    r.fail(K::units, "expected mm");
   }
   DiagnosisInput d;
   d.source = source;
-  const auto plane = r.text(r.member(doc, "plane", "plane"), "plane");
-  if (!plane) r.fail("plane", "expected XY, YZ or ZX");
+  const auto plane = r.text(r.member(doc, K::plane, K::plane), K::plane);
+  if (!plane) r.fail(K::plane, "expected XY, YZ or ZX");
   d.plane = *plane;
   if (d.plane == "XY")
     d.axes = {'X', 'Y'};
@@ -142,46 +138,48 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
   else if (d.plane == "ZX")
     d.axes = {'Z', 'X'};
   else
-    r.fail("plane", "expected XY, YZ or ZX, got '" + d.plane + "'");
+    r.fail(K::plane, "expected XY, YZ or ZX, got '" + d.plane + "'");
 
   const json null_value;
-  const json& se = r.member(doc, "standard_error", "standard_error");
-  if (!se.is_null() && !se.is_object()) r.fail("standard_error", "expected an object or null");
+  const json& se = r.member(doc, K::standard_error, K::standard_error);
+  if (!se.is_null() && !se.is_object()) r.fail(K::standard_error, "expected an object or null");
   auto se_axis = [&](const std::string& key) {
     return se.is_object() ? r.per_axis(se, key, d.axes) : std::array<std::optional<double>, 2>{};
   };
   auto se_scalar = [&](const std::string& key) {
-    return se.is_object() ? r.number(r.member(se, key, "standard_error"), "standard_error." + key)
+    return se.is_object() ? r.number(r.member(se, key, K::standard_error), "standard_error." + key)
                           : std::nullopt;
   };
-  const auto backlash = r.per_axis(doc, "backlash_mm", d.axes);
-  const auto backlash_se = se_axis("backlash_mm");
-  const auto spike = r.per_axis(doc, "reversal_spike_mm", d.axes);
-  const auto spike_se = se_axis("reversal_spike_mm");
-  const auto spike_ms = r.per_axis(doc, "reversal_spike_ms", d.axes);
-  const auto scale = r.per_axis(doc, "scale_ppm", d.axes);
-  const auto scale_se = se_axis("scale_ppm");
+  const auto backlash = r.per_axis(doc, K::backlash_mm, d.axes);
+  const auto backlash_se = se_axis(K::backlash_mm);
+  const auto spike = r.per_axis(doc, K::reversal_spike_mm, d.axes);
+  const auto spike_se = se_axis(K::reversal_spike_mm);
+  const auto spike_ms = r.per_axis(doc, K::reversal_spike_ms, d.axes);
+  const auto spike_ms_se = se_axis(K::reversal_spike_ms);
+  const auto scale = r.per_axis(doc, K::scale_ppm, d.axes);
+  const auto scale_se = se_axis(K::scale_ppm);
   for (int k = 0; k < 2; ++k) {
     d.backlash_mm[k] = {backlash[k], backlash_se[k]};
     d.reversal_spike_mm[k] = {spike[k], spike_se[k]};
     d.reversal_spike_ms[k] = spike_ms[k];
+    d.reversal_spike_se_ms[k] = spike_ms_se[k];
     d.scale_ppm[k] = {scale[k], scale_se[k]};
   }
   auto scalar = [&](const std::string& key) {
     return Measured{r.number(r.member(doc, key, key), key), se_scalar(key)};
   };
-  d.scale_mismatch_ppm = scalar("scale_mismatch_ppm");
-  d.squareness_urad = scalar("squareness_urad");
-  d.servo_mismatch_ms = scalar("servo_mismatch_ms");
-  d.kv_per_s = r.number(r.member(doc, "kv_per_s", "kv_per_s"), "kv_per_s");
-  const json& cyclic = r.member(doc, "cyclic", "cyclic");
+  d.scale_mismatch_ppm = scalar(K::scale_mismatch_ppm);
+  d.squareness_urad = scalar(K::squareness_urad);
+  d.servo_mismatch_ms = scalar(K::servo_mismatch_ms);
+  d.kv_per_s = r.number(r.member(doc, K::kv_per_s, K::kv_per_s), K::kv_per_s);
+  const json& cyclic = r.member(doc, K::cyclic, K::cyclic);
   if (!cyclic.is_null()) {
     for (int k = 0; k < 2; ++k) {
       const std::string a(1, d.axes[k]);
-      const json& c = r.member(cyclic, a, "cyclic");
+      const json& c = r.member(cyclic, a, K::cyclic);
       if (c.is_null()) continue;
-      const auto amplitude = r.number(r.member(c, "amplitude_mm", "cyclic." + a), "cyclic." + a);
-      const auto pitch = r.number(r.member(c, "pitch_mm", "cyclic." + a), "cyclic." + a);
+      const auto amplitude = r.number(r.member(c, K::amplitude_mm, "cyclic." + a), "cyclic." + a);
+      const auto pitch = r.number(r.member(c, K::pitch_mm, "cyclic." + a), "cyclic." + a);
       if (!amplitude || !pitch || *pitch <= 0)
         r.fail("cyclic." + a, "expected amplitude_mm, pitch_mm > 0");
       if (*pitch < kMinPitchMm || *pitch > kMaxPitchMm) {
@@ -193,20 +191,21 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
       Cyclic cy;
       cy.amplitude_mm = *amplitude;
       cy.pitch_mm = *pitch;
-      cy.phase_rad = r.number(r.member(c, "phase_rad", "cyclic." + a), "cyclic." + a).value_or(0.0);
+      cy.phase_rad =
+          r.number(r.member(c, K::phase_rad, "cyclic." + a), "cyclic." + a).value_or(0.0);
       const json& se_cyclic =
-          se.is_object() ? r.member(se, "cyclic", "standard_error") : null_value;
+          se.is_object() ? r.member(se, K::cyclic, K::standard_error) : null_value;
       if (se_cyclic.is_object()) {
         const json& cs = r.member(se_cyclic, a, "standard_error.cyclic");
         if (cs.is_object()) {
-          cy.amplitude_se_mm = r.number(r.member(cs, "amplitude_mm", "standard_error.cyclic"),
+          cy.amplitude_se_mm = r.number(r.member(cs, K::amplitude_mm, "standard_error.cyclic"),
                                         "standard_error.cyclic." + a);
         }
       }
       d.cyclic[k] = cy;
     }
   }
-  d.ini_sha256 = r.text(r.member(doc, "ini_sha256", "ini_sha256"), "ini_sha256");
+  d.ini_sha256 = r.text(r.member(doc, K::ini_sha256, K::ini_sha256), K::ini_sha256);
   return d;
 }
 

@@ -29,13 +29,6 @@ std::span<const ConditionOption> condition_options() noexcept {
   return kOptions;
 }
 
-const ConditionOption* condition_option_for_key(std::string_view key) noexcept {
-  for (const auto& o : kOptions) {
-    if (key == o.key) return &o;
-  }
-  return nullptr;
-}
-
 std::string condition_value(const ConditionOption& option, std::string_view value) {
   const std::string name = std::string("--") + option.option;
   const auto b = value.find_first_not_of(" \t");

@@ -1,51 +1,123 @@
 #include "circtest/core/sha256.hpp"
 
-#include <fmt/format.h>
-#include <openssl/evp.h>
+#include <algorithm>
+#include <array>
+#include <cstddef>
+#include <cstdint>
 
-#include <memory>
-
-#include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 
 namespace circtest {
 
 namespace {
 
-std::string hex_of(const unsigned char* digest, unsigned int size) {
-  std::string hex;
-  for (unsigned int i = 0; i < size; ++i) hex += fmt::format("{:02x}", digest[i]);
-  return hex;
-}
+// SHA-256 (FIPS 180-4) written out here, so that core, and every program that links it, needs
+// no cryptographic library: a digest of a configuration or a trace is provenance, not a secret.
+class Sha256 {
+ public:
+  void update(std::string_view data) {
+    const auto* p = reinterpret_cast<const std::uint8_t*>(data.data());
+    std::size_t n = data.size();
+    bytes_ += n;
+    if (fill_ > 0) {
+      const std::size_t take = std::min(n, block_.size() - fill_);
+      std::copy_n(p, take, block_.begin() + static_cast<std::ptrdiff_t>(fill_));
+      fill_ += take;
+      p += take;
+      n -= take;
+      if (fill_ < block_.size()) return;
+      compress(block_.data());
+      fill_ = 0;
+    }
+    for (; n >= block_.size(); p += block_.size(), n -= block_.size()) compress(p);
+    std::copy_n(p, n, block_.begin());
+    fill_ = n;
+  }
+
+  std::string hex() {
+    const std::uint64_t bits = bytes_ * 8;
+    block_[fill_++] = 0x80;
+    if (fill_ > 56) {
+      while (fill_ < 64) block_[fill_++] = 0;
+      compress(block_.data());
+      fill_ = 0;
+    }
+    while (fill_ < 56) block_[fill_++] = 0;
+    for (int i = 7; i >= 0; --i) block_[fill_++] = static_cast<std::uint8_t>(bits >> (8 * i));
+    compress(block_.data());
+    static constexpr char kDigits[] = "0123456789abcdef";
+    std::string out;
+    for (const std::uint32_t word : h_) {
+      for (int shift = 28; shift >= 0; shift -= 4) out += kDigits[(word >> shift) & 0xf];
+    }
+    return out;
+  }
+
+ private:
+  static std::uint32_t rotr(std::uint32_t x, int n) { return (x >> n) | (x << (32 - n)); }
+
+  void compress(const std::uint8_t* block) {
+    static constexpr std::array<std::uint32_t, 64> k = {
+        0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4,
+        0xab1c5ed5, 0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe,
+        0x9bdc06a7, 0xc19bf174, 0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f,
+        0x4a7484aa, 0x5cb0a9dc, 0x76f988da, 0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7,
+        0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967, 0x27b70a85, 0x2e1b2138, 0x4d2c6dfc,
+        0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85, 0xa2bfe8a1, 0xa81a664b,
+        0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070, 0x19a4c116,
+        0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
+        0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7,
+        0xc67178f2};
+    std::array<std::uint32_t, 64> w{};
+    for (std::size_t i = 0; i < 16; ++i) {
+      w[i] = std::uint32_t{block[4 * i]} << 24 | std::uint32_t{block[4 * i + 1]} << 16 |
+             std::uint32_t{block[4 * i + 2]} << 8 | std::uint32_t{block[4 * i + 3]};
+    }
+    for (std::size_t i = 16; i < 64; ++i) {
+      const std::uint32_t s0 = rotr(w[i - 15], 7) ^ rotr(w[i - 15], 18) ^ (w[i - 15] >> 3);
+      const std::uint32_t s1 = rotr(w[i - 2], 17) ^ rotr(w[i - 2], 19) ^ (w[i - 2] >> 10);
+      w[i] = w[i - 16] + s0 + w[i - 7] + s1;
+    }
+    std::uint32_t a = h_[0], b = h_[1], c = h_[2], d = h_[3];
+    std::uint32_t e = h_[4], f = h_[5], g = h_[6], h = h_[7];
+    for (std::size_t i = 0; i < 64; ++i) {
+      const std::uint32_t t1 =
+          h + (rotr(e, 6) ^ rotr(e, 11) ^ rotr(e, 25)) + ((e & f) ^ (~e & g)) + k[i] + w[i];
+      const std::uint32_t t2 =
+          (rotr(a, 2) ^ rotr(a, 13) ^ rotr(a, 22)) + ((a & b) ^ (a & c) ^ (b & c));
+      h = g;
+      g = f;
+      f = e;
+      e = d + t1;
+      d = c;
+      c = b;
+      b = a;
+      a = t1 + t2;
+    }
+    const std::array<std::uint32_t, 8> v = {a, b, c, d, e, f, g, h};
+    for (std::size_t i = 0; i < 8; ++i) h_[i] += v[i];
+  }
+
+  std::array<std::uint32_t, 8> h_ = {0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
+                                     0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19};
+  std::array<std::uint8_t, 64> block_{};
+  std::size_t fill_ = 0;
+  std::uint64_t bytes_ = 0;
+};
 
 }  // namespace
 
 std::string sha256_hex(std::string_view data) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int size = 0;
-  if (EVP_Digest(data.data(), data.size(), digest, &size, EVP_sha256(), nullptr) != 1) {
-    throw Error(ExitCode::internal, "SHA-256 failed");
-  }
-  return hex_of(digest, size);
+  Sha256 digest;
+  digest.update(data);
+  return digest.hex();
 }
 
 // Streamed: a trace of any length is hashed in blocks, never held whole.
 std::string sha256_of_file(const std::string& path) {
-  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(), EVP_MD_CTX_free);
-  if (!ctx || EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr) != 1) {
-    throw Error(ExitCode::internal, "SHA-256 failed");
-  }
-  for_each_input_block(path, [&](std::string_view block) {
-    if (EVP_DigestUpdate(ctx.get(), block.data(), block.size()) != 1) {
-      throw Error(ExitCode::internal, "SHA-256 failed");
-    }
-  });
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int size = 0;
-  if (EVP_DigestFinal_ex(ctx.get(), digest, &size) != 1) {
-    throw Error(ExitCode::internal, "SHA-256 failed");
-  }
-  return hex_of(digest, size);
+  Sha256 digest;
+  for_each_input_block(path, [&](std::string_view block) { digest.update(block); });
+  return digest.hex();
 }
 
 }  // namespace circtest

@@ -94,4 +94,20 @@ std::string xml_escape(std::string_view text) {
   return out;
 }
 
+std::string printable_ascii(std::string_view text) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string out;
+  for (const char c : text) {
+    const auto b = static_cast<unsigned char>(c);
+    if (b >= 0x20 && b < 0x7f) {
+      out += c;
+    } else {
+      out += "\\x";
+      out += kDigits[b >> 4];
+      out += kDigits[b & 0xf];
+    }
+  }
+  return out;
+}
+
 }  // namespace circtest

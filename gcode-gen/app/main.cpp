@@ -18,8 +18,8 @@
 #include "circtest/core/utc_time.hpp"
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/commands.hpp"
+#include "circtest/gcode/generator.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
-#include "circtest/gcode/test_program.hpp"
 
 namespace po = boost::program_options;
 using namespace circtest;

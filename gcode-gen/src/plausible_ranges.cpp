@@ -6,7 +6,7 @@
 #include <string>
 
 #include "circtest/core/error.hpp"
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 
 namespace circtest {
 

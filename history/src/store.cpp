@@ -1,15 +1,10 @@
 // The schema, its migrations and the queries, written once over detail::Connection.
-#include <openssl/evp.h>
 
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <array>
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <cstring>
-#include <fstream>
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
@@ -284,29 +279,6 @@ std::unique_ptr<Store> open_store(const std::string& url, std::string_view setti
   if (path.rfind("sqlite:", 0) == 0) path = path.substr(7);
   if (path.empty()) path = default_database_path(setting);
   return std::make_unique<SqlStore>(detail::open_sqlite(path, setting));
-}
-
-std::string sha256_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path, std::string("cannot open for reading: ") + std::strerror(errno));
-  std::unique_ptr<EVP_MD_CTX, decltype(&EVP_MD_CTX_free)> ctx(EVP_MD_CTX_new(), EVP_MD_CTX_free);
-  if (!ctx || EVP_DigestInit_ex(ctx.get(), EVP_sha256(), nullptr) != 1) {
-    throw Error(ExitCode::internal, "SHA-256 is not available");
-  }
-  std::vector<char> buf(1 << 20);
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    if (in.gcount() > 0) {
-      EVP_DigestUpdate(ctx.get(), buf.data(), static_cast<std::size_t>(in.gcount()));
-    }
-  }
-  if (in.bad()) throw IoError(path, "read failed");
-  std::array<unsigned char, EVP_MAX_MD_SIZE> md{};
-  unsigned int n = 0;
-  EVP_DigestFinal_ex(ctx.get(), md.data(), &n);
-  std::string hex;
-  for (unsigned int i = 0; i < n; ++i) hex += fmt::format("{:02x}", md[i]);
-  return hex;
 }
 
 }  // namespace circtest::history

@@ -24,13 +24,7 @@ namespace {
 using circtest::testing::CommandResult;
 using circtest::testing::run_command;
 
-// The words of a command line (the tests' paths have no blanks).
-std::vector<std::string> words(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  for (std::string w; in >> w;) out.push_back(w);
-  return out;
-}
+using circtest::testing::words;
 
 class CircanaCli : public ::testing::Test {
  protected:

@@ -25,12 +25,7 @@ using circtest::testing::CommandResult;
 using circtest::testing::run_command;
 using circtest::testing::slurp;
 
-std::vector<std::string> words(const std::string& text) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  for (std::string w; in >> w;) out.push_back(w);
-  return out;
-}
+using circtest::testing::words;
 
 std::string mm(double v) {
   char buf[64];
@@ -291,6 +286,10 @@ TEST_F(HtmlReport, BadRequests) {
   circtest::testing::spit(junk, "{\"schema\": \"circtest.evaluation/1\"}");
   expect({"report", xy, "-o", out, "--diagnosis", junk}, 4,
          junk + ": expected a circtest.diagnosis/1 document");
+  const std::string newer = (dir_ / "newer.json").string();
+  circtest::testing::spit(newer, "{\"schema\": \"circtest.diagnosis/1\", \"version\": \"2.0\"}");
+  expect({"report", xy, "-o", out, "--diagnosis", newer}, 4,
+         newer + ": \"version\": 2.0 is newer than this circana reads (1.x)");
   // A directory in the output's place is never replaced.
   fs::create_directory(dir_ / "dir.html");
   const CommandResult r = circana({"report", xy, "-o", (dir_ / "dir.html").string()});

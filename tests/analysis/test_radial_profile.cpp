@@ -53,8 +53,22 @@ std::vector<double> exact_angles(const Path& p, PlanePoint c) {
   return out;
 }
 
+struct Polar {
+  std::vector<double> angle_rad;
+  std::vector<double> radius_mm;
+  std::size_t size() const { return angle_rad.size(); }
+};
+
+Polar polar_of(const Path& p, PlanePoint c) {
+  Polar polar;
+  polar.angle_rad.resize(p.a.size());
+  polar.radius_mm.resize(p.a.size());
+  detail::path_polar_into(p.a, p.b, c, polar.angle_rad.data(), polar.radius_mm.data());
+  return polar;
+}
+
 double max_angle_error(const Path& p, PlanePoint c) {
-  const detail::PathPolar polar = detail::path_polar(p.a, p.b, c);
+  const Polar polar = polar_of(p, c);
   const std::vector<double> truth = exact_angles(p, c);
   EXPECT_EQ(polar.size(), truth.size());
   double worst = 0.0;
@@ -73,7 +87,7 @@ TEST(PathPolar, CcwCircleAcrossTheSeamMatchesAtan2) {
   // Starts just below +pi: the seam is crossed at once, then twice more.
   const Path p = circle(c.a_mm, c.b_mm, 75.0, kPi - 1e-4, 2.2, 400'000, 0.0);
   EXPECT_LT(max_angle_error(p, c), kAngleTol);
-  const detail::PathPolar polar = detail::path_polar(p.a, p.b, c);
+  const Polar polar = polar_of(p, c);
   EXPECT_NEAR(polar.angle_rad.back() - polar.angle_rad.front(), 2 * kPi * 2.2, 1e-9);
 }
 
@@ -81,7 +95,7 @@ TEST(PathPolar, CwNoisyCircleWithDwellsMatchesAtan2) {
   const PlanePoint c{-3.0, 7.0};
   const Path p = circle(c.a_mm, c.b_mm, 10.0, -kPi + 2e-4, -1.7, 300'000, 0.0005, 200);
   EXPECT_LT(max_angle_error(p, c), kAngleTol);
-  const detail::PathPolar polar = detail::path_polar(p.a, p.b, c);
+  const Polar polar = polar_of(p, c);
   EXPECT_NEAR(polar.angle_rad.back() - polar.angle_rad.front(), -2 * kPi * 1.7, 1e-3);
 }
 

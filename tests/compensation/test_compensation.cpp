@@ -20,6 +20,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/sha256.hpp"
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -27,22 +28,9 @@ using namespace circtest::compensation;
 
 namespace {
 
-struct Scratch {
-  fs::path dir;
-  Scratch() {
-    dir = fs::temp_directory_path() /
-          ("circcomp-" + std::to_string(::getpid()) + "-" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Scratch() { fs::remove_all(dir); }
-  std::string write(const std::string& name, const std::string& text) const {
-    const fs::path p = dir / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
-  }
-  std::string read(const std::string& name) const { return read_file((dir / name).string()); }
+// A private folder per test (ScratchDir, tests/support), named for the suite.
+struct Scratch : circtest::testing::ScratchDir {
+  Scratch() : ScratchDir("circcomp") {}
 };
 
 std::string joint(int n, const std::string& extra = "") {
@@ -119,7 +107,7 @@ TEST(Compensation, ApplyRevertIdempotence) {
   EXPECT_THROW(require_fresh(ini, d, false), StaleError);
   EXPECT_TRUE(revert(ini));
   EXPECT_EQ(read_file(ini), text);
-  EXPECT_FALSE(fs::exists(s.dir / ".circcomp"));
+  EXPECT_FALSE(fs::exists(s.dir() / ".circcomp"));
   EXPECT_FALSE(revert(ini));  // a second revert is a no-op
   EXPECT_EQ(read_file(ini), text);
 }
@@ -144,7 +132,7 @@ TEST(Compensation, ManifestNamesRelativeFilesWithTheirChecksums) {
   EXPECT_FALSE(m.last[1].existed);
   EXPECT_EQ(m.last[1].sha256, sha256_hex(s.read("circtest-joint0.comp")));
   EXPECT_EQ(m.found.size(), 2u);  // the first apply: its originals are the state as found
-  EXPECT_EQ(text.find(s.dir.string()), std::string::npos) << text;  // no absolute path
+  EXPECT_EQ(text.find(s.dir().string()), std::string::npos) << text;  // no absolute path
   EXPECT_TRUE(revert(ini));
   EXPECT_EQ(s.read("m.ini"), machine());
 }
@@ -174,7 +162,7 @@ TEST(Compensation, ScaleCreatesATableWithBacklashMovedIntoIt) {
   }
   EXPECT_TRUE(revert(ini));
   EXPECT_EQ(read_file(ini), text);
-  EXPECT_FALSE(fs::exists(s.dir / "circtest-joint0.comp"));
+  EXPECT_FALSE(fs::exists(s.dir() / "circtest-joint0.comp"));
 }
 
 TEST(Compensation, ExistingTablesType0And1AreMergedInTheirType) {
@@ -393,7 +381,7 @@ TEST(Compensation, LibraryRefusalsNameNoOption) {
   stale.ini_sha256 = std::string(64, '0');
   Plan needs_kins;
   needs_kins.needs_kins_module = true;
-  ::setenv("CIRCTEST_KINS_MODULE", (s.dir / "missing" / "circtest_kins.so").c_str(), 1);
+  ::setenv("CIRCTEST_KINS_MODULE", (s.dir() / "missing" / "circtest_kins.so").c_str(), 1);
   const std::string kins_text = message([&] { require_kins_module(needs_kins); });
   ::unsetenv("CIRCTEST_KINS_MODULE");
   EXPECT_NE(kins_text.find("or leave squareness out of the corrections; nothing changed"),
@@ -445,7 +433,7 @@ TEST(Compensation, CliExitCodes) {
   EXPECT_EQ(run("plan --ini " + ini + " " + s.write("bad.json", "{\"schema\": \"other\"}"), &err),
             4);
   EXPECT_NE(err.find("circtest.diagnosis/1"), std::string::npos) << err;
-  EXPECT_EQ(run("plan --ini " + (s.dir / "none.ini").string() + " " + diagnosis), 3);
+  EXPECT_EQ(run("plan --ini " + (s.dir() / "none.ini").string() + " " + diagnosis), 3);
 }
 
 // ---- squareness through circtest_kins ----
@@ -506,7 +494,7 @@ TEST(Compensation, SquarenessSwitchesToCircTestKins) {
   EXPECT_TRUE(revert(ini));
   EXPECT_EQ(s.read("m.ini"), text);
   EXPECT_EQ(s.read("mill.hal"), hal_text);
-  EXPECT_FALSE(fs::exists(s.dir / "circtest-comp.hal"));
+  EXPECT_FALSE(fs::exists(s.dir() / "circtest-comp.hal"));
 }
 
 TEST(Compensation, SquarenessIsIncrementalOnCircTestKins) {
@@ -557,7 +545,7 @@ TEST(Compensation, SquarenessRefusals) {
   // A circtest-comp.hal that is not circcomp's is never overwritten.
   s.write("circtest-comp.hal", "# someone's own file\n");
   EXPECT_THROW(make_plan(ini, square(50.0), only("squareness")), DataError);
-  fs::remove(s.dir / "circtest-comp.hal");
+  fs::remove(s.dir() / "circtest-comp.hal");
   // Kinematics other than trivkins/circtest_kins: refused.
   const std::string five = s.write("5.ini", hal_machine("5axiskins"));
   EXPECT_THROW(make_plan(five, square(50.0), only("squareness")), DataError);
@@ -572,8 +560,8 @@ TEST(Compensation, SquarenessRefusals) {
 // would be off by 2 pi centre / pitch if either side measured x from the centre).
 TEST(Compensation, CyclicPhaseIsInMachineCoordinatesFromDiagnoseToTable) {
   Scratch s;
-  const std::string trace = (s.dir / "cyc.csv").string();
-  const std::string diagnosis = (s.dir / "cyc.json").string();
+  const std::string trace = (s.dir() / "cyc.csv").string();
+  const std::string diagnosis = (s.dir() / "cyc.json").string();
   ASSERT_EQ(std::system((std::string(SIMTRACE_PATH) + " -o " + trace +
                          " --d 40 --f 1000 --cx 101.3 --cy 37.9 --kv-x 1000 --kv-y 1000"
                          " --cyclic-x 0.003 --pitch-x 5 --noise 0.0002 >/dev/null")

@@ -2,7 +2,6 @@
 // diagnose's number and words, its JSON, and circcomp's advice all name the same lagging axis
 // (docs/diagnosis.md: servo_mismatch_ms = 1/Kv_A - 1/Kv_B, positive when A lags).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -12,6 +11,7 @@
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/compensation/plan.hpp"
 #include "machine_sim.hpp"
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -40,10 +40,8 @@ TEST_P(ServoSign, DiagnoseAndCirccompNameTheAxisWithTheLowerGain) {
   EXPECT_NEAR(*d.servo_mismatch_ms.value, expected, 0.05);
   EXPECT_NE(text_report(d).find(c.words), std::string::npos) << text_report(d);
 
-  const fs::path dir =
-      fs::temp_directory_path() / ("circtest-servo-sign-" + std::to_string(::getpid()) + "-" +
-                                   std::to_string(static_cast<int>(c.kv_x)));
-  fs::create_directories(dir);
+  const circtest::testing::ScratchDir scratch("circtest-servo-sign");
+  const fs::path dir = scratch.dir();
   const std::string ini = (dir / "m.ini").string();
   std::ofstream(ini) << "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n[KINS]\nKINEMATICS = "
                         "trivkins coordinates=XYZ\nJOINTS = 3\n[JOINT_0]\nTYPE = LINEAR\n"
@@ -61,7 +59,6 @@ TEST_P(ServoSign, DiagnoseAndCirccompNameTheAxisWithTheLowerGain) {
   std::string advice;
   for (const auto& a : plan.advice) advice += a + "\n";
   EXPECT_NE(advice.find(c.advice), std::string::npos) << advice;
-  fs::remove_all(dir);
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -15,6 +15,7 @@
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using circtest::IniDocument;
@@ -39,21 +40,9 @@ std::vector<fs::path> sample_inis() {
   return out;
 }
 
-struct Scratch {
-  fs::path dir;
-  Scratch() {
-    dir = fs::temp_directory_path() /
-          ("circtest-ini-" + std::to_string(::getpid()) + "-" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~Scratch() { fs::remove_all(dir); }
-  std::string write(const std::string& name, const std::string& text) const {
-    const fs::path p = dir / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
-  }
+// A private folder per test (ScratchDir, tests/support), named for the suite.
+struct Scratch : circtest::testing::ScratchDir {
+  Scratch() : ScratchDir("circtest-ini") {}
 };
 
 // Runs LinuxCNC's INI reader; nullopt when it does not find the key.
@@ -151,8 +140,8 @@ TEST(IniDocument, IncludesReadInPlaceAsTheLinuxcncScriptExpandsThem) {
   }
   // The demo without its two error lines.
   Scratch s;
-  fs::copy(kIncludeErrorsDemo.parent_path(), s.dir / "demo");
-  const fs::path ini = s.dir / "demo" / kIncludeErrorsDemo.filename();
+  fs::copy(kIncludeErrorsDemo.parent_path(), s.dir() / "demo");
+  const fs::path ini = s.dir() / "demo" / kIncludeErrorsDemo.filename();
   std::string text = circtest::read_file(ini.string());
   text.replace(text.find("#INCLUDE\n#INCLUDE nosuchfile\n"), 29, "");
   circtest::write_file_atomic(ini.string(), text);
@@ -264,9 +253,9 @@ TEST(IniDocument, EditInIncludedFileChangesThatFileOnly) {
 
 TEST(IniDocument, LoadRefusesWhatIsNoIniFile) {
   Scratch s;
-  EXPECT_THROW(IniDocument::load(s.dir.string()), circtest::IoError);
+  EXPECT_THROW(IniDocument::load(s.dir().string()), circtest::IoError);
   EXPECT_THROW(IniDocument::load("/dev/zero"), circtest::IoError);
-  EXPECT_THROW(IniDocument::load((s.dir / "missing.ini").string()), circtest::IoError);
+  EXPECT_THROW(IniDocument::load((s.dir() / "missing.ini").string()), circtest::IoError);
   // LinuxCNC would start without an include it cannot read: refused, naming the INI's line.
   const std::string missing_include = s.write("a.ini", "[A]\n#INCLUDE nowhere.inc\nK = 1\n");
   try {

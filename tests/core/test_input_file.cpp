@@ -89,4 +89,33 @@ TEST(InputFile, TheStreamedDigestIsTheDigestOfTheBytes) {
             "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
 }
 
+// Known answers (FIPS 180-2's examples, and messages around the 55/56/64-byte padding edges
+// with bytes above 0x7f, digests from Python's hashlib): the digest is computed in core.
+TEST(Sha256, KnownAnswers) {
+  EXPECT_EQ(sha256_hex(""), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(sha256_hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(sha256_hex("abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq"),
+            "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+  const std::pair<std::size_t, const char*> edges[] = {
+      {55, "fc0ae310b48cab4c87561a8176615c73acbe8d4abd15fee3e2ac284480a27bdb"},
+      {56, "72b488ef4b31f4efb752e00e29fdce47f415909d0474697e364928989d0be415"},
+      {63, "6503954d0d83830b435989fd1f25ec16e01aab67b70861a01fe01ef8412f221a"},
+      {64, "c471eae7ead2708dcbc0123ebb955a3f689a2125c182f877f30fe7a91814dac1"},
+      {65, "5039909c04b54848a1f8e00acb73a5b9470d6baf7403f37f7c6b993467cbd0d3"},
+      {119, "487d0a8cf0c8bbddecc1fd5682f73884a7cce425d79b46d234ccda1bb8a0f84e"},
+      {120, "e14cbe6a1ebc723b7028c4d746bf683be84d669f4f6b24330b1909c00f5a3dde"}};
+  for (const auto& [size, digest] : edges) {
+    std::string message;
+    for (std::size_t i = 0; i < size; ++i) message += static_cast<char>((i * 7 + 200) % 256);
+    EXPECT_EQ(sha256_hex(message), digest) << size << " bytes";
+  }
+}
+
+TEST(Sha256, AMillionAsStreamedFromAFile) {
+  ScratchDir dir;
+  spit(dir.file("a"), std::string(1000000, 'a'));
+  EXPECT_EQ(sha256_of_file(dir.file("a")),
+            "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+}
+
 }  // namespace

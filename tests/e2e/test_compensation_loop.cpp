@@ -30,11 +30,9 @@ int run(const std::string& command) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// A file that is not there reads as "" (the checks below then say what is missing).
 std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return circtest::testing::slurp_if_exists(p);
 }
 
 std::string metadata(const fs::path& trace, const std::string& key) {

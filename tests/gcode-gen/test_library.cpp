@@ -8,9 +8,9 @@
 #include "circtest/core/error.hpp"
 #include "circtest/gcode/annex_c.hpp"
 #include "circtest/gcode/commands.hpp"
+#include "circtest/gcode/generator.hpp"
 #include "circtest/gcode/machine_limits.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
-#include "circtest/gcode/test_program.hpp"
 
 namespace circtest {
 namespace {

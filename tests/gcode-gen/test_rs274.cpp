@@ -14,7 +14,7 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/plane.hpp"
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 #include "support.hpp"
 
 namespace circtest::testing {

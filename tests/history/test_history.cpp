@@ -17,12 +17,14 @@
 #include <memory>
 #include <sstream>
 
-#include "circtest/analysis/history_record.hpp"
 #include "circtest/analysis/report.hpp"
+#include "circtest/circana/history_record.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/sha256.hpp"
 #include "circtest/history/history.hpp"
 #include "expect_error.hpp"
 #include "machine_sim.hpp"
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -30,11 +32,9 @@ using namespace circtest::history;
 
 namespace {
 
+// A file that is not there reads as "" (the checks below then say what is missing).
 std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return circtest::testing::slurp_if_exists(p);
 }
 
 struct Result {
@@ -221,7 +221,7 @@ TEST_P(History, StoresListsAndTrendsTestsOfAMachine) {
     const auto store = open_store(url_);
     for (const auto& [b, date] : tests) {
       TestRecord r = record_from_result(simulated_result(b, date, dir_), nullptr);
-      r.trace_sha256 = sha256_file(r.trace_path);
+      r.trace_sha256 = sha256_of_file(r.trace_path);
       store->add(r);
     }
     // Another machine's test stays apart.
@@ -482,8 +482,8 @@ INSTANTIATE_TEST_SUITE_P(Backends, History, ::testing::Values(Backend::sqlite, B
                          name);
 
 TEST(HistorySqlite, ACorruptFileIsAClearError) {
-  const fs::path dir = fs::temp_directory_path() / fmt::format("circtest-corrupt-{}", getpid());
-  fs::create_directories(dir);
+  const circtest::testing::ScratchDir scratch("circtest-corrupt");
+  const fs::path dir = scratch.dir();
   const fs::path db = dir / "history.sqlite";
   std::ofstream(db) << std::string(4096, 'x');
   const Result r =
@@ -494,13 +494,12 @@ TEST(HistorySqlite, ACorruptFileIsAClearError) {
                        ": not a usable SQLite history database (file is not a database): move "
                        "it away or give another --db\n");
   EXPECT_EQ(slurp(db), std::string(4096, 'x'));  // left as it was
-  fs::remove_all(dir);
 }
 
 TEST(HistoryPostgres, AStoreWhileTheServerIsStoppedFailsAndWritesNothing) {
   PostgresServer server;
-  const fs::path dir = fs::temp_directory_path() / fmt::format("circtest-pgstop-{}", getpid());
-  fs::create_directories(dir);
+  const circtest::testing::ScratchDir scratch("circtest-pgstop");
+  const fs::path dir = scratch.dir();
   open_store(server.url())
       ->add(record_from_result(simulated_result(0.01, "2026-01-05", dir), nullptr));
   const fs::path json = dir / "r.json";
@@ -516,15 +515,13 @@ TEST(HistoryPostgres, AStoreWhileTheServerIsStoppedFailsAndWritesNothing) {
   const auto tests = open_store(server.url())->tests("VMC-3", "");
   ASSERT_EQ(tests.size(), 1u);
   EXPECT_EQ(tests[0].tested_at, "2026-01-05");
-  fs::remove_all(dir);
 }
 
 // Library text names no command-line option: history_record used as a library says
 // what to give in its own words; circana store words it as --machine (BadRequestsGiveClearErrors).
 TEST(HistoryRecord, NoMachineNameNamesNoOption) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("circtest-record-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const circtest::testing::ScratchDir scratch("circtest-record");
+  const fs::path dir = scratch.dir();
   auto doc = simulated_result(0.01, "2026-01-06", dir);
   doc["conditions"].erase("machine");
   try {
@@ -537,14 +534,13 @@ TEST(HistoryRecord, NoMachineNameNamesNoOption) {
               "(# machine: NAME)");
   }
   EXPECT_EQ(record_from_result(doc, nullptr, "VMC-4").machine, "VMC-4");
-  fs::remove_all(dir);
 }
 
 // The test's time is a real date, kept in one form that sorts in time order; a date that is
 // none is refused with its key rather than stored as the test's time.
 TEST(HistoryRecord, TheTestTimeIsARealDateInUtc) {
-  const fs::path dir = fs::temp_directory_path() / ("circtest-date-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const circtest::testing::ScratchDir scratch("circtest-date");
+  const fs::path dir = scratch.dir();
   auto doc = simulated_result(0.01, "2026-01-06", dir);
   EXPECT_EQ(record_from_result(doc, nullptr).tested_at, "2026-01-06");
   doc["conditions"]["start_time"] = "2026-11-23T00:30:00+01:00";
@@ -556,15 +552,13 @@ TEST(HistoryRecord, TheTestTimeIsARealDateInUtc) {
                              "YYYY-MM-DDTHH:MM:SSZ (a real one), got '") +
                      bad + "'");
   }
-  fs::remove_all(dir);
 }
 
 // No number that is not finite reaches the history: the record refuses it with its name, the
 // store refuses it from any caller, and one stored by an older version shows as n/a.
 TEST(HistoryRecord, NumbersThatAreNotFiniteAreNeverStoredOrShown) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("circtest-numbers-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const circtest::testing::ScratchDir scratch("circtest-numbers");
+  const fs::path dir = scratch.dir();
   const auto doc = simulated_result(0.01, "2026-01-06", dir);
   Evaluation ev = evaluation_from_json(nlohmann::ordered_json::parse(doc.dump()));
   ev.hysteresis.front().h_mm = INFINITY;
@@ -596,7 +590,6 @@ TEST(HistoryRecord, NumbersThatAreNotFiniteAreNeverStoredOrShown) {
   Limits limits;
   limits.g_mm = 0.02;
   EXPECT_EQ(breaches(r, limits), std::vector<std::string>{"G n/a > 20.0 um"});
-  fs::remove_all(dir);
 }
 
 // The library names its settings in its own words unless the front end gives its option.
@@ -619,17 +612,4 @@ TEST(HistoryLimits, RefusalsNameTheSettingAsTheCallerDoes) {
   EXPECT_EQ(message("squareness=20000"),
             "limits squareness: expected a limit in urad above 0 and at most 10000, got '20000'");
   EXPECT_EQ(message("Q=1").rfind("limits: expected NAME=VALUE", 0), 0u) << message("Q=1");
-}
-
-TEST(HistorySha256, KnownDigests) {
-  const fs::path p = fs::temp_directory_path() / fmt::format("circtest-sha-{}", getpid());
-  std::ofstream(p) << "abc";
-  // FIPS 180-2, appendix B.1.
-  EXPECT_EQ(sha256_file(p.string()),
-            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
-  std::ofstream(p, std::ios::trunc).flush();
-  EXPECT_EQ(sha256_file(p.string()),
-            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
-  fs::remove(p);
-  EXPECT_THROW(sha256_file(p.string()), IoError);
 }

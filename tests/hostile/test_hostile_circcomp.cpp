@@ -434,6 +434,11 @@ TEST_F(Hostile, ADiagnosisThatIsNotCircanasIsAnInputError) {
       {with("\"circtest.diagnosis/1\"", "5"), 4, "\"schema\": expected a string"},
       {with("\"circtest.diagnosis/1\"", "\"circtest.diagnosis/2\""), 4,
        "\"schema\": circtest.diagnosis/2 is a version this circcomp does not read"},
+      {with("\"units\": \"mm\"", "\"units\": \"mm\", \"version\": \"2.0\""), 4,
+       "\"version\": 2.0 is newer than this circcomp reads (1.x): use the circcomp of the "
+       "circana that wrote it"},
+      {with("\"units\": \"mm\"", "\"units\": \"mm\", \"version\": \"1\\u0007\""), 4,
+       "\"version\": expected MAJOR.MINOR (\"1.1\"), got '1\\x07'"},
       {with("\"plane\": \"XY\"", "\"plane\": [1]"), 4, "\"plane\": expected a string"},
       {with("\"units\": \"mm\"", "\"units\": {}"), 4, "\"units\": expected a string"},
       {with("\"standard_error\": {", "\"standard_error\": 5, \"x\": {"), 4,

@@ -26,6 +26,23 @@ ScratchDir::~ScratchDir() {
   std::filesystem::remove_all(path_, ignored);
 }
 
+std::string ScratchDir::write(const std::string& name, const std::string& text) const {
+  const std::string path = file(name);
+  spit(path, text);
+  return path;
+}
+
+std::string ScratchDir::read(const std::string& name) const {
+  return slurp(file(name));
+}
+
+std::vector<std::string> words(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string w; in >> w;) out.push_back(w);
+  return out;
+}
+
 std::string slurp(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot read " + path.string());

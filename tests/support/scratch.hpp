@@ -17,6 +17,10 @@ class ScratchDir {
   const std::string& path() const { return path_; }
   std::filesystem::path dir() const { return path_; }
   std::string file(const std::string& name) const { return path_ + "/" + name; }
+  // Writes (replaces) the file NAME in the folder; its path.
+  std::string write(const std::string& name, const std::string& text) const;
+  // The whole file NAME of the folder; throws std::runtime_error when it cannot be read.
+  std::string read(const std::string& name) const;
   // Leave the folder for a post-mortem (a failed test's logs).
   void keep() { keep_ = true; }
 
@@ -31,6 +35,9 @@ std::string slurp(const std::filesystem::path& path);
 std::string slurp_if_exists(const std::filesystem::path& path);
 // Writes (replaces) the whole file; throws std::runtime_error on failure.
 void spit(const std::filesystem::path& path, const std::string& text);
+
+// The blank-separated words of a command line (for tests whose paths have no blanks).
+std::vector<std::string> words(const std::string& text);
 
 struct CommandResult {
   int exit_code = -1;  // 128 + signal when killed

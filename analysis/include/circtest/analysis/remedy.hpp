@@ -4,6 +4,8 @@
 // analysis/src/commands.cpp), so library text names no command-line option.
 #include <string_view>
 
+#include "circtest/core/setting_words.hpp"
+
 namespace circtest {
 
 enum class Remedy {
@@ -18,8 +20,8 @@ enum class Remedy {
   give_machine,      // the name of the machine tested (the history is per machine)
 };
 
-// The words for a remedy inside a message.
-using RemedyWords = std::string_view (*)(Remedy remedy);
+// The words for a remedy inside a message (core/setting_words.hpp).
+using RemedyWords = SettingWords<Remedy>;
 
 // The library's own words, naming the settings of EvaluationOptions and InputCheckOptions in
 // plain language ("the nominal radius setting"): what a caller without a front end sees.

@@ -1,6 +1,7 @@
 #pragma once
-// The part of a `circtest.diagnosis/1` document (circana diagnose --json) that compensation
-// reads. Keys are the plane's axis letters; a null is a value the diagnosis could not fit.
+// The part of a `circtest.diagnosis/1` document (circana diagnose --json, keys in
+// core/diagnosis_keys.hpp, docs/diagnosis-json.md) that compensation reads. Keys are the
+// plane's axis letters; a null is a value the diagnosis could not fit.
 #include <array>
 #include <cstddef>
 #include <optional>
@@ -26,8 +27,9 @@ struct DiagnosisInput {
   std::array<char, 2> axes{'X', 'Y'};
   std::array<Measured, 2> backlash_mm;        // play: positive = lost motion
   std::array<Measured, 2> reversal_spike_mm;  // friction transient, never compensated as play
-  std::array<std::optional<double>, 2> reversal_spike_ms;
-  std::array<Measured, 2> scale_ppm;  // actual = (1 + s) * commanded
+  std::array<std::optional<double>, 2> reversal_spike_ms;     // the spike's decay time
+  std::array<std::optional<double>, 2> reversal_spike_se_ms;  // its standard error
+  std::array<Measured, 2> scale_ppm;                          // actual = (1 + s) * commanded
   Measured scale_mismatch_ppm;
   Measured squareness_urad;    // a_actual = a + alpha * b
   Measured servo_mismatch_ms;  // lag of the first axis minus lag of the second
@@ -41,7 +43,8 @@ inline constexpr std::size_t kMaxDiagnosisBytes = std::size_t{4} << 20;
 
 // Throws IoError (missing, a device, larger than kMaxDiagnosisBytes), ParseError (not JSON,
 // nested deeper than 16 levels, a number beyond a double, not schema circtest.diagnosis/1 or
-// a newer version of it, a key of the wrong type: file and key named), DataError (a cyclic
+// a newer version of it, a "version" that is not MAJOR.MINOR or of a newer major, a key of
+// the wrong type: file and key named), DataError (a cyclic
 // pitch outside 0.001..10000 mm).
 DiagnosisInput read_diagnosis(const std::string& path);
 DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source);

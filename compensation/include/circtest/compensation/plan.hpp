@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/core/setting_words.hpp"
 
 namespace circtest::compensation {
 
@@ -24,7 +25,7 @@ enum class PlanSetting {
   without_squareness,  // the corrections without squareness (no circtest_kins needed)
   without_friction,    // the corrections without friction compensation (no circfric wiring)
 };
-using PlanSettingWords = std::string_view (*)(PlanSetting setting);
+using PlanSettingWords = SettingWords<PlanSetting>;
 // The library's words: "the force setting", "the gain setting", ...
 std::string_view library_setting_words(PlanSetting setting) noexcept;
 

@@ -27,9 +27,6 @@ struct ConditionOption {
 // --notes, in that order.
 std::span<const ConditionOption> condition_options() noexcept;
 
-// The option that writes `key`, or nullptr.
-const ConditionOption* condition_option_for_key(std::string_view key) noexcept;
-
 // A value as it goes into the metadata: trimmed, one line (a metadata line cannot hold a
 // newline), UTF-8 text, not empty, a temperature within kTemperatureRangeC. Throws
 // UsageError naming --option.

@@ -23,9 +23,6 @@ enum class ExitCode : int {
   unsafe_path = 12,  // circcomp: a path outside the configuration, a link or not a regular file
 };
 
-// Short stable name of an exit code, for messages and documentation.
-const char* exit_code_name(ExitCode code) noexcept;
-
 class Error : public std::runtime_error {
  public:
   Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}

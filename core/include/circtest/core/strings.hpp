@@ -42,4 +42,8 @@ std::string utf8_replacing_invalid(std::string_view text);
 // double-quoted attribute values (SVG plots, the HTML report), whatever the text held.
 std::string xml_escape(std::string_view text);
 
+// The text with every byte outside printable ASCII written as \xNN: an error line that quotes
+// its input never carries the invalid UTF-8 or control bytes that caused it.
+std::string printable_ascii(std::string_view text);
+
 }  // namespace circtest

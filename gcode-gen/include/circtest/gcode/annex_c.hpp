@@ -1,7 +1,7 @@
 #pragma once
 // ISO 230-4 Annex C: the feed that keeps the axis acceleration of a reference test when the
 // diameter changes, V1 = V2 * sqrt(D1 / D2).
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 
 namespace circtest {
 

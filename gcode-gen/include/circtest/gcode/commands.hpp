@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 
 namespace circtest {
 

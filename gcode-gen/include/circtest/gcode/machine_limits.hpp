@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 
 namespace circtest {
 

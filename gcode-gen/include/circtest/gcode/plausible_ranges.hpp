@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <string_view>
 
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 
 namespace circtest {
 

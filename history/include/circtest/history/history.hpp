@@ -78,9 +78,6 @@ std::unique_ptr<Store> open_store(const std::string& url,
 // $XDG_DATA_HOME/circtest/history.sqlite ($HOME/.local/share when XDG_DATA_HOME is unset).
 std::string default_database_path(std::string_view setting = kDatabaseSetting);
 
-// SHA-256 of a file's contents, lowercase hex. Throws IoError.
-std::string sha256_file(const std::string& path);
-
 // Pass/fail limits of the trend: H, G, F, backlash (mm) and squareness (urad).
 struct Limits {
   std::optional<double> h_mm, g_mm, f_mm, backlash_mm, squareness_urad;

@@ -1,4 +1,4 @@
-#include "circtest/analysis/history_record.hpp"
+#include "circtest/circana/history_record.hpp"
 
 #include <fmt/format.h>
 

@@ -1,4 +1,4 @@
-#include "circtest/gcode/test_program.hpp"
+#include "circtest/gcode/generator.hpp"
 
 #include <fmt/format.h>
 

@@ -4,8 +4,8 @@
 #include <algorithm>
 #include <optional>
 
-#include "circtest/analysis/commands.hpp"
 #include "circtest/analysis/html_report.hpp"
+#include "circtest/circana/commands.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "circtest/core/plane.hpp"
+#include "circtest/core/setting_words.hpp"
 
 namespace circtest {
 
@@ -121,7 +122,7 @@ enum class SpecSetting {
   reference_feed,
   work_offset_values,
 };
-using SpecWords = std::string_view (*)(SpecSetting setting);
+using SpecWords = SettingWords<SpecSetting>;
 std::string_view library_spec_words(SpecSetting setting) noexcept;
 
 // Throws UsageError naming the setting (in `words`) when the spec cannot give a valid test

@@ -1,4 +1,4 @@
-#include "circtest/analysis/commands.hpp"
+#include "circtest/circana/commands.hpp"
 
 #include <fmt/format.h>
 
@@ -6,16 +6,18 @@
 #include <optional>
 
 #include "circtest/analysis/diagnosis.hpp"
-#include "circtest/analysis/history_record.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/remedy.hpp"
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_checks.hpp"
+#include "circtest/circana/history_record.hpp"
 #include "circtest/core/atomic_file.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/json_text.hpp"
+#include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "circtest/core/utc_time.hpp"
@@ -139,7 +141,7 @@ std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
   history::TestRecord record = history_record(ev, diagnosis, {}, circana_option_words, source);
   std::error_code ec;
   if (!trace_path.empty() && std::filesystem::is_regular_file(trace_path, ec)) {
-    record.trace_sha256 = history::sha256_file(trace_path);
+    record.trace_sha256 = sha256_of_file(trace_path);
     record.trace_path = utf8_replacing_invalid(std::filesystem::absolute(trace_path, ec).string());
   }
   const auto store = history::open_store(db_url, "--db");
@@ -314,9 +316,9 @@ std::optional<nlohmann::ordered_json> store_document(const std::string& path) {
 int run_store(const StoreRequest& request, std::ostream& out) {
   if (std::optional<nlohmann::ordered_json> document = store_document(request.path)) {
     if (!document->is_object()) throw ParseError(request.path, 0, "expected a JSON object");
-    const auto schema = document->find("schema");
+    const auto schema = document->find(diagnosis_json::key::schema);
     if (schema != document->end() && schema->is_string() &&
-        schema->get<std::string>().starts_with("circtest.diagnosis/")) {
+        schema->get<std::string>().starts_with(diagnosis_json::kSchemaFamily)) {
       throw DataError(request.path, 0,
                       "a diagnosis document: store the trace (circana diagnose --store) or its "
                       "evaluation (circana analyze --json)");

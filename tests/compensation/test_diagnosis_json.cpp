@@ -1,0 +1,182 @@
+// The diagnosis JSON has one definition (core/diagnosis_keys.hpp): circana writes a diagnosis
+// of a simulated machine, circcomp's reader reads it back, and every field it reads comes
+// back with the same value and the same presence (a number stays a number, a null a null).
+// A key renamed on one side only, or a value written in another type, fails here.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "circtest/analysis/diagnosis.hpp"
+#include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
+#include "circtest/core/trace_keys.hpp"
+#include "expect_error.hpp"
+#include "machine_sim.hpp"
+
+using namespace circtest;
+
+namespace {
+
+// Same presence and, when present, the same double (the JSON keeps 17 digits: exact).
+void expect_same(const std::optional<double>& written, const std::optional<double>& read,
+                 const std::string& what) {
+  ASSERT_EQ(written.has_value(), read.has_value()) << what;
+  if (written) {
+    EXPECT_EQ(*written, *read) << what;
+  }
+}
+
+void expect_same(const Estimate& written, const compensation::Measured& read,
+                 const std::string& what) {
+  expect_same(written.value, read.value, what + " value");
+  expect_same(written.standard_error, read.standard_error, what + " standard error");
+}
+
+struct RoundTrip {
+  Diagnosis written;
+  compensation::DiagnosisInput read;
+};
+
+RoundTrip round_trip(Plane plane) {
+  sim::MachineModel m;
+  const auto [a, b, normal] = plane_axes(plane);
+  (void)normal;
+  sim::AxisModel& first = a == 'x' ? m.x : a == 'y' ? m.y : m.z;
+  sim::AxisModel& second = b == 'x' ? m.x : b == 'y' ? m.y : m.z;
+  first.kv_per_s = 30.0;
+  first.backlash_mm = 0.008;
+  first.spike_mm = 0.004;
+  first.spike_ms = 15.0;
+  first.scale = 40e-6;
+  second.kv_per_s = 33.0;
+  second.cyclic_amplitude_mm = 0.002;
+  second.cyclic_pitch_mm = 5.0;
+  second.cyclic_phase_rad = 0.7;
+  m.squareness_rad = 80e-6;
+  m.noise_mm = 0.2e-3;
+  sim::CircleProgram p;
+  p.plane = plane;
+  p.radius_mm = 50.0;
+  p.feed_mm_per_min = 2000.0;
+  Trace trace = sim::simulate(m, p);
+  trace.metadata.set(meta_key::ini_sha256, std::string(64, 'a'));
+  DiagnosisOptions o;
+  o.pitch_mm[b] = 5.0;
+  RoundTrip r;
+  r.written = diagnose(trace, o);
+  r.read = compensation::parse_diagnosis(to_json(r.written).dump(), "diagnosis.json");
+  return r;
+}
+
+class DiagnosisJson : public ::testing::TestWithParam<Plane> {};
+
+TEST_P(DiagnosisJson, EveryFieldCirccompReadsComesBackAsCircanaWroteIt) {
+  const auto [d, in] = round_trip(GetParam());
+  // The simulated machine makes every field a number, so a key lost on one side shows.
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_TRUE(d.scale_ppm[k].value) << k;
+    ASSERT_TRUE(d.backlash_mm[k].value) << k;
+  }
+  ASSERT_TRUE(d.backlash_mm[0].standard_error);
+  ASSERT_TRUE(d.spike_mm[0].value);
+  ASSERT_TRUE(d.spike_ms[0].value && d.spike_ms[0].standard_error);
+  ASSERT_TRUE(d.squareness_urad.value && d.servo_mismatch_ms.value && d.kv_per_s.value);
+  ASSERT_TRUE(d.scale_mismatch_ppm.value);
+  ASSERT_TRUE(d.cyclic[1]);
+  ASSERT_TRUE(d.ini_sha256);
+
+  EXPECT_EQ(in.source, "diagnosis.json");
+  EXPECT_EQ(in.plane, plane_name(d.plane));
+  EXPECT_EQ(in.axes, d.axes);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::string axis(1, d.axes[k]);
+    expect_same(d.backlash_mm[k], in.backlash_mm[k], "backlash " + axis);
+    expect_same(d.spike_mm[k], in.reversal_spike_mm[k], "spike " + axis);
+    expect_same(d.spike_ms[k].value, in.reversal_spike_ms[k], "spike time " + axis);
+    expect_same(d.spike_ms[k].standard_error, in.reversal_spike_se_ms[k], "spike time se " + axis);
+    expect_same(d.scale_ppm[k], in.scale_ppm[k], "scale " + axis);
+    ASSERT_EQ(d.cyclic[k].has_value(), in.cyclic[k].has_value()) << "cyclic " << axis;
+    if (d.cyclic[k]) {
+      EXPECT_EQ(d.cyclic[k]->amplitude_mm, in.cyclic[k]->amplitude_mm);
+      EXPECT_EQ(d.cyclic[k]->pitch_mm, in.cyclic[k]->pitch_mm);
+      EXPECT_EQ(d.cyclic[k]->phase_rad, in.cyclic[k]->phase_rad);
+      expect_same(d.cyclic[k]->amplitude_se_mm, in.cyclic[k]->amplitude_se_mm,
+                  "cyclic amplitude se " + axis);
+    }
+  }
+  expect_same(d.scale_mismatch_ppm, in.scale_mismatch_ppm, "scale mismatch");
+  expect_same(d.squareness_urad, in.squareness_urad, "squareness");
+  expect_same(d.servo_mismatch_ms, in.servo_mismatch_ms, "servo mismatch");
+  expect_same(d.kv_per_s.value, in.kv_per_s, "kv");
+  EXPECT_EQ(d.ini_sha256, in.ini_sha256);
+}
+
+INSTANTIATE_TEST_SUITE_P(Planes, DiagnosisJson, ::testing::Values(Plane::XY, Plane::YZ, Plane::ZX));
+
+// A machine without errors: the values the trace cannot separate are written as null and read
+// back as absent, never as zeros.
+TEST(DiagnosisJsonNulls, WhatTheTraceCannotSeparateStaysAbsent) {
+  sim::CircleProgram p;
+  p.radius_mm = 50.0;
+  p.feed_mm_per_min = 2000.0;
+  const Diagnosis d = diagnose(sim::simulate(sim::MachineModel{}, p));
+  const auto in = compensation::parse_diagnosis(to_json(d).dump(), "ideal.json");
+  for (std::size_t k = 0; k < 2; ++k) {
+    expect_same(d.spike_mm[k], in.reversal_spike_mm[k], "spike");
+    expect_same(d.spike_ms[k].value, in.reversal_spike_ms[k], "spike time");
+    EXPECT_EQ(d.cyclic[k].has_value(), in.cyclic[k].has_value());
+  }
+  expect_same(d.kv_per_s.value, in.kv_per_s, "kv");
+  EXPECT_FALSE(in.ini_sha256);
+}
+
+// The version: written by circana, and a document of a newer major refused by the reader with
+// the file named (exit 4); a newer minor only adds keys and is read.
+// The JSON text of a diagnosis with `version` as its version's JSON text.
+std::string with_version(const std::string& version_json) {
+  static const std::string text = [] {
+    sim::CircleProgram p;
+    p.radius_mm = 50.0;
+    auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
+    j[diagnosis_json::key::version] = "@VERSION@";
+    return j.dump();
+  }();
+  std::string out = text;
+  out.replace(out.find("\"@VERSION@\""), 11, version_json);
+  return out;
+}
+
+std::string quoted(const std::string& version) {
+  return "\"" + version + "\"";
+}
+
+TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
+  sim::CircleProgram p;
+  p.radius_mm = 50.0;
+  const auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
+  EXPECT_EQ(j.at("version"), "1.1");
+  EXPECT_EQ(j.at("schema"), "circtest.diagnosis/1");
+  EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.0")), "d.json"));
+  EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.99")), "d.json"));
+  EXPECT_NO_THROW(compensation::parse_diagnosis(with_version("null"), "d.json"));
+  EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("2.0")), "d.json"),
+               ExitCode::parse,
+               "d.json: \"version\": 2.0 is newer than this circcomp reads (1.x): use the "
+               "circcomp of the circana that wrote it");
+  EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("10.3")), "d.json"),
+               ExitCode::parse, "\"version\": 10.3 is newer than this circcomp reads");
+  EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("0.9")), "d.json"),
+               ExitCode::parse,
+               "d.json: \"version\": 0.9 does not match the schema circtest.diagnosis/1");
+  for (const char* bad : {"2", "1.", ".1", "1.1.1", "v1.1", "-1.0", "1.x", "99999999.0", ""}) {
+    EXPECT_ERROR(
+        compensation::parse_diagnosis(with_version(quoted(bad)), "d.json"), ExitCode::parse,
+        "d.json: \"version\": expected MAJOR.MINOR (\"1.1\"), got '" + std::string(bad) + "'");
+  }
+  EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("\\u0001\\u00ff.1")), "d.json"),
+               ExitCode::parse, "got '\\x01\\xc3\\xbf.1'");
+  EXPECT_ERROR(compensation::parse_diagnosis(with_version("1.1"), "d.json"), ExitCode::parse,
+               "d.json: \"version\": expected a string or null");
+}
+
+}  // namespace
