@@ -26,8 +26,8 @@ if [ $sanitize = 1 ]; then
   nice -n 19 scripts/sanitize.sh build >"$san_log" 2>&1 &
   san_build=$!
 fi
-# Twice as many tests as cores: the LinuxCNC runs (e2e) wait on the machine's motion, in real
-# time, most of their minute, and each has its own sandbox.
+# Twice as many tests as cores: the LinuxCNC runs (e2e, one at a time) wait on the machine's
+# motion, in real time, most of their minute, and the unit tests use that CPU meanwhile.
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" "$@"
 phase "test suite"
 if [ $sanitize = 1 ]; then
