@@ -48,7 +48,7 @@ void search_spikes(DiagnosisState& ds) {
         }
         return spike_profile_rss(prof, s2, ex);
       };
-      // A 29-point log grid, or 7 points around a decay already found (round 2, or the
+      // A 29-point log grid, or 7 points around a decay already found (its second pass, or the
       // search again after the pitch refinement), widened to the whole grid when the best
       // point is at the edge of the short one.
       const int n = 28;
