@@ -10,8 +10,10 @@ extern "C" {
 #include <new>
 
 #include "circdrive_kernel.hpp"
+#include "hal_instances.hpp"
 
 namespace drive = circtest::drive;
+namespace hal_adapter = circtest::hal_adapter;
 
 extern "C" {
 MODULE_AUTHOR("circtest");
@@ -65,25 +67,22 @@ void update(void* arg, long period) {
   *inst->rejected = inst->model.rejected();
 }
 
-int float_pin(hal_pin_dir_t dir, hal_float_t** pin, const char* name, const char* suffix,
-              double value) {
-  const int r = hal_pin_float_newf(dir, pin, comp_id, "%s.%s", name, suffix);
-  if (r == 0) **pin = value;
-  return r;
-}
-
 int export_instance(Instance* inst, const char* name) {
   const drive::Params d;  // the kernel's defaults are the pins' start values
-  int r = float_pin(HAL_IN, &inst->vel_cmd, name, "vel-cmd", 0.0);
+  int r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->vel_cmd, name, "vel-cmd", 0.0);
   if (r == 0) r = hal_pin_bit_newf(HAL_IN, &inst->enable, comp_id, "%s.enable", name);
-  if (r == 0) r = float_pin(HAL_IN, &inst->tau, name, "tau", d.tau_s);
-  if (r == 0) r = float_pin(HAL_IN, &inst->integral_time, name, "integral-time", d.ti_s);
-  if (r == 0) r = float_pin(HAL_IN, &inst->coulomb, name, "coulomb", d.coulomb);
-  if (r == 0) r = float_pin(HAL_IN, &inst->breakaway, name, "breakaway", d.breakaway);
-  if (r == 0) r = float_pin(HAL_OUT, &inst->pos, name, "pos", 0.0);
-  if (r == 0) r = float_pin(HAL_OUT, &inst->vel, name, "vel", 0.0);
-  if (r == 0) r = float_pin(HAL_OUT, &inst->effort, name, "effort", 0.0);
-  if (r == 0) r = float_pin(HAL_OUT, &inst->friction, name, "friction", 0.0);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->tau, name, "tau", d.tau_s);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->integral_time, name, "integral-time",
+                               d.ti_s);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->coulomb, name, "coulomb", d.coulomb);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->breakaway, name, "breakaway", d.breakaway);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_OUT, &inst->pos, name, "pos", 0.0);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_OUT, &inst->vel, name, "vel", 0.0);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_OUT, &inst->effort, name, "effort", 0.0);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_OUT, &inst->friction, name, "friction", 0.0);
   if (r == 0) r = hal_pin_bit_newf(HAL_OUT, &inst->stuck, comp_id, "%s.stuck", name);
   if (r == 0) r = hal_pin_u32_newf(HAL_OUT, &inst->breakaways, comp_id, "%s.breakaways", name);
   if (r == 0) r = hal_pin_u32_newf(HAL_OUT, &inst->rejected, comp_id, "%s.rejected", name);
@@ -106,21 +105,10 @@ int rtapi_app_main(void) {
   }
   comp_id = hal_init("circdrive");
   if (comp_id < 0) return comp_id;
-  for (int i = 0; i < count; ++i) {
-    char name[HAL_NAME_LEN + 1];
-    rtapi_snprintf(name, sizeof name, "circdrive.%d", i);
-    void* raw = hal_malloc(sizeof(Instance));
-    const int r = raw == nullptr ? -ENOMEM : export_instance(new (raw) Instance{}, name);
-    if (r != 0) {
-      rtapi_print_msg(RTAPI_MSG_ERR, "circdrive: exporting the pins and function of %s failed\n",
-                      name);
-      hal_exit(comp_id);
-      return r;
-    }
-  }
-  rtapi_print_msg(RTAPI_MSG_INFO, "circdrive: %d instance(s)\n", count);
-  hal_ready(comp_id);
-  return 0;
+  return hal_adapter::export_instances<Instance>(
+      comp_id, "circdrive", count,
+      [](int i, char* name, unsigned long size) { rtapi_snprintf(name, size, "circdrive.%d", i); },
+      export_instance);
 }
 
 void rtapi_app_exit(void) {

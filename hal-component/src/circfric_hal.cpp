@@ -12,8 +12,10 @@ extern "C" {
 #include <new>
 
 #include "circfric_kernel.hpp"
+#include "hal_instances.hpp"
 
 namespace fric = circtest::fric;
+namespace hal_adapter = circtest::hal_adapter;
 
 extern "C" {
 MODULE_AUTHOR("circtest");
@@ -78,25 +80,26 @@ void update(void* arg, long period) {
   *inst->rejected = inst->compensator.rejected();
 }
 
-int float_pin(hal_pin_dir_t dir, hal_float_t** pin, const char* name, const char* suffix,
-              double value) {
-  const int r = hal_pin_float_newf(dir, pin, comp_id, "%s.%s", name, suffix);
-  if (r == 0) **pin = value;
-  return r;
-}
-
 int export_instance(Instance* inst, const char* name) {
   const fric::Params d;  // the kernel's defaults are the pins' start values
-  int r = float_pin(HAL_IN, &inst->vel_cmd, name, "vel-cmd", 0.0);
+  int r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->vel_cmd, name, "vel-cmd", 0.0);
   if (r == 0) r = hal_pin_bit_newf(HAL_IN, &inst->enable, comp_id, "%s.enable", name);
-  if (r == 0) r = float_pin(HAL_IN, &inst->amplitude, name, "amplitude", d.amplitude);
-  if (r == 0) r = float_pin(HAL_IN, &inst->amplitude_max, name, "amplitude-max", d.amplitude_max);
-  if (r == 0) r = float_pin(HAL_IN, &inst->decay_ms, name, "decay-ms", d.decay_ms);
-  if (r == 0) r = float_pin(HAL_IN, &inst->vel_threshold, name, "vel-threshold", d.vel_threshold);
-  if (r == 0) r = float_pin(HAL_IN, &inst->min_travel, name, "min-travel", d.min_travel);
-  if (r == 0) r = float_pin(HAL_IN, &inst->pos_in, name, "pos-in", 0.0);
-  if (r == 0) r = float_pin(HAL_OUT, &inst->offset, name, "offset", 0.0);
-  if (r == 0) r = float_pin(HAL_OUT, &inst->pos_out, name, "pos-out", 0.0);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->amplitude, name, "amplitude", d.amplitude);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->amplitude_max, name, "amplitude-max",
+                               d.amplitude_max);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->decay_ms, name, "decay-ms", d.decay_ms);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->vel_threshold, name, "vel-threshold",
+                               d.vel_threshold);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->min_travel, name, "min-travel",
+                               d.min_travel);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->pos_in, name, "pos-in", 0.0);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_OUT, &inst->offset, name, "offset", 0.0);
+  if (r == 0) r = hal_adapter::float_pin(comp_id, HAL_OUT, &inst->pos_out, name, "pos-out", 0.0);
   if (r == 0) r = hal_pin_bit_newf(HAL_OUT, &inst->active, comp_id, "%s.active", name);
   if (r == 0) r = hal_pin_s32_newf(HAL_OUT, &inst->direction, comp_id, "%s.direction", name);
   if (r == 0) r = hal_pin_u32_newf(HAL_OUT, &inst->reversals, comp_id, "%s.reversals", name);
@@ -178,25 +181,16 @@ int rtapi_app_main(void) {
   }
   comp_id = hal_init("circfric");
   if (comp_id < 0) return comp_id;
-  for (int i = 0; i < how_many; ++i) {
-    char name[HAL_NAME_LEN + 1];
-    if (by_names) {
-      rtapi_snprintf(name, sizeof name, "%s", names[i]);
-    } else {
-      rtapi_snprintf(name, sizeof name, "circfric.%d", i);
-    }
-    void* raw = hal_malloc(sizeof(Instance));
-    const int r = raw == nullptr ? -ENOMEM : export_instance(new (raw) Instance{}, name);
-    if (r != 0) {
-      rtapi_print_msg(RTAPI_MSG_ERR, "circfric: exporting the pins and function of %s failed\n",
-                      name);
-      hal_exit(comp_id);
-      return r;
-    }
-  }
-  rtapi_print_msg(RTAPI_MSG_INFO, "circfric: %d instance(s)\n", how_many);
-  hal_ready(comp_id);
-  return 0;
+  return hal_adapter::export_instances<Instance>(
+      comp_id, "circfric", how_many,
+      [by_names](int i, char* name, unsigned long size) {
+        if (by_names) {
+          rtapi_snprintf(name, size, "%s", names[i]);
+        } else {
+          rtapi_snprintf(name, size, "circfric.%d", i);
+        }
+      },
+      export_instance);
 }
 
 void rtapi_app_exit(void) {
