@@ -534,16 +534,15 @@ std::pair<double, double> swept_range_deg(const CircleTestSpec& spec) {
   return {spec.start_deg - spec.lead_deg, spec.start_deg + spec.arc_deg + spec.lead_deg};
 }
 
-TestProgram generate_test_program(const CircleTestSpec& spec) {
-  validate(spec);
-  TestProgram program;
-  program.runs = plan_runs(spec);
-  ProgramWriter w(spec);
+namespace {
+
+// The header's key: value lines (the recorder copies them into the trace's metadata).
+std::vector<std::pair<std::string, std::string>> program_header(
+    const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs, const ProgramWriter& w) {
+  std::vector<std::pair<std::string, std::string>> h;
   const PlaneAxes axes = plane_axes(spec.plane);
   const bool inch = spec.units == LengthUnit::inch;
   const double to_units = inch ? 1.0 / kMmPerInch : 1.0;
-
-  auto& h = program.header;
   auto add = [&h](std::string key, std::string value) {
     h.emplace_back(std::move(key), std::move(value));
   };
@@ -621,7 +620,7 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
   }
   add(meta_key::marker_output, std::to_string(spec.marker_output));
   add(meta_key::segment_output, std::to_string(spec.segment_output));
-  add(meta_key::segments, segments_value(spec, program.runs, w));
+  add(meta_key::segments, segments_value(spec, runs, w));
   if (spec.annex_c) {
     const AnnexCNote& a = *spec.annex_c;
     const char* u = inch ? "in" : "mm";
@@ -633,24 +632,48 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
                                header_number(a.scaled_feed)));
   }
   for (const auto& entry : spec.extra_header) h.push_back(entry);
+  return h;
+}
 
-  for (const auto& [key, value] : h) w.line(fmt::format("(circtest: {}: {})", key, value));
+// What the program's sections share: the plane's axes, the words, the first point.
+struct Layout {
+  PlaneAxes axes;
+  bool inch = false;
+  double to_units = 1.0;
+  bool ballbar = false;
+  char N = 'Z';                  // the normal axis, upper case
+  std::string normal, in_plane;  // the axes a move may write
+  std::string plane_word, marker, segment;
+  std::string approach_f, centre_normal, feed_in_text;
+  double outside = 0.0;  // the ballbar's radial moves end this far outside the circle
+  double first_lead_deg = 0.0;
+  std::array<double, 3> start{};  // where the first lead-in starts
+};
 
-  const std::string plane_word = fmt::format("G{}", plane_gcode(spec.plane));
-  const std::string marker = fmt::format("P{}", spec.marker_output);
-  const std::string segment = fmt::format("E{}", spec.segment_output);
-  const bool ballbar = spec.instrument == Instrument::ballbar;
-  const char N = upper(axes.normal);
-  const std::string normal(1, axes.normal);
-  const std::string in_plane{axes.first, axes.second};
-  const std::string approach_f = w.feed(approach_feed_mm_per_min(spec));
-  const std::string centre_normal = w.number(w.centre()[axis_index(axes.normal)]);
-  // The ballbar's radial moves run between the circle and a point this far outside it.
-  const double outside = ballbar ? w.to_units(spec.feed_in_mm) : 0.0;
-  const std::string feed_in_text = w.number(outside);
-  const MeasuredRun& first = program.runs.front();
-  const double first_lead_deg = lead_in_start_deg(spec, first.direction);
-  const std::array<double, 3> start = w.point_at(first_lead_deg, outside);
+Layout program_layout(const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs,
+                      const ProgramWriter& w) {
+  Layout l;
+  l.axes = plane_axes(spec.plane);
+  l.inch = spec.units == LengthUnit::inch;
+  l.to_units = l.inch ? 1.0 / kMmPerInch : 1.0;
+  l.ballbar = spec.instrument == Instrument::ballbar;
+  l.N = upper(l.axes.normal);
+  l.normal = std::string(1, l.axes.normal);
+  l.in_plane = std::string{l.axes.first, l.axes.second};
+  l.plane_word = fmt::format("G{}", plane_gcode(spec.plane));
+  l.marker = fmt::format("P{}", spec.marker_output);
+  l.segment = fmt::format("E{}", spec.segment_output);
+  l.approach_f = w.feed(approach_feed_mm_per_min(spec));
+  l.centre_normal = w.number(w.centre()[axis_index(l.axes.normal)]);
+  l.outside = l.ballbar ? w.to_units(spec.feed_in_mm) : 0.0;
+  l.feed_in_text = w.number(l.outside);
+  l.first_lead_deg = lead_in_start_deg(spec, runs.front().direction);
+  l.start = w.point_at(l.first_lead_deg, l.outside);
+  return l;
+}
+
+// Modes, then what the operator reads, then M0: nothing moves before the operator said go.
+void write_preamble(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
   std::string feeds_text;
   for (double f : spec.feeds_mm_per_min)
     feeds_text += (feeds_text.empty() ? "F" : ",F") + w.feed(f);
@@ -660,7 +683,7 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
 
   // Nothing moves before the operator has read where the program goes and said go (M0).
   w.line("M5 M9 (spindle and coolant off)");
-  w.line(fmt::format("{} {} G90 G91.1 G94 G40 G80", inch ? "G20" : "G21", plane_word));
+  w.line(fmt::format("{} {} G90 G91.1 G94 G40 G80", l.inch ? "G20" : "G21", l.plane_word));
   // G61 (exact path): no blend arcs or parabolic blends, so no join can round off the
   // circle, while tangent joins (lead arc to measured arc) still pass at the feed.
   w.line("G61");
@@ -669,24 +692,24 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
   if (spec.tool_length_offset) {
     w.line(fmt::format("G43 H{} (tool length offset)", *spec.tool_length_offset));
   }
-  w.line(fmt::format("M65 {}", marker));
-  w.line(fmt::format("M68 {} Q0", segment));
+  w.line(fmt::format("M65 {}", l.marker));
+  w.line(fmt::format("M68 {} Q0", l.segment));
   const char* u = length_unit_name(spec.units);
   w.line(fmt::format("(MSG, circtest: {} test in {} {}, R{} {}, {} at {} {}/min, centre {})",
-                     instrument_name(spec.instrument), plane_name(spec.plane), plane_word,
+                     instrument_name(spec.instrument), plane_name(spec.plane), l.plane_word,
                      w.number(w.to_units(spec.radius_mm)), u, dirs_text, feeds_text, u,
                      w.point_text(w.centre())));
   if (spec.safe_mm) {
     w.line(
         fmt::format("(MSG, Next: {} rapid alone to {}, rapid in the plane to above {}, "
                     "{} down to {} at F{})",
-                    N, w.number(*spec.safe_mm * to_units), w.plane_point_text(start), N,
-                    centre_normal, approach_f));
+                    l.N, w.number(*spec.safe_mm * l.to_units), w.plane_point_text(l.start), l.N,
+                    l.centre_normal, l.approach_f));
   } else {
     w.line(
         fmt::format("(MSG, Raise {} clear of the set-up now. Next: rapid in the plane at "
                     "this {} height to above {}, then {} alone to {} at F{})",
-                    N, N, w.plane_point_text(start), N, centre_normal, approach_f));
+                    l.N, l.N, w.plane_point_text(l.start), l.N, l.centre_normal, l.approach_f));
   }
   const std::string offsets =
       spec.work_offset_code || spec.tool_length_offset
@@ -699,33 +722,40 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
       fmt::format("(MSG, Check: {}, the path clear{}, "
                   "then cycle start)",
                   offsets,
-                  ballbar ? ", ballbar NOT mounted yet"
-                          : (spec.instrument == Instrument::grid ? ", grid head mounted" : "")));
+                  l.ballbar ? ", ballbar NOT mounted yet"
+                            : (spec.instrument == Instrument::grid ? ", grid head mounted" : "")));
   w.line("M0 (operator check before any motion)");
+}
 
-  // Approach: the normal axis and the plane's axes never move together.
+// Approach: the normal axis and the plane's axes never move together.
+void write_approach(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
+  const char* u = length_unit_name(spec.units);
   if (spec.safe_mm) {
-    std::array<double, 3> safe = start;
-    safe[axis_index(axes.normal)] = *spec.safe_mm * to_units;
-    w.move("G0", safe, normal, " (clearance)");
-    w.move("G0", safe, in_plane, " (above the start)");
+    std::array<double, 3> safe = l.start;
+    safe[axis_index(l.axes.normal)] = *spec.safe_mm * l.to_units;
+    w.move("G0", safe, l.normal, " (clearance)");
+    w.move("G0", safe, l.in_plane, " (above the start)");
   } else {
-    w.move("G0", start, in_plane, " (in the plane, at the height the operator left)");
+    w.move("G0", l.start, l.in_plane, " (in the plane, at the height the operator left)");
   }
-  w.move("G1", start, normal, fmt::format(" F{} (approach)", approach_f));
-  if (ballbar) {
+  w.move("G1", l.start, l.normal, fmt::format(" F{} (approach)", l.approach_f));
+  if (l.ballbar) {
     w.line(
         fmt::format("(MSG, Mount the ballbar now: centre pivot at {}, tool cup here, {} {} "
                     "outside the circle; next a radial feed-in of {} {} at F{})",
-                    w.point_text(w.centre()), feed_in_text, u, feed_in_text, u, approach_f));
+                    w.point_text(w.centre()), l.feed_in_text, u, l.feed_in_text, u, l.approach_f));
     w.line("M0 (mount the ballbar)");
   }
   // The feed override would change the feed of the measured arcs.
   w.line("M50 P0 (feed override off for the runs)");
+}
 
-  double angle_deg = first_lead_deg;
+// The runs, each with its lead arcs, markers and segment id, joined as the instrument needs.
+void write_runs(const CircleTestSpec& spec, const Layout& l, const std::vector<MeasuredRun>& runs,
+                ProgramWriter& w) {
+  double angle_deg = l.first_lead_deg;
   std::optional<Direction> previous;
-  for (const MeasuredRun& run : program.runs) {
+  for (const MeasuredRun& run : runs) {
     const std::string f = w.feed(run.feed_mm_per_min);
     const double lead_start = lead_in_start_deg(spec, run.direction);
     if (previous) {
@@ -736,7 +766,7 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
                                                      : normalize_deg(lead_start - angle_deg);
       if (gap > kAngleEpsilonDeg) {
         const Direction back = *previous == Direction::CCW ? Direction::CW : Direction::CCW;
-        w.arc(back, angle_deg, gap, fmt::format(" F{} (back to the lead-in start)", f), outside);
+        w.arc(back, angle_deg, gap, fmt::format(" F{} (back to the lead-in start)", f), l.outside);
       } else if (*previous != run.direction && spec.dwell_s > 0.0) {
         w.line(fmt::format("G4 P{}", header_number(spec.dwell_s)));
       }
@@ -746,45 +776,67 @@ TestProgram generate_test_program(const CircleTestSpec& spec) {
     const double sign = ccw ? 1.0 : -1.0;
     w.line(fmt::format("(run {}: {} {} F{})", run.segment_id, direction_name(run.direction),
                        direction_label(spec.plane, run.direction), f));
-    if (ballbar) {
-      w.move("G1", w.point_at(angle_deg), in_plane,
-             fmt::format(" F{} (feed-in {})", approach_f, feed_in_text));
+    if (l.ballbar) {
+      w.move("G1", w.point_at(angle_deg), l.in_plane,
+             fmt::format(" F{} (feed-in {})", l.approach_f, l.feed_in_text));
     }
     w.arc(run.direction, angle_deg, spec.lead_deg,
-          fmt::format(" F{} ({})", f, ballbar ? "overshoot" : "lead-in"));
+          fmt::format(" F{} ({})", f, l.ballbar ? "overshoot" : "lead-in"));
     angle_deg += sign * spec.lead_deg;
-    w.line(fmt::format("M67 {} Q{}", segment, run.segment_id));
-    w.line(fmt::format("M62 {}", marker));
+    w.line(fmt::format("M67 {} Q{}", l.segment, run.segment_id));
+    w.line(fmt::format("M62 {}", l.marker));
     w.arc(run.direction, angle_deg, spec.arc_deg, " (measured)");
     angle_deg += sign * spec.arc_deg;
     // Synchronized outputs take effect with the next move, so the lead-out carries them:
     // the marker and the id drop exactly where the measured arc ends.
-    w.line(fmt::format("M63 {}", marker));
-    w.line(fmt::format("M67 {} Q0", segment));
-    w.arc(run.direction, angle_deg, spec.lead_deg, ballbar ? " (overshoot)" : " (lead-out)");
+    w.line(fmt::format("M63 {}", l.marker));
+    w.line(fmt::format("M67 {} Q0", l.segment));
+    w.arc(run.direction, angle_deg, spec.lead_deg, l.ballbar ? " (overshoot)" : " (lead-out)");
     angle_deg += sign * spec.lead_deg;
-    if (ballbar) {
-      w.move("G1", w.point_at(angle_deg, outside), in_plane,
-             fmt::format(" F{} (feed-out {})", approach_f, feed_in_text));
+    if (l.ballbar) {
+      w.move("G1", w.point_at(angle_deg, l.outside), l.in_plane,
+             fmt::format(" F{} (feed-out {})", l.approach_f, l.feed_in_text));
     }
     previous = run.direction;
   }
+}
+
+// Overrides and blending back on, the ballbar off, the retract, M2.
+void write_ending(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
   w.line("M50 P1 (feed override back on)");
   w.line("G64 (path blending back on)");
-  if (ballbar) {
+  if (l.ballbar) {
     w.line(
         spec.safe_mm
-            ? fmt::format("(MSG, Remove the ballbar now: next {} rapids to {})", N,
-                          w.number(*spec.safe_mm * to_units))
+            ? fmt::format("(MSG, Remove the ballbar now: next {} rapids to {})", l.N,
+                          w.number(*spec.safe_mm * l.to_units))
             : std::string("(MSG, Remove the ballbar now: the program then ends without moving)"));
     w.line("M0 (remove the ballbar before any retract)");
   }
   if (spec.safe_mm) {
     std::array<double, 3> safe = w.position();
-    safe[axis_index(axes.normal)] = *spec.safe_mm * to_units;
-    w.move("G0", safe, normal, " (clearance)");
+    safe[axis_index(l.axes.normal)] = *spec.safe_mm * l.to_units;
+    w.move("G0", safe, l.normal, " (clearance)");
   }
   w.line("M2");
+}
+
+}  // namespace
+
+TestProgram generate_test_program(const CircleTestSpec& spec) {
+  validate(spec);
+  TestProgram program;
+  program.runs = plan_runs(spec);
+  ProgramWriter w(spec);
+  program.header = program_header(spec, program.runs, w);
+  for (const auto& [key, value] : program.header) {
+    w.line(fmt::format("(circtest: {}: {})", key, value));
+  }
+  const Layout l = program_layout(spec, program.runs, w);
+  write_preamble(spec, l, w);
+  write_approach(spec, l, w);
+  write_runs(spec, l, program.runs, w);
+  write_ending(spec, l, w);
   program.text = w.take();
   return program;
 }
