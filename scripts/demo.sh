@@ -18,6 +18,10 @@ out=${1:-out}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
 circana=$bin/analysis/circana circcomp=$bin/compensation/circcomp ini_tool=$bin/core/circtest-ini
+# circcomp apply checks that the realtime modules a plan loads are where the run loads them:
+# circtest-run takes them from this build tree, not from an installed package.
+export CIRCTEST_KINS_MODULE=$bin/hal-component/circtest_kins.so
+export CIRCTEST_FRIC_MODULE=$bin/hal-component/circfric.so
 
 # The machine: sim-mill's own errors (backlash on X, X out of square to Y, unequal
 # position-loop gains) plus a scale error on X, in a copy that circcomp may change.

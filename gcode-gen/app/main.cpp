@@ -42,7 +42,15 @@ std::string header_date() {
   return utc_now_iso8601();
 }
 
-int run(int argc, char** argv) {
+std::string opt_text(const po::variables_map& vm, const char* name) {
+  return vm[name].as<std::string>();
+}
+
+double opt_number(const po::variables_map& vm, const char* name) {
+  return parse_option_number(std::string("--") + name, opt_text(vm, name));
+}
+
+po::options_description circgen_options() {
   po::options_description options(
       "circgen: ISO 230-4 / JIS B 6194 circular test program for LinuxCNC\n"
       "usage: circgen --d MM --f MM_PER_MIN [options] > test.ngc\n\noptions");
@@ -91,33 +99,13 @@ int run(int argc, char** argv) {
      "centre_machine_mm (0,0,0 with --ini)")
     ("output,o", po::value<std::string>(), "write the program to FILE (atomically)");
   // clang-format on
-  po::variables_map vm;
-  try {
-    const int style =
-        po::command_line_style::default_style & ~po::command_line_style::allow_guessing;
-    refuse_option_placeholders(argc, argv);
-    po::store(po::command_line_parser(argc, argv).options(options).style(style).run(), vm);
-    po::notify(vm);
-  } catch (const po::error& e) {
-    throw option_usage_error(e, options);
-  }
-  if (vm.count("help")) {
-    std::cout << options << '\n';
-    return 0;
-  }
-  if (vm.count("version")) {
-    std::cout << generator_version() << '\n';
-    return 0;
-  }
-  auto text = [&vm](const char* name) { return vm[name].as<std::string>(); };
-  auto number = [&](const char* name) {
-    return parse_option_number(std::string("--") + name, text(name));
-  };
+  return options;
+}
 
-  CircleTestSpec spec;
-  spec.units = vm.count("inch") ? LengthUnit::inch : LengthUnit::mm;
-  const double mm = spec.units == LengthUnit::inch ? kMmPerInch : 1.0;
-
+// --d or --r, as the diameter in the program's units (mm, or inch with --inch).
+double diameter_of(const po::variables_map& vm, double mm) {
+  auto text = [&vm](const char* name) { return opt_text(vm, name); };
+  auto number = [&vm](const char* name) { return opt_number(vm, name); };
   if (vm.count("d") && vm.count("r")) throw UsageError("give --d or --r, not both");
   if (!vm.count("d") && !vm.count("r")) throw UsageError("missing --d (diameter) or --r (radius)");
   const double diameter = vm.count("d") ? number("d") : 2.0 * number("r");
@@ -131,8 +119,13 @@ int run(int argc, char** argv) {
     throw UsageError(fmt::format("--{}: the circle must be larger than 0, got {}",
                                  vm.count("d") ? "d" : "r", text(vm.count("d") ? "d" : "r")));
   }
-  spec.radius_mm = diameter / 2.0 * mm;
+  return diameter;
+}
 
+// --f, --feeds or Annex C's --ref-d/--ref-f, in mm/min.
+void set_feeds(CircleTestSpec& spec, const po::variables_map& vm, double diameter, double mm) {
+  auto text = [&vm](const char* name) { return opt_text(vm, name); };
+  auto number = [&vm](const char* name) { return opt_number(vm, name); };
   const int feed_sources = static_cast<int>(vm.count("f") + vm.count("feeds")) +
                            ((vm.count("ref-d") || vm.count("ref-f")) ? 1 : 0);
   if (feed_sources == 0) throw UsageError("missing --f (feed), --feeds or --ref-d/--ref-f");
@@ -156,7 +149,12 @@ int run(int argc, char** argv) {
     }
     spec.feeds_mm_per_min.push_back(f * mm);
   }
+}
 
+// Plane and centre.
+void set_plane(CircleTestSpec& spec, const po::variables_map& vm, double mm) {
+  auto text = [&vm](const char* name) { return opt_text(vm, name); };
+  auto number = [&vm](const char* name) { return opt_number(vm, name); };
   const auto plane = parse_plane(text("plane"));
   if (!plane) {
     const std::string given = text("plane");
@@ -174,7 +172,13 @@ int run(int argc, char** argv) {
     for (int i = 0; i < 3; ++i) spec.centre_mm[i] = c[i] * mm;
   }
   if (vm.count("safe-z")) spec.safe_mm = number("safe-z") * mm;
+}
 
+// Directions, instrument, arcs, feeds of the moves around the runs, outputs, offsets; returns
+// the work offset origin in machine coordinates.
+std::array<double, 3> set_path(CircleTestSpec& spec, const po::variables_map& vm, double mm) {
+  auto text = [&vm](const char* name) { return opt_text(vm, name); };
+  auto number = [&vm](const char* name) { return opt_number(vm, name); };
   const std::string dir = text("dir");
   if (dir == "both") {
     spec.directions = {Direction::CCW, Direction::CW};
@@ -220,11 +224,42 @@ int run(int argc, char** argv) {
     for (double v : offset) check_plausible(plausible::offset, v, circgen_option_words);
     spec.work_offset_mm = offset;
   }
+  return offset;
+}
+
+int run(int argc, char** argv) {
+  const po::options_description options = circgen_options();
+  po::variables_map vm;
+  try {
+    const int style =
+        po::command_line_style::default_style & ~po::command_line_style::allow_guessing;
+    refuse_option_placeholders(argc, argv);
+    po::store(po::command_line_parser(argc, argv).options(options).style(style).run(), vm);
+    po::notify(vm);
+  } catch (const po::error& e) {
+    throw option_usage_error(e, options);
+  }
+  if (vm.count("help")) {
+    std::cout << options << '\n';
+    return 0;
+  }
+  if (vm.count("version")) {
+    std::cout << generator_version() << '\n';
+    return 0;
+  }
+  CircleTestSpec spec;
+  spec.units = vm.count("inch") ? LengthUnit::inch : LengthUnit::mm;
+  const double mm = spec.units == LengthUnit::inch ? kMmPerInch : 1.0;
+  const double diameter = diameter_of(vm, mm);
+  spec.radius_mm = diameter / 2.0 * mm;
+  set_feeds(spec, vm, diameter, mm);
+  set_plane(spec, vm, mm);
+  const std::array<double, 3> offset = set_path(spec, vm, mm);
   GenerateRequest request;
   request.spec = std::move(spec);
-  if (vm.count("ini")) request.ini_path = text("ini");
+  if (vm.count("ini")) request.ini_path = opt_text(vm, "ini");
   request.work_offset_origin_mm = offset;
-  if (vm.count("output")) request.output_path = text("output");
+  if (vm.count("output")) request.output_path = opt_text(vm, "output");
   return run_generate(std::move(request), std::cout, std::cerr);
 }
 
