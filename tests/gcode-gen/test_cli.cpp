@@ -29,7 +29,7 @@ void expect_refused(const CommandResult& r, int exit_code, const std::string& me
   EXPECT_NE(r.err.find(message), std::string::npos) << "expected '" << message << "' in " << r.err;
 }
 
-std::vector<BadCase> usage_cases() {
+std::vector<BadCase> option_cases() {
   return {
       {"negative_diameter",
        {"--d", "-150", "--f", "300"},
@@ -157,8 +157,13 @@ std::vector<BadCase> usage_cases() {
        {"--d", "200", "--f", "1000", "--feed-in", "1"},
        2,
        "--feed-in is only used with --instrument ballbar"},
-      // Numbers no program word can carry: each refused naming its option,
-      // instead of writing Xinf, X-nan, a 309-digit feed or arcs of radius 0.
+  };
+}
+
+// Numbers no program word can carry: each refused naming its option, instead of writing Xinf,
+// X-nan, a 309-digit feed or arcs of radius 0.
+std::vector<BadCase> number_range_cases() {
+  return {
       {"huge_diameter",
        {"--d", "1e308", "--f", "300"},
        2,
@@ -212,6 +217,12 @@ std::vector<BadCase> usage_cases() {
        2,
        "--ref-f: the Annex C feed 100000 * sqrt[10000/1] = 10000000 mm/min is above"},
   };
+}
+
+std::vector<BadCase> usage_cases() {
+  std::vector<BadCase> cases = option_cases();
+  for (BadCase& c : number_range_cases()) cases.push_back(std::move(c));
+  return cases;
 }
 
 class CircgenCliBadInput : public ::testing::TestWithParam<BadCase> {};

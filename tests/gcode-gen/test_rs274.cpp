@@ -39,7 +39,8 @@ struct Variant {
 const Direction CCW = Direction::CCW;
 const Direction CW = Direction::CW;
 
-std::vector<Variant> variants() {
+// The encoder programs: planes, directions, partial arcs, sweeps, inch, Annex C.
+std::vector<Variant> encoder_variants() {
   return {
       {"default_xy", {"--d", "150", "--f", "300"}, Plane::XY, 75, {0, 0, 0}, {300}, {CCW, CW}},
       {"xy_ccw_centre_start_safe",
@@ -140,6 +141,12 @@ std::vector<Variant> variants() {
        {0, 0, 0},
        {559},
        {CCW, CW}},
+  };
+}
+
+// The ballbar's and the grid's programs, and the offsets a program may set.
+std::vector<Variant> instrument_variants() {
+  return {
       {"ballbar_xy_safe",
        {"--instrument", "ballbar", "--d", "200", "--f", "1000", "--centre", "10,20,-50", "--safe-z",
         "30"},
@@ -240,6 +247,12 @@ std::vector<Variant> variants() {
        120,
        300},
   };
+}
+
+std::vector<Variant> variants() {
+  std::vector<Variant> all = encoder_variants();
+  for (Variant& v : instrument_variants()) all.push_back(std::move(v));
+  return all;
 }
 
 // The value of an option in the variant's arguments, if given.
@@ -401,33 +414,44 @@ TEST_P(Rs274Variant, InterpreterAcceptsAndArcsMatchTheTest) {
 // normal axis together, the approach and the radial moves at the approach feed, M50 P0/P1
 // around the measured arcs, G64 back before the end, and for a ballbar the mount pause, the
 // radial feed-in/out of the right length and direction, and the remove pause before any retract.
-TEST_P(Rs274Variant, SafeProgramStructure) {
-  if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
-  const Variant& v = GetParam();
-  const CommandResult gen = run_circgen(v.args);
-  ASSERT_EQ(gen.exit_code, 0) << gen.err;
-  const Rs274Result rs = run_rs274(gen.out);
-  ASSERT_EQ(rs.exit_code, 0) << rs.output;
-  const CanonProgram& canon = rs.canon;
-  const auto& motions = canon.motions;
-  const double tol = v.units == "mm" ? 2e-3 : 1e-4;
-  const double feed_tol = v.units == "mm" ? 1e-9 : 0.051;  // inch feeds have one decimal
-  const PlaneAxes axes = plane_axes(v.plane);
-  const int a = axes.first - 'x', b = axes.second - 'x', n = axes.normal - 'x';
-  const bool ballbar = is_ballbar(v);
-  const auto safe = arg(v, "--safe-z");
-  const double fi = feed_in(v);
+// One generated program as rs274 ran it, and what the checks of its structure share.
+struct Structure {
+  const Variant& v;
+  const std::string& text;  // the program
+  const CanonProgram& canon;
+  const std::vector<CanonMotion>& motions;
+  double tol, feed_tol;
+  PlaneAxes axes;
+  int a, b, n;  // the plane's first, second and normal axis
+  bool ballbar;
+  std::optional<std::string> safe;   // --safe-z
+  double fi;                         // the ballbar's feed-in
+  std::vector<std::size_t> stops{};  // motions before each PROGRAM_STOP
+  std::vector<std::string> all_messages{};
+  std::vector<std::size_t> message_positions{};
+  std::string first_text{};  // the messages before the first pause
+  std::vector<std::size_t> measured{};
+  std::size_t first_run = 0;  // the first motion of the first run (feed-in or lead-in)
+};
 
-  // Spindle and coolant off before the first pause, in the program text itself (rs274 also
-  // reports them for its own reset); a work or tool offset the program sets, too.
-  const auto first_m0 = gen.out.find("\nM0");
+bool moved(double from, double to) {
+  return std::abs(to - from) > 1e-9;
+}
+
+// Spindle and coolant off before the first pause, in the program text itself (rs274 also
+// reports them for its own reset); a work or tool offset the program sets, too.
+void check_set_up_before_the_first_pause(const Structure& s) {
+  const Variant& v = s.v;
+  const std::string& text = s.text;
+  const CanonProgram& canon = s.canon;
+  const auto first_m0 = text.find("\nM0");
   ASSERT_NE(first_m0, std::string::npos);
-  EXPECT_LT(gen.out.find("\nM5 M9"), first_m0);
+  EXPECT_LT(text.find("\nM5 M9"), first_m0);
   if (const auto wo = arg(v, "--work-offset")) {
-    EXPECT_LT(gen.out.find("\n" + *wo + " "), first_m0);
+    EXPECT_LT(text.find("\n" + *wo + " "), first_m0);
   }
   if (const auto tool = arg(v, "--tool")) {
-    EXPECT_LT(gen.out.find("\nG43 H" + *tool + " "), first_m0);
+    EXPECT_LT(text.find("\nG43 H" + *tool + " "), first_m0);
     std::size_t uses = 0;
     for (const CanonCall& c : canon.call_log) {
       if (c.name == "USE_TOOL_LENGTH_OFFSET" && c.args.find("0.0000 0.0000 0.0000,") != 0) {
@@ -437,14 +461,20 @@ TEST_P(Rs274Variant, SafeProgramStructure) {
     }
     EXPECT_EQ(uses, 1u) << "G43 reached the interpreter once, before any motion";
   }
-  for (std::size_t pos = 0, end; pos < gen.out.size(); pos = end + 1) {
-    end = gen.out.find('\n', pos);
+  for (std::size_t pos = 0, end; pos < text.size(); pos = end + 1) {
+    end = text.find('\n', pos);
     EXPECT_LE(end - pos, 200u) << "line too long for an operator message";
   }
+}
 
-  std::vector<std::size_t> stops;  // motions before each PROGRAM_STOP
-  std::vector<std::string> messages_before_first_stop, all_messages;
-  std::vector<std::size_t> message_positions;
+// The pauses and messages; nothing moves before the first pause, which says what comes.
+void check_first_pause(Structure& s) {
+  const Variant& v = s.v;
+  const CanonProgram& canon = s.canon;
+  auto& stops = s.stops;
+  auto& all_messages = s.all_messages;
+  auto& message_positions = s.message_positions;
+  std::vector<std::string> messages_before_first_stop;
   for (const CanonCall& c : canon.call_log) {
     if (c.name == "PROGRAM_STOP") stops.push_back(c.motions_before);
     if (c.name == "MESSAGE") {
@@ -456,34 +486,38 @@ TEST_P(Rs274Variant, SafeProgramStructure) {
   ASSERT_FALSE(stops.empty());
   EXPECT_EQ(stops.front(), 0u) << "motion before the first M0";
   ASSERT_FALSE(messages_before_first_stop.empty());
-  std::string first_text;
-  for (const auto& m : messages_before_first_stop) first_text += m + "\n";
-  EXPECT_NE(first_text.find(std::string(plane_name(v.plane))), std::string::npos) << first_text;
-  EXPECT_NE(first_text.find("Check:"), std::string::npos) << first_text;
+  for (const auto& m : messages_before_first_stop) s.first_text += m + "\n";
+  EXPECT_NE(s.first_text.find(std::string(plane_name(v.plane))), std::string::npos) << s.first_text;
+  EXPECT_NE(s.first_text.find("Check:"), std::string::npos) << s.first_text;
   for (double f : v.feeds) {
     std::ostringstream word;
     word << "F" << f;
-    EXPECT_NE(first_text.find(word.str()), std::string::npos) << word.str() << " " << first_text;
+    EXPECT_NE(s.first_text.find(word.str()), std::string::npos)
+        << word.str() << " " << s.first_text;
   }
+}
 
-  // No move changes an in-plane axis and the normal axis together; arcs keep the normal.
-  auto moved = [](double from, double to) { return std::abs(to - from) > 1e-9; };
-  for (const CanonMotion& m : motions) {
-    const bool plane_moves = moved(m.start[a], m.end[a]) || moved(m.start[b], m.end[b]);
-    EXPECT_FALSE(plane_moves && moved(m.start[n], m.end[n]))
+// No move changes an in-plane axis and the normal axis together; arcs keep the normal.
+void check_no_mixed_moves(const Structure& s) {
+  for (const CanonMotion& m : s.motions) {
+    const bool plane_moves = moved(m.start[s.a], m.end[s.a]) || moved(m.start[s.b], m.end[s.b]);
+    EXPECT_FALSE(plane_moves && moved(m.start[s.n], m.end[s.n]))
         << "mixed in-plane and normal move, canon line " << m.source_line;
   }
+}
 
-  // Measured arcs, marked by the output bit.
-  std::vector<std::size_t> measured;
-  for (std::size_t i = 0; i < motions.size(); ++i)
-    if (motions[i].bits.count(v.marker) && motions[i].bits.at(v.marker)) measured.push_back(i);
-  ASSERT_FALSE(measured.empty());
-  const std::size_t first_run = measured.front() - (ballbar ? 2 : 1);  // feed-in or lead-in
-
-  // The approach: nothing but straight moves before the first run, in-plane moves only at the
-  // clearance (with --safe-z) or after the raise pause, and the one feed move is the descent
-  // alone to the circle's height at the approach feed.
+// The approach: nothing but straight moves before the first run, in-plane moves only at the
+// clearance (with --safe-z) or after the raise pause, and the one feed move is the descent
+// alone to the circle's height at the approach feed.
+void check_approach(const Structure& s) {
+  const Variant& v = s.v;
+  const auto& motions = s.motions;
+  const auto& safe = s.safe;
+  const auto& first_text = s.first_text;
+  const std::size_t first_run = s.first_run;
+  const double tol = s.tol, feed_tol = s.feed_tol;
+  const int a = s.a, b = s.b, n = s.n;
+  const PlaneAxes& axes = s.axes;
   std::size_t descents = 0;
   for (std::size_t i = 0; i < first_run; ++i) {
     const CanonMotion& m = motions[i];
@@ -530,15 +564,19 @@ TEST_P(Rs274Variant, SafeProgramStructure) {
     EXPECT_NEAR(p[0], descent.end[a], tol);
     EXPECT_NEAR(p[1], descent.end[b], tol);
   }
+}
 
-  // Feed override off exactly over the runs; exact path during them, G64 before the end.
-  for (std::size_t i = first_run; i <= measured.back(); ++i) {
+// Feed override off exactly over the runs; exact path during them, G64 before the end.
+void check_run_modes(const Structure& s) {
+  const auto& motions = s.motions;
+  const auto& measured = s.measured;
+  for (std::size_t i = s.first_run; i <= measured.back(); ++i) {
     EXPECT_FALSE(motions[i].feed_override) << "canon line " << motions[i].source_line;
     EXPECT_EQ(motions[i].control_mode, "CANON_EXACT_PATH") << motions[i].source_line;
   }
   std::optional<std::size_t> enable_at;
   std::string last_mode;
-  for (const CanonCall& c : canon.call_log) {
+  for (const CanonCall& c : s.canon.call_log) {
     if (c.name == "ENABLE_FEED_OVERRIDE" && c.motions_before > measured.back()) {
       enable_at = c.motions_before;
     }
@@ -546,9 +584,22 @@ TEST_P(Rs274Variant, SafeProgramStructure) {
   }
   ASSERT_TRUE(enable_at) << "M50 P1 after the runs";
   EXPECT_TRUE(last_mode.starts_with("CANON_CONTINUOUS")) << last_mode;
+}
 
-  // Every straight feed move from the first run on: a ballbar's radial move at the approach
-  // feed, feed-in right before each lead-in and feed-out right after each lead-out.
+// Every straight feed move from the first run on: a ballbar's radial move at the approach
+// feed, feed-in right before each lead-in and feed-out right after each lead-out; a ballbar's
+// mount and remove pauses where they belong.
+void check_radial_moves_and_pauses(const Structure& s) {
+  const Variant& v = s.v;
+  const auto& motions = s.motions;
+  const auto& measured = s.measured;
+  const auto& stops = s.stops;
+  const auto& all_messages = s.all_messages;
+  const auto& message_positions = s.message_positions;
+  const std::size_t first_run = s.first_run;
+  const double tol = s.tol, feed_tol = s.feed_tol, fi = s.fi;
+  const int a = s.a, b = s.b;
+  const bool ballbar = s.ballbar;
   for (std::size_t i = first_run; i < motions.size(); ++i) {
     const CanonMotion& m = motions[i];
     if (m.kind != CanonMotion::linear) continue;
@@ -595,6 +646,43 @@ TEST_P(Rs274Variant, SafeProgramStructure) {
   } else {
     EXPECT_EQ(stops.size(), 1u) << "only the start pause without a contact instrument";
   }
+}
+
+TEST_P(Rs274Variant, SafeProgramStructure) {
+  if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
+  const Variant& v = GetParam();
+  const CommandResult gen = run_circgen(v.args);
+  ASSERT_EQ(gen.exit_code, 0) << gen.err;
+  const Rs274Result rs = run_rs274(gen.out);
+  ASSERT_EQ(rs.exit_code, 0) << rs.output;
+  const PlaneAxes axes = plane_axes(v.plane);
+  Structure s{v,
+              gen.out,
+              rs.canon,
+              rs.canon.motions,
+              v.units == "mm" ? 2e-3 : 1e-4,
+              v.units == "mm" ? 1e-9 : 0.051,  // inch feeds have one decimal
+              axes,
+              axes.first - 'x',
+              axes.second - 'x',
+              axes.normal - 'x',
+              is_ballbar(v),
+              arg(v, "--safe-z"),
+              feed_in(v)};
+  check_set_up_before_the_first_pause(s);
+  ASSERT_NO_FATAL_FAILURE(check_first_pause(s));
+  check_no_mixed_moves(s);
+  // Measured arcs, marked by the output bit.
+  for (std::size_t i = 0; i < s.motions.size(); ++i) {
+    if (s.motions[i].bits.count(v.marker) && s.motions[i].bits.at(v.marker)) {
+      s.measured.push_back(i);
+    }
+  }
+  ASSERT_FALSE(s.measured.empty());
+  s.first_run = s.measured.front() - (s.ballbar ? 2 : 1);  // feed-in or lead-in
+  ASSERT_NO_FATAL_FAILURE(check_approach(s));
+  ASSERT_NO_FATAL_FAILURE(check_run_modes(s));
+  check_radial_moves_and_pauses(s);
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Rs274Variant, ::testing::ValuesIn(variants()),
