@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 
 namespace detail {
 
-// Plausibility bounds (issue 10): beyond these a correction is more likely a mistake.
+// Plausibility bounds: beyond these a correction is more likely a mistake.
 constexpr double kMaxBacklashMm = 0.2;
 constexpr double kMaxScalePpm = 1000.0;
 constexpr double kMaxSquarenessUrad = 1000.0;
