@@ -169,8 +169,8 @@ std::string edited_example(const fs::path& dir, const std::string& name, std::si
 }
 
 TEST_F(CircanaCli, OneOutlierRowIsADataErrorAtItsLine) {
-  // y = 0 in one row of run 1 (columns t,x,y,...): once G = 150 mm (the MZC zone set by
-  // that row); now refused naming the row's line (5 metadata lines + header + 3000). (assign,
+  // y = 0 in one row of run 1 (columns t,x,y,...) would make G = 150 mm (the MZC zone set
+  // by that row): refused naming the row's line (5 metadata lines + header + 3000). (assign,
   // not = "0": GCC 12 warns falsely, -Wrestrict, on the inlined copy of the literal.)
   const std::string t = edited_example(dir_, "outlier.csv", 3000,
                                        [](std::vector<std::string>& f) { f[2].assign(1, '0'); });
