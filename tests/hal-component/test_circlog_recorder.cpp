@@ -33,13 +33,13 @@ struct FreeDeleter {
 class FakeServo final : public rec::Environment {
  public:
   FakeServo(int channels, int depth)
-      : bytes_(circlog::shared_size(channels, depth)),
+      : bytes_(circtest::circlog::shared_size(channels, depth)),
         memory_(std::aligned_alloc(64, (bytes_ + 63) / 64 * 64)),
         values_(static_cast<std::size_t>(channels)),
         pointers_(static_cast<std::size_t>(channels)) {
     for (std::size_t i = 0; i < values_.size(); ++i) pointers_[i] = &values_[i];
     EXPECT_TRUE(producer_.init(memory_.get(), bytes_, channels, depth));
-    EXPECT_EQ(consumer.attach(memory_.get(), bytes_), circlog::AttachResult::ok);
+    EXPECT_EQ(consumer.attach(memory_.get(), bytes_), circtest::circlog::AttachResult::ok);
   }
 
   std::function<bool(std::uint64_t)> enable = [](std::uint64_t) { return false; };
@@ -74,15 +74,15 @@ class FakeServo final : public rec::Environment {
   }
   std::string utc_now_iso8601() override { return "2026-01-02T03:04:05.000Z"; }
 
-  circlog::Consumer consumer;
-  circlog::Status status() const { return producer_.status(); }
+  circtest::circlog::Consumer consumer;
+  circtest::circlog::Status status() const { return producer_.status(); }
 
  private:
   std::size_t bytes_;
   std::unique_ptr<void, FreeDeleter> memory_;
   std::vector<double> values_;
   std::vector<const volatile double*> pointers_;
-  circlog::Producer producer_;
+  circtest::circlog::Producer producer_;
   std::uint64_t period_ = 0;
   double now_ = 0.0;
   int sleeps_ = 0;
@@ -338,10 +338,10 @@ TEST_F(Recorder, RefusesAServoThatDoesNotRun) {
 
 TEST_F(Recorder, RefusesASecondReaderButTakesOverFromADeadOne) {
   FakeServo servo(1, 16);
-  circlog::Consumer other;
-  ASSERT_EQ(other.attach(const_cast<circlog::SharedHeader*>(&servo.consumer.header()),
-                         circlog::shared_size(1, 16)),
-            circlog::AttachResult::ok);
+  circtest::circlog::Consumer other;
+  ASSERT_EQ(other.attach(const_cast<circtest::circlog::SharedHeader*>(&servo.consumer.header()),
+                         circtest::circlog::shared_size(1, 16)),
+            circtest::circlog::AttachResult::ok);
   ASSERT_EQ(other.claim(7), 0);
   servo.alive = {7};
   rec::Options o = options_for(path("t.csv"));
