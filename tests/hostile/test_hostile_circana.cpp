@@ -15,11 +15,7 @@
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::slurp;
-using circtest::testing::spit;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 constexpr double kPi = std::numbers::pi;
 

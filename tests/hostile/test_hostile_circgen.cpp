@@ -12,10 +12,7 @@
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::spit;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 struct Refusal {
   std::vector<std::string> args;
