@@ -133,7 +133,11 @@ void read_changes(const std::string& path, HandOver& h) {
   }
   const auto& changes = rd.array(j, "changes", "");
   for (std::size_t i = 0; i < changes.size(); ++i) {
-    h.changes.push_back(rd.text(changes[i], "words", fmt::format("changes[{}]", i)));
+    const std::string at = fmt::format("changes[{}]", i);
+    std::string words = rd.text(changes[i], "words", at);
+    // A setting written without effect (0 where there was none) is no news to the customer.
+    if (changes[i].contains("effective") && !rd.boolean(changes[i], "effective", at)) continue;
+    h.changes.push_back(std::move(words));
   }
   if (j.contains("advice")) {
     const auto& advice = rd.array(j, "advice", "");

@@ -56,7 +56,8 @@ ul { margin: 0.5mm 0; padding-left: 5mm; }
 .signatures div p span { color: #666; font-size: 85%; }
 .grey, .note { color: #666; }
 .note { font-size: 90%; }
-.figures { display: grid; grid-template-columns: 50% 50%; gap: 3mm; align-items: start;
+table.results { table-layout: auto; }
+.figures { display: grid; grid-template-columns: minmax(0, 1fr) minmax(0, 1fr); gap: 3mm; align-items: start;
            margin-top: 2mm; }
 figure { margin: 0; min-width: 0; }
 figcaption { font-weight: bold; margin-bottom: 0.5mm; }
@@ -195,15 +196,27 @@ bool on_handover(const std::string& title) {
       "Date", "Machine", "Machine serial", "Location", "Operator", "Instrument"};
   return kTitles.count(title) > 0;
 }
+// The test program's settings a customer may ask about, with their titles; every other raw
+// key of the trace (recorder, module, ring, files, hashes, periods) is an internal.
+const char* program_title(std::string_view key) {
+  static constexpr std::pair<const char*, const char*> kProgram[] = {
+      {meta_key::arc_deg, "Arc (deg)"},
+      {meta_key::start_deg, "Start angle (deg)"},
+      {meta_key::lead_deg, "Lead-in and lead-out (deg)"},
+      {meta_key::dwell_s, "Dwell where the direction reverses (s)"},
+      {"motion_mode", "Path mode during the runs"},
+      {"feed_override", "Feed override"},
+      {"work_offset", "Work offset"},
+      {"tool_length_offset", "Tool length offset"}};
+  for (const auto& [k, title] : kProgram) {
+    if (key == k) return title;
+  }
+  return nullptr;
+}
 bool internal_item(const ReportItem& item) {
   static const std::set<std::string, std::less<>> kTitles = {"Channels evaluated",
                                                              "Data capture"};
-  // The test program's settings a customer may ask about; every other raw key of the trace
-  // (recorder, module, ring, files, hashes, periods) is an internal.
-  static const std::set<std::string, std::less<>> kProgram = {
-      meta_key::arc_deg, meta_key::start_deg, meta_key::lead_deg,     meta_key::dwell_s,
-      "motion_mode",     "feed_override",     "work_offset",          "tool_length_offset"};
-  if (item.raw) return kProgram.count(item.title) == 0;
+  if (item.raw) return program_title(item.title) == nullptr;
   return kTitles.count(item.title) > 0;
 }
 constexpr const char* kNotRecorded = "not recorded";
@@ -217,10 +230,11 @@ void conditions_table(std::string& s, const Evaluation& ev) {
   const auto sections = header_sections(ev);
   for (const ReportSection& section : sections) {
     for (const ReportItem& item : section.items) {
-      if (internal_item(item)) continue;
+      // Page 1 shows the clause 6 facts (and which of them were not recorded).
+      if (internal_item(item) || on_handover(item.title)) continue;
       if (item.value == kNotRecorded) {
         missing.push_back(item.title);
-      } else if (!on_handover(item.title)) {
+      } else {
         shown.push_back(&item);
       }
     }
@@ -233,7 +247,9 @@ void conditions_table(std::string& s, const Evaluation& ev) {
         s += "<th></th><td></td>";
         continue;
       }
-      fmt::format_to(out, "<th>{}</th><td>{}</td>", xml_escape(units_shown(shown[k]->title)),
+      const char* program = shown[k]->raw ? program_title(shown[k]->title) : nullptr;
+      fmt::format_to(out, "<th>{}</th><td>{}</td>",
+                     xml_escape(units_shown(program ? program : shown[k]->title)),
                      xml_escape(units_shown(shown[k]->value)));
     }
     s += "</tr>\n";

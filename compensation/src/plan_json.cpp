@@ -104,6 +104,9 @@ std::string key_words(const Machine& m, const std::string& section, const std::s
   if (key == "COMP_FILE") {
     return fmt::format("{} compensation table {} → {}", who, shown(before), shown(after));
   }
+  if (key == "COMP_FILE_TYPE") {
+    return fmt::format("{} compensation table type {} → {}", who, shown(before), shown(after));
+  }
   if (key == "KINEMATICS") return fmt::format("kinematics {} → {}", shown(before), shown(after));
   if (key == "HALFILE" && !before) return fmt::format("HAL file {} added", shown(after));
   if (key == "HALFILE" && !after) return fmt::format("HAL file {} removed", shown(before));
@@ -111,6 +114,17 @@ std::string key_words(const Machine& m, const std::string& section, const std::s
     return fmt::format("{} {} {} → {}", key, axis, shown(before), shown(after));
   }
   return fmt::format("[{}] {} {} → {}", section, key, shown(before), shown(after));
+}
+
+// False for a key written without effect: a BACKLASH or squareness set from nothing to 0.
+bool effective(const Machine& m, const std::string& key, const std::optional<std::string>& before,
+               const std::optional<std::string>& after) {
+  if (key == "BACKLASH") {
+    const double um = 1000.0 / m.units_per_mm;
+    return scaled(before, um) != scaled(after, um);
+  }
+  if (key.rfind("SQUARENESS_", 0) == 0) return scaled(before, 1e6) != scaled(after, 1e6);
+  return true;
 }
 
 ojson change(const FileChange& f, const std::string& section, const std::string& key,
@@ -123,6 +137,7 @@ ojson change(const FileChange& f, const std::string& section, const std::string&
   c["before"] = before ? ojson(*before) : ojson(nullptr);
   c["after"] = after ? ojson(*after) : ojson(nullptr);
   c["words"] = key_words(m, section, key, before, after);
+  c["effective"] = effective(m, key, before, after);
   return c;
 }
 
@@ -260,7 +275,8 @@ nlohmann::ordered_json plan_json(const Plan& plan) {
                          {"key", nullptr},
                          {"before", nullptr},
                          {"after", nullptr},
-                         {"words", file["words"]}});
+                         {"words", file["words"]},
+                         {"effective", true}});
     }
     files.push_back(std::move(file));
   }

@@ -78,6 +78,11 @@ TEST(PlanJson, BacklashAndSquarenessInPlainWords) {
   ASSERT_NE(q, nullptr) << j.dump(2);
   EXPECT_TRUE((*q)["before"].is_null());
   EXPECT_EQ((*q)["words"], "squareness XY correction 0 → 100.0 µrad");
+  EXPECT_EQ((*q)["effective"], true);
+  // The other planes' values are written as 0: a change of the file without effect.
+  const ojson* yz = change(j, "CIRCTEST_COMP", "SQUARENESS_YZ");
+  ASSERT_NE(yz, nullptr);
+  EXPECT_EQ((*yz)["effective"], false);
   const std::string all = words(j);
   EXPECT_NE(all.find("kinematics trivkins coordinates=YXZ → circtest_kins coordinates=YXZ"),
             std::string::npos)
