@@ -137,7 +137,8 @@ void read_changes(const std::string& path, HandOver& h) {
     std::string words = rd.text(changes[i], "words", at);
     // A setting written without effect (0 where there was none) is no news to the customer.
     if (changes[i].contains("effective") && !rd.boolean(changes[i], "effective", at)) continue;
-    h.changes.push_back(std::move(words));
+    const bool wiring = changes[i].contains("kind") && rd.text(changes[i], "kind", at) == "wiring";
+    (wiring ? h.wiring : h.changes).push_back(std::move(words));
   }
   if (j.contains("advice")) {
     const auto& advice = rd.array(j, "advice", "");

@@ -351,6 +351,17 @@ std::string condition(const Evaluation& ev, const char* key) {
   return v ? *v : std::string();
 }
 
+// When the test ran: the recorder's start time, else the program's date; "2026-11-26 16:31
+// UTC" when it is an ISO 8601 UTC time, else as recorded.
+std::string test_date(const Evaluation& ev) {
+  std::string t = condition(ev, meta_key::start_time);
+  if (t.empty()) t = condition(ev, meta_key::date);
+  static const std::regex iso(R"((\d{4}-\d{2}-\d{2})T(\d{2}:\d{2})(:\d{2}(\.\d+)?)?Z)");
+  std::smatch m;
+  if (std::regex_match(t, m, iso)) return m[1].str() + " " + m[2].str() + " UTC";
+  return t;
+}
+
 void legend_list(std::string& s, const std::vector<std::pair<std::string, std::string>>& legend) {
   auto out = std::back_inserter(s);
   s += "<ul class=\"legend\">\n";
@@ -450,12 +461,9 @@ void facts_table(std::string& s, const std::vector<ReportPage>& pages, const Han
   std::string machine = or_blank(machine_of(ev));
   if (const auto serial = condition(ev, meta_key::machine_serial); !serial.empty())
     machine += ", serial " + serial;
-  std::string date = condition(ev, meta_key::date);
-  if (date.empty()) date = condition(ev, meta_key::start_time);
-  date = or_blank(date);
+  std::string date = or_blank(test_date(ev));
   if (pages.front().before) {
-    std::string d0 = condition(*pages.front().before, meta_key::date);
-    if (d0.empty()) d0 = condition(*pages.front().before, meta_key::start_time);
+    const std::string d0 = test_date(*pages.front().before);
     if (!d0.empty()) date += " (before: " + d0 + ")";
   }
   std::string planes, feeds, diameters;
@@ -537,12 +545,18 @@ void summary_html(std::string& s, const std::vector<ReportPage>& pages, const Ha
       s += "<p class=\"grey\">Not stated: no plan was given (circcomp plan --json, circana report "
            "--changes).</p>\n";
     } else if (h.changes.empty()) {
-      s += "<p>Nothing: the plan changes no setting.</p>\n";
+      s += "<p>No setting: the plan corrects nothing.</p>\n";
     } else {
       s += "<ul class=\"changes\">\n";
       for (const auto& c : h.changes)
         fmt::format_to(out, "<li>{}</li>\n", xml_escape(units_shown(c)));
       s += "</ul>\n";
+    }
+    if (!h.wiring.empty()) {
+      std::vector<std::string> w;
+      for (const auto& x : h.wiring) w.push_back(units_shown(x));
+      fmt::format_to(out, "<p class=\"note wiring\">To put them to work: {}.</p>\n",
+                     xml_escape(join(w, "; ")));
     }
     if (!h.advice.empty()) {
       s += "<p>Not changed, advised:</p>\n<ul class=\"advice\">\n";

@@ -127,6 +127,17 @@ bool effective(const Machine& m, const std::string& key, const std::optional<std
   return true;
 }
 
+// "setting": a value that corrects the machine (a backlash, a squareness, a gain, any key
+// circtest does not know); "wiring": what makes LinuxCNC use it (a HAL file, the kinematics,
+// a compensation table's name and type).
+const char* kind_of(const std::string& key) {
+  static const char* const kWiring[] = {"HALFILE", "KINEMATICS", "COMP_FILE", "COMP_FILE_TYPE"};
+  return std::any_of(std::begin(kWiring), std::end(kWiring),
+                     [&](const char* w) { return key == w; })
+             ? "wiring"
+             : "setting";
+}
+
 ojson change(const FileChange& f, const std::string& section, const std::string& key,
              const std::optional<std::string>& before, const std::optional<std::string>& after,
              const Machine& m) {
@@ -137,6 +148,7 @@ ojson change(const FileChange& f, const std::string& section, const std::string&
   c["before"] = before ? ojson(*before) : ojson(nullptr);
   c["after"] = after ? ojson(*after) : ojson(nullptr);
   c["words"] = key_words(m, section, key, before, after);
+  c["kind"] = kind_of(key);
   c["effective"] = effective(m, key, before, after);
   return c;
 }
@@ -211,7 +223,9 @@ TableTerms table_terms(const CompTable& t) {
 
 // The words of a file that is not an INI file: a compensation table named by a [JOINT_n]
 // COMP_FILE as the backlash and scale it holds before and after, any other file by its size.
-std::string file_words(const FileChange& f, const std::string& ini_path, const Machine& m) {
+std::string file_words(const FileChange& f, const std::string& ini_path, const Machine& m,
+                       bool& table) {
+  table = false;
   const std::string what =
       fmt::format("{} {}", fs::path(f.path).filename().string(), f.existed ? "changed" : "created");
   if (!m.ini) return what;
@@ -228,6 +242,7 @@ std::string file_words(const FileChange& f, const std::string& ini_path, const M
       const char axis = axis_of(m, section);
       const std::string who = axis ? std::string(1, axis) : "[" + section + "]";
       std::string words = fmt::format("{} compensation table {}: ", who, what);
+      table = true;
       if (type == 1) {
         const double um = 1000.0 / m.units_per_mm;
         words += fmt::format("backlash {} → {} µm, ", amount(before.backlash_units * um),
@@ -269,13 +284,16 @@ nlohmann::ordered_json plan_json(const Plan& plan) {
                   changes);
     } else {
       file["kind"] = "other";
-      file["words"] = file_words(f, plan.ini_path, m);
+      // A compensation table holds settings (backlash, scale); any other file is wiring.
+      bool table = false;
+      file["words"] = file_words(f, plan.ini_path, m, table);
       changes.push_back({{"file", f.path},
                          {"section", nullptr},
                          {"key", nullptr},
                          {"before", nullptr},
                          {"after", nullptr},
                          {"words", file["words"]},
+                         {"kind", table ? "setting" : "wiring"},
                          {"effective", true}});
     }
     files.push_back(std::move(file));

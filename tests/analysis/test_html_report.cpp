@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -404,6 +405,40 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   ASSERT_EQ(sum.exit_code, 0);
   EXPECT_NE(pdf_page_text(pdf, 3).find(sum.out.substr(0, 64)), std::string::npos)
       << "the appendix holds the trace's SHA-256";
+  std::string which;
+  EXPECT_LE(widest_px(html, which), 794.0) << which;
+}
+
+// Any report, above all the one the README's demo writes (out/report.html): named by
+// CIRCTEST_REPORT_HTML (absolute path) after the demo ran, checked for what the hand-over
+// needs: nothing wider than A4, the verdict on printed page 1, one page per plane, then the
+// appendix, µm and µrad written as such. Skipped with a message when the variable is unset.
+TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
+  const char* given = std::getenv("CIRCTEST_REPORT_HTML");
+  if (!given || !*given) {
+    GTEST_SKIP() << "CIRCTEST_REPORT_HTML is not set: no report of a demo run to check";
+  }
+  const std::string html = fs::absolute(given).string();
+  ASSERT_TRUE(fs::is_regular_file(html)) << html;
+  const std::string d = dom(html);
+  EXPECT_EQ(console_messages(), "");
+  std::vector<std::string> planes;
+  static const std::regex plane(R"re(<section class="plane" data-plane="(XY|YZ|ZX)")re");
+  for (std::sregex_iterator it(d.begin(), d.end(), plane), end; it != end; ++it) {
+    planes.push_back((*it)[1]);
+  }
+  ASSERT_FALSE(planes.empty()) << "no plane page: not a circana report";
+  const std::string pdf = (dir_ / "given.pdf").string();
+  EXPECT_EQ(printed_pages(html, pdf), static_cast<int>(planes.size()) + 2);
+  EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: "), std::string::npos);
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    EXPECT_NE(pdf_page_text(pdf, static_cast<int>(k) + 2).find("Plane " + planes[k] + ": "),
+              std::string::npos)
+        << planes[k];
+  }
+  EXPECT_NE(pdf_page_text(pdf, static_cast<int>(planes.size()) + 2).find("Appendix"),
+            std::string::npos);
+  EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
   std::string which;
   EXPECT_LE(widest_px(html, which), 794.0) << which;
 }

@@ -79,6 +79,8 @@ TEST(PlanJson, BacklashAndSquarenessInPlainWords) {
   EXPECT_TRUE((*q)["before"].is_null());
   EXPECT_EQ((*q)["words"], "squareness XY correction 0 → 100.0 µrad");
   EXPECT_EQ((*q)["effective"], true);
+  EXPECT_EQ((*q)["kind"], "setting");
+  EXPECT_EQ((*change(j, "KINS", "KINEMATICS"))["kind"], "wiring");
   // The other planes' values are written as 0: a change of the file without effect.
   const ojson* yz = change(j, "CIRCTEST_COMP", "SQUARENESS_YZ");
   ASSERT_NE(yz, nullptr);
@@ -113,6 +115,11 @@ TEST(PlanJson, ACompensationTableIsReadAsBacklashAndScale) {
   EXPECT_NE(all.find("X compensation table (none) → circtest-joint1.comp"), std::string::npos)
       << all;
   EXPECT_NE(all.find("X backlash 8.0 → 0 µm"), std::string::npos) << all;
+  for (const auto& c : j["changes"]) {
+    if (c["section"].is_null()) {
+      EXPECT_EQ(c["kind"], "setting") << c.dump();  // the table
+    }
+  }
 }
 
 // --json is an output of plan only: apply and revert refuse it before touching anything.

@@ -64,6 +64,7 @@ struct HandOver {
   std::vector<VerdictLine> verdict;
   std::string limits_source;          // where the limits come from; empty: none given
   std::vector<std::string> changes;   // plain words, from circcomp plan --json
+  std::vector<std::string> wiring;    // what makes LinuxCNC use them (HAL files, kinematics)
   std::vector<std::string> advice;    // what the plan could not change
   std::string changes_source;         // the plan document; empty: none given
   std::string tested_by, accepted_by;  // empty: a blank line to write the name on
