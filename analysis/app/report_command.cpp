@@ -90,8 +90,8 @@ history::Limits read_limits_file(const std::string& path) {
       const auto& [name, field] = kFields[k];
       if (!(one.*field)) continue;
       if (given_on[k]) {
-        throw ParseError(path, n, fmt::format("{} is given twice (also on line {})", name,
-                                              given_on[k]));
+        throw ParseError(path, n,
+                         fmt::format("{} is given twice (also on line {})", name, given_on[k]));
       }
       given_on[k] = n;
       limits.*field = one.*field;

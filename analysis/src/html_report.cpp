@@ -214,8 +214,7 @@ const char* program_title(std::string_view key) {
   return nullptr;
 }
 bool internal_item(const ReportItem& item) {
-  static const std::set<std::string, std::less<>> kTitles = {"Channels evaluated",
-                                                             "Data capture"};
+  static const std::set<std::string, std::less<>> kTitles = {"Channels evaluated", "Data capture"};
   if (item.raw) return program_title(item.title) == nullptr;
   return kTitles.count(item.title) > 0;
 }
@@ -293,7 +292,8 @@ void diagnosis_table(std::string& s, const ReportPage& page) {
   s += "<table class=\"diagnosis\"><caption>Diagnosis: the error sources and their share of "
        "G</caption>\n<tr><th rowspan=\"2\">Source</th>";
   if (two) s += "<th colspan=\"2\">before</th>";
-  fmt::format_to(out, "<th colspan=\"2\">{}</th></tr>\n<tr>", two ? "after (this test)" : "this test");
+  fmt::format_to(out, "<th colspan=\"2\">{}</th></tr>\n<tr>",
+                 two ? "after (this test)" : "this test");
   for (int k = 0; k < (two ? 2 : 1); ++k) {
     s += "<th class=\"num\">G alone µm</th><th class=\"num\">share of G µm (%)</th>";
   }
@@ -313,15 +313,18 @@ void diagnosis_table(std::string& s, const ReportPage& page) {
     s += "</tr>\n";
   }
   if (sources.empty() && (after || before)) {
-    fmt::format_to(out, "<tr><td colspan=\"{}\">no error source found above its detection "
-                   "threshold</td></tr>\n", two ? 5 : 3);
+    fmt::format_to(out,
+                   "<tr><td colspan=\"{}\">no error source found above its detection "
+                   "threshold</td></tr>\n",
+                   two ? 5 : 3);
   }
   auto totals = [&](const char* title, double DiagnosisChart::*mm) {
     fmt::format_to(out, "<tr class=\"total\"><th>{}</th>", title);
     for (const DiagnosisChart* d : two ? std::vector{before, after} : std::vector{after}) {
       if (d) {
-        fmt::format_to(out, "<td class=\"num\" colspan=\"2\"><span data-mm=\"{:.12g}\">{:.1f}</span> µm</td>",
-                       d->*mm, d->*mm * 1000.0);
+        fmt::format_to(
+            out, "<td class=\"num\" colspan=\"2\"><span data-mm=\"{:.12g}\">{:.1f}</span> µm</td>",
+            d->*mm, d->*mm * 1000.0);
       } else {
         s += "<td class=\"num\" colspan=\"2\">&#8211;</td>";
       }
@@ -480,7 +483,8 @@ void facts_table(std::string& s, const std::vector<ReportPage>& pages, const Han
                                               : std::string(kNotRecorded);
     if (diameters.find(d) == std::string::npos) diameters += (diameters.empty() ? "" : ", ") + d;
   }
-  const std::string tested_by = h.tested_by.empty() ? condition(ev, meta_key::operator_name) : h.tested_by;
+  const std::string tested_by =
+      h.tested_by.empty() ? condition(ev, meta_key::operator_name) : h.tested_by;
   const std::pair<const char*, std::string> rows[] = {
       {"Machine", machine},
       {"Location", or_blank(condition(ev, meta_key::location))},
@@ -502,26 +506,28 @@ void facts_table(std::string& s, const std::vector<ReportPage>& pages, const Han
 void verdict_table(std::string& s, const HandOver& h, bool with_before) {
   auto out = std::back_inserter(s);
   const std::string all = overall(h.verdict);
-  fmt::format_to(out, "<div class=\"banner {}\" data-verdict=\"{}\">Verdict: {}<small>{}</small></div>\n",
-                 all, all,
-                 all == "PASS"   ? "PASS"
-                 : all == "FAIL" ? "FAIL"
-                                 : "no limit set",
-                 xml_escape(h.limits_source.empty()
-                                ? "No limits were given: the values are reported, not judged."
-                                : "Against the limits of " + h.limits_source + "."));
+  fmt::format_to(
+      out, "<div class=\"banner {}\" data-verdict=\"{}\">Verdict: {}<small>{}</small></div>\n", all,
+      all,
+      all == "PASS"   ? "PASS"
+      : all == "FAIL" ? "FAIL"
+                      : "no limit set",
+      xml_escape(h.limits_source.empty()
+                     ? "No limits were given: the values are reported, not judged."
+                     : "Against the limits of " + h.limits_source + "."));
   s += "<table class=\"verdict\"><caption>Results against the limits</caption>\n<tr><th>Plane</th>"
        "<th>Quantity</th>";
   if (with_before) s += "<th class=\"num\">before</th>";
   s += "<th class=\"num\">this test</th><th class=\"num\">limit</th><th>result</th></tr>\n";
   for (const auto& l : h.verdict) {
     const std::string word = result_word(l.result);
-    const char* css = l.result == VerdictLine::Result::pass      ? "PASS"
+    const char* css = l.result == VerdictLine::Result::pass       ? "PASS"
                       : l.result == VerdictLine::Result::no_limit ? "NONE"
                                                                   : "FAIL";
-    fmt::format_to(out, "<tr class=\"verdict-line\" data-plane=\"{}\" data-quantity=\"{}\"><td>{}</td><td>{}</td>",
-                   xml_escape(l.plane), xml_escape(l.quantity), xml_escape(l.plane),
-                   xml_escape(l.quantity));
+    fmt::format_to(
+        out,
+        "<tr class=\"verdict-line\" data-plane=\"{}\" data-quantity=\"{}\"><td>{}</td><td>{}</td>",
+        xml_escape(l.plane), xml_escape(l.quantity), xml_escape(l.plane), xml_escape(l.quantity));
     if (with_before) s += amount_cell(l.before, l.unit);
     s += amount_cell(l.now, l.unit) + amount_cell(l.limit, l.unit);
     fmt::format_to(out, "<td class=\"result {}\">{}</td></tr>\n", css, word);
@@ -566,11 +572,11 @@ void summary_html(std::string& s, const std::vector<ReportPage>& pages, const Ha
     }
   }
   s += "<div class=\"signatures\">\n";
-  for (const auto& [role, name] : {std::pair{"Tested by", h.tested_by.empty()
-                                                              ? condition(*pages.front().evaluation,
-                                                                          meta_key::operator_name)
-                                                              : h.tested_by},
-                                   std::pair{"Accepted by", h.accepted_by}}) {
+  for (const auto& [role, name] :
+       {std::pair{"Tested by", h.tested_by.empty()
+                                   ? condition(*pages.front().evaluation, meta_key::operator_name)
+                                   : h.tested_by},
+        std::pair{"Accepted by", h.accepted_by}}) {
     fmt::format_to(out,
                    "<div class=\"signature\"><h2>{}</h2><p><span>Name:</span> {}</p>"
                    "<p><span>Signature:</span></p><p><span>Date:</span></p></div>\n",
@@ -580,12 +586,14 @@ void summary_html(std::string& s, const std::vector<ReportPage>& pages, const Ha
 }
 
 // The internals of one trace: its file, hash and the logger's and generator's raw items.
-void internals_of(std::string& s, const char* what, const Evaluation& ev, const std::string& sha256) {
+void internals_of(std::string& s, const char* what, const Evaluation& ev,
+                  const std::string& sha256) {
   auto out = std::back_inserter(s);
-  fmt::format_to(out, "<h2>{}, plane {}</h2>\n<table>\n<tr><th style=\"width: 18%\">File</th><td>{}</td></tr>\n"
-                 "<tr><th>SHA-256</th><td>{}</td></tr>\n",
-                 what, plane_name(ev.plane), xml_escape(ev.source),
-                 sha256.empty() ? "not at hand" : sha256);
+  fmt::format_to(
+      out,
+      "<h2>{}, plane {}</h2>\n<table>\n<tr><th style=\"width: 18%\">File</th><td>{}</td></tr>\n"
+      "<tr><th>SHA-256</th><td>{}</td></tr>\n",
+      what, plane_name(ev.plane), xml_escape(ev.source), sha256.empty() ? "not at hand" : sha256);
   s += "</table>\n<div class=\"raw\">\n";
   for (const ReportSection& section : header_sections(ev)) {
     for (const ReportItem& item : section.items) {

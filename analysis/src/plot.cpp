@@ -221,8 +221,7 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
     *options.legend_out = std::move(legend);
     legend.clear();
   }
-  double height =
-      size + (legend.empty() ? 0.0 : 20.0 + 18.0 * static_cast<double>(legend.size()));
+  double height = size + (legend.empty() ? 0.0 : 20.0 + 18.0 * static_cast<double>(legend.size()));
   // The diagnosis panel beside the plot: drawn first into its own string, as its height can
   // set the document's.
   constexpr double kPanelWidth = 380.0;

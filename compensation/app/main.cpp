@@ -119,8 +119,7 @@ int run(int argc, char** argv) {
   po::options_description opts;
   opts.add_options()("ini", po::value(&ini))("diagnosis", po::value(&diagnosis))(
       "only", po::value(&only))("gain", po::value(&gain_text))("force", po::bool_switch(&force))(
-      "json", po::bool_switch(&json))(
-      "to", po::value(&to))("help,h", "");
+      "json", po::bool_switch(&json))("to", po::value(&to))("help,h", "");
   po::positional_options_description pos;
   pos.add("diagnosis", 1);
   po::variables_map vm;

@@ -78,14 +78,15 @@ std::string scaled(const std::optional<std::string>& text, double factor) {
   return v ? amount(*v * factor) : *text;
 }
 
-std::string shown(const std::optional<std::string>& text) { return text ? *text : "(none)"; }
+std::string shown(const std::optional<std::string>& text) {
+  return text ? *text : "(none)";
+}
 
 // The gains of a joint's servo loop: "FF1 X 0 → 1.0".
 bool is_loop_gain(const std::string& key) {
-  static const char* const kGains[] = {"P",    "I",        "D",         "FF0",      "FF1",
-                                       "FF2",  "BIAS",     "DEADBAND",  "MAX_OUTPUT"};
-  return std::any_of(std::begin(kGains), std::end(kGains),
-                     [&](const char* g) { return key == g; });
+  static const char* const kGains[] = {"P",   "I",    "D",        "FF0",       "FF1",
+                                       "FF2", "BIAS", "DEADBAND", "MAX_OUTPUT"};
+  return std::any_of(std::begin(kGains), std::end(kGains), [&](const char* g) { return key == g; });
 }
 
 std::string key_words(const Machine& m, const std::string& section, const std::string& key,
@@ -98,8 +99,8 @@ std::string key_words(const Machine& m, const std::string& section, const std::s
     return fmt::format("{} backlash {} → {} µm", who, scaled(before, um), scaled(after, um));
   }
   if (key.rfind("SQUARENESS_", 0) == 0) {
-    return fmt::format("squareness {} correction {} → {} µrad", key.substr(11),
-                       scaled(before, 1e6), scaled(after, 1e6));
+    return fmt::format("squareness {} correction {} → {} µrad", key.substr(11), scaled(before, 1e6),
+                       scaled(after, 1e6));
   }
   if (key == "COMP_FILE") {
     return fmt::format("{} compensation table {} → {}", who, shown(before), shown(after));

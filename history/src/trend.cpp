@@ -99,9 +99,9 @@ std::vector<Verdict> verdicts(const TestRecord& t, const Limits& limits) {
     if (const auto& lim = limits.*(q.limit)) v.limit = *lim * q.scale;
     if (v.limit) {
       // A check that cannot be made does not pass; "inf" and NaN never pass either.
-      v.result = !v.value                ? Verdict::Result::not_measured
+      v.result = !v.value               ? Verdict::Result::not_measured
                  : *v.value <= *v.limit ? Verdict::Result::pass
-                                         : Verdict::Result::fail;
+                                        : Verdict::Result::fail;
     }
     out.push_back(v);
   }
@@ -113,8 +113,9 @@ std::vector<std::string> breaches(const TestRecord& t, const Limits& limits) {
   for (const Verdict& v : verdicts(t, limits)) {
     if (v.result == Verdict::Result::not_measured) {
       const std::string q = v.quantity;
-      out.push_back(fmt::format("{} not measured{}", q,
-                                q == "backlash" || q == "squareness" ? " (no diagnosis stored)" : ""));
+      out.push_back(
+          fmt::format("{} not measured{}", q,
+                      q == "backlash" || q == "squareness" ? " (no diagnosis stored)" : ""));
     } else if (v.result == Verdict::Result::fail) {
       out.push_back(fmt::format("{} {} > {:.1f} {}", v.quantity,
                                 std::isfinite(*v.value) ? fmt::format("{:.1f}", *v.value) : "n/a",

@@ -129,14 +129,15 @@ class HtmlReport : public ::testing::Test {
     std::string text = slurp(html);
     const auto body = text.rfind("</body>");
     EXPECT_NE(body, std::string::npos);
-    text.insert(body,
-                "<script>let w = document.documentElement.scrollWidth, who = 'html';"
-                "for (const e of document.querySelectorAll('*')) {"
-                "  const r = e.getBoundingClientRect();"
-                "  if (r.right > w) { w = r.right; who = e.tagName + ' ' + e.getAttribute('class'); }"
-                "}"
-                "document.body.setAttribute('data-widest', Math.ceil(w));"
-                "document.body.setAttribute('data-widest-element', who);</script>");
+    text.insert(
+        body,
+        "<script>let w = document.documentElement.scrollWidth, who = 'html';"
+        "for (const e of document.querySelectorAll('*')) {"
+        "  const r = e.getBoundingClientRect();"
+        "  if (r.right > w) { w = r.right; who = e.tagName + ' ' + e.getAttribute('class'); }"
+        "}"
+        "document.body.setAttribute('data-widest', Math.ceil(w));"
+        "document.body.setAttribute('data-widest-element', who);</script>");
     const std::string probe = (dir_ / "probe.html").string();
     circtest::testing::spit(probe, text);
     const CommandResult r = chromium({"--window-size=794,1123", "--dump-dom", "file://" + probe});
@@ -334,18 +335,16 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   // H passes after (2 um), F cannot pass at 0.1 um, G is judged against a wide limit.
   circtest::testing::spit(limits, "# the shop's limits\nH=0.004, G=0.05\n\nF=0.0001  # tight\n");
   const std::string plan = (dir_ / "plan.json").string();
-  circtest::testing::spit(
-      plan,
-      R"({"schema": "circtest.plan/1", "changes": [
+  circtest::testing::spit(plan,
+                          R"({"schema": "circtest.plan/1", "changes": [
            {"words": "X backlash 0 → 10.2 µm"},
            {"words": "squareness XY correction 0 → 100.0 µrad"},
            {"words": "FF1 X 0 → 1.0"}],
          "advice": ["servo mismatch: X lags Y by 1.08 ms"]})");
   const std::string html = (dir_ / "report.html").string();
   CommandResult r = circana({"report", after, before, "-o", html, "--machine", "VMC-3",
-                             "--limits-file", limits, "--changes", plan, "--tested-by",
-                             "A. Sato", "--accepted-by", "B. Kunde", "--instrument",
-                             "grid encoder KGM 182"});
+                             "--limits-file", limits, "--changes", plan, "--tested-by", "A. Sato",
+                             "--accepted-by", "B. Kunde", "--instrument", "grid encoder KGM 182"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string d = dom(html);
   EXPECT_EQ(console_messages(), "");
@@ -393,11 +392,10 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   const std::string pdf = (dir_ / "report.pdf").string();
   EXPECT_EQ(printed_pages(html, pdf), 3);
   const std::string page1 = pdf_page_text(pdf, 1);
-  for (const char* text :
-       {"Verdict: FAIL", "VMC-3", "grid encoder KGM 182", "XY", "1000 mm/min",
-        "X backlash 0 → 10.2 µm", "squareness XY correction 0 → 100.0 µrad", "FF1 X 0 → 1.0",
-        "servo mismatch: X lags Y by 1.08 ms", "Tested by", "A. Sato", "Accepted by", "B. Kunde",
-        "Signature", "Date"}) {
+  for (const char* text : {"Verdict: FAIL", "VMC-3", "grid encoder KGM 182", "XY", "1000 mm/min",
+                           "X backlash 0 → 10.2 µm", "squareness XY correction 0 → 100.0 µrad",
+                           "FF1 X 0 → 1.0", "servo mismatch: X lags Y by 1.08 ms", "Tested by",
+                           "A. Sato", "Accepted by", "B. Kunde", "Signature", "Date"}) {
     EXPECT_NE(page1.find(text), std::string::npos) << text << "\n" << page1;
   }
   EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY"), std::string::npos);

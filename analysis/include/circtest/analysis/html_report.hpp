@@ -53,8 +53,8 @@ struct ReportPage {
 struct VerdictLine {
   enum class Result { pass, fail, no_limit, not_measured };
   std::string plane;
-  std::string quantity;  // "H", "G", "F", "backlash", "squareness"
-  std::string unit;      // "µm", "µrad"
+  std::string quantity;                      // "H", "G", "F", "backlash", "squareness"
+  std::string unit;                          // "µm", "µrad"
   std::optional<double> before, now, limit;  // |value| and limit in the unit
   Result result = Result::no_limit;
 };
@@ -62,11 +62,11 @@ struct VerdictLine {
 // What the first page holds beyond the tests.
 struct HandOver {
   std::vector<VerdictLine> verdict;
-  std::string limits_source;          // where the limits come from; empty: none given
-  std::vector<std::string> changes;   // plain words, from circcomp plan --json
-  std::vector<std::string> wiring;    // what makes LinuxCNC use them (HAL files, kinematics)
-  std::vector<std::string> advice;    // what the plan could not change
-  std::string changes_source;         // the plan document; empty: none given
+  std::string limits_source;           // where the limits come from; empty: none given
+  std::vector<std::string> changes;    // plain words, from circcomp plan --json
+  std::vector<std::string> wiring;     // what makes LinuxCNC use them (HAL files, kinematics)
+  std::vector<std::string> advice;     // what the plan could not change
+  std::string changes_source;          // the plan document; empty: none given
   std::string tested_by, accepted_by;  // empty: a blank line to write the name on
 };
 

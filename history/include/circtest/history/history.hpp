@@ -93,8 +93,8 @@ std::vector<std::string> breaches(const TestRecord& test, const Limits& limits);
 // squareness (urad). A quantity with a limit that was not measured does not pass.
 struct Verdict {
   enum class Result { pass, fail, no_limit, not_measured };
-  const char* quantity;  // as in the limits: "H", "G", "F", "backlash", "squareness"
-  const char* unit;      // "um" or "urad" (ASCII; a front end writes its own symbol)
+  const char* quantity;         // as in the limits: "H", "G", "F", "backlash", "squareness"
+  const char* unit;             // "um" or "urad" (ASCII; a front end writes its own symbol)
   std::optional<double> value;  // |value| in the unit, when measured
   std::optional<double> limit;  // in the unit, when set
   Result result = Result::no_limit;
