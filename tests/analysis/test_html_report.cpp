@@ -441,6 +441,49 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
   EXPECT_LE(widest_px(html, which), 794.0) << which;
 }
 
+// Backlash and squareness limits are judged from the plane's diagnosis, as circana history
+// judges them; a diagnosis without the value is not measured, which does not pass.
+TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
+  const std::string xy = simtrace("xy.csv", "--backlash-x 0.005 --seed 6");
+  const std::string html = (dir_ / "report.html").string();
+  CommandResult r = circana({"report", xy, "-o", html, "--limits", "backlash=0.004,squareness=50"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::string d = dom(html);
+  r = circana({"diagnose", xy, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto diag = nlohmann::json::parse(r.out);
+  const double b_um = diag["backlash_mm"]["X"].get<double>() * 1000.0;
+  ASSERT_NEAR(b_um, 5.0, 0.5);
+  auto row = [&d](const std::string& q) {
+    const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
+    return p == std::string::npos ? std::string() : d.substr(p, d.find("</tr>", p) - p);
+  };
+  char cells[160];
+  std::snprintf(cells, sizeof cells,
+                "<td class=\"num\">%.1f µm</td><td class=\"num\">4.0 µm</td>"
+                "<td class=\"result FAIL\">FAIL</td>",
+                b_um);
+  EXPECT_NE(row("backlash").find(cells), std::string::npos) << row("backlash") << "\n" << cells;
+  EXPECT_NE(row("squareness").find("<td class=\"num\">50.0 µrad</td><td class=\"result PASS\">"),
+            std::string::npos)
+      << row("squareness");
+  // H, G, F have no limit here: listed, not judged.
+  EXPECT_NE(row("H").find("no limit set"), std::string::npos);
+  EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
+
+  // A diagnosis that does not state the squareness: that limit cannot pass.
+  diag["squareness_urad"] = nullptr;
+  const std::string diag_path = (dir_ / "diag.json").string();
+  circtest::testing::spit(diag_path, diag.dump());
+  r = circana({"report", xy, "-o", html, "--limits", "squareness=50", "--diagnosis", diag_path});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  d = dom(html);
+  EXPECT_NE(row("squareness").find("<td class=\"result FAIL\">FAIL (not measured)</td>"),
+            std::string::npos)
+      << row("squareness");
+  EXPECT_EQ(row("backlash"), "") << "no backlash limit, no backlash line";
+}
+
 // Bad requests: one clear line, the documented exit code, no file left behind.
 TEST_F(HtmlReport, BadRequests) {
   const std::string xy = simtrace("xy.csv", "--backlash-x 0.005");
