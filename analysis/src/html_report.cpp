@@ -274,11 +274,14 @@ void contribution_cells(std::string& s, const DiagnosisChart* d, const std::stri
     return;
   }
   const double bar_mm = std::clamp(std::abs(c->percent), 0.0, 100.0) * 0.12;
+  // Rounded to what is shown first, so that a tiny negative share reads 0.0, not -0.0.
+  auto shown = [](double v, double step) { return std::round(v / step) * step + 0.0; };
   fmt::format_to(out,
                  "<td class=\"num\"><span data-mm=\"{:.12g}\">{:.1f}</span></td>"
                  "<td class=\"num\"><span data-mm=\"{:.12g}\">{:.1f}</span> ({:.0f} %)"
                  "<span class=\"bar\" style=\"width: {:.1f}mm\"></span></td>",
-                 c->g_mm, c->g_mm * 1000.0, c->share_mm, c->share_mm * 1000.0, c->percent, bar_mm);
+                 c->g_mm, shown(c->g_mm * 1000.0, 0.1), c->share_mm,
+                 shown(c->share_mm * 1000.0, 0.1), shown(c->percent, 1.0), bar_mm);
 }
 
 // The diagnosis before and after side by side: each source's G alone and its share of the
@@ -456,6 +459,18 @@ std::string overall(const std::vector<VerdictLine>& lines) {
   return any_limit ? "PASS" : "NONE";
 }
 
+// The instrument as recorded, else what the trace says of it: the file it was imported from,
+// or the kind of instrument the program was made for (circgen --instrument).
+std::string instrument_of(const Evaluation& ev) {
+  std::string i = condition(ev, meta_key::instrument);
+  if (!i.empty()) return i;
+  if (const auto from = condition(ev, meta_key::imported_from); !from.empty())
+    return "imported from " + from;
+  if (const auto profile = condition(ev, "instrument_profile"); !profile.empty())
+    return profile + " (the test program's instrument profile)";
+  return {};
+}
+
 // The facts of the hand-over: the machine, the test, who tested it and with what.
 void facts_table(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
   auto out = std::back_inserter(s);
@@ -490,7 +505,7 @@ void facts_table(std::string& s, const std::vector<ReportPage>& pages, const Han
       {"Location", or_blank(condition(ev, meta_key::location))},
       {"Date of the test", date},
       {"Tested by", or_blank(tested_by)},
-      {"Instrument", or_blank(condition(ev, meta_key::instrument))},
+      {"Instrument", or_blank(instrument_of(ev))},
       {"Plane(s)", planes},
       {"Feed(s)", feeds},
       {"Diameter", diameters},
