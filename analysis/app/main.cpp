@@ -37,7 +37,8 @@ const char* kUsage =
     "                        [--store [--db URL]]\n"
     "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
     "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
-    "                      [--db URL]\n"
+    "                      [--db URL] [--limits H=MM,... | --limits-file FILE]\n"
+    "                      [--changes PLAN.json] [--tested-by NAME] [--accepted-by NAME]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
     "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n"
     "       circana store RESULT.json|TRACE [--db URL] [the analyze options]\n"
@@ -349,7 +350,12 @@ int report(const std::vector<std::string>& args) {
             "an earlier test of a plane, overlaid (also the second argument)")(
             "diagnosis", po::value<std::vector<std::string>>(),
             "a plane's diagnosis (circana diagnose --json) instead of diagnosing here")(
-            "db", po::value<std::string>(), "the trend from this history (SQLite file or URL)");
+            "db", po::value<std::string>(), "the trend from this history (SQLite file or URL)")(
+            "limits", po::value<std::string>(), "H=MM,G=MM,...: the verdict's limits")(
+            "limits-file", po::value<std::string>(), "the verdict's limits from a file")(
+            "changes", po::value<std::string>(), "what was changed (circcomp plan --json)")(
+            "tested-by", po::value<std::string>(), "the name for the signature block")(
+            "accepted-by", po::value<std::string>(), "the customer's name for the signature");
       },
       true);
   if (p.request.json) throw UsageError("--json: not for circana report (it writes HTML)");
@@ -364,6 +370,14 @@ int report(const std::vector<std::string>& args) {
   req.plot = p.request.plot;
   req.output_path = p.vm["output"].as<std::string>();
   if (p.vm.count("db")) req.db_url = p.vm["db"].as<std::string>();
+  auto text = [&p](const char* name) {
+    return p.vm.count(name) ? p.vm[name].as<std::string>() : std::string();
+  };
+  req.limits = text("limits");
+  req.limits_file = text("limits-file");
+  req.changes_path = text("changes");
+  req.tested_by = text("tested-by");
+  req.accepted_by = text("accepted-by");
   return run_report(req, std::cout);
 }
 
