@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <optional>
+#include <set>
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/plot.hpp"
@@ -403,21 +404,34 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   return 0;
 }
 
-int run_import_polar(const ImportPolarRequest& request, std::ostream& out) {
-  if (!(request.radius_mm > 0.0) || !(request.radius_mm <= kMaxOptionLengthMm)) {
-    throw UsageError(
-        fmt::format("--radius: expected a radius in mm above 0 and at most {:g}, "
-                    "got {:g}",
-                    kMaxOptionLengthMm, request.radius_mm));
-  }
-  const std::vector<PolarPoint> points = parse_polar_text(
-      read_input_text(request.input_path, kMaxPolarExportBytes), request.input_path);
-  const Trace trace = polar_to_trace(points, request.plane, request.radius_mm, request.input_path);
+int run_import(const ImportRequest& request, std::ostream& out) {
+  const Trace trace = import_export_text(read_input_text(request.input_path, kMaxPolarExportBytes),
+                                         request.input_path, request.options);
   write_trace(request.output_path, trace);
-  // polar_to_trace numbers the runs 1, 2, ... itself, so the last id is a small whole number.
-  const auto runs = trace.values[4].empty() ? 0.0 : trace.values[4].back();
-  out << fmt::format("{}: {} points, {} run(s) -> {}\n", request.input_path, points.size(), runs,
+  // The segment column holds whole run ids from 1 (checked on reading), so this is exact.
+  std::set<double> runs;
+  if (const auto* segment = trace.column(column_name::segment)) {
+    runs.insert(segment->begin(), segment->end());
+  }
+  out << fmt::format("{}: {} rows, {} -> {}\n", request.input_path, trace.rows(),
+                     runs.empty() ? std::string("runs found by the analysis")
+                                  : fmt::format("{} run(s)", runs.size()),
                      request.output_path);
+  out.flush();
+  return 0;
+}
+
+int run_export_polar(const ExportPolarRequest& request, std::ostream& out) {
+  EvaluatedTrace evaluated = evaluate_file(request.trace_path, request.options, request.radial);
+  // Conditions stated on the command line are the test's, as in analyze's report.
+  for (const auto& [key, value] : request.options.conditions) {
+    evaluated.trace.metadata.set(key, value);
+  }
+  write_file_atomic(request.output_path, polar_export_text(evaluated.trace, evaluated.evaluation));
+  std::size_t points = 0;
+  for (const RunResult& r : evaluated.evaluation.runs) points += r.run.size();
+  out << fmt::format("{}: {} run(s), {} points -> {}\n", request.trace_path,
+                     evaluated.evaluation.runs.size(), points, request.output_path);
   out.flush();
   return 0;
 }

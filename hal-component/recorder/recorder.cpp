@@ -493,10 +493,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
     meta.set(meta_key::channel_prefix + name, text);
   meta.set(meta_key::module_channels, std::to_string(ring_.channels()));
   meta.set(meta_key::module_depth, std::to_string(ring_.depth()));
-  if (!options_.ini.empty()) {
-    meta.set(meta_key::ini, options_.ini);
-    meta.set(meta_key::ini_sha256, sha256_of_file(options_.ini));
-  }
+  if (!options_.ini.empty()) record_ini_provenance(meta, options_.ini);
   if (!options_.program.empty()) {
     meta.set(meta_key::program, options_.program);
     for (const auto& [key, value] : options_.program_plan.header) {
