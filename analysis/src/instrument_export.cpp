@@ -65,6 +65,22 @@ std::vector<std::string> split_fields(std::string_view line) {
   return fields;
 }
 
+// A title row's fields: split at tabs, commas and semicolons when it has any (a title such
+// as "CCW deviation (um)" holds blanks), else at blanks.
+std::vector<std::string> split_title(std::string_view line) {
+  if (line.find_first_of(",;\t") == std::string_view::npos) return split_fields(line);
+  std::vector<std::string> fields;
+  std::size_t begin = 0;
+  while (begin <= line.size()) {
+    std::size_t end = line.find_first_of(",;\t", begin);
+    if (end == std::string_view::npos) end = line.size();
+    const std::string_view field = trim(line.substr(begin, end - begin));
+    if (!field.empty()) fields.emplace_back(field);
+    begin = end + 1;
+  }
+  return fields;
+}
+
 struct TextLine {
   std::size_t number = 0;
   std::string text;  // without its line end
@@ -227,7 +243,7 @@ std::vector<ExportColumn> export_columns(const ExportText& text, const std::stri
   const std::string example = "--columns angle_deg,dev_um or t_s,x_mm,y_mm";
   if (text.title) {
     std::vector<ExportColumn> columns;
-    for (const std::string& field : split_fields(text.title->text)) {
+    for (const std::string& field : split_title(text.title->text)) {
       std::string name = title_column_name(field);
       const auto column = name.empty() ? std::nullopt : parse_export_column(name, plane);
       if (!column) {
