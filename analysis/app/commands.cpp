@@ -18,6 +18,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/json_text.hpp"
+#include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -212,10 +213,15 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   if (!request.compare_path.empty() && request.svg_path.empty()) {
     throw UsageError("--compare: draws into the plot, so it needs --svg");
   }
+  // A status line on a terminal while a large trace is read and fitted; gone before the
+  // report is printed.
+  std::optional<ProgressTicker> progress(std::in_place, "circana analyze");
+  progress->stage("reading and evaluating " + request.trace_path);
   const EvaluatedTrace evaluated =
       evaluate_file(request.trace_path, request.options, request.radial);
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
+  progress->stage("diagnosing " + request.trace_path);
   std::string text = request.json ? json_text(to_json(ev), 2) + "\n" : text_report(ev);
   // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
   // still gets its H, G and F.
@@ -248,14 +254,18 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
         store_result(ev, nullptr, request.trace_path, request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
+  progress.reset();
   out << text;
   out.flush();
   return 0;
 }
 
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
+  std::optional<ProgressTicker> progress(std::in_place, "circana diagnose");
+  progress->stage("reading and evaluating " + request.trace_path);
   const EvaluatedTrace evaluated =
       evaluate_file(request.trace_path, request.options.evaluation, request.radial);
+  progress->stage("diagnosing " + request.trace_path);
   DiagnosisOptions options = request.options;
   // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
@@ -278,6 +288,7 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
                                             request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
+  progress.reset();
   out << text;
   out.flush();
   return 0;

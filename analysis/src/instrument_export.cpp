@@ -83,7 +83,7 @@ std::vector<std::string> split_title(std::string_view line) {
 
 struct TextLine {
   std::size_t number = 0;
-  std::string text;  // without its line end
+  std::string_view text;  // into the export's text, without its line end
 };
 
 // Lines that hold something: blank lines dropped; a BOM and CR line ends removed.
@@ -99,7 +99,7 @@ std::vector<TextLine> content_lines(std::string_view text) {
     if (number == 1 && view.starts_with("\xEF\xBB\xBF")) view.remove_prefix(3);
     if (!view.empty() && view.back() == '\r') view.remove_suffix(1);
     if (trim(view).empty()) continue;
-    out.push_back({number, std::string(view)});
+    out.push_back({number, view});
   }
   return out;
 }
@@ -256,9 +256,13 @@ std::vector<ExportColumn> export_columns(const ExportText& text, const std::stri
     }
     return columns;
   }
-  const std::size_t fields = text.rows.empty() ? 0 : split_fields(text.rows.front().text).size();
+  if (text.rows.empty()) {
+    throw ParseError(source, text.title ? text.title->number : 0,
+                     "no rows of numbers: an export needs at least 3");
+  }
+  const std::size_t fields = split_fields(text.rows.front().text).size();
   if (fields == 2) return parse_export_columns("angle_deg,dev_um", plane);
-  throw ParseError(source, text.rows.empty() ? 0 : text.rows.front().number,
+  throw ParseError(source, text.rows.front().number,
                    fmt::format("{} columns and no title row: name them with {}", fields, example));
 }
 

@@ -54,7 +54,8 @@ ProgressLine::~ProgressLine() {
 
 void ProgressLine::update(double now_s, std::string_view text) {
   if (!enabled_ || now_s - start_s_ < delay_s_) return;
-  if (drawn_ && now_s - last_draw_s_ < interval_s_) return;
+  if (drawn_ && (now_s - last_draw_s_ < interval_s_ || text == last_text_)) return;
+  last_text_ = text;
   std::string line = fmt::format("{}: {}", prefix_, text);
   // One screen line: a wrapped line could not be redrawn in place.
   const std::size_t width = terminal_columns(stream_);

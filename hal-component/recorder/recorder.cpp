@@ -17,6 +17,7 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace.hpp"
@@ -406,7 +407,13 @@ namespace {
 class Loop {
  public:
   Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log)
-      : ring_(ring), h_(ring.header()), options_(options), env_(env), log_(log) {}
+      : ring_(ring),
+        h_(ring.header()),
+        options_(options),
+        env_(env),
+        log_(log),
+        started_s_(env.monotonic_s()),
+        progress_(log, "circlog-record", is_terminal(log), started_s_) {}
 
   Summary run(std::int32_t pid);
 
@@ -421,6 +428,7 @@ class Loop {
   std::vector<std::string> missing_runs() const;
   const char* should_stop();
   void wait_for_producer_to_see_release();
+  std::string status(const TraceWriter& writer) const;
 
   circlog::Consumer& ring_;
   const circlog::SharedHeader& h_;
@@ -449,6 +457,9 @@ class Loop {
   std::vector<double> row_;
   Summary summary_;
   std::uint64_t gap_messages_ = 0;
+  // What has been seen so far, on a terminal (log_ is one): cleared before each message.
+  double started_s_;
+  ProgressLine progress_;
 };
 
 void Loop::wait_for_servo() {
@@ -474,6 +485,7 @@ void Loop::claim(std::int32_t pid) {
   const int other = ring_.claim(pid);
   if (other == 0) return;
   if (other > 0 && !env_.process_alive(other) && ring_.steal(other, pid)) {
+    progress_.clear();
     std::fprintf(log_, "circlog-record: took over circlog.0 from process %d, which has died\n",
                  other);
     return;
@@ -501,6 +513,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
                                      [&k = key](const auto& c) { return c.first == k; });
       if (given) continue;  // the command line states it
       if (kReservedKeys.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) {
+        progress_.clear();
         std::fprintf(log_, "circlog-record: %s: header key '%s' is the recorder's own; skipped\n",
                      options_.program.c_str(), key.c_str());
         continue;
@@ -523,6 +536,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
 void Loop::note_gap(std::uint64_t lost, std::uint64_t period, bool at_end) {
   ++summary_.gaps;
   summary_.lost += lost;
+  if (gap_messages_ <= 20) progress_.clear();
   if (++gap_messages_ <= 20) {
     if (at_end) {
       std::fprintf(log_, "circlog-record: gap: %llu record(s) lost after the last one received\n",
@@ -680,6 +694,7 @@ Summary Loop::run(std::int32_t pid) {
       // Check before draining, so everything published up to the decision is written.
       reason = should_stop();
       const std::size_t n = drain(*writer);
+      progress_.update(env_.monotonic_s(), status(*writer));
       if (reason) break;
       if (n == 0) env_.sleep(options_.poll_s);
     }
@@ -714,7 +729,34 @@ Summary Loop::run(std::int32_t pid) {
                                              : join(summary_.missing_runs, "; "));
   }
   writer->commit();
+  progress_.clear();
   return summary_;
+}
+
+// "12 s, 12000 samples, 1 run; waiting for run 2 of 3".
+std::string Loop::status(const TraceWriter& writer) const {
+  std::string text = fmt::format("{:.0f} s, {} samples, {} run(s)", env_.monotonic_s() - started_s_,
+                                 writer.rows_written(), summary_.runs);
+  if (summary_.gaps > 0) text += fmt::format(", {} gap(s)", summary_.gaps);
+  const std::vector<AnnouncedRun>& announced = options_.program_plan.runs;
+  const auto position = [&announced](auto&& is) -> std::size_t {
+    const auto it = std::find_if(announced.begin(), announced.end(), is);
+    return it == announced.end() ? 0 : static_cast<std::size_t>(it - announced.begin()) + 1;
+  };
+  if (in_run_) {
+    const std::size_t k =
+        position([this](const AnnouncedRun& r) { return r.segment_id == run_segment_; });
+    return text + (k > 0 ? fmt::format("; recording run {} of {}", k, announced.size())
+                         : fmt::format("; recording run {}", summary_.runs));
+  }
+  if (!announced.empty()) {
+    const std::size_t k =
+        position([this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id) == 0; });
+    return text + (k > 0
+                       ? fmt::format("; waiting for run {} of {}", k, announced.size())
+                       : fmt::format("; all {} runs recorded, waiting for idle", announced.size()));
+  }
+  return text + (seen_marker_ ? "; waiting for the next run" : "; waiting for the first run");
 }
 
 }  // namespace

@@ -46,6 +46,7 @@ class ProgressLine {
   double interval_s_;
   double last_draw_s_ = -1.0;
   bool drawn_ = false;
+  std::string last_text_;
 };
 
 // A status line kept up by its own thread for work that runs in one long call (reading a
