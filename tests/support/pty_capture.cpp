@@ -12,7 +12,10 @@ namespace circtest::testing {
 
 PtyCapture::PtyCapture() {
   int terminal = -1;
-  if (::openpty(&master_, &terminal, nullptr, nullptr, nullptr) != 0) {
+  winsize size{};
+  size.ws_row = 24;
+  size.ws_col = 200;  // wide enough for a status line uncut
+  if (::openpty(&master_, &terminal, nullptr, nullptr, &size) != 0) {
     throw std::runtime_error("openpty failed");
   }
   // Bytes as written: no "\n" -> "\r\n".
