@@ -415,7 +415,21 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   return 0;
 }
 
+namespace {
+
+// An output that is the input would be replaced by what was read from it.
+void refuse_output_over_input(const std::string& input, const std::string& output) {
+  std::error_code ec;
+  if (std::filesystem::equivalent(input, output, ec)) {
+    throw UsageError(
+        fmt::format("-o {}: the same file as the input {}: name another output", output, input));
+  }
+}
+
+}  // namespace
+
 int run_import(const ImportRequest& request, std::ostream& out) {
+  refuse_output_over_input(request.input_path, request.output_path);
   const Trace trace = import_export_text(read_input_text(request.input_path, kMaxPolarExportBytes),
                                          request.input_path, request.options);
   write_trace(request.output_path, trace);
@@ -433,6 +447,7 @@ int run_import(const ImportRequest& request, std::ostream& out) {
 }
 
 int run_export_polar(const ExportPolarRequest& request, std::ostream& out) {
+  refuse_output_over_input(request.trace_path, request.output_path);
   EvaluatedTrace evaluated = evaluate_file(request.trace_path, request.options, request.radial);
   // Conditions stated on the command line are the test's, as in analyze's report.
   for (const auto& [key, value] : request.options.conditions) {

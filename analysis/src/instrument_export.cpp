@@ -205,7 +205,7 @@ struct ExportText {
   std::vector<TextLine> rows;
 };
 
-ExportText split_export(std::string_view text) {
+ExportText split_export(std::string_view text, const std::string& source) {
   ExportText out;
   bool own_export = false;
   for (TextLine& line : content_lines(text)) {
@@ -216,7 +216,12 @@ ExportText split_export(std::string_view text) {
       const std::string key(trim(body.substr(0, colon)));
       const std::string value(trim(body.substr(colon + 1)));
       if (key == kExportedByKey && value == kExportedByPolar) own_export = true;
-      if (!own_export || !out.rows.empty()) continue;  // others' comments are text
+      if (!own_export || !out.rows.empty() || key.empty()) continue;  // others' comments are text
+      // The test's metadata goes into every output (JSON, plots, the history): UTF-8 only.
+      if (invalid_utf8_offset(line.text) != std::string_view::npos) {
+        throw ParseError(source, line.number,
+                         fmt::format("metadata '{}': not UTF-8 text", utf8_replacing_invalid(key)));
+      }
       out.metadata.set(key, value);
       out.metadata.set_line(out.metadata.entries().size() - 1, line.number);
       continue;
@@ -658,7 +663,7 @@ std::vector<ExportColumn> parse_export_columns(std::string_view list, Plane plan
 
 Trace import_export_text(std::string_view text, const std::string& source,
                          const ExportImportOptions& options) {
-  const ExportText parts = split_export(text);
+  const ExportText parts = split_export(text, source);
   Plane plane = options.plane.value_or(Plane::XY);
   if (const std::string* p = parts.metadata.find(meta_key::plane)) {
     const auto in_file = parse_plane(*p);

@@ -233,6 +233,16 @@ TEST_F(Import, BadExportsAreRefusedWithFileAndLine) {
   const std::string turns = dir_.write("turns.csv", turning);
   expect_refused(cmd(turns, {"--direction", "ccw"}), 5, {turns + ":12:", "turns back"});
   expect_refused(cmd(dir_.write("g.csv", good), {"--ini", dir_.path()}), 3, {dir_.path()});
+  // A circana export's metadata in another encoding than UTF-8.
+  const std::string latin1 = dir_.write(
+      "latin1.txt", "# exported_by: circana export-polar\n# operator: J\xFCrgen\n" + good);
+  expect_refused(cmd(latin1), 4, {latin1 + ":2:", "metadata 'operator': not UTF-8 text"});
+  // The output over the input: the export is not replaced by its own import.
+  const std::string self = dir_.write("self.csv", good);
+  const CommandResult r = circana({"import", self, "--radius", "50", "-o", self});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("the same file as the input"), std::string::npos) << r.err;
+  EXPECT_EQ(slurp(self), good);
 }
 
 TEST_F(Import, AnExportDisagreeingWithTheOptionsIsRefused) {

@@ -561,7 +561,8 @@ TEST_F(Recorder, ShowsWhatItHasSeenOnATerminalOnly) {
     script(servo, {{1500, 2500, 1.0}, {4000, 5000, 2.0}});
     rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
     o.idle_s = 1.0;
-    const rec::Summary s = rec::record(servo.consumer, 42, o, servo, terminal ? pty.terminal() : log_);
+    const rec::Summary s =
+        rec::record(servo.consumer, 42, o, servo, terminal ? pty.terminal() : log_);
     EXPECT_EQ(s.runs, 2u);
     const std::string shown = pty.finish();
     if (!terminal) {
