@@ -1,5 +1,8 @@
 #include "recorder.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -138,7 +141,9 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
       "decimals", po::value(&o.decimals)->value_name("N"),
       "decimals of the channel values (default 6: 1 nm in mm)")(
       "poll", po::value(&o.poll_s)->value_name("S"),
-      "sleep between polls of an empty ring (default 0.005)");
+      "sleep between polls of an empty ring (default 0.005)")(
+      "progress-to", po::value(&o.progress_to)->value_name("TTY"),
+      "show the status line on this terminal (default: stderr when it is a terminal)");
   // The test conditions of clauses 4.4 and 6, written as metadata (docs/trace-format.md).
   std::vector<std::string> condition_values(condition_options().size());
   for (std::size_t i = 0; i < condition_options().size(); ++i) {
@@ -406,14 +411,16 @@ namespace {
 
 class Loop {
  public:
-  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log)
+  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log,
+       std::FILE* progress)
       : ring_(ring),
         h_(ring.header()),
         options_(options),
         env_(env),
         log_(log),
         started_s_(env.monotonic_s()),
-        progress_(log, "circlog-record", is_terminal(log), started_s_) {}
+        progress_(progress ? progress : log, "circlog-record",
+                  is_terminal(progress ? progress : log), started_s_) {}
 
   Summary run(std::int32_t pid);
 
@@ -761,9 +768,23 @@ std::string Loop::status(const TraceWriter& writer) const {
 
 }  // namespace
 
+std::FILE* open_progress_terminal(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0 || ::isatty(fd) != 1) {
+    if (fd >= 0) ::close(fd);
+    throw UsageError(fmt::format("--progress-to {}: not a terminal", path));
+  }
+  std::FILE* stream = ::fdopen(fd, "w");
+  if (stream == nullptr) {
+    ::close(fd);
+    throw UsageError(fmt::format("--progress-to {}: cannot be written", path));
+  }
+  return stream;
+}
+
 Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log) {
-  Loop loop(ring, options, env, log);
+               std::FILE* log, std::FILE* progress) {
+  Loop loop(ring, options, env, log, progress);
   return loop.run(pid);
 }
 

@@ -584,3 +584,37 @@ TEST_F(Recorder, ShowsWhatItHasSeenOnATerminalOnly) {
     EXPECT_TRUE(shown.ends_with("\r\033[K")) << "the line is gone at the end:\n" << shown;
   }
 }
+
+TEST_F(Recorder, ShowsTheStatusOnTheTerminalItIsGiven) {
+  // circtest-run's case: stderr goes to a log, the status line to the person's terminal.
+  circtest::testing::PtyCapture pty;
+  const std::string tty = ::ttyname(pty.terminal_fd());
+  const auto parsed = parse({"-o", "t.csv", "--progress-to", tty.c_str()});
+  ASSERT_TRUE(parsed);
+  EXPECT_EQ(parsed->progress_to, tty);
+  std::FILE* terminal = rec::open_progress_terminal(parsed->progress_to);
+  FakeServo servo(1, 1 << 14);
+  script(servo, {{1500, 2500, 1.0}});
+  rec::Options o = options_for(path("t.csv"));
+  o.idle_s = 0.5;
+  EXPECT_EQ(rec::record(servo.consumer, 42, o, servo, log_, terminal).runs, 1u);
+  std::fclose(terminal);
+  const std::string shown = pty.finish();
+  EXPECT_NE(shown.find("samples, 1 run(s); recording run 1\033[K"), std::string::npos) << shown;
+  EXPECT_NE(shown.find("samples, 1 run(s); waiting for the next run\033[K"), std::string::npos)
+      << shown;
+  EXPECT_EQ(log_text().find("samples"), std::string::npos) << log_text();
+
+  // Anything but a terminal is refused, and a file is neither created nor truncated.
+  std::ofstream(path("notes.txt")) << "keep\n";
+  for (const std::string& p : {path("notes.txt"), path("absent"), dir_.string()}) {
+    try {
+      std::fclose(rec::open_progress_terminal(p));
+      ADD_FAILURE() << p << " accepted";
+    } catch (const circtest::UsageError& e) {
+      EXPECT_EQ(std::string(e.what()), "--progress-to " + p + ": not a terminal");
+    }
+  }
+  EXPECT_EQ(circtest::testing::slurp(path("notes.txt")), "keep\n");
+  EXPECT_FALSE(fs::exists(path("absent")));
+}
