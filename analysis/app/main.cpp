@@ -417,9 +417,7 @@ int import_export(const std::vector<std::string>& args) {
                        "'");
     }
   }
-  if (vm.count("columns")) {
-    o.columns = parse_export_columns(vm["columns"].as<std::string>(), o.plane.value_or(Plane::XY));
-  }
+  if (vm.count("columns")) o.columns = vm["columns"].as<std::string>();
   if (vm.count("radius")) {
     o.radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>(), kRadiusRangeMm);
   }

@@ -244,7 +244,7 @@ ExportText split_export(std::string_view text, const std::string& source) {
 // (the plain export), else refused.
 std::vector<ExportColumn> export_columns(const ExportText& text, const std::string& source,
                                          const ExportImportOptions& options, Plane plane) {
-  if (options.columns) return *options.columns;
+  if (options.columns) return parse_export_columns(*options.columns, plane);
   const std::string example = "--columns angle_deg,dev_um or t_s,x_mm,y_mm";
   if (text.title) {
     std::vector<ExportColumn> columns;

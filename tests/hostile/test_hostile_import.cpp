@@ -111,6 +111,11 @@ TEST_F(Import, AnExportDisagreeingWithTheOptionsIsRefused) {
                  {polar + ":3:", "--radius 50 disagrees with the export's radius_mm: 75"});
   expect_refused({"import", polar, "--plane", "YZ"}, 5, {polar + ":2:", "--plane YZ"});
   expect_refused({"import", polar, "--feed", "700"}, 5, {"--feed 700", "feed_mm_per_min: 1000"});
+  // Position columns are read for the plane the export states, not the default XY.
+  const std::string zx = dir_.write(
+      "zx.txt", "# exported_by: circana export-polar\n# plane: ZX\n0 50 0\n1 50 1\n2 50 2\n");
+  expect_refused({"import", zx, "--columns", "t_s,x_mm,y_mm"}, 2,
+                 {"unknown column 'y_mm' for the plane ZX"});
   // An export that names its INI refuses another one.
   const std::string with_ini = dir_.file("with-ini.csv");
   ASSERT_EQ(circana({"import", polar, "-o", with_ini, "--ini", ini}).exit_code, 0);

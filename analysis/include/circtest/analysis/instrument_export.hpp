@@ -46,9 +46,11 @@ std::vector<ExportColumn> parse_export_columns(std::string_view list, Plane plan
 // What the command line says about an import. Each item, when set, must agree with what a
 // circana export-polar file states about itself (else DataError naming its line).
 struct ExportImportOptions {
-  std::optional<Plane> plane;                        // default: the file's, else XY
-  std::optional<std::vector<ExportColumn>> columns;  // default: the title row's
-  std::optional<double> radius_mm;                   // polar: required unless the file has it
+  std::optional<Plane> plane;  // default: the file's, else XY
+  // --columns as given ("angle_deg,dev_um"), read for the plane once it is settled;
+  // default: the title row's.
+  std::optional<std::string> columns;
+  std::optional<double> radius_mm;  // polar: required unless the file has it
   std::optional<double> feed_mm_per_min;
   std::optional<Direction> direction;  // a polar export of one run with one deviation column
   std::string date;                    // canonical_utc_iso8601
