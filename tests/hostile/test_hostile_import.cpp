@@ -12,10 +12,7 @@
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::slurp;
+using namespace circtest::testing;  // ScratchDir, slurp, run_command
 
 namespace {
 
