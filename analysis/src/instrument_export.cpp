@@ -161,9 +161,13 @@ std::string title_column_name(std::string_view field) {
     role = "t";
   } else if (has({"run", "segment"})) {
     return "run";
-  } else if (words.size() <= 2 && !words.empty() && words[0].size() == 1 &&
-             std::string_view("xyz").find(words[0][0]) != std::string_view::npos) {
-    role = words[0];
+  } else if (const auto axes = std::count_if(
+                 words.begin(), words.end(),
+                 [](const std::string& w) { return w == "x" || w == "y" || w == "z"; });
+             axes == 1) {
+    // "X (mm)", "X position [um]": one axis letter names a position column.
+    role = *std::find_if(words.begin(), words.end(),
+                         [](const std::string& w) { return w == "x" || w == "y" || w == "z"; });
   } else {
     return {};
   }
@@ -180,7 +184,7 @@ std::string title_column_name(std::string_view field) {
       unit = u;
     }
   }
-  return unit.empty() ? std::string() : role + "_" + unit;
+  return unit.empty() ? std::string() : fmt::format("{}_{}", role, unit);
 }
 
 // ------------------------------------------------------------------ the table

@@ -174,3 +174,35 @@ TEST_F(Import, TimeStampedPositionsInTheUnitsTheColumnsName) {
   EXPECT_NEAR(j["runs"][0]["feed_mm_per_min"].get<double>(), 2 * std::numbers::pi * 50 / 4 * 60,
               50.0);
 }
+
+TEST_F(Import, TitlesNameTheColumnsAndTheirUnits) {
+  // A grid encoder's CSV whose title says it all: ms and um become s and mm.
+  std::string text = "Sample;Time [ms];X position [\xC2\xB5m];Y position [\xC2\xB5m]\n";
+  for (int i = 0; i <= 400; ++i) {
+    const double a = 2 * std::numbers::pi * i / 400.0;
+    text += fmt::format("{};{};{:.3f};{:.3f}\n", i, i * 10, 50'000.0 * std::cos(a),
+                        50'000.0 * std::sin(a));
+  }
+  // "Sample" says nothing about its unit: refused until --columns names it (skip).
+  const std::string in = dir_.write("titled.csv", text);
+  const std::string out = dir_.file("titled-trace.csv");
+  CommandResult r = circana({"import", in, "-o", out});
+  EXPECT_EQ(r.exit_code, 4) << r.err;
+  EXPECT_NE(r.err.find("cannot tell what 'Sample' holds"), std::string::npos) << r.err;
+  r = circana({"import", in, "-o", out, "--columns", "skip,t_ms,x_um,y_um"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Without the sample column the title alone is enough.
+  std::string titled = "Time [ms];X position [\xC2\xB5m];Y position [\xC2\xB5m]\n";
+  for (std::size_t p = text.find('\n') + 1; p < text.size();) {
+    const std::size_t end = text.find('\n', p);
+    titled += text.substr(text.find(';', p) + 1, end - text.find(';', p));
+    p = end + 1;
+  }
+  const std::string out2 = dir_.file("titled-trace2.csv");
+  r = circana({"import", dir_.write("titled2.csv", titled), "-o", out2});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string trace = slurp(out2);
+  EXPECT_NE(trace.find("\nt,x,y\n0.000000,50.000000,0.000000\n0.010000,"), std::string::npos)
+      << trace.substr(0, 400);
+  EXPECT_EQ(slurp(out).substr(slurp(out).find("\nt,x,y\n")), trace.substr(trace.find("\nt,x,y\n")));
+}
