@@ -346,8 +346,14 @@ int run_store(const StoreRequest& request, std::ostream& out) {
     return 0;
   }
   // A trace: evaluated and stored as analyze --store does (no diagnosis: diagnose --store).
+  std::optional<ProgressTicker> progress(std::in_place, "circana store");
+  progress->stage("reading and evaluating " + request.path);
   const EvaluatedTrace evaluated = evaluate_file(request.path, request.options, request.radial);
-  out << store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
+  progress->stage("storing " + request.path);
+  std::string stored =
+      store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
+  progress.reset();
+  out << stored;
   out.flush();
   return 0;
 }
@@ -430,9 +436,13 @@ void refuse_output_over_input(const std::string& input, const std::string& outpu
 
 int run_import(const ImportRequest& request, std::ostream& out) {
   refuse_output_over_input(request.input_path, request.output_path);
+  std::optional<ProgressTicker> progress(std::in_place, "circana import");
+  progress->stage("reading " + request.input_path);
   const Trace trace = import_export_text(read_input_text(request.input_path, kMaxPolarExportBytes),
                                          request.input_path, request.options);
+  progress->stage("writing " + request.output_path);
   write_trace(request.output_path, trace);
+  progress.reset();
   // The segment column holds whole run ids from 1 (checked on reading), so this is exact.
   std::set<double> runs;
   if (const auto* segment = trace.column(column_name::segment)) {
@@ -448,12 +458,16 @@ int run_import(const ImportRequest& request, std::ostream& out) {
 
 int run_export_polar(const ExportPolarRequest& request, std::ostream& out) {
   refuse_output_over_input(request.trace_path, request.output_path);
+  std::optional<ProgressTicker> progress(std::in_place, "circana export-polar");
+  progress->stage("reading and evaluating " + request.trace_path);
   EvaluatedTrace evaluated = evaluate_file(request.trace_path, request.options, request.radial);
   // Conditions stated on the command line are the test's, as in analyze's report.
   for (const auto& [key, value] : request.options.conditions) {
     evaluated.trace.metadata.set(key, value);
   }
+  progress->stage("writing " + request.output_path);
   write_file_atomic(request.output_path, polar_export_text(evaluated.trace, evaluated.evaluation));
+  progress.reset();
   std::size_t points = 0;
   for (const RunResult& r : evaluated.evaluation.runs) points += r.run.size();
   out << fmt::format("{}: {} run(s), {} points -> {}\n", request.trace_path,

@@ -94,13 +94,18 @@ ProgressTicker::~ProgressTicker() {
 void ProgressTicker::stage(std::string text) {
   std::lock_guard lock(mutex_);
   stage_ = std::move(text);
+  draw();  // a new stage shows at once when the line is due
+}
+
+void ProgressTicker::draw() {
+  const double now = steady_now_s();
+  line_.update(now, fmt::format("{} ({:.0f} s)", stage_, now - start_s_));
 }
 
 void ProgressTicker::tick() {
   std::unique_lock lock(mutex_);
   while (!wake_.wait_for(lock, std::chrono::milliseconds(100), [this] { return stop_; })) {
-    const double now = steady_now_s();
-    line_.update(now, fmt::format("{} ({:.0f} s)", stage_, now - start_s_));
+    if (!stage_.empty()) draw();
   }
 }
 

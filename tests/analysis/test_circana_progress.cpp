@@ -74,4 +74,18 @@ TEST(CircanaProgress, OnATerminalOnlyAndNeverInThePipedReport) {
     EXPECT_EQ(piped.out, slurp(out));
     EXPECT_EQ(piped.out.find('\r'), std::string::npos);
   }
+  // The export of the same trace and its import back: each with its status line.
+  const std::string polar = dir.file("long-polar.txt");
+  const std::string imported = dir.file("imported.csv");
+  const std::vector<std::vector<std::string>> commands = {
+      {CIRCANA_PATH, "export-polar", trace, "-o", polar},
+      {CIRCANA_PATH, "import", polar, "-o", imported}};
+  for (const auto& argv : commands) {
+    PtyCapture pty;
+    ASSERT_EQ(run_on_terminal(argv, dir.file("out.txt"), pty, env), 0);
+    const std::string shown = pty.finish();
+    EXPECT_NE(shown.find("\rcircana " + argv[1] + ": reading "), std::string::npos) << shown;
+    EXPECT_TRUE(shown.ends_with("\r\033[K")) << shown;
+    EXPECT_EQ(slurp(dir.file("out.txt")).find('\r'), std::string::npos);
+  }
 }

@@ -65,6 +65,7 @@ class ProgressTicker {
 
  private:
   void tick();
+  void draw();  // with mutex_ held
   std::mutex mutex_;
   std::condition_variable wake_;
   std::string stage_;
