@@ -701,7 +701,7 @@ Summary Loop::run(std::int32_t pid) {
       // Check before draining, so everything published up to the decision is written.
       reason = should_stop();
       const std::size_t n = drain(*writer);
-      progress_.update(env_.monotonic_s(), status(*writer));
+      if (progress_.enabled()) progress_.update(env_.monotonic_s(), status(*writer));
       if (reason) break;
       if (n == 0) env_.sleep(options_.poll_s);
     }
