@@ -687,6 +687,15 @@ Trace import_export_text(std::string_view text, const std::string& source,
   if (polar) {
     const double radius_mm = *metadata.number(meta_key::radius_mm, source);
     trace = polar_trace(polar_points(table, options, source), plane, radius_mm);
+    // The directions the file states, so that the analysis checks the runs it finds.
+    std::string directions;
+    if (table.column(ExportRole::deviation_ccw)) directions = "CCW";
+    if (table.column(ExportRole::deviation_cw)) directions += directions.empty() ? "CW" : ",CW";
+    if (options.direction) directions = direction_name(*options.direction);
+    if (!directions.empty() && !metadata.find(meta_key::segments) &&
+        !metadata.find(meta_key::directions)) {
+      metadata.set(meta_key::directions, directions);
+    }
     metadata.set(meta_key::centre_mm, "0,0,0");
     metadata.set(meta_key::bar_length_mm, fmt::format("{}", radius_mm));
   } else {

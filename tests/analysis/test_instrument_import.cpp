@@ -132,6 +132,7 @@ TEST_F(Import, AnExportWithADeviationColumnPerDirection) {
   EXPECT_EQ(j["runs"][1]["direction"], "CW");
   EXPECT_NEAR(j["H"].get<double>(), 0.006, 1e-4);
   EXPECT_NE(slurp(out).find("# feed_mm_per_min: 800\n"), std::string::npos);
+  EXPECT_NE(slurp(out).find("# directions: CCW,CW\n"), std::string::npos);
 }
 
 TEST_F(Import, OneRunNamedByDirection) {
@@ -146,6 +147,8 @@ TEST_F(Import, OneRunNamedByDirection) {
     const nlohmann::json j = analyze(out);
     ASSERT_EQ(j["runs"].size(), 1u);
     EXPECT_EQ(j["runs"][0]["direction"], direction == "cw" ? "CW" : "CCW");
+    EXPECT_NE(slurp(out).find(direction == "cw" ? "# directions: CW\n" : "# directions: CCW\n"),
+              std::string::npos);
   }
 }
 
