@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <optional>
+#include <set>
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/plot.hpp"
@@ -17,6 +18,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/json_text.hpp"
+#include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -211,10 +213,15 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   if (!request.compare_path.empty() && request.svg_path.empty()) {
     throw UsageError("--compare: draws into the plot, so it needs --svg");
   }
+  // A status line on a terminal while a large trace is read and fitted; gone before the
+  // report is printed.
+  std::optional<ProgressTicker> progress(std::in_place, "circana analyze");
+  progress->stage("reading and evaluating " + request.trace_path);
   const EvaluatedTrace evaluated =
       evaluate_file(request.trace_path, request.options, request.radial);
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
+  progress->stage("diagnosing " + request.trace_path);
   std::string text = request.json ? json_text(to_json(ev), 2) + "\n" : text_report(ev);
   // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
   // still gets its H, G and F.
@@ -247,14 +254,18 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
         store_result(ev, nullptr, request.trace_path, request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
+  progress.reset();
   out << text;
   out.flush();
   return 0;
 }
 
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
+  std::optional<ProgressTicker> progress(std::in_place, "circana diagnose");
+  progress->stage("reading and evaluating " + request.trace_path);
   const EvaluatedTrace evaluated =
       evaluate_file(request.trace_path, request.options.evaluation, request.radial);
+  progress->stage("diagnosing " + request.trace_path);
   DiagnosisOptions options = request.options;
   // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
@@ -277,6 +288,7 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
                                             request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
+  progress.reset();
   out << text;
   out.flush();
   return 0;
@@ -334,8 +346,14 @@ int run_store(const StoreRequest& request, std::ostream& out) {
     return 0;
   }
   // A trace: evaluated and stored as analyze --store does (no diagnosis: diagnose --store).
+  std::optional<ProgressTicker> progress(std::in_place, "circana store");
+  progress->stage("reading and evaluating " + request.path);
   const EvaluatedTrace evaluated = evaluate_file(request.path, request.options, request.radial);
-  out << store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
+  progress->stage("storing " + request.path);
+  std::string stored =
+      store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
+  progress.reset();
+  out << stored;
   out.flush();
   return 0;
 }
@@ -403,21 +421,57 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   return 0;
 }
 
-int run_import_polar(const ImportPolarRequest& request, std::ostream& out) {
-  if (!(request.radius_mm > 0.0) || !(request.radius_mm <= kMaxOptionLengthMm)) {
+namespace {
+
+// An output that is the input would be replaced by what was read from it.
+void refuse_output_over_input(const std::string& input, const std::string& output) {
+  std::error_code ec;
+  if (std::filesystem::equivalent(input, output, ec)) {
     throw UsageError(
-        fmt::format("--radius: expected a radius in mm above 0 and at most {:g}, "
-                    "got {:g}",
-                    kMaxOptionLengthMm, request.radius_mm));
+        fmt::format("-o {}: the same file as the input {}: name another output", output, input));
   }
-  const std::vector<PolarPoint> points = parse_polar_text(
-      read_input_text(request.input_path, kMaxPolarExportBytes), request.input_path);
-  const Trace trace = polar_to_trace(points, request.plane, request.radius_mm, request.input_path);
+}
+
+}  // namespace
+
+int run_import(const ImportRequest& request, std::ostream& out) {
+  refuse_output_over_input(request.input_path, request.output_path);
+  std::optional<ProgressTicker> progress(std::in_place, "circana import");
+  progress->stage("reading " + request.input_path);
+  const Trace trace = import_export_text(read_input_text(request.input_path, kMaxPolarExportBytes),
+                                         request.input_path, request.options);
+  progress->stage("writing " + request.output_path);
   write_trace(request.output_path, trace);
-  // polar_to_trace numbers the runs 1, 2, ... itself, so the last id is a small whole number.
-  const auto runs = trace.values[4].empty() ? 0.0 : trace.values[4].back();
-  out << fmt::format("{}: {} points, {} run(s) -> {}\n", request.input_path, points.size(), runs,
+  progress.reset();
+  // The segment column holds whole run ids from 1 (checked on reading), so this is exact.
+  std::set<double> runs;
+  if (const auto* segment = trace.column(column_name::segment)) {
+    runs.insert(segment->begin(), segment->end());
+  }
+  out << fmt::format("{}: {} rows, {} -> {}\n", request.input_path, trace.rows(),
+                     runs.empty() ? std::string("runs found by the analysis")
+                                  : fmt::format("{} run(s)", runs.size()),
                      request.output_path);
+  out.flush();
+  return 0;
+}
+
+int run_export_polar(const ExportPolarRequest& request, std::ostream& out) {
+  refuse_output_over_input(request.trace_path, request.output_path);
+  std::optional<ProgressTicker> progress(std::in_place, "circana export-polar");
+  progress->stage("reading and evaluating " + request.trace_path);
+  EvaluatedTrace evaluated = evaluate_file(request.trace_path, request.options, request.radial);
+  // Conditions stated on the command line are the test's, as in analyze's report.
+  for (const auto& [key, value] : request.options.conditions) {
+    evaluated.trace.metadata.set(key, value);
+  }
+  progress->stage("writing " + request.output_path);
+  write_file_atomic(request.output_path, polar_export_text(evaluated.trace, evaluated.evaluation));
+  progress.reset();
+  std::size_t points = 0;
+  for (const RunResult& r : evaluated.evaluation.runs) points += r.run.size();
+  out << fmt::format("{}: {} run(s), {} points -> {}\n", request.trace_path,
+                     evaluated.evaluation.runs.size(), points, request.output_path);
   out.flush();
   return 0;
 }

@@ -13,6 +13,7 @@ extern "C" {
 #include <csignal>
 #include <cstring>
 #include <ctime>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -137,10 +138,14 @@ int run(int argc, char** argv) {
   using namespace circtest::circlog_record;
   const auto options = parse_options(argc, argv, stdout);
   if (!options) return 0;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> progress(
+      options->progress_to.empty() ? nullptr : open_progress_terminal(options->progress_to),
+      &std::fclose);
   install_signal_handlers();
   HalRing hal;
   SystemEnvironment env;
-  const Summary s = record(hal.ring(), static_cast<std::int32_t>(getpid()), *options, env, stderr);
+  const Summary s = record(hal.ring(), static_cast<std::int32_t>(getpid()), *options, env, stderr,
+                           progress.get());
   std::fprintf(stderr,
                "circlog-record: %s: %zu rows, %llu run(s), %llu overrun(s), %llu gap(s), "
                "%llu lost sample(s); stopped by %s\n",

@@ -1,5 +1,8 @@
 #include "recorder.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -17,6 +20,7 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace.hpp"
@@ -137,7 +141,9 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
       "decimals", po::value(&o.decimals)->value_name("N"),
       "decimals of the channel values (default 6: 1 nm in mm)")(
       "poll", po::value(&o.poll_s)->value_name("S"),
-      "sleep between polls of an empty ring (default 0.005)");
+      "sleep between polls of an empty ring (default 0.005)")(
+      "progress-to", po::value(&o.progress_to)->value_name("TTY"),
+      "show the status line on this terminal (default: stderr when it is a terminal)");
   // The test conditions of clauses 4.4 and 6, written as metadata (docs/trace-format.md).
   std::vector<std::string> condition_values(condition_options().size());
   for (std::size_t i = 0; i < condition_options().size(); ++i) {
@@ -405,8 +411,16 @@ namespace {
 
 class Loop {
  public:
-  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log)
-      : ring_(ring), h_(ring.header()), options_(options), env_(env), log_(log) {}
+  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log,
+       std::FILE* progress)
+      : ring_(ring),
+        h_(ring.header()),
+        options_(options),
+        env_(env),
+        log_(log),
+        started_s_(env.monotonic_s()),
+        progress_(progress ? progress : log, "circlog-record",
+                  is_terminal(progress ? progress : log), started_s_) {}
 
   Summary run(std::int32_t pid);
 
@@ -421,6 +435,7 @@ class Loop {
   std::vector<std::string> missing_runs() const;
   const char* should_stop();
   void wait_for_producer_to_see_release();
+  std::string status(const TraceWriter& writer) const;
 
   circlog::Consumer& ring_;
   const circlog::SharedHeader& h_;
@@ -449,6 +464,9 @@ class Loop {
   std::vector<double> row_;
   Summary summary_;
   std::uint64_t gap_messages_ = 0;
+  // What has been seen so far, on a terminal (log_ is one): cleared before each message.
+  double started_s_;
+  ProgressLine progress_;
 };
 
 void Loop::wait_for_servo() {
@@ -474,6 +492,7 @@ void Loop::claim(std::int32_t pid) {
   const int other = ring_.claim(pid);
   if (other == 0) return;
   if (other > 0 && !env_.process_alive(other) && ring_.steal(other, pid)) {
+    progress_.clear();
     std::fprintf(log_, "circlog-record: took over circlog.0 from process %d, which has died\n",
                  other);
     return;
@@ -493,10 +512,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
     meta.set(meta_key::channel_prefix + name, text);
   meta.set(meta_key::module_channels, std::to_string(ring_.channels()));
   meta.set(meta_key::module_depth, std::to_string(ring_.depth()));
-  if (!options_.ini.empty()) {
-    meta.set(meta_key::ini, options_.ini);
-    meta.set(meta_key::ini_sha256, sha256_of_file(options_.ini));
-  }
+  if (!options_.ini.empty()) record_ini_provenance(meta, options_.ini);
   if (!options_.program.empty()) {
     meta.set(meta_key::program, options_.program);
     for (const auto& [key, value] : options_.program_plan.header) {
@@ -504,6 +520,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
                                      [&k = key](const auto& c) { return c.first == k; });
       if (given) continue;  // the command line states it
       if (kReservedKeys.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) {
+        progress_.clear();
         std::fprintf(log_, "circlog-record: %s: header key '%s' is the recorder's own; skipped\n",
                      options_.program.c_str(), key.c_str());
         continue;
@@ -526,6 +543,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
 void Loop::note_gap(std::uint64_t lost, std::uint64_t period, bool at_end) {
   ++summary_.gaps;
   summary_.lost += lost;
+  if (gap_messages_ <= 20) progress_.clear();
   if (++gap_messages_ <= 20) {
     if (at_end) {
       std::fprintf(log_, "circlog-record: gap: %llu record(s) lost after the last one received\n",
@@ -683,6 +701,7 @@ Summary Loop::run(std::int32_t pid) {
       // Check before draining, so everything published up to the decision is written.
       reason = should_stop();
       const std::size_t n = drain(*writer);
+      if (progress_.enabled()) progress_.update(env_.monotonic_s(), status(*writer));
       if (reason) break;
       if (n == 0) env_.sleep(options_.poll_s);
     }
@@ -717,14 +736,55 @@ Summary Loop::run(std::int32_t pid) {
                                              : join(summary_.missing_runs, "; "));
   }
   writer->commit();
+  progress_.clear();
   return summary_;
+}
+
+// "12 s, 12000 samples, 1 run; waiting for run 2 of 3".
+std::string Loop::status(const TraceWriter& writer) const {
+  std::string text = fmt::format("{:.0f} s, {} samples, {} run(s)", env_.monotonic_s() - started_s_,
+                                 writer.rows_written(), summary_.runs);
+  if (summary_.gaps > 0) text += fmt::format(", {} gap(s)", summary_.gaps);
+  const std::vector<AnnouncedRun>& announced = options_.program_plan.runs;
+  const auto position = [&announced](auto&& is) -> std::size_t {
+    const auto it = std::find_if(announced.begin(), announced.end(), is);
+    return it == announced.end() ? 0 : static_cast<std::size_t>(it - announced.begin()) + 1;
+  };
+  if (in_run_) {
+    const std::size_t k =
+        position([this](const AnnouncedRun& r) { return r.segment_id == run_segment_; });
+    return text + (k > 0 ? fmt::format("; recording run {} of {}", k, announced.size())
+                         : fmt::format("; recording run {}", summary_.runs));
+  }
+  if (!announced.empty()) {
+    const std::size_t k =
+        position([this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id) == 0; });
+    return text + (k > 0
+                       ? fmt::format("; waiting for run {} of {}", k, announced.size())
+                       : fmt::format("; all {} runs recorded, waiting for idle", announced.size()));
+  }
+  return text + (seen_marker_ ? "; waiting for the next run" : "; waiting for the first run");
 }
 
 }  // namespace
 
+std::FILE* open_progress_terminal(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0 || ::isatty(fd) != 1) {
+    if (fd >= 0) ::close(fd);
+    throw UsageError(fmt::format("--progress-to {}: not a terminal", path));
+  }
+  std::FILE* stream = ::fdopen(fd, "w");
+  if (stream == nullptr) {
+    ::close(fd);
+    throw UsageError(fmt::format("--progress-to {}: cannot be written", path));
+  }
+  return stream;
+}
+
 Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log) {
-  Loop loop(ring, options, env, log);
+               std::FILE* log, std::FILE* progress) {
+  Loop loop(ring, options, env, log, progress);
   return loop.run(pid);
 }
 

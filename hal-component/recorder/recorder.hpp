@@ -55,6 +55,9 @@ struct Options {
   std::vector<std::pair<std::string, std::string>> conditions;
   int decimals = 6;
   double poll_s = 0.005;
+  // --progress-to: a terminal for the status line when stderr is not one (circtest-run, whose
+  // LinuxCNC output goes to a log, passes its own terminal).
+  std::string progress_to;
 };
 
 // Parses the command line; nullopt when --help or --version was given (printed to `out`).
@@ -96,11 +99,17 @@ struct Summary {
   std::vector<std::string> missing_runs;
 };
 
+// The terminal at PATH (--progress-to), opened for writing without creating or truncating
+// anything; UsageError when it is not a terminal.
+std::FILE* open_progress_terminal(const std::string& path);
+
 // Claims the ring, writes options.output (an unnamed temporary that appears there when complete)
 // and returns what happened. Lost records are reported on `log` and in the trailer metadata; the
 // caller decides the exit code. Throws HalError when the ring cannot be used (no servo thread,
 // another reader), IoError for the file.
+// While it records, a status line (elapsed, samples, runs, the run it waits for) goes to
+// PROGRESS, else to `log` when that is a terminal.
 Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log);
+               std::FILE* log, std::FILE* progress = nullptr);
 
 }  // namespace circtest::circlog_record

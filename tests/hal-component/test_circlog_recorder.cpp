@@ -17,6 +17,7 @@
 #include "circlog_kernel.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
+#include "pty_capture.hpp"
 #include "recorder.hpp"
 #include "scratch.hpp"
 
@@ -551,3 +552,69 @@ TEST(CirclogRecordOptions, WaitsAreBounded) {
 }
 
 }  // namespace
+
+TEST_F(Recorder, ShowsWhatItHasSeenOnATerminalOnly) {
+  // Two announced runs with a pause between them, recorded once to a terminal, once to a file.
+  for (const bool terminal : {true, false}) {
+    circtest::testing::PtyCapture pty;
+    FakeServo servo(1, 1 << 14);
+    script(servo, {{1500, 2500, 1.0}, {4000, 5000, 2.0}});
+    rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+    o.idle_s = 1.0;
+    const rec::Summary s =
+        rec::record(servo.consumer, 42, o, servo, terminal ? pty.terminal() : log_);
+    EXPECT_EQ(s.runs, 2u);
+    const std::string shown = pty.finish();
+    if (!terminal) {
+      EXPECT_EQ(shown, "");
+      EXPECT_EQ(log_text().find("samples"), std::string::npos) << log_text();
+      continue;
+    }
+    // Nothing before a second; then elapsed, samples, runs and what it waits for, in place.
+    EXPECT_TRUE(shown.starts_with("\rcirclog-record: 1 s, ")) << shown;
+    for (const std::string words :
+         {"samples, 0 run(s); waiting for run 1 of 2\033[K",
+          "samples, 1 run(s); recording run 1 of 2\033[K",
+          "samples, 1 run(s); waiting for run 2 of 2\033[K",
+          "samples, 2 run(s); recording run 2 of 2\033[K",
+          "samples, 2 run(s); all 2 runs recorded, waiting for idle\033[K"}) {
+      EXPECT_NE(shown.find(words), std::string::npos) << words << "\n" << shown;
+    }
+    EXPECT_EQ(shown.find('\n'), std::string::npos) << shown;
+    EXPECT_TRUE(shown.ends_with("\r\033[K")) << "the line is gone at the end:\n" << shown;
+  }
+}
+
+TEST_F(Recorder, ShowsTheStatusOnTheTerminalItIsGiven) {
+  // circtest-run's case: stderr goes to a log, the status line to the person's terminal.
+  circtest::testing::PtyCapture pty;
+  const std::string tty = ::ttyname(pty.terminal_fd());
+  const auto parsed = parse({"-o", "t.csv", "--progress-to", tty.c_str()});
+  ASSERT_TRUE(parsed);
+  EXPECT_EQ(parsed->progress_to, tty);
+  std::FILE* terminal = rec::open_progress_terminal(parsed->progress_to);
+  FakeServo servo(1, 1 << 14);
+  script(servo, {{1500, 2500, 1.0}});
+  rec::Options o = options_for(path("t.csv"));
+  o.idle_s = 0.5;
+  EXPECT_EQ(rec::record(servo.consumer, 42, o, servo, log_, terminal).runs, 1u);
+  std::fclose(terminal);
+  const std::string shown = pty.finish();
+  EXPECT_NE(shown.find("samples, 1 run(s); recording run 1\033[K"), std::string::npos) << shown;
+  EXPECT_NE(shown.find("samples, 1 run(s); waiting for the next run\033[K"), std::string::npos)
+      << shown;
+  EXPECT_EQ(log_text().find("samples"), std::string::npos) << log_text();
+
+  // Anything but a terminal is refused, and a file is neither created nor truncated.
+  std::ofstream(path("notes.txt")) << "keep\n";
+  for (const std::string& p : {path("notes.txt"), path("absent"), dir_.string()}) {
+    try {
+      std::fclose(rec::open_progress_terminal(p));
+      ADD_FAILURE() << p << " accepted";
+    } catch (const circtest::UsageError& e) {
+      EXPECT_EQ(std::string(e.what()), "--progress-to " + p + ": not a terminal");
+    }
+  }
+  EXPECT_EQ(circtest::testing::slurp(path("notes.txt")), "keep\n");
+  EXPECT_FALSE(fs::exists(path("absent")));
+}

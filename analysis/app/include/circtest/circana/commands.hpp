@@ -7,6 +7,7 @@
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/instrument_export.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -33,6 +34,8 @@ inline constexpr NumberRange kRadiusToleranceRangeMm{
 inline constexpr NumberRange kPitchRangeMm{0.001, 1000.0, false,
                                            "AXIS=MM items like X=5,Y=5, each pitch from 0.001 to "
                                            "1000 mm"};
+inline constexpr NumberRange kFeedRange{0.0, 1e6, true,
+                                        "a feed in mm/min above 0 and at most 1000000"};
 // A polar export read whole: about 20 bytes a point, so 3 million points.
 inline constexpr std::size_t kMaxPolarExportBytes = std::size_t{64} << 20;
 
@@ -126,14 +129,23 @@ struct FitRequest {
 };
 int run_fit(const FitRequest& request, std::ostream& out);
 
-// circana import-polar: a plain two-column polar export (angle deg, radial deviation um)
-// written as a radial trace (docs/trace-format.md "Radial traces").
-struct ImportPolarRequest {
+// circana import (import-polar): an instrument's export (instrument_export.hpp) written as
+// a trace; one line on `out` says what was read.
+struct ImportRequest {
   std::string input_path;
   std::string output_path;
-  double radius_mm = 0.0;  // the nominal radius the deviations are taken from
-  Plane plane = Plane::XY;
+  ExportImportOptions options;
 };
-int run_import_polar(const ImportPolarRequest& request, std::ostream& out);
+int run_import(const ImportRequest& request, std::ostream& out);
+
+// circana export-polar: a trace, evaluated as analyze does, as a polar export that circana
+// import reads back and that other polar software can plot.
+struct ExportPolarRequest {
+  std::string trace_path;
+  std::string output_path;
+  EvaluationOptions options;
+  bool radial = false;
+};
+int run_export_polar(const ExportPolarRequest& request, std::ostream& out);
 
 }  // namespace circtest
