@@ -26,7 +26,8 @@ std::string_view circgen_option_words(SpecSetting setting) noexcept {
     case SpecSetting::directions:
       return "--dir";
     case SpecSetting::arc:
-      return "--arc";
+      // --arc is the total angle travelled; the library's arc is the data arc.
+      return "the data arc [--arc less 2 x --lead]";
     case SpecSetting::start:
       return "--start";
     case SpecSetting::lead:
@@ -34,7 +35,7 @@ std::string_view circgen_option_words(SpecSetting setting) noexcept {
     case SpecSetting::centre:
       return "--centre";
     case SpecSetting::safe:
-      return "--safe-z";
+      return "--clearance";
     case SpecSetting::dwell:
       return "--dwell";
     case SpecSetting::marker:
@@ -51,6 +52,12 @@ std::string_view circgen_option_words(SpecSetting setting) noexcept {
       return "--feed-in";
     case SpecSetting::ballbar:
       return "--instrument ballbar";
+    case SpecSetting::ballbar_lengths:
+      return "--ballbar-lengths";
+    case SpecSetting::floor:
+      return "--floor";
+    case SpecSetting::planes:
+      return "--plane";
     case SpecSetting::test_diameter:
       return "--d";
     case SpecSetting::reference_diameter:
@@ -64,19 +71,27 @@ std::string_view circgen_option_words(SpecSetting setting) noexcept {
 }
 
 int run_generate(GenerateRequest request, std::ostream& out, std::ostream& err) {
-  CircleTestSpec& spec = request.spec;
-  validate(spec, circgen_option_words);
+  std::vector<CircleTestSpec>& planes = request.planes;
+  validate_set(planes, circgen_option_words);
+  for (const CircleTestSpec& spec : planes) check_floor(spec, circgen_option_words);
   if (!request.ini_path.empty()) {
     const MachineLimits limits = read_machine_limits(request.ini_path);
-    const auto checks =
-        check_against_machine(spec, limits, request.work_offset_origin_mm, circgen_option_words);
-    spec.extra_header.emplace_back(meta_key::ini, request.ini_path);
-    spec.extra_header.emplace_back(meta_key::ini_checked, join(checks));
+    std::vector<std::string> checks;
+    for (const CircleTestSpec& spec : planes) {
+      checks =
+          check_against_machine(spec, limits, request.work_offset_origin_mm, circgen_option_words);
+    }
+    for (CircleTestSpec& spec : planes) {
+      spec.extra_header.emplace_back(meta_key::ini, request.ini_path);
+      spec.extra_header.emplace_back(meta_key::ini_checked, join(checks));
+    }
   }
 
-  const TestProgram program = generate_test_program(spec);
-  for (const std::string& warning : program_warnings(spec, circgen_option_words)) {
-    err << "circgen: warning: " << warning << '\n';
+  const TestProgram program = generate_test_set(planes);
+  for (const CircleTestSpec& spec : planes) {
+    for (const std::string& warning : program_warnings(spec, circgen_option_words)) {
+      err << "circgen: warning: " << warning << '\n';
+    }
   }
   if (!request.output_path.empty()) {
     write_file_atomic(request.output_path, program.text);

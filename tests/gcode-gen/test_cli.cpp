@@ -45,11 +45,13 @@ std::vector<BadCase> option_cases() {
       {"arc_too_short",
        {"--d", "150", "--f", "300", "--arc", "45"},
        2,
-       "--arc: the measured arc must be 90..360 deg"},
+       "--arc: 45 deg is the total angle travelled; less 2 x 10 deg overshoot (--lead) it leaves "
+       "25 deg of data, and the data arc must be 90..360 deg (ISO 230-4 clause 3.1): give --arc "
+       "110..380"},
       {"arc_too_long",
        {"--d", "150", "--f", "300", "--arc", "400"},
        2,
-       "--arc: the measured arc must be 90..360 deg"},
+       "leaves 380 deg of data, and the data arc must be 90..360 deg"},
       {"unknown_plane",
        {"--d", "150", "--f", "300", "--plane", "AB"},
        2,
@@ -78,7 +80,7 @@ std::vector<BadCase> option_cases() {
        2,
        "--centre: expected 3 comma-separated numbers, got '1,y,3'"},
       {"lead_overlap_partial",
-       {"--d", "150", "--f", "300", "--arc", "270", "--lead", "50"},
+       {"--d", "150", "--f", "300", "--arc", "370", "--lead", "50"},
        2,
        "--lead: 50 deg lead arcs around a 270 deg arc would overlap"},
       {"lead_overlap_full",
@@ -191,7 +193,7 @@ std::vector<BadCase> number_range_cases() {
       {"huge_safe_z",
        {"--d", "150", "--f", "300", "--safe-z", "1e308"},
        2,
-       "--safe-z: clearance position of 1e+308 mm is outside the plausible range"},
+       "--clearance: clearance position of 1e+308 mm is outside the plausible range"},
       {"huge_feed",
        {"--d", "150", "--f", "1e308"},
        2,
@@ -292,7 +294,7 @@ TEST_F(CircgenCliIni, WorkOffsetMovesTheCircleInMachineCoordinates) {
                  "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
   // Only the arcs count, not the centre: a partial arc on the +X side of a circle centred
   // 240 mm into the -X side stays clear of the -200 limit, the full circle does not.
-  const CommandResult ok = run({"--d", "150", "--f", "300", "--offset", "-240,0,0", "--arc", "90",
+  const CommandResult ok = run({"--d", "150", "--f", "300", "--offset", "-240,0,0", "--arc", "110",
                                 "--start", "-45", "--lead", "10"});
   EXPECT_EQ(ok.exit_code, 0) << ok.err;
   expect_refused(run({"--d", "150", "--f", "300", "--offset", "-240,0,0"}), 6, "MIN_LIMIT = -200");
@@ -390,8 +392,9 @@ TEST_F(CircgenCliIni, InchMachineLimitsAreConverted) {
 TEST_F(CircgenCliIni, BallbarFeedInStartCountsForTheSoftLimits) {
   // R 199 reaches X 199 on the circle; the feed-in starts 1.5 mm further out, at 200.5.
   EXPECT_EQ(run({"--d", "398", "--f", "300"}).exit_code, 0);
-  expect_refused(run({"--d", "398", "--f", "300", "--instrument", "ballbar"}), 6,
-                 "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+  expect_refused(
+      run({"--d", "398", "--f", "300", "--instrument", "ballbar", "--ballbar-lengths", "199"}), 6,
+      "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
 }
 
 TEST_F(CircgenCliIni, MarkerAndSegmentOutputsAgainstTheMotionModule) {
@@ -428,20 +431,21 @@ TEST(CircgenCli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
 }
 
 TEST(CircgenCli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
-  // ZX: +Z is 0 deg, the bottom 180 deg. 180 deg from 90 with 10 deg leads covers 80..280.
+  // ZX: +Z is 0 deg, the bottom 180 deg. 200 deg in all (180 deg of data) from 90 with 10 deg
+  // leads covers 80..280.
   const CommandResult below =
-      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180", "--start", "90"});
+      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "200", "--start", "90"});
   ASSERT_EQ(below.exit_code, 0) << below.err;
   EXPECT_TRUE(below.err.starts_with("circgen: warning: the 180 deg arc")) << below.err;
   EXPECT_NE(below.err.find("passes below the centre in ZX"), std::string::npos);
   EXPECT_FALSE(below.out.empty());
   // Without --start the partial arc is centred on top: no warning, and the start says so.
   const CommandResult top =
-      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180"});
+      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "200"});
   EXPECT_TRUE(top.err.empty()) << top.err;
   EXPECT_NE(top.out.find("(circtest: start_deg: 270)"), std::string::npos);
   const CommandResult yz =
-      run_circgen({"--plane", "YZ", "--d", "150", "--f", "300", "--arc", "120"});
+      run_circgen({"--plane", "YZ", "--d", "150", "--f", "300", "--arc", "140"});
   EXPECT_TRUE(yz.err.empty()) << yz.err;
   EXPECT_NE(yz.out.find("(circtest: start_deg: 30)"), std::string::npos);
   // A ballbar in a vertical plane defaults to 180 deg of data with 20 deg overshoots on top.
@@ -454,7 +458,7 @@ TEST(CircgenCli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
   EXPECT_NE(bar.out.find("(circtest: lead_deg: 20)"), std::string::npos);
   // A full circle with a ballbar in a vertical plane goes through the bottom: warned.
   const CommandResult full = run_circgen(
-      {"--plane", "YZ", "--d", "200", "--f", "500", "--instrument", "ballbar", "--arc", "360"});
+      {"--plane", "YZ", "--d", "200", "--f", "500", "--instrument", "ballbar", "--arc", "400"});
   EXPECT_EQ(full.exit_code, 0);
   EXPECT_NE(full.err.find("passes below the centre in YZ"), std::string::npos) << full.err;
   // XY has no below.
