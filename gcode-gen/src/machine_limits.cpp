@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <limits>
 #include <numbers>
+#include <sstream>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
@@ -219,6 +220,14 @@ MachineLimits parse_machine_limits(const std::string& text, const std::string& s
 
 MachineLimits read_machine_limits(const std::string& path) {
   MachineLimits limits = machine_limits_from(IniDocument::load(path));
+  {
+    const auto it = limits.values.find("RS274NGC/PARAMETER_FILE");
+    const std::string name =
+        it == limits.values.end() || it->second.empty() ? "rs274ngc.var" : it->second;
+    const std::filesystem::path file(name);
+    limits.parameter_file =
+        file.is_absolute() ? name : (std::filesystem::path(path).parent_path() / file).string();
+  }
   // HAL files are found beside the INI (LinuxCNC runs halcmd in the configuration's
   // folder), LIB: ones in the installed HAL library. A file that is not there (or a .tcl
   // one) is not checked: the output check then says nothing rather than guess.
@@ -237,6 +246,66 @@ MachineLimits read_machine_limits(const std::string& path) {
     }
   }
   return limits;
+}
+
+int work_offset_index(std::string_view code) {
+  static constexpr std::string_view kCodes[] = {"G54", "G55",   "G56",   "G57",  "G58",
+                                                "G59", "G59.1", "G59.2", "G59.3"};
+  for (int i = 0; i < 9; ++i)
+    if (code == kCodes[i]) return i + 1;
+  return 0;
+}
+
+WorkOffsets parse_work_offsets(const std::string& text, const std::string& path,
+                               double mm_per_unit) {
+  WorkOffsets w;
+  w.path = path;
+  std::map<long, double> values;
+  long previous = 0;
+  std::size_t line_no = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    ++line_no;
+    std::istringstream words(line);
+    std::string number_text, value_text;
+    words >> number_text >> value_text;
+    long number = 0;
+    const auto [end, ec] =
+        std::from_chars(number_text.data(), number_text.data() + number_text.size(), number);
+    // As LinuxCNC's sscanf("%d %lf"): a line without a number and a value is not one.
+    if (ec != std::errc() || end == number_text.data() || value_text.empty()) continue;
+    const auto value = parse_finite(value_text);
+    if (!value) {
+      throw ParseError(path, line_no,
+                       fmt::format("#{}: '{}' is not a finite number", number, value_text));
+    }
+    if (number <= previous) {
+      throw ParseError(path, line_no,
+                       fmt::format("#{} after #{}: LinuxCNC refuses a parameter file whose "
+                                   "numbers are not increasing",
+                                   number, previous));
+    }
+    previous = number;
+    values[number] = *value;
+  }
+  auto at = [&values](long n) {
+    const auto it = values.find(n);
+    return it == values.end() ? 0.0 : it->second;
+  };
+  for (int n = 1; n <= 9; ++n) {
+    for (int i = 0; i < 3; ++i) w.origin_mm[n][i] = at(5201 + 20 * n + i) * mm_per_unit;
+    w.rotation_deg[n] = at(5210 + 20 * n);
+  }
+  w.selected = static_cast<int>(std::lround(at(5220)));
+  if (w.selected < 1 || w.selected > 9) w.selected = 1;
+  w.g92_applied = at(5210) != 0.0;
+  for (int i = 0; i < 3; ++i) w.g92_mm[i] = at(5211 + i) * mm_per_unit;
+  return w;
+}
+
+std::optional<WorkOffsets> read_work_offsets(const std::string& path, double mm_per_unit) {
+  if (!std::filesystem::exists(path)) return std::nullopt;
+  return parse_work_offsets(read_file(path), path, mm_per_unit);
 }
 
 namespace {

@@ -284,6 +284,72 @@ TEST_F(CircgenCliIni, AcceptsATestWithinTheLimitsAndSaysSoInTheHeader) {
             std::string::npos);
 }
 
+// Without a parameter file (LinuxCNC's default rs274ngc.var beside the INI) or --offset the
+// origin is not known: said on stderr and in the header, checked as machine zero.
+TEST_F(CircgenCliIni, AnUnknownWorkOffsetIsSaidNotAssumedSilently) {
+  const CommandResult r = run({"--d", "150", "--f", "300"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "circgen: warning: the work offset's origin is not known (no parameter file " +
+                       dir_.file("rs274ngc.var") +
+                       ", no --offset): the path is checked as if it were machine zero\n");
+  EXPECT_NE(r.out.find("(circtest: work_offset_origin_source: not known: no parameter file "),
+            std::string::npos);
+  EXPECT_EQ(r.out.find("centre_machine_mm"), std::string::npos);
+}
+
+// [RS274NGC] PARAMETER_FILE: G55's origin at #5241..#5243 (LinuxCNC's interp_array.cc), in
+// the INI's units, beside the INI.
+TEST_F(CircgenCliIni, TheParameterFileGivesTheWorkOffsetTheProgramUses) {
+  spit(ini(), std::string(kMachineIni) + "\n[RS274NGC]\nPARAMETER_FILE = m.var\n");
+  spit(dir_.file("m.var"),
+       "5220\t1.000000\n5221\t0.000000\n5222\t0\n5223\t-20\n5241\t-180.000000\n5242\t0\n"
+       "5243\t0\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 6,
+                 "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+  const CommandResult g54 = run({"--d", "150", "--f", "300", "--work-offset", "G54"});
+  ASSERT_EQ(g54.exit_code, 0) << g54.err;
+  EXPECT_TRUE(g54.err.empty()) << g54.err;
+  EXPECT_NE(g54.out.find("(circtest: work_offset_origin_source: G54 #5221..#5223 in " +
+                         dir_.file("m.var") + ")"),
+            std::string::npos)
+      << g54.out.substr(0, 3000);
+  EXPECT_NE(g54.out.find("(circtest: centre_machine_mm: 0,0,-20)"), std::string::npos);
+  EXPECT_NE(g54.out.find("(circtest: lowest_z_machine_mm: -20)"), std::string::npos);
+  // Inherited: the system selected when the file was saved (#5220), with a warning.
+  spit(dir_.file("m.var"), "5220 2\n5241 -180\n");
+  const CommandResult inherited = run({"--d", "150", "--f", "300"});
+  EXPECT_EQ(inherited.exit_code, 6);
+  EXPECT_NE(inherited.err.find("X = -255 mm"), std::string::npos) << inherited.err;
+  spit(dir_.file("m.var"), "5220 2\n5241 -10\n");
+  const CommandResult warned = run({"--d", "150", "--f", "300"});
+  ASSERT_EQ(warned.exit_code, 0) << warned.err;
+  EXPECT_NE(warned.err.find("the program inherits the work offset; the path is checked in G55"),
+            std::string::npos)
+      << warned.err;
+  // G92 in effect (#5210) moves every system.
+  spit(dir_.file("m.var"), "5210 1\n5211 -180\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G54"}), 6, "X = -255 mm");
+}
+
+TEST_F(CircgenCliIni, ParameterFileRefusals) {
+  spit(ini(), std::string(kMachineIni) + "\n[RS274NGC]\nPARAMETER_FILE = m.var\n");
+  spit(dir_.file("m.var"), "5241 -180\n5221 0\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 4,
+                 dir_.file("m.var") +
+                     ":2: #5221 after #5241: LinuxCNC refuses a parameter file whose numbers are "
+                     "not increasing");
+  spit(dir_.file("m.var"), "5241 nan\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 4,
+                 dir_.file("m.var") + ":1: #5241: 'nan' is not a finite number");
+  spit(dir_.file("m.var"), "5241 -10\n5250 30\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 5,
+                 "G55 has an XY rotation of 30 deg (#5250): circgen cannot check the path in a "
+                 "rotated work offset");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G54", "--offset", "5,0,0"}), 2,
+                 "--offset 5,0,0 mm disagrees with G54 #5221..#5223 in " + dir_.file("m.var") +
+                     " = 0,0,0 mm: give the origin that is right, or drop --offset");
+}
+
 TEST_F(CircgenCliIni, RefusesACircleBeyondMaxLimit) {
   expect_refused(run({"--d", "150", "--f", "300", "--centre", "150,0,0"}), 6,
                  "X = 225 mm in machine coordinates, above [AXIS_X] MAX_LIMIT = 200");
