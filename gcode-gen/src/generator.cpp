@@ -403,6 +403,8 @@ void check_ballbar_length(const CircleTestSpec& spec, SpecWords words) {
                                    header_number(kBallbarMinRadiusMm),
                                    header_number(kBallbarMaxRadiusMm)));
     }
+  }
+  for (double length : spec.ballbar_lengths_mm) {
     if (std::abs(spec.radius_mm - length) <= kBallbarLengthToleranceMm) return;
   }
   std::vector<double> lengths = spec.ballbar_lengths_mm;

@@ -221,10 +221,103 @@ std::vector<BadCase> number_range_cases() {
   };
 }
 
+// Test sets, the clearance, the floor and the ballbar's lengths.
+std::vector<BadCase> set_and_instrument_cases() {
+  return {
+      {"set_without_clearance",
+       {"--d", "100", "--f", "500", "--plane", "XY,ZX"},
+       2,
+       "--plane XY,ZX: a test set moves from plane to plane between its pauses; give --clearance "
+       "(one position on the normal axes, or one per plane)"},
+      {"set_plane_twice",
+       {"--d", "100", "--f", "500", "--plane", "XY,YZ,XY", "--clearance", "50"},
+       2,
+       "--plane: XY is given twice in 'XY,YZ,XY'"},
+      {"set_plane_unknown",
+       {"--d", "100", "--f", "500", "--plane", "XY,XZ", "--clearance", "50"},
+       2,
+       "--plane: 'XZ' is not XY, YZ or ZX (for G18 use ZX"},
+      {"set_plane_empty",
+       {"--d", "100", "--f", "500", "--plane", "XY,", "--clearance", "50"},
+       2,
+       "--plane: '' is not XY, YZ or ZX"},
+      {"set_clearance_count",
+       {"--d", "100", "--f", "500", "--plane", "XY,YZ", "--clearance", "50,60,70"},
+       2,
+       "--clearance: 3 positions for 2 planes: give one, or one per plane"},
+      {"clearance_and_safe_z",
+       {"--d", "100", "--f", "500", "--clearance", "50", "--safe-z", "50"},
+       2,
+       "give --clearance or its alias --safe-z, not both"},
+      {"clearance_below_an_xy_circle",
+       {"--d", "100", "--f", "500", "--centre", "0,0,10", "--clearance", "10"},
+       2,
+       "--clearance: Z 10 mm is not above the circle's height Z 10 mm: the clearance in XY must "
+       "be above it"},
+      {"floor_above_the_path",
+       {"--d", "300", "--f", "500", "--plane", "YZ", "--instrument", "ballbar", "--floor", "-40"},
+       6,
+       "--floor -40: the path in YZ reaches Z -51.816051714 mm (work offset), 11.816051714 mm "
+       "below that floor"},
+      {"floor_in_a_set",
+       {"--d", "200", "--f", "500", "--plane", "XY,ZX", "--clearance", "50", "--floor", "-99"},
+       6,
+       "--floor -99: the path in ZX reaches Z -100 mm (work offset), 1 mm below that floor"},
+      {"floor_not_finite", {"--d", "200", "--f", "500", "--floor", "inf"}, 2, "--floor"},
+      {"ballbar_length_not_in_profile",
+       {"--d", "150", "--f", "500", "--instrument", "ballbar"},
+       2,
+       "--instrument ballbar: radius 75 mm is not a length of the ballbar profile (50,100,150,300 "
+       "mm); test at one of them, or give the bar's lengths with --ballbar-lengths"},
+      {"ballbar_lengths_without_ballbar",
+       {"--d", "150", "--f", "500", "--ballbar-lengths", "75"},
+       2,
+       "--ballbar-lengths is only used with --instrument ballbar"},
+      {"ballbar_length_implausible",
+       {"--d", "150", "--f", "500", "--instrument", "ballbar", "--ballbar-lengths", "75,1e9"},
+       2,
+       "--ballbar-lengths: a bar length of 1000000000 mm is outside 50..600 mm"},
+  };
+}
+
 std::vector<BadCase> usage_cases() {
   std::vector<BadCase> cases = option_cases();
   for (BadCase& c : number_range_cases()) cases.push_back(std::move(c));
+  for (BadCase& c : set_and_instrument_cases()) cases.push_back(std::move(c));
   return cases;
+}
+
+// A ballbar's radius is one of its profile's lengths: 75 mm with a profile that lists it.
+TEST(CircgenCli, BallbarLengthsFromTheProfile) {
+  const CommandResult r = run_circgen(
+      {"--d", "150", "--f", "500", "--instrument", "ballbar", "--ballbar-lengths", "75,150"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  // A diameter in inch to 4 decimals is the 100 mm bar.
+  EXPECT_EQ(
+      run_circgen({"--inch", "--d", "7.874", "--f", "20", "--instrument", "ballbar"}).exit_code, 0);
+}
+
+// Inch feeds keep three decimals: the default approach feed 200 mm/min is F7.874, not F7.9.
+TEST(CircgenCli, InchFeedsKeepTheirPrecision) {
+  const CommandResult r =
+      run_circgen({"--inch", "--d", "7.874", "--f", "40", "--instrument", "ballbar"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(" F7.874 (feed-in 0.05906)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("F7.9"), std::string::npos);
+  EXPECT_NE(r.out.find("(circtest: approach_feed_in_per_min: 7.874)"), std::string::npos);
+}
+
+// The header of a vertical-plane ballbar test: data arc, total arc, overshoot, lowest point.
+TEST(CircgenCli, HeaderStatesTheArcsAndTheLowestPoint) {
+  const CommandResult r = run_circgen({"--d", "300", "--f", "500", "--plane", "ZX", "--instrument",
+                                       "ballbar", "--offset", "0,0,-300"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* line :
+       {"(circtest: arc_deg: 180)", "(circtest: arc_total_deg: 220)", "(circtest: lead_deg: 20)",
+        "(circtest: lowest_z_mm: -51.816051714)", "(circtest: lowest_z_machine_mm: -351.816051714)",
+        "(circtest: safe_axis: y)", "(circtest: safe_mm: 50)"}) {
+    EXPECT_NE(r.out.find(line), std::string::npos) << line;
+  }
 }
 
 class CircgenCliBadInput : public ::testing::TestWithParam<BadCase> {};
