@@ -202,10 +202,6 @@ std::vector<BadCase> number_range_cases() {
        {"--d", "150", "--feeds", "300,1e6"},
        2,
        "--f/--feeds: feed of 1000000 mm/min is outside the plausible range"},
-      {"inch_feed_written_as_f0",
-       {"--d", "6", "--f", "0.04", "--inch"},
-       2,
-       "--f/--feeds: a feed of 0.04 in/min would be written as F0"},
       {"huge_offset",
        {"--d", "150", "--f", "300", "--ini", "/nonexistent.ini", "--offset", "0,-1e308,0"},
        2,
@@ -305,6 +301,10 @@ TEST(CircgenCli, InchFeedsKeepTheirPrecision) {
   EXPECT_NE(r.out.find(" F7.874 (feed-in 0.05906)"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("F7.9"), std::string::npos);
   EXPECT_NE(r.out.find("(circtest: approach_feed_in_per_min: 7.874)"), std::string::npos);
+  // The smallest plausible feed, 1 mm/min, keeps a word that is not F0.
+  const CommandResult slow = run_circgen({"--inch", "--d", "6", "--f", "0.04"});
+  ASSERT_EQ(slow.exit_code, 0) << slow.err;
+  EXPECT_NE(slow.out.find(" F0.04 (lead-in)"), std::string::npos);
 }
 
 // The header of a vertical-plane ballbar test: data arc, total arc, overshoot, lowest point.
