@@ -415,6 +415,20 @@ void check_ballbar_length(const CircleTestSpec& spec, SpecWords words) {
       words(SpecSetting::ballbar), header_number(spec.radius_mm), header_list(lengths),
       words(SpecSetting::ballbar_lengths)));
 }
+
+// Above an XY circle the clearance is a height: one at or below the circle would lower the
+// tool at rapid onto the set-up.
+void check_clearance_and_floor(const CircleTestSpec& spec, SpecWords words) {
+  auto w = [words](SpecSetting setting) { return words(setting); };
+  if (spec.safe_mm && spec.plane == Plane::XY && !(*spec.safe_mm > spec.centre_mm[2])) {
+    throw UsageError(fmt::format(
+        "{}: Z {} mm is not above the circle's height Z {} mm: the clearance in XY must be above "
+        "it",
+        w(SpecSetting::safe), header_number(*spec.safe_mm), header_number(spec.centre_mm[2])));
+  }
+  if (spec.floor_mm && !std::isfinite(*spec.floor_mm))
+    throw UsageError(fmt::format("{}: not a finite height", w(SpecSetting::floor)));
+}
 }  // namespace
 
 void validate(const CircleTestSpec& spec, SpecWords words) {
@@ -472,16 +486,7 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   }
   if (spec.safe_mm && !finite(*spec.safe_mm))
     throw UsageError(fmt::format("{}: not a finite position", w(SpecSetting::safe)));
-  // Above an XY circle the clearance is a height: one at or below the circle would lower
-  // the tool at rapid onto the set-up.
-  if (spec.safe_mm && spec.plane == Plane::XY && !(*spec.safe_mm > spec.centre_mm[2])) {
-    throw UsageError(fmt::format(
-        "{}: Z {} mm is not above the circle's height Z {} mm: the clearance in XY must be above "
-        "it",
-        w(SpecSetting::safe), header_number(*spec.safe_mm), header_number(spec.centre_mm[2])));
-  }
-  if (spec.floor_mm && !finite(*spec.floor_mm))
-    throw UsageError(fmt::format("{}: not a finite height", w(SpecSetting::floor)));
+  check_clearance_and_floor(spec, words);
   if (!finite(spec.dwell_s) || spec.dwell_s < 0.0 || spec.dwell_s > kMaxDwellS) {
     throw UsageError(fmt::format("{}: must be 0..{} s, got {}", w(SpecSetting::dwell),
                                  header_number(kMaxDwellS), header_number(spec.dwell_s)));
