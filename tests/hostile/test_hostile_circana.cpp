@@ -245,6 +245,15 @@ TEST_F(HostileCircana, ARecordingCutHalfwayWithoutArcDegIsNoticed) {
                  missing +
                      ":3: the program announced 2 runs (segments, line 3), the trace holds "
                      "1: run 2 (CW) missing");
+  // circgen's 4th field, the run's plane, read the same.
+  const std::string planes = write(
+      "planes.csv",
+      TraceSpec{.metadata = {"plane: XY", "radius_mm: 25", "segments: 1:CCW:F300:XY,2:CW:F300:XY"},
+                .runs = {{2000, 360.0, true}}});
+  expect_refused({"analyze", planes}, 5,
+                 planes +
+                     ":3: the program announced 2 runs (segments, line 3), the trace holds "
+                     "1: run 2 (CW) missing");
   const std::string directions = write(
       "directions.csv", TraceSpec{.metadata = {"plane: XY", "radius_mm: 25", "directions: CCW,CW"},
                                   .runs = {{2000, 360.0, true}}});
