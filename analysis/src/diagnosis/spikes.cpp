@@ -144,8 +144,9 @@ struct SpikeProfile {
   double bin_s = 0.0;
   std::vector<double> sum, sum2, sum_t;
   std::vector<std::size_t> n;
+  double base = 0.0;  // the level the deviation settles at, taken off every bin's mean
   bool valid(std::size_t k) const { return n[k] >= 2; }
-  double mean(std::size_t k) const { return sum[k] / static_cast<double>(n[k]); }
+  double mean(std::size_t k) const { return sum[k] / static_cast<double>(n[k]) - base; }
   double time(std::size_t k) const { return sum_t[k] / static_cast<double>(n[k]); }
   double standard_error(std::size_t k) const {
     const double m = mean(k), nk = static_cast<double>(n[k]);
@@ -235,6 +236,20 @@ std::optional<std::pair<double, double>> fall_time(const SpikeProfile& p, std::s
   return std::nullopt;
 }
 
+// The mean of the bins from time `from_s` on into `level`, when at least ten are there.
+bool settled_level(const SpikeProfile& p, double from_s, double& level) {
+  double sum = 0.0;
+  std::size_t bins = 0;
+  for (std::size_t k = 0; k < p.n.size(); ++k) {
+    if (!p.valid(k) || p.time(k) < from_s) continue;
+    sum += p.sum[k] / static_cast<double>(p.n[k]);
+    ++bins;
+  }
+  if (bins < 10) return false;
+  level = sum / static_cast<double>(bins);
+  return true;
+}
+
 }  // namespace
 
 // A friction spike on a servo does not jump at the reversal: the table sticks while the
@@ -251,16 +266,28 @@ void measure_spikes(const DiagnosisState& ds, const std::vector<double>& resid,
   for (int ax = 0; ax < 2; ++ax) {
     const auto axs = static_cast<std::size_t>(ax);
     if (!D.spike_mm[axs].value) continue;  // no spike term for this axis (no reversal ...)
-    const SpikeProfile p = spike_profile(ds, ax, resid, events[axs]);
+    SpikeProfile p = spike_profile(ds, ax, resid, events[axs]);
     if (p.n.empty()) continue;
-    std::optional<std::size_t> kp;
-    for (std::size_t k = 0; k < p.n.size(); ++k) {
-      if (p.valid(k) && (!kp || std::abs(p.mean(k)) > std::abs(p.mean(*kp)))) kp = k;
-    }
+    auto peak_bin = [&] {
+      std::optional<std::size_t> kp;
+      for (std::size_t k = 0; k < p.n.size(); ++k) {
+        if (p.valid(k) && (!kp || std::abs(p.mean(k)) > std::abs(p.mean(*kp)))) kp = k;
+      }
+      return kp;
+    };
+    auto kp = peak_bin();
     if (!kp) continue;
-    const double height = p.mean(*kp), se = p.standard_error(*kp);
-    const auto fall = fall_time(p, *kp);
+    auto fall = fall_time(p, *kp);
     if (!fall) continue;
+    // The other terms of the fit (backlash above all) take up part of a spike whose shape the
+    // fit's term does not have, and shift the level after the reversal: the spike is measured
+    // from where the deviation settles, five fall times past the peak.
+    if (settled_level(p, p.time(*kp) + 5.0 * fall->first, p.base)) {
+      kp = peak_bin();
+      fall = kp ? fall_time(p, *kp) : std::nullopt;
+      if (!fall) continue;
+    }
+    const double height = p.mean(*kp), se = p.standard_error(*kp);
     // A peak in the first bins, or before a quarter of the fall, is the decaying step.
     const double t_peak = p.time(*kp);
     if (*kp < 3 || t_peak < 0.25 * fall->first) continue;
