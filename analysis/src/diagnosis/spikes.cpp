@@ -148,11 +148,21 @@ struct SpikeProfile {
   bool valid(std::size_t k) const { return n[k] >= 2; }
   double mean(std::size_t k) const { return sum[k] / static_cast<double>(n[k]) - base; }
   double time(std::size_t k) const { return sum_t[k] / static_cast<double>(n[k]); }
-  double standard_error(std::size_t k) const {
-    const double m = mean(k), nk = static_cast<double>(n[k]);
-    const double var = std::max(0.0, (sum2[k] - nk * m * m) / (nk - 1.0));
-    return std::sqrt(var / nk);
+  // The scatter of the reversals about their mean, pooled over all bins: a bin's own few
+  // samples would make its standard error as noisy as its mean, and the largest of a thousand
+  // noisy means over their own noisy errors stands out by chance.
+  double sd = 0.0;
+  void pool() {
+    double ss = 0.0, dof = 0.0;
+    for (std::size_t k = 0; k < n.size(); ++k) {
+      if (!valid(k)) continue;
+      const double nk = static_cast<double>(n[k]), m = sum[k] / nk;
+      ss += std::max(0.0, sum2[k] - nk * m * m);
+      dof += nk - 1.0;
+    }
+    sd = dof > 0 ? std::sqrt(ss / dof) : 0.0;
   }
+  double standard_error(std::size_t k) const { return sd / std::sqrt(static_cast<double>(n[k])); }
 };
 
 // The profile looks this far past a reversal: as far as the decay search (1 s), and no
@@ -212,6 +222,7 @@ SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const std::vector<d
       ++p.n[k];
     }
   }
+  p.pool();
   return p;
 }
 
@@ -292,19 +303,17 @@ void measure_spikes(const DiagnosisState& ds, const std::vector<double>& resid,
     const double t_peak = p.time(*kp);
     if (*kp < 3 || t_peak < 0.25 * fall->first) continue;
     const std::string& axis = ax == 0 ? ds.A : ds.B;
-    const bool significant = std::abs(height) > ds.options.spike_detection_t * se &&
-                             std::abs(height) >= ds.options.min_spike_mm;
+    // A peak that does not stand out of the reversals' scatter leaves the fit's result.
+    if (!(std::abs(height) > ds.options.spike_detection_t * se &&
+          std::abs(height) >= ds.options.min_spike_mm)) {
+      continue;
+    }
     D.notes.push_back(fmt::format(
         "reversal spike {} rises after the reversal (the table sticks): its mean profile over "
         "the reversals peaks at {:.2f} um {:.0f} ms after them and falls to 1/e in {:.0f} ms; "
         "height and decay are taken from it (the decaying step fitted {:.2f} um, {:.0f} ms)",
         axis, height * 1e3, t_peak * 1e3, fall->first * 1e3,
         D.spike_mm[axs].value.value_or(0.0) * 1e3, D.spike_ms[axs].value.value_or(0.0)));
-    if (!significant) {
-      D.spike_mm[axs] = {0.0, se};
-      D.spike_ms[axs] = {};
-      continue;
-    }
     D.spike_mm[axs] = {height, se};
     D.spike_ms[axs] = {fall->first * 1e3, fall->second * 1e3};
   }
