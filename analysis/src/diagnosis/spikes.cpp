@@ -185,7 +185,7 @@ double sample_period_s(const Samples& S) {
 // The residual plus the fitted spike of axis ax, divided by the spike's direction factor
 // (-dir cos for A, -dir sin for B): the axis' deviation after each reversal, averaged.
 SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const std::vector<double>& resid,
-                           const std::vector<ReversalEvent>& events) {
+                           const std::vector<ReversalEvent>& events, int only_dir = 0) {
   const Samples& S = ds.S;
   SpikeProfile p;
   p.bin_s = sample_period_s(S);
@@ -200,6 +200,7 @@ SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const std::vector<d
   const double tau = ax == 0 ? ds.st.tau_a : ds.st.tau_b;
   const Reversals rev(S, ds.st.servo_mismatch_s);
   for (const ReversalEvent& ev : events) {
+    if (only_dir != 0 && ev.dir != only_dir) continue;
     const RunInfo& r = S.runs[S.run[ev.sample]];
     if (!(r.speed_mm_s > 0)) continue;
     double last = -1.0;
@@ -308,11 +309,22 @@ void measure_spikes(const DiagnosisState& ds, const std::vector<double>& resid,
           std::abs(height) >= ds.options.min_spike_mm)) {
       continue;
     }
+    // Each direction of reversal on its own, at the same time after the reversal (circfric
+    // has one amplitude per joint; a large difference says the friction is not symmetric).
+    std::string per_direction;
+    for (const int dir : {1, -1}) {
+      SpikeProfile q = spike_profile(ds, ax, resid, events[axs], dir);
+      if (q.n.empty() || !q.valid(*kp)) continue;
+      settled_level(q, t_peak + 5.0 * fall->first, q.base);
+      per_direction +=
+          fmt::format("{}{:.2f} um at the reversals to {}{}", per_direction.empty() ? "; " : ", ",
+                      q.mean(*kp) * 1e3, dir > 0 ? "+" : "-", axis);
+    }
     D.notes.push_back(fmt::format(
         "reversal spike {} rises after the reversal (the table sticks): its mean profile over "
-        "the reversals peaks at {:.2f} um {:.0f} ms after them and falls to 1/e in {:.0f} ms; "
+        "the reversals peaks at {:.2f} um {:.0f} ms after them and falls to 1/e in {:.0f} ms{}; "
         "height and decay are taken from it (the decaying step fitted {:.2f} um, {:.0f} ms)",
-        axis, height * 1e3, t_peak * 1e3, fall->first * 1e3,
+        axis, height * 1e3, t_peak * 1e3, fall->first * 1e3, per_direction,
         D.spike_mm[axs].value.value_or(0.0) * 1e3, D.spike_ms[axs].value.value_or(0.0)));
     D.spike_mm[axs] = {height, se};
     D.spike_ms[axs] = {fall->first * 1e3, fall->second * 1e3};
