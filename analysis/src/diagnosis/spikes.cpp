@@ -170,6 +170,7 @@ struct SpikeProfile {
 // deviation (cos 60 deg) and the other axis' reversal (at 90 deg) is not yet near.
 constexpr double kProfileWindowS = 1.0;
 constexpr double kProfileWindowRad = kPi / 3.0;
+constexpr double kMaxProfileBins = 20000.0;
 
 // The sample period: eps_rad is 1.5 periods of travel (runs.cpp).
 double sample_period_s(const Samples& S) {
@@ -188,8 +189,10 @@ SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const std::vector<d
                            const std::vector<ReversalEvent>& events, int only_dir = 0) {
   const Samples& S = ds.S;
   SpikeProfile p;
-  p.bin_s = sample_period_s(S);
-  if (!(p.bin_s > 0)) return p;
+  const double period_s = sample_period_s(S);
+  if (!(period_s > 0)) return p;
+  // At most kMaxProfileBins bins, whatever the sample rate a trace claims.
+  p.bin_s = std::max(period_s, kProfileWindowS / kMaxProfileBins);
   const auto nbins = static_cast<std::size_t>(std::ceil(kProfileWindowS / p.bin_s)) + 1;
   p.sum.assign(nbins, 0.0);
   p.sum2.assign(nbins, 0.0);
