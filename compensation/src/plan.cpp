@@ -703,10 +703,9 @@ bool friction_step(PlanContext& c) {
   TableFiles tables_tried = c.tables;
   try {
     plan_friction(ini_tried, c.config, c.d, c.o, plan_tried, tables_tried);
-  } catch (const DataError& e) {
-    // What the measurement says (an implausible spike) is refused as ever; only where to
-    // wire the compensator is in question here.
-    if (e.file() == c.d.source) throw;
+  } catch (const WiringError& e) {
+    // Only where to wire the compensator is in question here: what the measurement says (an
+    // implausible spike) is refused as ever.
     c.plan.notes.push_back(fmt::format("friction compensation not planned: {}", e.what()));
     return false;
   }
