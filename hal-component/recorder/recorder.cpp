@@ -305,16 +305,20 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
     int id = 0;
     const std::string id_text = parts.empty() ? std::string() : parts[0];
     const auto [end, ec] = std::from_chars(id_text.data(), id_text.data() + id_text.size(), id);
-    const auto direction = parts.size() == 3 ? parse_direction(parts[1]) : std::nullopt;
-    const double feed = parts.size() == 3 && parts[2].size() > 1 && parts[2][0] == 'F'
+    const bool fields = parts.size() == 3 || parts.size() == 4;
+    const auto direction = fields ? parse_direction(parts[1]) : std::nullopt;
+    const double feed = fields && parts[2].size() > 1 && parts[2][0] == 'F'
                             ? parse_finite(parts[2].substr(1)).value_or(0.0)
                             : 0.0;
-    const bool ok = parts.size() == 3 && ec == std::errc() &&
-                    end == id_text.data() + id_text.size() && id > 0 && direction && feed > 0.0;
+    // A test set's entry names its plane.
+    const std::optional<Plane> plane = parts.size() == 4 ? parse_plane(parts[3]) : std::nullopt;
+    const bool ok = fields && ec == std::errc() && end == id_text.data() + id_text.size() &&
+                    id > 0 && direction && feed > 0.0 && (parts.size() == 3 || plane);
     if (!ok) {
       throw ParseError(path, line.line,
                        fmt::format("segments: '{}' is not ID:DIRECTION:FFEED (e.g. 1:CCW:F500, "
-                                   "ID a whole number from 1)",
+                                   "ID a whole number from 1), nor a test set's "
+                                   "ID:DIRECTION:FFEED:PLANE (PLANE XY, YZ or ZX)",
                                    std::string(trim(item))));
     }
     if (!ids.insert(id).second) {
@@ -323,7 +327,10 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
                                    "tell the runs apart",
                                    id));
     }
-    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2])});
+    runs.push_back({id, *direction, feed,
+                    plane ? fmt::format("{} {} {}", parts[1], parts[2], plane_name(*plane))
+                          : fmt::format("{} {}", parts[1], parts[2]),
+                    plane});
   }
   return runs;
 }
@@ -363,6 +370,8 @@ std::optional<double> longest_pause_s(const std::vector<HeaderLine>& lines,
   const double back_mm = 2.0 * std::numbers::pi * (*radius + feed_in_mm) * gap_deg / 360.0;
   double longest = 0.0;
   for (std::size_t i = 1; i < runs.size(); ++i) {
+    // Between a set's planes the program pauses for the operator: no planned length.
+    if (runs[i - 1].plane != runs[i].plane) continue;
     const double from = runs[i - 1].feed_per_min * mm_per_unit / 60.0;
     const double to = runs[i].feed_per_min * mm_per_unit / 60.0;
     const bool same_way = runs[i - 1].direction == runs[i].direction;
@@ -401,6 +410,15 @@ double run_wait_s(const Options& options) {
   return kDefaultRunWait_s;
 }
 
+bool operator_pause_before(const ProgramPlan& plan, std::size_t k) {
+  return k > 0 && k < plan.runs.size() && plan.runs[k].plane != plan.runs[k - 1].plane;
+}
+
+double run_wait_s(const Options& options, std::size_t k) {
+  if (!operator_pause_before(options.program_plan, k)) return run_wait_s(options);
+  return options.run_wait_s.value_or(kMaxWait_s);
+}
+
 namespace {
 
 class Loop {
@@ -418,6 +436,8 @@ class Loop {
   void note_gap(std::uint64_t lost, std::uint64_t period, bool at_end);
   void track_run(bool marker, std::int32_t segment, bool run_start);
   bool every_announced_run_recorded() const;
+  // The first announced run (in program order) not yet recorded whole.
+  std::size_t next_missing_run() const;
   std::vector<std::string> missing_runs() const;
   const char* should_stop();
   void wait_for_producer_to_see_release();
@@ -585,6 +605,13 @@ void Loop::track_run(bool marker, std::int32_t segment, bool run_start) {
   }
 }
 
+std::size_t Loop::next_missing_run() const {
+  const auto& runs = options_.program_plan.runs;
+  std::size_t k = 0;
+  while (k < runs.size() && runs_whole_.count(runs[k].segment_id)) ++k;
+  return k;
+}
+
 bool Loop::every_announced_run_recorded() const {
   return std::all_of(options_.program_plan.runs.begin(), options_.program_plan.runs.end(),
                      [this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id); });
@@ -628,7 +655,7 @@ const char* Loop::should_stop() {
     const double idle_s = static_cast<double>(periods - last_active_period_) * period_s_;
     if (every_announced_run_recorded()) {
       if (idle_s >= *options_.idle_s) return "idle";
-    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_))) {
+    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_, next_missing_run()))) {
       return "idle with runs missing";
     }
   }

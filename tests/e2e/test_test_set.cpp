@@ -1,0 +1,160 @@
+// A three-plane test set (XY, YZ, ZX at two feeds, CCW and CW) on a machine with squareness
+// errors in all three planes and per-axis backlash, scale and servo lag, through the programs
+// a user runs: the set's trace (the test simulator's set program, tests/support/machine_sim,
+// written by circtest-simtrace --set as circgen's set program and circlog-record would
+// record it), circana analyze and diagnose, circcomp plan on a copy of configs/sim-mill. The
+// diagnosis must recover the three squarenesses and each axis's backlash and scale within
+// 10 % and within three of their standard errors; the plan must put the three squarenesses
+// into circtest_kins and each axis's backlash into its joint once.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "circtest/core/diagnosis_keys.hpp"
+#include "scratch.hpp"
+
+namespace fs = std::filesystem;
+namespace K = circtest::diagnosis_json::key;
+using circtest::testing::run_command;
+using circtest::testing::ScratchDir;
+using nlohmann::json;
+
+namespace {
+
+struct AxisTruth {
+  const char* axis;
+  double backlash_mm;
+  double scale;
+};
+constexpr AxisTruth kAxes[] = {{"X", 0.010, 40e-6}, {"Y", 0.006, -30e-6}, {"Z", 0.008, 25e-6}};
+struct PlaneTruth {
+  const char* plane;
+  double squareness_rad;
+};
+constexpr PlaneTruth kPlanes[] = {{"XY", 100e-6}, {"YZ", -60e-6}, {"ZX", 45e-6}};
+
+// VALUE against TRUTH: within 10 % and within 3 standard errors.
+void expect_recovered(const json& value, const json& se, double truth, const std::string& what) {
+  ASSERT_TRUE(value.is_number()) << what << ": " << value.dump();
+  ASSERT_TRUE(se.is_number()) << what << " standard error: " << se.dump();
+  const double v = value.get<double>(), s = se.get<double>();
+  EXPECT_NEAR(v, truth, 0.1 * std::abs(truth)) << what;
+  EXPECT_NEAR(v, truth, 3.0 * s) << what << " (standard error " << s << ")";
+}
+
+class TestSet : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    trace_ = scratch_.file("set.csv");
+    std::vector<std::string> argv = {SIMTRACE_PATH, "-o", trace_, "--set", "XY,YZ,ZX",
+                                     "--feeds", "1000,2000", "--d", "100", "--cx", "10",
+                                     "--cy", "-20", "--cz", "5", "--kv-x", "30", "--kv-y",
+                                     "31", "--kv-z", "30", "--noise", "0.0005", "--seed", "3"};
+    for (const AxisTruth& a : kAxes) {
+      const std::string x = a.axis == std::string("X") ? "x" : (a.axis == std::string("Y") ? "y" : "z");
+      for (const std::string& s : {"--backlash-" + x, std::to_string(a.backlash_mm),
+                                   "--scale-" + x, std::to_string(a.scale)}) {
+        argv.push_back(s);
+      }
+    }
+    for (const PlaneTruth& p : kPlanes) {
+      std::string name = p.plane;
+      for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      argv.push_back("--squareness-" + name);
+      argv.push_back(fmt_rad(p.squareness_rad));
+    }
+    const auto r = run_command(argv);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  void TearDown() override {
+    if (HasFailure()) scratch_.keep();
+  }
+  static std::string fmt_rad(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    return buf;
+  }
+
+  ScratchDir scratch_{"circtest-e2e-test-set"};
+  std::string trace_;
+};
+
+}  // namespace
+
+TEST_F(TestSet, AnalyzeReportsEveryPlaneAndFeed) {
+  const std::string svg = scratch_.file("plot.svg");
+  const auto r = run_command({CIRCANA_PATH, "analyze", trace_, "--svg", svg});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* p : {"=== Plane XY ===", "=== Plane YZ ===", "=== Plane ZX ==="}) {
+    EXPECT_NE(r.out.find(p), std::string::npos) << p;
+  }
+  for (const char* p : {"plot-XY.svg", "plot-YZ.svg", "plot-ZX.svg"}) {
+    EXPECT_TRUE(fs::is_regular_file(scratch_.dir() / p)) << p;
+  }
+  EXPECT_FALSE(fs::exists(svg));
+  const auto j = run_command({CIRCANA_PATH, "analyze", trace_, "--json"});
+  ASSERT_EQ(j.exit_code, 0) << j.err;
+  const json doc = json::parse(j.out);
+  ASSERT_EQ(doc["test_set"], json({"XY", "YZ", "ZX"}));
+  ASSERT_EQ(doc["planes"].size(), 3u);
+  for (const json& plane : doc["planes"]) {
+    // Two feeds, CCW and CW at each: four runs and an H for each feed's pair.
+    EXPECT_EQ(plane["runs"].size(), 4u) << plane["plane"];
+  }
+}
+
+TEST_F(TestSet, DiagnoseRecoversSquarenessesBacklashAndScale) {
+  const auto r = run_command({CIRCANA_PATH, "diagnose", trace_, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json d = json::parse(r.out);
+  EXPECT_EQ(d[K::plane], "XY,YZ,ZX");
+  const json& se = d[K::standard_error];
+  for (const AxisTruth& a : kAxes) {
+    expect_recovered(d[K::backlash_mm][a.axis], se[K::backlash_mm][a.axis], a.backlash_mm,
+                     std::string(a.axis) + " backlash");
+    expect_recovered(d[K::scale_ppm][a.axis], se[K::scale_ppm][a.axis], a.scale * 1e6,
+                     std::string(a.axis) + " scale");
+    // Each axis is in two planes: both planes' own estimates are shown beside the joint one.
+    const json& agreement = d[K::test_set][K::agreement][K::backlash_mm][a.axis];
+    EXPECT_EQ(agreement[K::dof], 1) << a.axis;
+    EXPECT_TRUE(agreement[K::consistent].get<bool>()) << agreement.dump();
+  }
+  for (const PlaneTruth& p : kPlanes) {
+    const json& sq = d[K::test_set][K::squareness_urad][p.plane];
+    expect_recovered(sq[K::value], sq[K::standard_error], p.squareness_rad * 1e6,
+                     std::string(p.plane) + " squareness");
+  }
+  ASSERT_EQ(d[K::test_set][K::diagnoses].size(), 3u);
+  const auto text = run_command({CIRCANA_PATH, "diagnose", trace_});
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("Diagnosis of the test set"), std::string::npos) << text.out;
+}
+
+TEST_F(TestSet, PlanPutsTheThreeSquarenessesIntoCircTestKins) {
+  const auto r = run_command({CIRCANA_PATH, "diagnose", trace_, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string diagnosis = scratch_.write("d.json", r.out);
+  const fs::path config = scratch_.dir() / "sim-mill";
+  fs::copy(fs::path(CIRCTEST_SIM_INI).parent_path(), config, fs::copy_options::recursive);
+  const auto p = run_command({CIRCCOMP_PATH, "plan", "--ini", (config / "sim-mill.ini").string(),
+                              diagnosis, "--only", "backlash,squareness"});
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  const json d = json::parse(r.out);
+  for (const PlaneTruth& pl : kPlanes) {
+    const double v = d[K::test_set][K::squareness_urad][pl.plane][K::value].get<double>();
+    char line[96];
+    std::snprintf(line, sizeof line, "+SQUARENESS_%s = %.6e\n", pl.plane, v * 1e-6);
+    EXPECT_NE(p.out.find(line), std::string::npos) << line << p.out;
+  }
+  EXPECT_NE(p.out.find("+KINEMATICS = circtest_kins coordinates=XYZ"), std::string::npos) << p.out;
+  // One BACKLASH line a joint: each axis corrected once, from its joint estimate.
+  for (const AxisTruth& a : kAxes) {
+    const std::string what = std::string("axis ") + a.axis + " backlash";
+    const auto first = p.out.find(what);
+    EXPECT_NE(first, std::string::npos) << what << "\n" << p.out;
+    EXPECT_EQ(p.out.find(what, first + 1), std::string::npos) << what << "\n" << p.out;
+  }
+}
