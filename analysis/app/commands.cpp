@@ -248,7 +248,8 @@ std::vector<EvaluatedTrace> evaluate_file_planes(const std::string& path,
                                  [&](const PlaneTrace& p) { return p.plane == *given.plane; });
     if (it == planes.end()) {
       std::string names;
-      for (const PlaneTrace& p : planes) names += (names.empty() ? "" : ",") + std::string(plane_name(p.plane));
+      for (const PlaneTrace& p : planes)
+        names += (names.empty() ? "" : ",") + std::string(plane_name(p.plane));
       throw DataError(path, 0,
                       fmt::format("--plane {}: not a plane of this test set (planes {})",
                                   plane_name(*given.plane), names));
@@ -283,9 +284,10 @@ namespace {
 int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>& planes,
                 std::ostream& out) {
   if (!request.compare_path.empty()) {
-    throw UsageError(fmt::format("--compare: {} is a test set ({}): compare one plane, chosen "
-                                 "with --plane",
-                                 request.trace_path, plane_names(planes)));
+    throw UsageError(
+        fmt::format("--compare: {} is a test set ({}): compare one plane, chosen "
+                    "with --plane",
+                    request.trace_path, plane_names(planes)));
   }
   std::string text;
   nlohmann::ordered_json doc;
@@ -319,7 +321,8 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
     if (!request.svg_path.empty()) {
       PlotOptions plot = request.plot;
       if (diagnosis) plot.diagnosis = &*diagnosis;
-      plots.emplace_back(plane_path(request.svg_path, plane), svg_plot(p.evaluation, p.trace, plot));
+      plots.emplace_back(plane_path(request.svg_path, plane),
+                         svg_plot(p.evaluation, p.trace, plot));
     }
   }
   for (const auto& [path, svg] : plots) write_file_atomic(path, svg);
@@ -402,8 +405,8 @@ Diagnosis diagnose_plane(const DiagnoseRequest& request, const EvaluatedTrace& e
   return d;
 }
 
-int diagnose_set_command(const DiagnoseRequest& request,
-                         const std::vector<EvaluatedTrace>& planes, std::ostream& out) {
+int diagnose_set_command(const DiagnoseRequest& request, const std::vector<EvaluatedTrace>& planes,
+                         std::ostream& out) {
   std::vector<Diagnosis> diagnoses;
   for (const EvaluatedTrace& p : planes) diagnoses.push_back(diagnose_plane(request, p));
   const SetDiagnosis set = join_set_diagnoses(request.trace_path, std::move(diagnoses));

@@ -263,9 +263,10 @@ void add(JointEstimate& j, Plane plane, const Estimate& e) {
 
 std::string disagreement(const AxisJoint& a, const JointEstimate& j, const char* what,
                          const char* unit, double factor) {
-  std::string s = fmt::format("the planes disagree on {} {} beyond their standard errors "
-                              "(chi2 {:.1f} on {} dof):",
-                              a.axis, what, *j.chi2, j.dof);
+  std::string s = fmt::format(
+      "the planes disagree on {} {} beyond their standard errors "
+      "(chi2 {:.1f} on {} dof):",
+      a.axis, what, *j.chi2, j.dof);
   for (const PlaneEstimate& p : j.planes) {
     s += fmt::format(" {} {:.3f} {} (+- {:.3f})", plane_name(p.plane), *p.estimate.value * factor,
                      unit, p.estimate.standard_error.value_or(0) * factor);
@@ -296,8 +297,8 @@ SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> plane
           Estimate lag;
           lag.value = *d.lag_ms.value + half;
           if (d.lag_ms.standard_error && d.servo_mismatch_ms.standard_error) {
-            lag.standard_error = std::hypot(*d.lag_ms.standard_error,
-                                            0.5 * *d.servo_mismatch_ms.standard_error);
+            lag.standard_error =
+                std::hypot(*d.lag_ms.standard_error, 0.5 * *d.servo_mismatch_ms.standard_error);
           }
           add(a.lag_ms, d.plane, lag);
         }
@@ -376,8 +377,10 @@ json agreement_json(const JointEstimate& j) {
 
 using Member = JointEstimate AxisJoint::*;
 constexpr std::pair<const char*, Member> kAxisKeys[] = {
-    {K::backlash_mm, &AxisJoint::backlash_mm},  {K::reversal_spike_mm, &AxisJoint::spike_mm},
-    {K::reversal_spike_ms, &AxisJoint::spike_ms}, {K::scale_ppm, &AxisJoint::scale_ppm},
+    {K::backlash_mm, &AxisJoint::backlash_mm},
+    {K::reversal_spike_mm, &AxisJoint::spike_mm},
+    {K::reversal_spike_ms, &AxisJoint::spike_ms},
+    {K::scale_ppm, &AxisJoint::scale_ppm},
     {K::axis_lag_ms, &AxisJoint::lag_ms}};
 
 }  // namespace
@@ -412,8 +415,9 @@ json to_json(const SetDiagnosis& s) {
   json sq = json::object();
   for (Plane p : {Plane::XY, Plane::YZ, Plane::ZX}) {
     const auto& e = s.squareness_urad[plane_index(p)];
-    if (e) sq[std::string(plane_name(p))] = {{K::value, opt(e->value)},
-                                             {K::standard_error, opt(e->standard_error)}};
+    if (e)
+      sq[std::string(plane_name(p))] = {{K::value, opt(e->value)},
+                                        {K::standard_error, opt(e->standard_error)}};
   }
   set[K::squareness_urad] = sq;
   json agreement = json::object();
@@ -443,8 +447,7 @@ namespace {
 std::string estimate_text(const Estimate& e, double factor, const char* unit) {
   if (!e.value) return "not available";
   if (!e.standard_error) return fmt::format("{:+.2f} {}", *e.value * factor, unit);
-  return fmt::format("{:+.2f} {} (+- {:.2f})", *e.value * factor, unit,
-                     *e.standard_error * factor);
+  return fmt::format("{:+.2f} {} (+- {:.2f})", *e.value * factor, unit, *e.standard_error * factor);
 }
 
 void joint_line(std::string& s, const char* what, const JointEstimate& j, double factor,
@@ -477,8 +480,9 @@ std::string text_report(const SetDiagnosis& s) {
     for (double f : s.feeds_mm_per_min) fmt::format_to(it, " {:.0f}", f);
     out += " mm/min";
   }
-  out += "\n(joint value from every plane the axis is in, each plane's own in brackets; +- one "
-         "standard error)\n\n";
+  out +=
+      "\n(joint value from every plane the axis is in, each plane's own in brackets; +- one "
+      "standard error)\n\n";
   for (const AxisJoint& a : s.axes) {
     fmt::format_to(it, "  {} axis\n", a.axis);
     joint_line(out, "backlash", a.backlash_mm, 1e3, "um");

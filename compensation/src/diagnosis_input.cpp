@@ -3,8 +3,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <set>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
@@ -276,8 +276,8 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
   std::vector<DiagnosisInput> planes = parse_diagnosis_planes(text, source);
   if (planes.size() > 1) {
     throw ParseError(source, 0,
-                     fmt::format("\"{}\": a test set ({} planes): read it plane by plane",
-                                 K::plane, planes.size()));
+                     fmt::format("\"{}\": a test set ({} planes): read it plane by plane", K::plane,
+                                 planes.size()));
   }
   return std::move(planes.front());
 }

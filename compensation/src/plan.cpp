@@ -806,8 +806,8 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
   plan_axes(c);
   if (c.wants("squareness")) {
     const std::optional<SquarenessChange> change = accepted_squareness(c);
-    plan_squareness_step(c, change ? std::vector<SquarenessChange>{*change}
-                                   : std::vector<SquarenessChange>{});
+    plan_squareness_step(
+        c, change ? std::vector<SquarenessChange>{*change} : std::vector<SquarenessChange>{});
   }
   servo_advice(c);
   if (!friction_step(c)) spike_advice(c);
@@ -845,7 +845,8 @@ Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& p
     servo_advice(c);
     spike_advice(c);
   }
-  PlanContext c{ini_path, first, o, ini, config, units_per_mm(ini), ini_dir(ini_path), plan, tables};
+  PlanContext c{ini_path,          first, o,     ini, config, units_per_mm(ini),
+                ini_dir(ini_path), plan,  tables};
   if (c.wants("squareness")) plan_squareness_step(c, squareness);
   if (c.wants("friction")) {
     plan.notes.push_back(

@@ -64,7 +64,8 @@ std::optional<std::vector<Plane>> parse_plane_list(std::string_view text) {
   std::size_t pos = 0;
   while (true) {
     const std::size_t comma = text.find(',', pos);
-    std::string_view item = text.substr(pos, comma == std::string_view::npos ? text.npos : comma - pos);
+    std::string_view item =
+        text.substr(pos, comma == std::string_view::npos ? text.npos : comma - pos);
     while (!item.empty() && (item.front() == ' ' || item.front() == '\t')) item.remove_prefix(1);
     while (!item.empty() && (item.back() == ' ' || item.back() == '\t')) item.remove_suffix(1);
     const std::optional<Plane> p = parse_plane(item);

@@ -20,8 +20,8 @@ namespace circtest::circlog_record {
 struct AnnouncedRun {
   int segment_id = 0;
   Direction direction = Direction::CCW;
-  double feed_per_min = 0.0;  // in the program's units
-  std::string label;          // "CCW F500", as the header writes it ("CCW F500 XY" in a set)
+  double feed_per_min = 0.0;   // in the program's units
+  std::string label;           // "CCW F500", as the header writes it ("CCW F500 XY" in a set)
   std::optional<Plane> plane;  // a test set's entry: its plane
 };
 

@@ -144,7 +144,8 @@ TEST(TestSet, RefusesWhatCannotBeSplit) {
     const std::size_t seg = *t.column_index(column_name::segment);
     t.columns.erase(t.columns.begin() + static_cast<std::ptrdiff_t>(seg));
     t.values.erase(t.values.begin() + static_cast<std::ptrdiff_t>(seg));
-    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data, "a test set without a 'segment' column");
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data,
+                 "a test set without a 'segment' column");
   }
   {
     Trace t = good;

@@ -46,11 +46,10 @@ json set_doc() {
   d[K::backlash_mm] = {{"X", 0.010}, {"Y", 0.006}, {"Z", 0.008}};
   d[K::squareness_urad] = nullptr;
   d[K::standard_error] = {{K::backlash_mm, {{"X", 1e-4}, {"Y", 1e-4}, {"Z", 1e-4}}}};
-  d[K::test_set] = {
-      {K::planes, {"XY", "YZ", "ZX"}},
-      {K::diagnoses,
-       {plane_doc("XY", "X", "Y", 100.0), plane_doc("YZ", "Y", "Z", -60.0),
-        plane_doc("ZX", "Z", "X", 45.0)}}};
+  d[K::test_set] = {{K::planes, {"XY", "YZ", "ZX"}},
+                    {K::diagnoses,
+                     {plane_doc("XY", "X", "Y", 100.0), plane_doc("YZ", "Y", "Z", -60.0),
+                      plane_doc("ZX", "Z", "X", 45.0)}}};
   return d;
 }
 
@@ -105,11 +104,11 @@ TEST(TestSetPlan, RefusesWhatIsNotASet) {
 
 TEST(TestSetPlan, ThreeSquarenessesIntoCircTestKinsAndEachBacklashOnce) {
   circtest::testing::ScratchDir s("circcomp-set");
-  const std::string ini = s.write(
-      "m.ini",
-      "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
-      "coordinates=XYZ\nJOINTS = 3\n\n[HAL]\nHALFILE = mill.hal\n\n" +
-          joint(0) + joint(1) + joint(2));
+  const std::string ini =
+      s.write("m.ini",
+              "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
+              "coordinates=XYZ\nJOINTS = 3\n\n[HAL]\nHALFILE = mill.hal\n\n" +
+                  joint(0) + joint(1) + joint(2));
   s.write("mill.hal", "loadrt trivkins coordinates=XYZ\n");
   PlanOptions o;
   o.only = {"backlash", "squareness"};
@@ -141,13 +140,15 @@ TEST(TestSetPlan, ThreeSquarenessesIntoCircTestKinsAndEachBacklashOnce) {
 
 TEST(TestSetPlan, FrictionAloneIsRefusedForASet) {
   circtest::testing::ScratchDir s("circcomp-set");
-  const std::string ini = s.write(
-      "m.ini", "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
-               "coordinates=XYZ\nJOINTS = 3\n\n" +
-                   joint(0) + joint(1) + joint(2));
+  const std::string ini =
+      s.write("m.ini",
+              "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
+              "coordinates=XYZ\nJOINTS = 3\n\n" +
+                  joint(0) + joint(1) + joint(2));
   PlanOptions o;
   o.only = {"friction"};
   o.friction_requested = true;
   EXPECT_ERROR(make_plan(ini, parse_diagnosis_planes(set_doc().dump(), "set.json"), o),
-               ExitCode::usage, "friction is planned from one plane's diagnosis, not from a test set");
+               ExitCode::usage,
+               "friction is planned from one plane's diagnosis, not from a test set");
 }

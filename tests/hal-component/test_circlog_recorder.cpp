@@ -564,7 +564,6 @@ TEST_F(Recorder, ATestSetsRunsNameTheirPlanesAndItsPausesAreThePlanes) {
       << parse_error(path("p.ngc"));
 }
 
-
 TEST_F(Recorder, AnnouncedRunsThatCannotBeToldApartAreRefused) {
   for (const std::string bad : {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5",
                                 "1:CCW", "1.5:CW:F5", "1:CCW:F500:9", ""}) {

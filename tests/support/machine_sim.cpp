@@ -196,7 +196,8 @@ double run_feed(const CircleProgram& program, std::size_t run) {
 double lead_start_rad(const CircleProgram& program, std::size_t run) {
   const double sign = program.runs[run] == Direction::CCW ? 1.0 : -1.0;
   const double start = program.start_deg * kDeg;
-  const double run_start = program.runs[run] == Direction::CCW ? start : start + program.arc_deg * kDeg;
+  const double run_start =
+      program.runs[run] == Direction::CCW ? start : start + program.arc_deg * kDeg;
   return run_start - sign * program.lead_deg * kDeg;
 }
 

@@ -36,8 +36,8 @@ int main(int argc, char** argv) {
         "pitch-y", po::value(&m.y.cyclic_pitch_mm), "mm")("noise", po::value(&m.noise_mm), "mm")(
         "seed", po::value(&m.seed), "")("backlash-z", po::value(&m.z.backlash_mm), "mm")(
         "scale-z", po::value(&m.z.scale), "")("squareness-xy", po::value(&m.squareness_xy_rad),
-                                               "rad")(
-        "squareness-yz", po::value(&m.squareness_yz_rad), "rad")(
+                                              "rad")("squareness-yz",
+                                                     po::value(&m.squareness_yz_rad), "rad")(
         "squareness-zx", po::value(&m.squareness_zx_rad), "rad")(
         "set", po::value<std::string>(),
         "a test set of these planes in this order (XY,YZ,ZX), CCW and CW at every feed")(

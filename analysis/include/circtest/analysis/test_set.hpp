@@ -68,11 +68,11 @@ struct AxisJoint {
 
 struct SetDiagnosis {
   std::string source;
-  std::vector<Plane> planes;                   // program order
-  std::vector<Diagnosis> plane_diagnoses;      // one per plane, in that order
-  std::vector<AxisJoint> axes;                 // X, Y, Z: those the planes cover
+  std::vector<Plane> planes;                               // program order
+  std::vector<Diagnosis> plane_diagnoses;                  // one per plane, in that order
+  std::vector<AxisJoint> axes;                             // X, Y, Z: those the planes cover
   std::array<std::optional<Estimate>, 3> squareness_urad;  // XY, YZ, ZX: the planes in the set
-  std::vector<double> feeds_mm_per_min;        // every plane's feeds, each once
+  std::vector<double> feeds_mm_per_min;                    // every plane's feeds, each once
   std::vector<std::string> notes;
 };
 
