@@ -219,6 +219,13 @@ std::string plane_path(const std::string& path, Plane plane) {
   return out.string();
 }
 
+// Writes a set's plots (path, SVG); every path is checked before the first is written, so
+// that a plot path that is a folder or a device leaves no plot of the set behind.
+void write_plane_plots(const std::vector<std::pair<std::string, std::string>>& plots) {
+  for (const auto& plot : plots) checked_output_target(plot.first);
+  for (const auto& [path, svg] : plots) write_file_atomic(path, svg);
+}
+
 }  // namespace
 
 std::vector<EvaluatedTrace> evaluate_file_planes(const std::string& path,
@@ -325,7 +332,7 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
                          svg_plot(p.evaluation, p.trace, plot));
     }
   }
-  for (const auto& [path, svg] : plots) write_file_atomic(path, svg);
+  write_plane_plots(plots);
   if (request.store) {
     for (const EvaluatedTrace& p : planes) {
       const std::string stored = store_result(p.evaluation, nullptr, request.trace_path,
@@ -418,7 +425,7 @@ int diagnose_set_command(const DiagnoseRequest& request, const std::vector<Evalu
       plots.emplace_back(plane_path(request.svg_path, planes[k].evaluation.plane),
                          svg_plot(planes[k].evaluation, planes[k].trace, plot));
     }
-    for (const auto& [path, svg] : plots) write_file_atomic(path, svg);
+    write_plane_plots(plots);
   }
   std::string text = request.json ? json_text(to_json(set), 2) + "\n" : text_report(set);
   if (request.store) {

@@ -305,20 +305,18 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
     int id = 0;
     const std::string id_text = parts.empty() ? std::string() : parts[0];
     const auto [end, ec] = std::from_chars(id_text.data(), id_text.data() + id_text.size(), id);
-    const bool fields = parts.size() == 3 || parts.size() == 4;
+    // circgen writes the plane as a 4th field (id:DIR:Ffeed:PLANE); older programs have 3.
+    const bool fields = parts.size() == 3 || (parts.size() == 4 && parse_plane(parts[3]));
     const auto direction = fields ? parse_direction(parts[1]) : std::nullopt;
     const double feed = fields && parts[2].size() > 1 && parts[2][0] == 'F'
                             ? parse_finite(parts[2].substr(1)).value_or(0.0)
                             : 0.0;
-    // A test set's entry names its plane.
-    const std::optional<Plane> plane = parts.size() == 4 ? parse_plane(parts[3]) : std::nullopt;
     const bool ok = fields && ec == std::errc() && end == id_text.data() + id_text.size() &&
-                    id > 0 && direction && feed > 0.0 && (parts.size() == 3 || plane);
+                    id > 0 && direction && feed > 0.0;
     if (!ok) {
       throw ParseError(path, line.line,
-                       fmt::format("segments: '{}' is not ID:DIRECTION:FFEED (e.g. 1:CCW:F500, "
-                                   "ID a whole number from 1), nor a test set's "
-                                   "ID:DIRECTION:FFEED:PLANE (PLANE XY, YZ or ZX)",
+                       fmt::format("segments: '{}' is not ID:DIRECTION:FFEED[:PLANE] (e.g. "
+                                   "1:CCW:F500:XY, ID a whole number from 1)",
                                    std::string(trim(item))));
     }
     if (!ids.insert(id).second) {
@@ -327,6 +325,8 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
                                    "tell the runs apart",
                                    id));
     }
+    // A test set's entry names its plane.
+    const std::optional<Plane> plane = parts.size() == 4 ? parse_plane(parts[3]) : std::nullopt;
     runs.push_back({id, *direction, feed,
                     plane ? fmt::format("{} {} {}", parts[1], parts[2], plane_name(*plane))
                           : fmt::format("{} {}", parts[1], parts[2]),

@@ -226,8 +226,8 @@ TEST(HostileCirclogRecord, AnnouncedRunsAndWaitsAreCheckedBeforeRecording) {
       {{"-o", out, "--program", dir.file("bad.ngc")},
        4,
        dir.file("bad.ngc") +
-           ":1: segments: '2:sideways:F500' is not ID:DIRECTION:FFEED (e.g. 1:CCW:F500, ID a "
-           "whole number from 1)"},
+           ":1: segments: '2:sideways:F500' is not ID:DIRECTION:FFEED[:PLANE] (e.g. 1:CCW:F500:XY, "
+           "ID a whole number from 1)"},
       {{"-o", out, "--until-idle", "1e300"},
        2,
        "--until-idle must be a number of seconds in 0..86400 (a day)"},
