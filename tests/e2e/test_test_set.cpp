@@ -115,6 +115,14 @@ TEST_F(TestSet, AnalyzeReportsEveryPlaneAndFeed) {
     // Two feeds, CCW and CW at each: four runs and an H for each feed's pair.
     EXPECT_EQ(plane["runs"].size(), 4u) << plane["plane"];
   }
+  // --store: each plane its own test in the history.
+  const auto stored = run_command({CIRCANA_PATH, "analyze", trace_, "--store", "--db",
+                                   scratch_.file("h.db"), "--machine", "mill"});
+  ASSERT_EQ(stored.exit_code, 0) << stored.err;
+  for (const char* t : {"Stored as test 1 of machine mill", "Stored as test 2 of machine mill",
+                        "Stored as test 3 of machine mill"}) {
+    EXPECT_NE(stored.out.find(t), std::string::npos) << t << "\n" << stored.out;
+  }
 }
 
 TEST_F(TestSet, DiagnoseRecoversSquarenessesBacklashAndScale) {
