@@ -564,14 +564,21 @@ TEST_F(Recorder, ATestSetsRunsNameTheirPlanesAndItsPausesAreThePlanes) {
 }
 
 TEST_F(Recorder, AnnouncedRunsThatCannotBeToldApartAreRefused) {
-  for (const std::string bad : {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5",
-                                "1:CCW", "1.5:CW:F5", "1:CCW:F500:9", ""}) {
+  for (const std::string bad :
+       {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5", "1:CCW", "1.5:CW:F5",
+        "1:CCW:F500:9", "1:CCW:F500:XZ", "1:CCW:F500:XY:1", ""}) {
     std::ofstream(path("p.ngc")) << "(circtest: plane: XY)\n(circtest: segments: " << bad
                                  << ")\nG0 X0\n";
     const std::string e = parse_error(path("p.ngc"));
     EXPECT_NE(e.find("p.ngc:2"), std::string::npos) << bad << ": " << e;
     EXPECT_NE(e.find("is not ID:DIRECTION:FFEED"), std::string::npos) << bad << ": " << e;
   }
+  // circgen's plane field: a set's runs in two planes.
+  std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500:XY,2:CW:F500:YZ)\nG0 X0\n";
+  const auto set = rec::read_program_plan(path("p.ngc"));
+  ASSERT_EQ(set.runs.size(), 2u);
+  EXPECT_EQ(set.runs[1].direction, circtest::Direction::CW);
+  EXPECT_EQ(set.runs[1].feed_per_min, 500.0);
   std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500,1:CW:F500)\nG0 X0\n";
   EXPECT_NE(parse_error(path("p.ngc")).find("p.ngc:1: segments: run 1 is announced twice"),
             std::string::npos)
