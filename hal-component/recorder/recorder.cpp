@@ -325,12 +325,18 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
                                    "tell the runs apart",
                                    id));
     }
-    // A test set's entry names its plane.
+    // circgen's entries name their plane.
     const std::optional<Plane> plane = parts.size() == 4 ? parse_plane(parts[3]) : std::nullopt;
-    runs.push_back({id, *direction, feed,
-                    plane ? fmt::format("{} {} {}", parts[1], parts[2], plane_name(*plane))
-                          : fmt::format("{} {}", parts[1], parts[2]),
-                    plane});
+    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2]), plane});
+  }
+  // A test set's runs (more than one plane) say their plane where the recorder names them.
+  const bool set = std::any_of(runs.begin(), runs.end(), [&](const AnnouncedRun& r) {
+    return r.plane != runs.front().plane;
+  });
+  if (set) {
+    for (AnnouncedRun& r : runs) {
+      if (r.plane) r.label += fmt::format(" {}", plane_name(*r.plane));
+    }
   }
   return runs;
 }
