@@ -18,9 +18,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <string>
 
 #include "circtest/core/diagnosis_keys.hpp"
+#include "circtest/core/trace.hpp"
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
@@ -50,13 +52,16 @@ std::string fmt_rad(double v) {
   return buf;
 }
 
-// VALUE against TRUTH: within 10 % and within 3 standard errors.
-void expect_recovered(const json& value, const json& se, double truth, const std::string& what) {
+// VALUE against TRUTH: within 10 % and (with SIGMA) within 3 standard errors.
+void expect_recovered(const json& value, const json& se, double truth, const std::string& what,
+                      bool sigma = true) {
   ASSERT_TRUE(value.is_number()) << what << ": " << value.dump();
   ASSERT_TRUE(se.is_number()) << what << " standard error: " << se.dump();
   const double v = value.get<double>(), s = se.get<double>();
   EXPECT_NEAR(v, truth, 0.1 * std::abs(truth)) << what;
-  EXPECT_NEAR(v, truth, 3.0 * s) << what << " (standard error " << s << ")";
+  if (sigma) {
+    EXPECT_NEAR(v, truth, 3.0 * s) << what << " (standard error " << s << ")";
+  }
 }
 
 class TestSet : public ::testing::Test {
@@ -202,6 +207,27 @@ class TestSetOnTheMill : public ::testing::Test {
   void TearDown() override {
     if (HasFailure()) scratch_.keep();
   }
+  // circana diagnose of the set's TRACE against the truth (SIGMA: also three standard errors).
+  static void check_recovered(const std::string& trace, bool sigma) {
+    SCOPED_TRACE(trace);
+    const auto r = run_command({CIRCANA_PATH, "diagnose", trace, "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const json d = json::parse(r.out);
+    ASSERT_EQ(d[K::plane], "XY,YZ,ZX");
+    const json& se = d[K::standard_error];
+    for (const AxisTruth& a : kAxes) {
+      expect_recovered(d[K::backlash_mm][a.axis], se[K::backlash_mm][a.axis], a.backlash_mm,
+                       std::string(a.axis) + " backlash", sigma);
+      expect_recovered(d[K::scale_ppm][a.axis], se[K::scale_ppm][a.axis], a.scale * 1e6,
+                       std::string(a.axis) + " scale", sigma);
+    }
+    for (const PlaneTruth& p : kPlanes) {
+      const json& sq = d[K::test_set][K::squareness_urad][p.plane];
+      expect_recovered(sq[K::value], sq[K::standard_error], p.squareness_rad * 1e6,
+                       std::string(p.plane) + " squareness", sigma);
+    }
+  }
+
   ScratchDir scratch_{"circtest-e2e-test-set-mill"};
 };
 
@@ -238,20 +264,21 @@ TEST_F(TestSetOnTheMill, RecoversTheThreeSquarenessesAndEachAxis) {
       << circtest::testing::slurp_if_exists(log)
       << circtest::testing::slurp_if_exists(out / "run" / "linuxcnc.log");
   const std::string trace = (out / "run" / "trace.csv").string();
-  const auto r = run_command({CIRCANA_PATH, "diagnose", trace, "--json"});
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const json d = json::parse(r.out);
-  ASSERT_EQ(d[K::plane], "XY,YZ,ZX");
-  const json& se = d[K::standard_error];
-  for (const AxisTruth& a : kAxes) {
-    expect_recovered(d[K::backlash_mm][a.axis], se[K::backlash_mm][a.axis], a.backlash_mm,
-                     std::string(a.axis) + " backlash");
-    expect_recovered(d[K::scale_ppm][a.axis], se[K::scale_ppm][a.axis], a.scale * 1e6,
-                     std::string(a.axis) + " scale");
+  // The simulated mill has no instrument noise: its trace's only scatter is the recorder's
+  // 1 nm rounding, so the standard errors are about 0.1 nm and 0.001 urad, while the
+  // first-order model misses the simulated loop by about 3 nm and 0.02 urad (0.03 %). Within
+  // 10 % on that trace; within 10 % and three standard errors on the same trace with the
+  // 0.3 um Gaussian noise of a real instrument on its position channels.
+  check_recovered(trace, false);
+  circtest::Trace t = circtest::read_trace(trace);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.0003);
+  for (const char* c : {"x", "y", "z"}) {
+    const auto k = t.column_index(c);
+    ASSERT_TRUE(k) << c;
+    for (double& v : t.values[*k]) v += noise(rng);
   }
-  for (const PlaneTruth& p : kPlanes) {
-    const json& sq = d[K::test_set][K::squareness_urad][p.plane];
-    expect_recovered(sq[K::value], sq[K::standard_error], p.squareness_rad * 1e6,
-                     std::string(p.plane) + " squareness");
-  }
+  const std::string noisy = (out / "noisy.csv").string();
+  circtest::write_trace(noisy, t);
+  check_recovered(noisy, true);
 }
