@@ -165,9 +165,36 @@ std::size_t plane_index(Plane plane) noexcept {
   return plane == Plane::XY ? 0 : (plane == Plane::YZ ? 1 : 2);
 }
 
+namespace {
+
+// A single-plane trace's `segments` entries that name a plane (circgen writes it for every
+// program) must name the trace's: a trace whose two plane records disagree is refused.
+void check_segment_planes(const Trace& trace, Plane plane) {
+  const std::string* segments = trace.metadata.find(meta_key::segments);
+  if (!segments) return;
+  for (std::string_view item : split_items(*segments, ',')) {
+    const std::vector<std::string_view> f = split_items(item, ':');
+    if (f.size() < 4) continue;
+    const std::optional<Plane> p = parse_plane(f[3]);
+    if (p == plane) continue;
+    throw ParseError(
+        trace.source, trace.metadata.line_of(meta_key::segments),
+        fmt::format("metadata 'segments': entry '{}' names the plane '{}', the trace's plane is "
+                    "{} (metadata 'plane' line {})",
+                    printable_ascii(item.substr(0, 40)), printable_ascii(f[3].substr(0, 10)),
+                    plane_name(plane), trace.metadata.line_of(meta_key::plane)));
+  }
+}
+
+}  // namespace
+
 std::optional<std::vector<Plane>> test_set_planes(const Trace& trace) {
   const std::string* text = trace.metadata.find(meta_key::plane);
-  if (!text || parse_plane(*text)) return std::nullopt;
+  if (!text) return std::nullopt;
+  if (const std::optional<Plane> single = parse_plane(*text)) {
+    check_segment_planes(trace, *single);
+    return std::nullopt;
+  }
   std::optional<std::vector<Plane>> planes = parse_plane_list(*text);
   if (!planes) {
     throw ParseError(trace.source, trace.metadata.line_of(meta_key::plane),
@@ -175,7 +202,10 @@ std::optional<std::vector<Plane>> test_set_planes(const Trace& trace) {
                                  "planes each once (XY,YZ,ZX), got '{}'",
                                  printable_ascii(std::string_view(*text).substr(0, 40))));
   }
-  if (planes->size() < 2) return std::nullopt;
+  if (planes->size() < 2) {
+    check_segment_planes(trace, planes->front());
+    return std::nullopt;
+  }
   return planes;
 }
 

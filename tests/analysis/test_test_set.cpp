@@ -61,6 +61,19 @@ TEST(TestSet, SinglePlaneTraceIsNoSet) {
   EXPECT_FALSE(test_set_planes(t));
 }
 
+TEST(TestSet, ASinglePlanesSegmentsNameItsPlane) {
+  sim::CircleProgram p;
+  p.plane = Plane::YZ;
+  Trace t = sim::simulate(sim::MachineModel{}, p);
+  // circgen writes the plane for every program: the trace's own is fine, so is none.
+  set_meta(t, meta_key::segments, "1:CCW:F1000:YZ,2:CW:F1000");
+  EXPECT_FALSE(test_set_planes(t));
+  set_meta(t, meta_key::segments, "1:CCW:F1000:YZ,2:CW:F1000:XY");
+  EXPECT_ERROR(test_set_planes(t), ExitCode::parse,
+               "metadata 'segments': entry '2:CW:F1000:XY' names the plane 'XY', the trace's "
+               "plane is YZ");
+}
+
 TEST(TestSet, SplitsIntoPlanesInProgramOrder) {
   const Trace t = three_plane_trace(sim::MachineModel{});
   const auto planes = test_set_planes(t);

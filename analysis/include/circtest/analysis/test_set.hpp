@@ -19,7 +19,8 @@ namespace circtest {
 
 // The planes of a set's trace when its `plane` metadata lists two or more, in program order;
 // nullopt for a single-plane trace (or none). ParseError at the metadata line for a list that
-// is not planes each given once.
+// is not planes each given once, and for a single-plane trace whose `segments` entries name
+// another plane.
 std::optional<std::vector<Plane>> test_set_planes(const Trace& trace);
 
 struct PlaneTrace {
