@@ -260,10 +260,17 @@ void join(JointEstimate& j) {
     return p->estimate.standard_error && *p->estimate.standard_error > 0;
   });
   if (!weighted) {
-    // A plane without a standard error cannot be weighted: the plain mean, with none.
-    double sum = 0;
-    for (const PlaneEstimate* p : have) sum += *p->estimate.value;
+    // A plane without a standard error cannot be weighted: the plain mean, with none. Planes
+    // more than 10 % of it apart disagree (nothing says how far apart they may be).
+    double sum = 0, lo = *have.front()->estimate.value, hi = lo;
+    for (const PlaneEstimate* p : have) {
+      sum += *p->estimate.value;
+      lo = std::min(lo, *p->estimate.value);
+      hi = std::max(hi, *p->estimate.value);
+    }
     j.joint.value = sum / static_cast<double>(have.size());
+    j.dof = static_cast<int>(have.size()) - 1;
+    j.consistent = !(hi - lo > 0.1 * std::abs(*j.joint.value));
     return;
   }
   double sw = 0, swx = 0;
@@ -293,14 +300,20 @@ void add(JointEstimate& j, Plane plane, const Estimate& e) {
 
 std::string disagreement(const AxisJoint& a, const JointEstimate& j, const char* what,
                          const char* unit, double factor) {
-  std::string s = fmt::format(
-      "the planes disagree on {} {} beyond their standard errors "
-      "(chi2 {:.1f} on {} dof):",
-      a.axis, what, *j.chi2, j.dof);
+  std::string s =
+      j.chi2 ? fmt::format(
+                   "the planes disagree on {} {} beyond their standard errors (chi2 "
+                   "{:.1f} on {} dof):",
+                   a.axis, what, *j.chi2, j.dof)
+             : fmt::format("the planes disagree on {} {} by more than 10 % (no standard errors):",
+                           a.axis, what);
   for (const PlaneEstimate& p : j.planes) {
-    s += fmt::format(" {} {:.3f} {} (+- {:.3f})", plane_name(p.plane), *p.estimate.value * factor,
-                     unit, p.estimate.standard_error.value_or(0) * factor);
+    s += p.estimate.standard_error
+             ? fmt::format(" {} {:.3f} {} (+- {:.3f})", plane_name(p.plane),
+                           *p.estimate.value * factor, unit, *p.estimate.standard_error * factor)
+             : fmt::format(" {} {:.3f} {}", plane_name(p.plane), *p.estimate.value * factor, unit);
   }
+  if (!j.chi2) return s + "; the joint value is their plain mean";
   return s + fmt::format("; the joint value's standard error is widened by {:.1f}",
                          std::sqrt(*j.chi2 / j.dof));
 }
@@ -491,7 +504,7 @@ void joint_line(std::string& s, const char* what, const JointEstimate& j, double
                      estimate_text(j.planes[k].estimate, factor, unit));
     }
     s += "]";
-    if (j.chi2) s += j.consistent ? " agree" : " DISAGREE";
+    if (j.chi2 || !j.consistent) s += j.consistent ? " agree" : " DISAGREE";
   }
   s += '\n';
 }

@@ -233,4 +233,20 @@ TEST(TestSet, JointValueAndAgreement) {
   EXPECT_NE(s.notes.front().find("XY 10.000 um (+- 0.200) ZX 14.000 um"), std::string::npos)
       << s.notes.front();
   EXPECT_NE(text_report(s).find("DISAGREE"), std::string::npos);
+
+  // Without standard errors: the plain mean, and more than 10 % apart is a disagreement.
+  xy.backlash_mm[0] = {0.010, std::nullopt};
+  zx.backlash_mm[1] = {0.0105, std::nullopt};
+  const SetDiagnosis close = join_set_diagnoses("t", {xy, zx});
+  EXPECT_NEAR(*close.axes.front().backlash_mm.joint.value, 0.01025, 1e-12);
+  EXPECT_FALSE(close.axes.front().backlash_mm.joint.standard_error);
+  EXPECT_TRUE(close.axes.front().backlash_mm.consistent);
+  zx.backlash_mm[1] = {0.012, std::nullopt};
+  const SetDiagnosis apart = join_set_diagnoses("t", {xy, zx});
+  EXPECT_FALSE(apart.axes.front().backlash_mm.consistent);
+  ASSERT_FALSE(apart.notes.empty());
+  EXPECT_NE(apart.notes.front().find("the planes disagree on X backlash by more than 10 % (no "
+                                     "standard errors): XY 10.000 um ZX 12.000 um"),
+            std::string::npos)
+      << apart.notes.front();
 }

@@ -47,7 +47,8 @@ struct PlaneEstimate {
 // variance weighted mean (the least-squares estimate of one value from independent planes);
 // chi2 over dof tells whether the planes agree within their standard errors. When they do
 // not (chi2 beyond the 99.9 % point), the joint standard error is scaled by sqrt(chi2 / dof)
-// and a note names the planes' values.
+// and a note names the planes' values. Planes without standard errors give their plain mean,
+// and disagree when they lie more than 10 % of it apart (a note, no standard error).
 struct JointEstimate {
   Estimate joint;
   std::vector<PlaneEstimate> planes;
