@@ -156,9 +156,10 @@ int run(int argc, char** argv) {
       if (w == "friction") options.friction_requested = true;
     }
   }
-  const DiagnosisInput d = read_diagnosis(diagnosis);
-  if (command == "apply") require_fresh(ini, d, force, circcomp_option_words);
-  const Plan plan = make_plan(ini, d, options);
+  // One plane's diagnosis, or a test set's (one entry per plane).
+  const std::vector<DiagnosisInput> planes = read_diagnosis_planes(diagnosis);
+  if (command == "apply") require_fresh(ini, planes.front(), force, circcomp_option_words);
+  const Plan plan = make_plan(ini, planes, options);
   if (command == "plan" && json) {
     // The changes as data (circtest.plan/1) for circana report --changes.
     std::cout << json_text(plan_json(plan), 2) << "\n";

@@ -331,7 +331,18 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
                                    "tell the runs apart",
                                    id));
     }
-    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2])});
+    // circgen's entries name their plane.
+    const std::optional<Plane> plane = parts.size() == 4 ? parse_plane(parts[3]) : std::nullopt;
+    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2]), plane});
+  }
+  // A test set's runs (more than one plane) say their plane where the recorder names them.
+  const bool set = std::any_of(runs.begin(), runs.end(), [&](const AnnouncedRun& r) {
+    return r.plane != runs.front().plane;
+  });
+  if (set) {
+    for (AnnouncedRun& r : runs) {
+      if (r.plane) r.label += fmt::format(" {}", plane_name(*r.plane));
+    }
   }
   return runs;
 }
@@ -371,6 +382,8 @@ std::optional<double> longest_pause_s(const std::vector<HeaderLine>& lines,
   const double back_mm = 2.0 * std::numbers::pi * (*radius + feed_in_mm) * gap_deg / 360.0;
   double longest = 0.0;
   for (std::size_t i = 1; i < runs.size(); ++i) {
+    // Between a set's planes the program pauses for the operator: no planned length.
+    if (runs[i - 1].plane != runs[i].plane) continue;
     const double from = runs[i - 1].feed_per_min * mm_per_unit / 60.0;
     const double to = runs[i].feed_per_min * mm_per_unit / 60.0;
     const bool same_way = runs[i - 1].direction == runs[i].direction;
@@ -409,6 +422,15 @@ double run_wait_s(const Options& options) {
   return kDefaultRunWait_s;
 }
 
+bool operator_pause_before(const ProgramPlan& plan, std::size_t k) {
+  return k > 0 && k < plan.runs.size() && plan.runs[k].plane != plan.runs[k - 1].plane;
+}
+
+double run_wait_s(const Options& options, std::size_t k) {
+  if (!operator_pause_before(options.program_plan, k)) return run_wait_s(options);
+  return options.run_wait_s.value_or(kMaxWait_s);
+}
+
 namespace {
 
 class Loop {
@@ -434,6 +456,8 @@ class Loop {
   void note_gap(std::uint64_t lost, std::uint64_t period, bool at_end);
   void track_run(bool marker, std::int32_t segment, bool run_start);
   bool every_announced_run_recorded() const;
+  // The first announced run (in program order) not yet recorded whole.
+  std::size_t next_missing_run() const;
   std::vector<std::string> missing_runs() const;
   const char* should_stop();
   void wait_for_producer_to_see_release();
@@ -605,6 +629,13 @@ void Loop::track_run(bool marker, std::int32_t segment, bool run_start) {
   }
 }
 
+std::size_t Loop::next_missing_run() const {
+  const auto& runs = options_.program_plan.runs;
+  std::size_t k = 0;
+  while (k < runs.size() && runs_whole_.count(runs[k].segment_id)) ++k;
+  return k;
+}
+
 bool Loop::every_announced_run_recorded() const {
   return std::all_of(options_.program_plan.runs.begin(), options_.program_plan.runs.end(),
                      [this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id); });
@@ -648,7 +679,7 @@ const char* Loop::should_stop() {
     const double idle_s = static_cast<double>(periods - last_active_period_) * period_s_;
     if (every_announced_run_recorded()) {
       if (idle_s >= *options_.idle_s) return "idle";
-    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_))) {
+    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_, next_missing_run()))) {
       return "idle with runs missing";
     }
   }

@@ -524,6 +524,46 @@ std::string parse_error(const std::string& file) {
   return "no error";
 }
 
+// A test set: the program pauses for the operator before each plane, for as long as the
+// operator takes; the recorder waits through it for the next plane's runs.
+TEST_F(Recorder, ATestSetWaitsThroughTheOperatorsPauseBeforeEachPlane) {
+  FakeServo servo(1, 1 << 14);
+  // XY's runs, 60 s of the operator re-mounting the ball bar, YZ's runs.
+  script(servo, {{100, 1100, 1.0}, {1200, 2200, 2.0}, {62200, 63200, 3.0}, {63300, 64300, 4.0}});
+  rec::Options o = with_program(dir_, "1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:YZ,4:CW:F1000:YZ");
+  o.idle_s = 2.0;
+  ASSERT_LT(rec::run_wait_s(o), 60.0);  // the wait between two runs of one plane
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.stop_reason, "idle");
+  EXPECT_EQ(s.runs, 4u);
+  EXPECT_TRUE(s.missing_runs.empty());
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(*t.metadata.find("runs_announced"), "4");
+  EXPECT_EQ(*t.metadata.find("runs_missing"), "none");
+}
+
+TEST_F(Recorder, ATestSetsRunsNameTheirPlanesAndItsPausesAreThePlanes) {
+  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:ZX");
+  rec::Options o;
+  o.program_plan = rec::read_program_plan(path("p.ngc"));
+  ASSERT_EQ(o.program_plan.runs.size(), 3u);
+  EXPECT_EQ(o.program_plan.runs[2].plane, circtest::Plane::ZX);
+  EXPECT_EQ(o.program_plan.runs[2].label, "CCW F1000 ZX");
+  EXPECT_FALSE(rec::operator_pause_before(o.program_plan, 1));
+  EXPECT_TRUE(rec::operator_pause_before(o.program_plan, 2));
+  // The planned pause is XY's reversal only, not the change of plane.
+  const double lead_s = 2.0 * 3.141592653589793 * 50.0 * 20.0 / 360.0 / (1000.0 / 60.0);
+  ASSERT_TRUE(o.program_plan.longest_pause_s);
+  EXPECT_NEAR(*o.program_plan.longest_pause_s, 2.0 * lead_s + 2.0 * 1.5 / (200.0 / 60.0), 1e-9);
+  EXPECT_EQ(rec::run_wait_s(o, 1), rec::run_wait_s(o));
+  EXPECT_EQ(rec::run_wait_s(o, 2), rec::kMaxWait_s);
+  o.run_wait_s = 600.0;
+  EXPECT_EQ(rec::run_wait_s(o, 2), 600.0);
+  std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500:XZ)\nG0 X0\n";
+  EXPECT_NE(parse_error(path("p.ngc")).find("is not ID:DIRECTION:FFEED[:PLANE]"), std::string::npos)
+      << parse_error(path("p.ngc"));
+}
+
 TEST_F(Recorder, AnnouncedRunsThatCannotBeToldApartAreRefused) {
   for (const std::string bad :
        {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5", "1:CCW", "1.5:CW:F5",

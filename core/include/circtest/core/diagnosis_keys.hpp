@@ -69,6 +69,19 @@ inline constexpr const char* runs = "runs";
 inline constexpr const char* samples = "samples";
 inline constexpr const char* ini_sha256 = "ini_sha256";
 inline constexpr const char* notes = "notes";
+// A test set's document (several planes in one trace): `plane` lists the planes ("XY,YZ,ZX"),
+// `axes` every axis they cover, the per-axis objects above hold the joint values, and
+// `test_set` holds the planes, their squarenesses, each axis's per-plane values with their
+// agreement, and each plane's own diagnosis (docs/diagnosis-json.md).
+inline constexpr const char* test_set = "test_set";
+inline constexpr const char* planes = "planes";
+inline constexpr const char* diagnoses = "diagnoses";
+inline constexpr const char* agreement = "agreement";
+inline constexpr const char* axis_lag_ms = "axis_lag_ms";  // per axis: its own following lag
+inline constexpr const char* value = "value";
+inline constexpr const char* chi2 = "chi2";
+inline constexpr const char* dof = "dof";
+inline constexpr const char* consistent = "consistent";
 }  // namespace key
 
 // Checks a document's "version" (absent in documents written before it existed: 1.0). Throws

@@ -46,8 +46,15 @@ struct EvaluatedTrace {
   Evaluation evaluation;
   bool radial = false;  // evaluated from the length channel r
 };
+// A test set's trace (its `plane` metadata lists several planes) is refused with DataError
+// unless options.plane picks one of its planes, which is then evaluated alone.
 EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& options,
                              bool radial);
+// The same for every plane of a test set in program order (test_set.hpp); one entry for a
+// single-plane trace, or for the set's plane options.plane names (DataError when the set has
+// no such plane).
+std::vector<EvaluatedTrace> evaluate_file_planes(const std::string& path,
+                                                 const EvaluationOptions& options, bool radial);
 
 struct AnalyzeRequest {
   std::string trace_path;
@@ -65,7 +72,9 @@ struct AnalyzeRequest {
   std::string db_url;  // the history: empty for the default SQLite file
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
-// nothing reaches stdout when an error is thrown. Returns the exit code.
+// nothing reaches stdout when an error is thrown. Returns the exit code. A test set: each
+// plane's report in program order (JSON: {"test_set": [planes], "planes": [evaluations]}),
+// its plot to svg_path with the plane before the extension (plot-XY.svg).
 int run_analyze(const AnalyzeRequest& request, std::ostream& out);
 
 struct DiagnoseRequest {
@@ -78,7 +87,8 @@ struct DiagnoseRequest {
   std::string svg_path;  // also write the plot with the diagnosis panel there, when set
   PlotOptions plot;
 };
-// Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write.
+// Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write. A
+// test set: the planes' diagnoses joined (test_set.hpp), plots per plane as run_analyze.
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out);
 // circana store: an evaluation document (analyze --json) or a trace (evaluated with
 // `options`) into the history. Prints one line naming the stored test.
