@@ -146,8 +146,7 @@ json to_json(const Diagnosis& d) {
   j[K::standard_error] = se;
   j[K::kv_source] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
   j[K::lag_ms] = opt(d.lag_ms.value);
-  json lag = json::object(), kv = json::object(), src = json::object(),
-       lag_se = json::object();
+  json lag = json::object(), kv = json::object(), src = json::object(), lag_se = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     const std::string a(1, d.axes[k]);
     const AxisLag& al = d.axis_lag[k];

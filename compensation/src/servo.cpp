@@ -43,8 +43,8 @@ using Files = std::map<std::string, std::pair<bool, std::string>>;  // path -> (
 struct Gain {
   enum class Kind { ini_key, literal, unset } kind = Kind::unset;
   double value = 0.0;
-  std::string section, key;  // ini_key: the [SECTION]KEY the HAL names
-  HalPlace place;            // the setp (ini_key, literal)
+  std::string section, key;                    // ini_key: the [SECTION]KEY the HAL names
+  HalPlace place;                              // the setp (ini_key, literal)
   std::size_t value_begin = 0, value_end = 0;  // literal: the value's bytes in the file
 };
 
@@ -55,9 +55,8 @@ struct Loop {
 };
 
 bool is_pid(const HalWiring& w, const std::string& instance) {
-  return instance.starts_with("pid.") ||
-         std::find(w.pid_instances.begin(), w.pid_instances.end(), instance) !=
-             w.pid_instances.end();
+  return instance.starts_with("pid.") || std::find(w.pid_instances.begin(), w.pid_instances.end(),
+                                                   instance) != w.pid_instances.end();
 }
 
 // The instances of the pins on the signal of PIN that end with SUFFIX and pass KEEP.
@@ -153,7 +152,8 @@ Gain gain_of(const HalWiring& w, const IniDocument& ini, const std::string& pin)
   if (word.size() > 3 && word.front() == '[') {
     const std::size_t close = word.find(']');
     std::string key = close == std::string::npos ? "" : word.substr(close + 1);
-    if (key.size() > 2 && key.front() == '(' && key.back() == ')') key = key.substr(1, key.size() - 2);
+    if (key.size() > 2 && key.front() == '(' && key.back() == ')')
+      key = key.substr(1, key.size() - 2);
     const bool plain = !key.empty() && std::all_of(key.begin(), key.end(), [](char c) {
       return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
     });
@@ -246,9 +246,9 @@ void write_gain(const JointServo& js, const Gain& g, const std::string& pin, dou
     next.replace(g.value_begin - line_begin, g.value_end - g.value_begin, number_text(value));
     const std::size_t at = text.find(line);
     if (at == std::string::npos || text.find(line, at + 1) != std::string::npos) {
-      throw DataError(g.place.file, g.place.line,
-                      fmt::format("cannot place the edit of setp {} uniquely: set it by hand",
-                                  pin));
+      throw DataError(
+          g.place.file, g.place.line,
+          fmt::format("cannot place the edit of setp {} uniquely: set it by hand", pin));
     }
     text.replace(at, line.size(), next);
     return;
@@ -279,8 +279,8 @@ void write_gain(const JointServo& js, const Gain& g, const std::string& pin, dou
 void stepgen_checks(const HalWiring& w, const IniDocument& ini, char axis, int joint,
                     const Loop& loop, Plan& plan) {
   const std::string section = fmt::format("JOINT_{}", joint);
-  const bool compensated = ini_number(ini, section, "BACKLASH", 0.0) != 0.0 ||
-                           ini.get(section, "COMP_FILE").has_value();
+  const bool compensated =
+      ini_number(ini, section, "BACKLASH", 0.0) != 0.0 || ini.get(section, "COMP_FILE").has_value();
   const double need = compensated ? 2.0 : 1.0;
   std::vector<std::string> problems;
   struct Limit {
@@ -302,9 +302,9 @@ void stepgen_checks(const HalWiring& w, const IniDocument& ini, char axis, int j
     // 0 (or no setp): the stepgen does not limit; no joint limit: nothing to compare.
     if (g.kind == Gain::Kind::unset || g.value <= 0.0 || joint_limit <= 0.0) continue;
     if (g.value >= need * joint_limit) continue;
-    const std::string name =
-        g.kind == Gain::Kind::ini_key ? fmt::format("[{}] {}", g.section, g.key)
-                                      : fmt::format("{} ({}:{})", pin, g.place.file, g.place.line);
+    const std::string name = g.kind == Gain::Kind::ini_key
+                                 ? fmt::format("[{}] {}", g.section, g.key)
+                                 : fmt::format("{} ({}:{})", pin, g.place.file, g.place.line);
     problems.push_back(fmt::format(
         "{} {} is {:.2f}x [{}] {} {}: {}", name, number_text(g.value), g.value / joint_limit,
         section, l.joint_key, number_text(joint_limit),
@@ -376,9 +376,10 @@ std::string propose(std::vector<JointServo>& joints, double period_s, const Plan
     }
     const double kv = p / js.c;
     if (kv * period_s > kMaxGainTimesPeriod) {
-      return fmt::format("joint {} would need P {}, a position gain of {:.1f} 1/s: more than "
-                         "{} / the servo period ({} s) allows",
-                         js.joint, number_text(p), kv, kMaxGainTimesPeriod, period_s);
+      return fmt::format(
+          "joint {} would need P {}, a position gain of {:.1f} 1/s: more than "
+          "{} / the servo period ({} s) allows",
+          js.joint, number_text(p), kv, kMaxGainTimesPeriod, period_s);
     }
     if (ff1 > kMaxFf1) {
       return fmt::format("joint {} would need FF1 {}, above {}", js.joint, number_text(ff1),
@@ -476,10 +477,10 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
   const double period_s = ini_number(ini, "EMCMOT", "SERVO_PERIOD", 1e6) * 1e-9;
   const std::string why = propose(joints, period_s, o);
   if (!why.empty()) {
-    plan.advice.push_back(fmt::format(
-        "servo: FF1 and P within their bounds cannot match the lags ({}): tune by hand "
-        "(docs/compensation.md, Servo)",
-        why));
+    plan.advice.push_back(
+        fmt::format("servo: FF1 and P within their bounds cannot match the lags ({}): tune by hand "
+                    "(docs/compensation.md, Servo)",
+                    why));
     return true;
   }
   bool any = false;
@@ -499,8 +500,8 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
     }
     write_gain(js, js.ff1, js.pid + ".FF1", js.ff1_new, js.p, ini, files);
     plan.changes.push_back(fmt::format(
-        "{} servo (joint {}, {}): FF1 {} -> {} at {}{}; lag {:.2f} -> {:.2f} ms", js.axis,
-        js.joint, js.pid, number_text(js.ff1.value), number_text(js.ff1_new),
+        "{} servo (joint {}, {}): FF1 {} -> {} at {}{}; lag {:.2f} -> {:.2f} ms", js.axis, js.joint,
+        js.pid, number_text(js.ff1.value), number_text(js.ff1_new),
         gain_where(js.ff1, js.pid + ".FF1", js.joint, js.p.place),
         std::abs(js.p_new - js.p.value) > 1e-9 * js.p.value
             ? fmt::format(", P {} -> {} at {}", number_text(js.p.value), number_text(js.p_new),

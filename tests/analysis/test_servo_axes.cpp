@@ -145,7 +145,8 @@ TEST(ServoAxes, FromInstrumentFeedSweep) {
   ASSERT_EQ(d.servo_share.size(), 3u);
   const double dtau_s = 1.0 / 28.0 - 1.0 / 34.0;
   for (const ServoShare& sh : d.servo_share) {
-    EXPECT_NEAR(sh.g_mm, sh.feed_mm_per_min / 60.0 * dtau_s, 0.05 * sh.feed_mm_per_min / 60 * dtau_s);
+    EXPECT_NEAR(sh.g_mm, sh.feed_mm_per_min / 60.0 * dtau_s,
+                0.05 * sh.feed_mm_per_min / 60 * dtau_s);
     ASSERT_TRUE(sh.percent);
     EXPECT_GT(*sh.percent, 10.0);
     EXPECT_LE(*sh.percent, 110.0);

@@ -2,9 +2,9 @@
 // fit over the part of the circle where the axis moves at speed), its effective position gain,
 // the lag mismatch and the part of G the mismatch ellipse makes at each feed
 // (docs/diagnosis.md, "Servo per axis").
+#include <fmt/format.h>
 #include <Eigen/Dense>
 #include <cmath>
-#include <fmt/format.h>
 
 #include "circtest/core/trace_keys.hpp"
 #include "stages.hpp"

@@ -79,9 +79,9 @@ struct AxisLag {
 // What the lag mismatch makes of the circle at one feed.
 struct ServoShare {
   double feed_mm_per_min = 0.0;
-  double g_mm = 0.0;                     // G of the mismatch ellipse alone: v |lag_A - lag_B|
-  std::optional<double> measured_g_mm;   // the largest G of the runs at this feed
-  std::optional<double> percent;         // g_mm / measured_g_mm * 100
+  double g_mm = 0.0;                    // G of the mismatch ellipse alone: v |lag_A - lag_B|
+  std::optional<double> measured_g_mm;  // the largest G of the runs at this feed
+  std::optional<double> percent;        // g_mm / measured_g_mm * 100
 };
 
 struct Diagnosis {
@@ -106,10 +106,10 @@ struct Diagnosis {
   Estimate servo_mismatch_ms;   // lag time of A minus lag time of B
   std::vector<FeedRadius> radius_change;
   Estimate kv_per_s;
-  std::string kv_source;  // "feeds", "lag" or empty
-  Estimate lag_ms;        // mean following lag of the axes (commanded columns)
-  std::array<AxisLag, 2> axis_lag;  // per axis (diagnosis/servo_axes.cpp)
-  Estimate axis_lag_mismatch_ms;    // axis_lag A minus B
+  std::string kv_source;                // "feeds", "lag" or empty
+  Estimate lag_ms;                      // mean following lag of the axes (commanded columns)
+  std::array<AxisLag, 2> axis_lag;      // per axis (diagnosis/servo_axes.cpp)
+  Estimate axis_lag_mismatch_ms;        // axis_lag A minus B
   std::vector<ServoShare> servo_share;  // per feed group
   std::array<std::optional<CyclicEstimate>, 2> cyclic;
   std::array<Estimate, 2> centre_offset_mm;  // from the nominal centre (set-up, nuisance)
