@@ -106,11 +106,14 @@ struct Diagnosis {
   Estimate servo_mismatch_ms;   // lag time of A minus lag time of B
   std::vector<FeedRadius> radius_change;
   Estimate kv_per_s;
-  std::string kv_source;                // "feeds", "lag" or empty
-  Estimate lag_ms;                      // mean following lag of the axes (commanded columns)
-  std::array<AxisLag, 2> axis_lag;      // per axis (diagnosis/servo_axes.cpp)
-  Estimate axis_lag_mismatch_ms;        // axis_lag A minus B
-  std::vector<ServoShare> servo_share;  // per feed group
+  std::string kv_source;  // "feeds", "lag" or empty
+  Estimate lag_ms;        // mean following lag of the axes (commanded columns)
+
+  // The servo per axis (diagnosis/servo_axes.cpp): lag and gain, A minus B, per feed.
+  std::array<AxisLag, 2> axis_lag;
+  Estimate axis_lag_mismatch_ms;
+  std::vector<ServoShare> servo_share;
+
   std::array<std::optional<CyclicEstimate>, 2> cyclic;
   std::array<Estimate, 2> centre_offset_mm;  // from the nominal centre (set-up, nuisance)
 
