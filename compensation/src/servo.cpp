@@ -35,7 +35,6 @@ constexpr double kMaxPFactor = 2.0;
 constexpr double kMaxGainTimesPeriod = 0.25;
 // Below these there is nothing worth changing.
 constexpr double kMinFf1Change = 0.005;
-constexpr double kMinLagMs = 0.0;
 
 using Files = std::map<std::string, std::pair<bool, std::string>>;  // path -> (existed, after)
 
@@ -360,7 +359,7 @@ std::string propose(std::vector<JointServo>& joints, double period_s, const Plan
   // A joint that would need FF1 < 0: the target comes down to its lag, and the slow joints
   // reach it with a higher P.
   for (const auto& js : joints) target = std::min(target, js.c / js.p.value);
-  if (!(target >= kMinLagMs * 1e-3)) target = 0.0;
+  target = std::max(target, 0.0);  // a joint that leads already: no lead asked of the others
   for (auto& js : joints) {
     double p = js.p.value;
     double ff1 = js.c - p * target;
