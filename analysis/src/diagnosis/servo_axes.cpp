@@ -123,9 +123,10 @@ void lags_from_columns(DiagnosisState& ds) {
       if (f.lag_s) al.source = "instrument";
     }
     if (!f.lag_s) continue;
-    // As measure_following_lag: the command and the position it leads to are sampled in the
-    // same period, half a sample inside the continuous loop's lag.
-    const double lag_s = *f.lag_s + ds.period / 2.0;
+    // The following error over velocity as the trace logs it (what joint.N.f-error over
+    // joint.N.vel-cmd shows): LinuxCNC's pid with error-previous-target follows a P-only loop's
+    // 1 / P exactly so, and circcomp works with differences of it.
+    const double lag_s = *f.lag_s;
     al.lag_ms.value = lag_s * 1e3;
     al.lag_ms.standard_error = *f.se_s * 1e3;
     if (lag_s > 0) al.kv_per_s = 1.0 / lag_s;
