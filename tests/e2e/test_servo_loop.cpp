@@ -150,9 +150,12 @@ TEST_F(ServoLoop, StepperGetsTheStepgenChecksAndNoFf1) {
                      "MAX_ACCELERATION 500.0: with backlash compensation the stepgen needs 2.0x"),
             std::string::npos)
       << out;
-  EXPECT_EQ(out.find("FF1"), std::string::npos) << out;
-  // Servo alone: the stepper note, nothing to write.
+  EXPECT_NE(out.find("no FF1 or P proposed"), std::string::npos) << out;
+  EXPECT_EQ(out.find("servo (joint"), std::string::npos) << "no FF1 change:\n" << out;
+  EXPECT_EQ(out.find("FF1 ="), std::string::npos) << "no FF1 key written:\n" << out;
+  // Servo alone (no backlash compensation planned): the stepper note, nothing to write.
   ASSERT_EQ(circcomp("plan", "before", "--only servo", out), 0) << out;
   EXPECT_NE(out.find("stepgen limits checked, fine"), std::string::npos) << out;
-  EXPECT_EQ(out.find("FF1"), std::string::npos) << out;
+  EXPECT_EQ(out.find("# advice:"), std::string::npos) << out;
+  EXPECT_EQ(out.find("+++"), std::string::npos) << "nothing written:\n" << out;
 }
