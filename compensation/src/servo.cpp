@@ -35,6 +35,8 @@ constexpr double kMaxPFactor = 2.0;
 constexpr double kMaxGainTimesPeriod = 0.25;
 // Below these there is nothing worth changing.
 constexpr double kMinFf1Change = 0.005;
+// A following lag beyond this is no servo loop's (1 / P of P = 0.1 1/s): implausible.
+constexpr double kMaxLagMs = 10000.0;
 
 using Files = std::map<std::string, std::pair<bool, std::string>>;  // path -> (existed, after)
 
@@ -368,6 +370,9 @@ std::string propose(std::vector<JointServo>& joints, double period_s, const Plan
       ff1 = kPreferredFf1;
     }
     ff1 = std::max(ff1, 0.0);
+    if (!std::isfinite(p) || !std::isfinite(ff1)) {
+      return fmt::format("joint {}: no finite FF1 and P reach the common lag", js.joint);
+    }
     if (p > kMaxPFactor * js.p.value || p < kMinPFactor * js.p.value) {
       return fmt::format("joint {} would need P {} ({:.2f}x of {}), outside {}x..{}x", js.joint,
                          number_text(p), p / js.p.value, number_text(js.p.value), kMinPFactor,
@@ -449,6 +454,12 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
             "sweep): no FF1 proposed",
             d.axes[k], d.axes[k]));
         return false;
+      }
+      if (!(std::abs(*lag.value) <= kMaxLagMs)) {
+        throw DataError(d.source, 0,
+                        fmt::format("{} servo lag = {:g} ms is implausible (more than {:g} ms); "
+                                    "check the measurement",
+                                    d.axes[k], *lag.value, kMaxLagMs));
       }
       if (lag.standard_error && *lag.standard_error * 10.0 > std::abs(*lag.value)) {
         plan.notes.push_back(fmt::format(

@@ -294,6 +294,21 @@ TEST(Servo, FerrorBelowTheNewFollowingErrorIsRefused) {
                    ": [JOINT_0] FERROR 5.0 (MIN_FERROR 0.5): the proposed lag of 32.26 ms");
 }
 
+TEST(Servo, ImplausibleLagIsRefusedAndNothingNonFiniteIsWritten) {
+  Config c("pncconf-servo");
+  EXPECT_ERROR(make_plan(c.ini, lags(1e300, 32.5), PlanOptions{}), ExitCode::data,
+               "d.json: X servo lag = ");
+  EXPECT_ERROR(make_plan(c.ini, lags(33.0, 2e4), PlanOptions{}), ExitCode::data,
+               "Y servo lag = 20000 ms is implausible (more than 10000 ms)");
+  // A lag within the bound but a P of 1e-300: whatever comes out is finite or advice.
+  c.edit("pncconf-servo.ini", "P = 30.0", "P = 1e-300");
+  const Plan plan = make_plan(c.ini, lags(9000.0, 32.5), servo_only());
+  for (const auto& f : plan.files) {
+    EXPECT_EQ(f.after.find("nan"), std::string::npos) << f.after;
+    EXPECT_EQ(f.after.find("inf"), std::string::npos) << f.after;
+  }
+}
+
 TEST(Servo, NoPerAxisLagKeepsTheMismatchAdvice) {
   Config c("pncconf-servo");
   DiagnosisInput d = lags(std::nullopt, std::nullopt);
