@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <optional>
+#include <set>
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/plot.hpp"
@@ -11,12 +12,14 @@
 #include "circtest/analysis/remedy.hpp"
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_checks.hpp"
+#include "circtest/analysis/test_set.hpp"
 #include "circtest/circana/history_record.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/json_text.hpp"
+#include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -175,18 +178,11 @@ std::optional<RadialPositions> radial_set_up(const Trace& read, bool forced,
 }
 }  // namespace
 
-EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& asked,
+namespace {
+
+// One plane's trace evaluated: units, a ball bar's positions, the evaluation, finite results.
+EvaluatedTrace evaluate_read(const std::string& path, Trace read, const EvaluationOptions& given,
                              bool radial_forced) {
-  EvaluationOptions given = asked;
-  given.input_checks.remedy_words = circana_option_words;
-  TraceReadOptions ro;
-  ro.keep_for = analysis_columns(given);
-  // Columns asked for by name must exist; the reader's message lists every column found.
-  for (const std::string* c : {&given.column_a, &given.column_b}) {
-    if (!c->empty()) ro.required.push_back(*c);
-  }
-  Trace read = read_trace(path, ro);
-  require_utf8_metadata(read.metadata, path);
   return naming_file(path, [&] {
     // An inch program's trace: positions in mm or in inch, decided before anything is fitted.
     const std::optional<std::string> units = resolve_units(
@@ -209,14 +205,168 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& a
   });
 }
 
+// The planes' names joined: "XY,YZ,ZX".
+std::string plane_names(const std::vector<EvaluatedTrace>& planes) {
+  std::string s;
+  for (const EvaluatedTrace& p : planes) {
+    s += (s.empty() ? "" : ",") + std::string(plane_name(p.evaluation.plane));
+  }
+  return s;
+}
+
+// PATH with the plane before its extension: plot.svg -> plot-XY.svg.
+std::string plane_path(const std::string& path, Plane plane) {
+  const std::filesystem::path p(path);
+  std::filesystem::path out = p;
+  out.replace_filename(p.stem().string() + "-" + std::string(plane_name(plane)) +
+                       p.extension().string());
+  return out.string();
+}
+
+// Writes a set's plots (path, SVG); every path is checked before the first is written, so
+// that a plot path that is a folder or a device leaves no plot of the set behind.
+void write_plane_plots(const std::vector<std::pair<std::string, std::string>>& plots) {
+  for (const auto& plot : plots) checked_output_target(plot.first);
+  for (const auto& [path, svg] : plots) write_file_atomic(path, svg);
+}
+
+}  // namespace
+
+std::vector<EvaluatedTrace> evaluate_file_planes(const std::string& path,
+                                                 const EvaluationOptions& asked,
+                                                 bool radial_forced) {
+  EvaluationOptions given = asked;
+  given.input_checks.remedy_words = circana_option_words;
+  TraceReadOptions ro;
+  ro.keep_for = analysis_columns(given);
+  // Columns asked for by name must exist; the reader's message lists every column found.
+  for (const std::string* c : {&given.column_a, &given.column_b}) {
+    if (!c->empty()) ro.required.push_back(*c);
+  }
+  Trace read = read_trace(path, ro);
+  require_utf8_metadata(read.metadata, path);
+  const std::optional<std::vector<Plane>> set =
+      naming_file(path, [&] { return test_set_planes(read); });
+  std::vector<EvaluatedTrace> out;
+  if (!set) {
+    out.push_back(evaluate_read(path, std::move(read), given, radial_forced));
+    return out;
+  }
+  std::vector<PlaneTrace> planes = naming_file(path, [&] { return split_test_set(read, *set); });
+  read = Trace();  // the planes hold copies of their rows
+  if (given.plane) {
+    const auto it = std::find_if(planes.begin(), planes.end(),
+                                 [&](const PlaneTrace& p) { return p.plane == *given.plane; });
+    if (it == planes.end()) {
+      std::string names;
+      for (const PlaneTrace& p : planes)
+        names += (names.empty() ? "" : ",") + std::string(plane_name(p.plane));
+      throw DataError(path, 0,
+                      fmt::format("--plane {}: not a plane of this test set (planes {})",
+                                  plane_name(*given.plane), names));
+    }
+    out.push_back(evaluate_read(path, std::move(it->trace), given, radial_forced));
+    return out;
+  }
+  for (PlaneTrace& p : planes) {
+    EvaluationOptions options = given;
+    options.plane = p.plane;
+    out.push_back(evaluate_read(path, std::move(p.trace), options, radial_forced));
+  }
+  return out;
+}
+
+EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& asked,
+                             bool radial_forced) {
+  std::vector<EvaluatedTrace> planes = evaluate_file_planes(path, asked, radial_forced);
+  if (planes.size() > 1) {
+    throw DataError(path, 0,
+                    fmt::format("a test set of the planes {}: this command reads one plane; "
+                                "give --plane with one of them (circana analyze and diagnose "
+                                "read the whole set)",
+                                plane_names(planes)));
+  }
+  return std::move(planes.front());
+}
+
+namespace {
+
+// circana analyze of a test set: each plane's report in program order, its plot per plane.
+int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>& planes,
+                std::optional<ProgressTicker>& progress, std::ostream& out) {
+  if (!request.compare_path.empty()) {
+    throw UsageError(
+        fmt::format("--compare: {} is a test set ({}): compare one plane, chosen "
+                    "with --plane",
+                    request.trace_path, plane_names(planes)));
+  }
+  std::string text;
+  nlohmann::ordered_json doc;
+  if (request.json) {
+    doc["test_set"] = nlohmann::ordered_json::array();
+    doc["planes"] = nlohmann::ordered_json::array();
+  } else {
+    text = fmt::format("Test set {}: planes {}\n", request.trace_path, plane_names(planes));
+  }
+  std::vector<std::pair<std::string, std::string>> plots;
+  for (const EvaluatedTrace& p : planes) {
+    const Plane plane = p.evaluation.plane;
+    std::optional<Diagnosis> diagnosis;
+    std::string diagnosis_error;
+    if (!request.json || !request.svg_path.empty()) {
+      try {
+        diagnosis =
+            naming_file(request.trace_path, [&] { return diagnose(p.trace, p.evaluation); });
+      } catch (const Error& e) {
+        diagnosis_error = e.what();
+      }
+    }
+    if (request.json) {
+      doc["test_set"].push_back(std::string(plane_name(plane)));
+      doc["planes"].push_back(to_json(p.evaluation));
+    } else {
+      text += fmt::format("\n=== Plane {} ===\n", plane_name(plane)) + text_report(p.evaluation);
+      text += diagnosis ? short_text_report(*diagnosis)
+                        : std::string("\nDiagnosis: not available (") + diagnosis_error + ")\n";
+    }
+    if (!request.svg_path.empty()) {
+      PlotOptions plot = request.plot;
+      if (diagnosis) plot.diagnosis = &*diagnosis;
+      plots.emplace_back(plane_path(request.svg_path, plane),
+                         svg_plot(p.evaluation, p.trace, plot));
+    }
+  }
+  write_plane_plots(plots);
+  if (request.store) {
+    for (const EvaluatedTrace& p : planes) {
+      const std::string stored = store_result(p.evaluation, nullptr, request.trace_path,
+                                              request.db_url, request.trace_path);
+      if (!request.json) text += "\n" + stored;
+    }
+  }
+  progress.reset();
+  out << (request.json ? json_text(doc, 2) + "\n" : text);
+  out.flush();
+  return 0;
+}
+
+}  // namespace
+
 int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   if (!request.compare_path.empty() && request.svg_path.empty()) {
     throw UsageError("--compare: draws into the plot, so it needs --svg");
   }
-  const EvaluatedTrace evaluated =
-      evaluate_file(request.trace_path, request.options, request.radial);
+  // A status line on a terminal while a large trace is read and fitted; gone before the
+  // report is printed.
+  std::optional<ProgressTicker> progress(std::in_place, "circana analyze");
+  progress->stage("reading and evaluating " + request.trace_path);
+  const std::vector<EvaluatedTrace> planes =
+      evaluate_file_planes(request.trace_path, request.options, request.radial);
+  if (planes.size() > 1) return analyze_set(request, planes, progress, out);
+  const EvaluatedTrace& evaluated = planes.front();
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
+  progress->stage("diagnosing " + request.trace_path);
   std::string text = request.json ? json_text(to_json(ev), 2) + "\n" : text_report(ev);
   // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
   // still gets its H, G and F.
@@ -249,14 +399,16 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
         store_result(ev, nullptr, request.trace_path, request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
+  progress.reset();
   out << text;
   out.flush();
   return 0;
 }
 
-int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
-  const EvaluatedTrace evaluated =
-      evaluate_file(request.trace_path, request.options.evaluation, request.radial);
+namespace {
+
+// The diagnosis of one evaluated plane, with the notes on what was evaluated leading.
+Diagnosis diagnose_plane(const DiagnoseRequest& request, const EvaluatedTrace& evaluated) {
   DiagnosisOptions options = request.options;
   // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
@@ -268,6 +420,50 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
       (evaluated.radial ? 1u : 0u) + (!en.empty() && en.front().starts_with("units: ") ? 1u : 0u);
   d.notes.insert(d.notes.begin(), en.begin(),
                  en.begin() + static_cast<std::ptrdiff_t>(std::min(lead, en.size())));
+  return d;
+}
+
+int diagnose_set_command(const DiagnoseRequest& request, const std::vector<EvaluatedTrace>& planes,
+                         std::optional<ProgressTicker>& progress, std::ostream& out) {
+  std::vector<Diagnosis> diagnoses;
+  for (const EvaluatedTrace& p : planes) diagnoses.push_back(diagnose_plane(request, p));
+  const SetDiagnosis set = join_set_diagnoses(request.trace_path, std::move(diagnoses));
+  if (!request.svg_path.empty()) {
+    std::vector<std::pair<std::string, std::string>> plots;
+    for (std::size_t k = 0; k < planes.size(); ++k) {
+      PlotOptions plot = request.plot;
+      plot.diagnosis = &set.plane_diagnoses[k];
+      plots.emplace_back(plane_path(request.svg_path, planes[k].evaluation.plane),
+                         svg_plot(planes[k].evaluation, planes[k].trace, plot));
+    }
+    write_plane_plots(plots);
+  }
+  std::string text = request.json ? json_text(to_json(set), 2) + "\n" : text_report(set);
+  if (request.store) {
+    for (std::size_t k = 0; k < planes.size(); ++k) {
+      const std::string stored =
+          store_result(planes[k].evaluation, &set.plane_diagnoses[k], request.trace_path,
+                       request.db_url, request.trace_path);
+      if (!request.json) text += "\n" + stored;
+    }
+  }
+  progress.reset();
+  out << text;
+  out.flush();
+  return 0;
+}
+
+}  // namespace
+
+int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
+  std::optional<ProgressTicker> progress(std::in_place, "circana diagnose");
+  progress->stage("reading and evaluating " + request.trace_path);
+  const std::vector<EvaluatedTrace> planes =
+      evaluate_file_planes(request.trace_path, request.options.evaluation, request.radial);
+  progress->stage("diagnosing " + request.trace_path);
+  if (planes.size() > 1) return diagnose_set_command(request, planes, progress, out);
+  const EvaluatedTrace& evaluated = planes.front();
+  Diagnosis d = diagnose_plane(request, evaluated);
   if (!request.svg_path.empty()) {
     PlotOptions plot = request.plot;
     plot.diagnosis = &d;
@@ -279,6 +475,7 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
                                             request.db_url, request.trace_path);
     if (!request.json) text += "\n" + stored;
   }
+  progress.reset();
   out << text;
   out.flush();
   return 0;
@@ -336,8 +533,14 @@ int run_store(const StoreRequest& request, std::ostream& out) {
     return 0;
   }
   // A trace: evaluated and stored as analyze --store does (no diagnosis: diagnose --store).
+  std::optional<ProgressTicker> progress(std::in_place, "circana store");
+  progress->stage("reading and evaluating " + request.path);
   const EvaluatedTrace evaluated = evaluate_file(request.path, request.options, request.radial);
-  out << store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
+  progress->stage("storing " + request.path);
+  std::string stored =
+      store_result(evaluated.evaluation, nullptr, request.path, request.db_url, request.path);
+  progress.reset();
+  out << stored;
   out.flush();
   return 0;
 }
@@ -405,21 +608,57 @@ int run_fit(const FitRequest& request, std::ostream& out) {
   return 0;
 }
 
-int run_import_polar(const ImportPolarRequest& request, std::ostream& out) {
-  if (!(request.radius_mm > 0.0) || !(request.radius_mm <= kMaxOptionLengthMm)) {
+namespace {
+
+// An output that is the input would be replaced by what was read from it.
+void refuse_output_over_input(const std::string& input, const std::string& output) {
+  std::error_code ec;
+  if (std::filesystem::equivalent(input, output, ec)) {
     throw UsageError(
-        fmt::format("--radius: expected a radius in mm above 0 and at most {:g}, "
-                    "got {:g}",
-                    kMaxOptionLengthMm, request.radius_mm));
+        fmt::format("-o {}: the same file as the input {}: name another output", output, input));
   }
-  const std::vector<PolarPoint> points = parse_polar_text(
-      read_input_text(request.input_path, kMaxPolarExportBytes), request.input_path);
-  const Trace trace = polar_to_trace(points, request.plane, request.radius_mm, request.input_path);
+}
+
+}  // namespace
+
+int run_import(const ImportRequest& request, std::ostream& out) {
+  refuse_output_over_input(request.input_path, request.output_path);
+  std::optional<ProgressTicker> progress(std::in_place, "circana import");
+  progress->stage("reading " + request.input_path);
+  const Trace trace = import_export_text(read_input_text(request.input_path, kMaxPolarExportBytes),
+                                         request.input_path, request.options);
+  progress->stage("writing " + request.output_path);
   write_trace(request.output_path, trace);
-  // polar_to_trace numbers the runs 1, 2, ... itself, so the last id is a small whole number.
-  const auto runs = trace.values[4].empty() ? 0.0 : trace.values[4].back();
-  out << fmt::format("{}: {} points, {} run(s) -> {}\n", request.input_path, points.size(), runs,
+  progress.reset();
+  // The segment column holds whole run ids from 1 (checked on reading), so this is exact.
+  std::set<double> runs;
+  if (const auto* segment = trace.column(column_name::segment)) {
+    runs.insert(segment->begin(), segment->end());
+  }
+  out << fmt::format("{}: {} rows, {} -> {}\n", request.input_path, trace.rows(),
+                     runs.empty() ? std::string("runs found by the analysis")
+                                  : fmt::format("{} run(s)", runs.size()),
                      request.output_path);
+  out.flush();
+  return 0;
+}
+
+int run_export_polar(const ExportPolarRequest& request, std::ostream& out) {
+  refuse_output_over_input(request.trace_path, request.output_path);
+  std::optional<ProgressTicker> progress(std::in_place, "circana export-polar");
+  progress->stage("reading and evaluating " + request.trace_path);
+  EvaluatedTrace evaluated = evaluate_file(request.trace_path, request.options, request.radial);
+  // Conditions stated on the command line are the test's, as in analyze's report.
+  for (const auto& [key, value] : request.options.conditions) {
+    evaluated.trace.metadata.set(key, value);
+  }
+  progress->stage("writing " + request.output_path);
+  write_file_atomic(request.output_path, polar_export_text(evaluated.trace, evaluated.evaluation));
+  progress.reset();
+  std::size_t points = 0;
+  for (const RunResult& r : evaluated.evaluation.runs) points += r.run.size();
+  out << fmt::format("{}: {} run(s), {} points -> {}\n", request.trace_path,
+                     evaluated.evaluation.runs.size(), points, request.output_path);
   out.flush();
   return 0;
 }

@@ -62,6 +62,25 @@ void require_usable_numbers(const history::TestRecord& r, const std::string& sou
 }
 }  // namespace
 
+void add_measures(const Evaluation& ev, history::TestRecord& r) {
+  for (const auto& h : ev.hysteresis) {
+    const RunResult& ccw = ev.runs[h.run_ccw];
+    r.measures.push_back({"H", ccw.label, "CCW/CW", ccw.feed_mm_per_min, h.h_mm});
+    keep_max(r.h_mm, h.h_mm);
+  }
+  for (const auto& run : ev.runs) {
+    const std::string dir(direction_name(run.run.direction));
+    const double g = run.g_mm(ev.g_method);
+    r.measures.push_back({"G", run.label, dir, run.feed_mm_per_min, g});
+    keep_max(r.g_mm, g);
+    for (const auto& [kind, f] : {std::pair{"F_max", run.f_max_mm}, {"F_min", run.f_min_mm}}) {
+      if (!f) continue;
+      r.measures.push_back({kind, run.label, dir, run.feed_mm_per_min, *f});
+      keep_max(r.f_mm, std::abs(*f));
+    }
+  }
+}
+
 history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagnosis,
                                    const std::string& machine, RemedyWords words,
                                    const std::string& source) {
@@ -85,22 +104,7 @@ history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagno
   r.conditions = r.result.value("conditions", nlohmann::json::object());
   r.conditions[meta_key::machine] = r.machine;
   r.result["conditions"] = r.conditions;
-  for (const auto& h : ev.hysteresis) {
-    const RunResult& ccw = ev.runs[h.run_ccw];
-    r.measures.push_back({"H", ccw.label, "CCW/CW", ccw.feed_mm_per_min, h.h_mm});
-    keep_max(r.h_mm, h.h_mm);
-  }
-  for (const auto& run : ev.runs) {
-    const std::string dir(direction_name(run.run.direction));
-    const double g = run.g_mm(ev.g_method);
-    r.measures.push_back({"G", run.label, dir, run.feed_mm_per_min, g});
-    keep_max(r.g_mm, g);
-    for (const auto& [kind, f] : {std::pair{"F_max", run.f_max_mm}, {"F_min", run.f_min_mm}}) {
-      if (!f) continue;
-      r.measures.push_back({kind, run.label, dir, run.feed_mm_per_min, *f});
-      keep_max(r.f_mm, std::abs(*f));
-    }
-  }
+  add_measures(ev, r);
   if (diagnosis) {
     r.diagnosis = plain(to_json(*diagnosis), file);
     for (const Estimate& b : diagnosis->backlash_mm) {

@@ -16,6 +16,8 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/sha256.hpp"
+#include "circtest/core/utc_time.hpp"
 #include "circtest/core/version.hpp"
 
 namespace po = boost::program_options;
@@ -37,9 +39,14 @@ const char* kUsage =
     "                        [--store [--db URL]]\n"
     "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
     "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
-    "                      [--db URL]\n"
+    "                      [--db URL] [--limits H=MM,... | --limits-file FILE]\n"
+    "                      [--changes PLAN.json] [--tested-by NAME] [--accepted-by NAME]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
-    "       circana import-polar EXPORT.txt --radius MM -o TRACE.csv [--plane XY|YZ|ZX]\n"
+    "       circana import EXPORT.txt -o TRACE.csv [--columns angle_deg,dev_um|t_s,x_mm,y_mm|...]\n"
+    "                      [--radius MM] [--plane XY|YZ|ZX] [--feed MM_PER_MIN]\n"
+    "                      [--direction ccw|cw] [--date YYYY-MM-DD[THH:MM[:SS]Z]] [--ini INI]\n"
+    "                      [--instrument TEXT]        (import-polar: the same)\n"
+    "       circana export-polar TRACE -o EXPORT.txt [the analyze options]\n"
     "       circana store RESULT.json|TRACE [--db URL] [the analyze options]\n"
     "       circana history --machine NAME [--since DATE] [--json] [--svg TREND.svg]\n"
     "                       [--limits H=MM,G=MM,F=MM,backlash=MM,squareness=URAD] [--db URL]\n";
@@ -66,7 +73,7 @@ void answer_info(const po::options_description& desc, const std::vector<std::str
 // value goes into a JSON document, a plot or the history, so it must be UTF-8 text.
 bool names_a_file(const std::string& option) {
   static const char* const kFileOptions[] = {"trace",   "before", "diagnosis", "output", "svg",
-                                             "compare", "db",     "input",     "points"};
+                                             "compare", "db",     "input",     "points", "ini"};
   return std::find(std::begin(kFileOptions), std::end(kFileOptions), option) !=
          std::end(kFileOptions);
 }
@@ -349,7 +356,12 @@ int report(const std::vector<std::string>& args) {
             "an earlier test of a plane, overlaid (also the second argument)")(
             "diagnosis", po::value<std::vector<std::string>>(),
             "a plane's diagnosis (circana diagnose --json) instead of diagnosing here")(
-            "db", po::value<std::string>(), "the trend from this history (SQLite file or URL)");
+            "db", po::value<std::string>(), "the trend from this history (SQLite file or URL)")(
+            "limits", po::value<std::string>(), "H=MM,G=MM,...: the verdict's limits")(
+            "limits-file", po::value<std::string>(), "the verdict's limits from a file")(
+            "changes", po::value<std::string>(), "what was changed (circcomp plan --json)")(
+            "tested-by", po::value<std::string>(), "the name for the signature block")(
+            "accepted-by", po::value<std::string>(), "the customer's name for the signature");
       },
       true);
   if (p.request.json) throw UsageError("--json: not for circana report (it writes HTML)");
@@ -364,6 +376,14 @@ int report(const std::vector<std::string>& args) {
   req.plot = p.request.plot;
   req.output_path = p.vm["output"].as<std::string>();
   if (p.vm.count("db")) req.db_url = p.vm["db"].as<std::string>();
+  auto text = [&p](const char* name) {
+    return p.vm.count(name) ? p.vm[name].as<std::string>() : std::string();
+  };
+  req.limits = text("limits");
+  req.limits_file = text("limits-file");
+  req.changes_path = text("changes");
+  req.tested_by = text("tested-by");
+  req.accepted_by = text("accepted-by");
   return run_report(req, std::cout);
 }
 
@@ -382,25 +402,85 @@ int fit(const std::vector<std::string>& args) {
   return run_fit(req, std::cout);
 }
 
-int import_polar(const std::vector<std::string>& args) {
-  po::options_description desc("import-polar");
-  desc.add_options()("input", po::value<std::string>()->required(), "polar export")(
+int import_export(const std::vector<std::string>& args) {
+  po::options_description desc("import");
+  desc.add_options()("input", po::value<std::string>()->required(), "the instrument's export")(
       "output,o", po::value<std::string>()->required(), "trace to write")(
-      "radius", po::value<std::string>()->required(), "nominal radius, mm")(
-      "plane", po::value<std::string>()->default_value("XY"), "XY, YZ or ZX");
+      "columns", po::value<std::string>()->value_name("LIST"),
+      "what each column holds, in its unit: angle_deg|angle_rad, dev_um|dev_mm|dev_nm, "
+      "ccw_um, cw_um, run, t_s|t_ms, x_mm|x_um (the plane's axes), skip; default: the title "
+      "row, else angle_deg,dev_um")("radius", po::value<std::string>(),
+                                    "nominal radius, mm (a polar export's deviations)")(
+      "plane", po::value<std::string>(), "XY, YZ or ZX (default: the export's, else XY)")(
+      "feed", po::value<std::string>()->value_name("MM_PER_MIN"), "the programmed feed")(
+      "direction", po::value<std::string>(), "ccw or cw: a polar export of one run")(
+      "date", po::value<std::string>(), "when the test ran (ISO 8601, UTC unless given)")(
+      "ini", po::value<std::string>(), "the machine's INI the test ran with (its SHA-256 is kept)")(
+      "instrument", po::value<std::string>(), "what measured it");
   po::positional_options_description pos;
   pos.add("input", 1);
   const auto vm = parse(desc, pos, args);
-  ImportPolarRequest req;
+  ImportRequest req;
   req.input_path = vm["input"].as<std::string>();
   req.output_path = vm["output"].as<std::string>();
-  req.radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>(), kRadiusRangeMm);
-  const auto plane = parse_plane(vm["plane"].as<std::string>());
-  if (!plane) {
-    throw UsageError("--plane: expected XY, YZ or ZX, got '" + vm["plane"].as<std::string>() + "'");
+  ExportImportOptions& o = req.options;
+  if (vm.count("plane")) {
+    o.plane = parse_plane(vm["plane"].as<std::string>());
+    if (!o.plane) {
+      throw UsageError("--plane: expected XY, YZ or ZX, got '" + vm["plane"].as<std::string>() +
+                       "'");
+    }
   }
-  req.plane = *plane;
-  return run_import_polar(req, std::cout);
+  if (vm.count("columns")) o.columns = vm["columns"].as<std::string>();
+  if (vm.count("radius")) {
+    o.radius_mm = parse_option_number("--radius", vm["radius"].as<std::string>(), kRadiusRangeMm);
+  }
+  if (vm.count("feed")) {
+    o.feed_mm_per_min = parse_option_number("--feed", vm["feed"].as<std::string>(), kFeedRange);
+  }
+  if (vm.count("direction")) {
+    std::string d = vm["direction"].as<std::string>();
+    std::transform(d.begin(), d.end(), d.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+    o.direction = parse_direction(d);
+    if (!o.direction) {
+      throw UsageError("--direction: expected ccw or cw, got '" +
+                       vm["direction"].as<std::string>() + "'");
+    }
+  }
+  if (vm.count("date")) {
+    const std::string text = vm["date"].as<std::string>();
+    const auto canonical = canonical_utc_iso8601(text);
+    if (!canonical) {
+      throw UsageError("--date: expected YYYY-MM-DD or YYYY-MM-DDTHH:MM[:SS][Z|+HH:MM], got '" +
+                       text + "'");
+    }
+    o.date = *canonical;
+  }
+  if (vm.count("ini")) {
+    o.ini_provenance.emplace();
+    record_ini_provenance(*o.ini_provenance, vm["ini"].as<std::string>());
+  }
+  if (vm.count("instrument")) o.instrument = vm["instrument"].as<std::string>();
+  return run_import(req, std::cout);
+}
+
+int export_polar(const std::vector<std::string>& args) {
+  Parsed p = analyze_options(args, "export-polar", [](po::options_description& d) {
+    d.add_options()("output,o", po::value<std::string>()->required(), "polar export to write");
+  });
+  for (const char* o : {"svg", "scale-um-per-div", "json", "compare"}) {
+    if (p.vm.count(o)) {
+      throw UsageError(std::string("--") + o +
+                       ": not for circana export-polar (it writes the export only)");
+    }
+  }
+  ExportPolarRequest req;
+  req.trace_path = p.request.trace_path;
+  req.output_path = p.vm["output"].as<std::string>();
+  req.options = p.request.options;
+  req.radial = p.request.radial;
+  return run_export_polar(req, std::cout);
 }
 
 }  // namespace
@@ -409,7 +489,8 @@ int main(int argc, char** argv) {
   return run_cli("circana", [&]() -> int {
     if (argc < 2)
       throw UsageError(
-          "missing command: expected analyze, diagnose, report, fit, import-polar, store or "
+          "missing command: expected analyze, diagnose, report, fit, import, export-polar, store "
+          "or "
           "history "
           "(see circana --help)");
     const std::string command = argv[1];
@@ -426,7 +507,8 @@ int main(int argc, char** argv) {
       if (command == "analyze") return analyze(args);
       if (command == "diagnose") return diagnose(args);
       if (command == "fit") return fit(args);
-      if (command == "import-polar") return import_polar(args);
+      if (command == "import" || command == "import-polar") return import_export(args);
+      if (command == "export-polar") return export_polar(args);
       if (command == "store") return store(args);
       if (command == "history") return history(args);
       if (command == "report") return report(args);
@@ -434,10 +516,12 @@ int main(int argc, char** argv) {
       return 0;
     }
     std::string message = "unknown command '" + command +
-                          "': expected analyze, diagnose, report, fit, import-polar, store or "
+                          "': expected analyze, diagnose, report, fit, import, export-polar, "
+                          "store or "
                           "history";
-    const std::vector<std::string> commands = {"analyze",      "diagnose", "report", "fit",
-                                               "import-polar", "store",    "history"};
+    const std::vector<std::string> commands = {"analyze",      "diagnose", "report",
+                                               "fit",          "import",   "import-polar",
+                                               "export-polar", "store",    "history"};
     if (const std::string guess = closest_name(command, commands); !guess.empty()) {
       message += "; did you mean " + guess + "?";
     }

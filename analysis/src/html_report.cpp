@@ -6,6 +6,8 @@
 #include <cmath>
 #include <iterator>
 #include <map>
+#include <regex>
+#include <set>
 
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_json.hpp"
@@ -21,49 +23,77 @@ namespace circtest {
 
 namespace {
 
-// Screen: pages one below the other. Print: each plane's section is one A4 page; the
-// figures have a bounded height so that a section never spills onto a second page.
+// Screen: pages one below the other, each as wide as A4. Print: the hand-over, each plane's
+// evidence and the appendix each start an A4 portrait page; nothing is wider than the page
+// (190 mm inside the margins), long words wrap, figures have a bounded height.
 constexpr const char* kStyle = R"(
 @page { size: A4 portrait; margin: 10mm; }
 * { box-sizing: border-box; }
+html, body { overflow-wrap: anywhere; }
 body { font-family: "DejaVu Sans", Arial, sans-serif; font-size: 10pt; color: #111;
        margin: 0; background: #eee; }
-section.plane { background: white; width: 190mm; margin: 8mm auto; padding: 6mm; }
+section { background: white; width: 190mm; max-width: 100%; margin: 8mm auto; padding: 6mm; }
 h1 { font-size: 14pt; margin: 0 0 1mm 0; }
-h2 { font-size: 10.5pt; margin: 3mm 0 1mm 0; }
+h2 { font-size: 11pt; margin: 4mm 0 1mm 0; }
 p { margin: 0.5mm 0; }
-.source { color: #444; word-break: break-all; }
-table { border-collapse: collapse; width: 100%; }
-th, td { border: 0.2mm solid #bbb; padding: 0.3mm 1.2mm; text-align: left; vertical-align: top; }
+table { border-collapse: collapse; width: 100%; table-layout: fixed; }
+th, td { border: 0.2mm solid #bbb; padding: 0.4mm 1.2mm; text-align: left; vertical-align: top; }
 th { background: #f2f2f2; font-weight: 600; }
-td.num, th.num { text-align: right; white-space: nowrap; font-variant-numeric: tabular-nums; }
-table.header th { width: 20%; font-weight: normal; background: #f7f7f7; }
-table.header td { width: 30%; }
-table.header caption, table.results caption { text-align: left; font-weight: bold;
-       padding: 1mm 0 0.5mm 0; }
-.unrecorded { color: #a33; }
-.change { color: #555; }
-.figures { display: grid; grid-template-columns: 58% 42%; gap: 3mm; align-items: start;
-       margin-top: 2mm; }
-figure { margin: 0; }
+td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
+caption { text-align: left; font-weight: bold; padding: 1.5mm 0 0.5mm 0; }
+table.facts th { width: 22%; font-weight: normal; background: #f7f7f7; }
+table.conditions th { width: 20%; font-weight: normal; background: #f7f7f7; }
+.banner { font-size: 16pt; font-weight: bold; padding: 2mm 3mm; margin: 3mm 0; border: 0.6mm solid; }
+.banner.PASS { color: #14622b; border-color: #14622b; background: #eaf6ec; }
+.banner.FAIL { color: #a11; border-color: #a11; background: #fbeaea; }
+.banner.NONE { color: #444; border-color: #888; background: #f4f4f4; }
+.banner small { font-size: 9pt; font-weight: normal; display: block; }
+td.result { font-weight: bold; }
+td.PASS { color: #14622b; } td.FAIL { color: #a11; } td.NONE { color: #666; font-weight: normal; }
+ul { margin: 0.5mm 0; padding-left: 5mm; }
+.signatures { display: grid; grid-template-columns: 1fr 1fr; gap: 10mm; margin-top: 6mm; }
+.signatures div p { border-bottom: 0.3mm solid #333; height: 9mm; margin: 0; padding-top: 3mm; }
+.signatures div p span { color: #666; font-size: 85%; }
+.grey, .note { color: #666; }
+.note { font-size: 90%; }
+table.results { table-layout: auto; }
+.figures { display: grid; grid-template-columns: minmax(0, 1fr) minmax(0, 1fr); gap: 3mm; align-items: start;
+           margin-top: 2mm; }
+figure { margin: 0; min-width: 0; }
 figcaption { font-weight: bold; margin-bottom: 0.5mm; }
 figure svg { width: 100%; height: auto; display: block; }
-figure.plot svg { max-height: 150mm; }
-figure.diagnosis svg { max-height: 60mm; }
-figure.trend svg { max-height: 95mm; }
-.note { color: #444; font-size: 90%; }
+figure.plot svg { max-height: 95mm; }
+figure.trend svg { max-height: 60mm; }
+ul.legend { list-style: none; padding: 0; font-size: 9pt; }
+ul.legend li { margin: 0.3mm 0; }
+ul.legend .swatch { display: inline-block; width: 4mm; height: 1.2mm; margin-right: 1.5mm;
+                    vertical-align: middle; }
+.bar { display: inline-block; height: 2mm; background: #1f5fbf; vertical-align: middle;
+       margin-left: 1mm; }
+.appendix td, .appendix th { font-size: 8pt; word-break: break-all; }
+.appendix .raw { columns: 2; column-gap: 6mm; font-size: 7.5pt; }
+.appendix .raw p { break-inside: avoid; }
+.appendix .raw b { font-weight: 600; }
 footer { color: #666; font-size: 80%; margin-top: 2mm; }
 @media print {
-  body { background: white; font-size: 7.5pt; }
-  h1 { font-size: 11pt; }
-  h2 { font-size: 8.5pt; }
-  section.plane { width: auto; margin: 0; padding: 0; break-after: page;
-                  break-inside: avoid; }
-  section.plane:last-of-type { break-after: auto; }
-  figure.plot svg { max-height: 125mm; }
-  figure.trend svg { max-height: 80mm; }
+  body { background: white; font-size: 8pt; }
+  h1 { font-size: 12pt; }
+  h2 { font-size: 9.5pt; }
+  section { width: auto; margin: 0; padding: 0; break-after: page; }
+  section.plane { break-inside: avoid; }
+  section:last-of-type { break-after: auto; }
+  ul.legend { font-size: 7.5pt; }
+  .appendix .raw { font-size: 6.5pt; }
 }
 )";
+
+// Micrometres and microradians as written, not "um" and "urad" (the library's ASCII words).
+std::string units_shown(std::string text) {
+  static const std::regex um(R"(\bum\b)"), urad(R"(\burad\b)"), deg_c(R"(\bdeg C\b)");
+  text = std::regex_replace(text, um, "µm");
+  text = std::regex_replace(text, urad, "µrad");
+  return std::regex_replace(text, deg_c, "°C");
+}
 
 std::string um_text(double mm, bool sign) {
   return sign ? fmt::format("{:+.1f}", mm * 1000.0) : fmt::format("{:.1f}", mm * 1000.0);
@@ -121,7 +151,7 @@ void results_table(std::string& s, const std::string& caption, const std::string
                  caption);
   for (const auto& h : heads) fmt::format_to(out, "<th>{}</th>", h);
   for (const auto& h : value_heads) {
-    fmt::format_to(out, "<th class=\"num\">{} um</th>", h);
+    fmt::format_to(out, "<th class=\"num\">{} µm</th>", h);
     if (before) fmt::format_to(out, "<th class=\"num\">before</th><th class=\"num\">change</th>");
   }
   s += "</tr>\n";
@@ -160,61 +190,160 @@ void results_table(std::string& s, const std::string& caption, const std::string
   s += "</table>\n";
 }
 
-void header_table(std::string& s, const Evaluation& ev) {
+// The clause 6 items that page 1 shows and the logger's items that belong to the appendix.
+bool on_handover(const std::string& title) {
+  static const std::set<std::string, std::less<>> kTitles = {
+      "Date", "Machine", "Machine serial", "Location", "Operator", "Instrument"};
+  return kTitles.count(title) > 0;
+}
+// The test program's settings a customer may ask about, with their titles; every other raw
+// key of the trace (recorder, module, ring, files, hashes, periods) is an internal.
+const char* program_title(std::string_view key) {
+  static constexpr std::pair<const char*, const char*> kProgram[] = {
+      {meta_key::arc_deg, "Arc (deg)"},
+      {meta_key::start_deg, "Start angle (deg)"},
+      {meta_key::lead_deg, "Lead-in and lead-out (deg)"},
+      {meta_key::dwell_s, "Dwell where the direction reverses (s)"},
+      {"motion_mode", "Path mode during the runs"},
+      {"feed_override", "Feed override"},
+      {"work_offset", "Work offset"},
+      {"tool_length_offset", "Tool length offset"}};
+  for (const auto& [k, title] : kProgram) {
+    if (key == k) return title;
+  }
+  return nullptr;
+}
+bool internal_item(const ReportItem& item) {
+  static const std::set<std::string, std::less<>> kTitles = {"Channels evaluated", "Data capture"};
+  if (item.raw) return program_title(item.title) == nullptr;
+  return kTitles.count(item.title) > 0;
+}
+constexpr const char* kNotRecorded = "not recorded";
+
+// The clause 4.4 conditions that were recorded, two to a row; the items not recorded once,
+// in grey, below.
+void conditions_table(std::string& s, const Evaluation& ev) {
   auto out = std::back_inserter(s);
-  for (const ReportSection& section : header_sections(ev)) {
-    fmt::format_to(out, "<table class=\"header\"><caption>{}</caption>\n",
-                   xml_escape(section.title));
-    for (std::size_t i = 0; i < section.items.size(); i += 2) {
-      s += "<tr>";
-      for (std::size_t k = i; k < i + 2; ++k) {
-        if (k >= section.items.size()) {
-          s += "<th></th><td></td>";
-          continue;
-        }
-        const ReportItem& item = section.items[k];
-        const bool unknown = item.value == "not recorded";
-        fmt::format_to(out, "<th>{}</th><td{}>{}</td>", xml_escape(item.title),
-                       unknown ? " class=\"unrecorded\"" : "", xml_escape(item.value));
+  std::vector<const ReportItem*> shown;
+  std::vector<std::string> missing;
+  const auto sections = header_sections(ev);
+  for (const ReportSection& section : sections) {
+    for (const ReportItem& item : section.items) {
+      // Page 1 shows the clause 6 facts (and which of them were not recorded).
+      if (internal_item(item) || on_handover(item.title)) continue;
+      if (item.value == kNotRecorded) {
+        missing.push_back(item.title);
+      } else {
+        shown.push_back(&item);
       }
-      s += "</tr>\n";
     }
-    s += "</table>\n";
+  }
+  s += "<table class=\"conditions\"><caption>Conditions of the test (clause 4.4)</caption>\n";
+  for (std::size_t i = 0; i < shown.size(); i += 2) {
+    s += "<tr>";
+    for (std::size_t k = i; k < i + 2; ++k) {
+      if (k >= shown.size()) {
+        s += "<th></th><td></td>";
+        continue;
+      }
+      const char* program = shown[k]->raw ? program_title(shown[k]->title) : nullptr;
+      fmt::format_to(out, "<th>{}</th><td>{}</td>",
+                     xml_escape(units_shown(program ? program : shown[k]->title)),
+                     xml_escape(units_shown(shown[k]->value)));
+    }
+    s += "</tr>\n";
+  }
+  s += "</table>\n";
+  if (!missing.empty()) {
+    fmt::format_to(out, "<p class=\"grey unrecorded\">Not recorded: {}</p>\n",
+                   xml_escape(join(missing, ", ")));
   }
 }
 
-// Horizontal bars, one per contribution, longest first.
-std::string diagnosis_svg(const DiagnosisChart& d) {
-  const double w = 390, label_w = 130, value_w = 110, row_h = 18, top = 6;
-  const double bar_w = w - label_w - value_w;
-  const double height =
-      top + row_h * static_cast<double>(std::max<std::size_t>(1, d.contributions.size())) + 6;
-  double gmax = 0;
-  for (const auto& c : d.contributions) gmax = std::max(gmax, c.g_mm);
-  std::string s;
+// "12.3 µm (45 %)" cells of one diagnosis; dashes when the source is not in it.
+void contribution_cells(std::string& s, const DiagnosisChart* d, const std::string& source) {
   auto out = std::back_inserter(s);
-  s += svg_open(w, height, 11, false);
-  if (d.contributions.empty()) {
-    fmt::format_to(out,
-                   "<text x=\"4\" y=\"{}\">no error source found above its detection "
-                   "threshold</text>\n",
-                   top + 12);
+  const Contribution* c = nullptr;
+  if (d) {
+    for (const auto& k : d->contributions) {
+      if (k.source == source) c = &k;
+    }
   }
-  double y = top;
-  for (const auto& c : d.contributions) {
-    const double len = gmax > 0 ? c.g_mm / gmax * bar_w : 0.0;
-    fmt::format_to(out,
-                   "<g class=\"contribution\"><text x=\"{:.1f}\" y=\"{:.1f}\" "
-                   "text-anchor=\"end\">{}</text>"
-                   "<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" "
-                   "fill=\"#1f5fbf\"/>"
-                   "<text x=\"{:.1f}\" y=\"{:.1f}\" data-mm=\"{:.12g}\">{:.1f} um ({:.0f} %)</text>"
-                   "</g>\n",
-                   label_w - 4, y + 12.5, xml_escape(c.source), label_w, y + 3, std::max(len, 0.5),
-                   row_h - 6, label_w + len + 4, y + 12.5, c.g_mm, c.g_mm * 1000.0, c.percent);
-    y += row_h;
+  if (!c) {
+    s += "<td class=\"num\">&#8211;</td><td class=\"num\">&#8211;</td>";
+    return;
   }
-  return s + "</svg>\n";
+  const double bar_mm = std::clamp(std::abs(c->percent), 0.0, 100.0) * 0.12;
+  // Rounded to what is shown first, so that a tiny negative share reads 0.0, not -0.0.
+  auto shown = [](double v, double step) { return std::round(v / step) * step + 0.0; };
+  fmt::format_to(out,
+                 "<td class=\"num\"><span data-mm=\"{:.12g}\">{:.1f}</span></td>"
+                 "<td class=\"num\"><span data-mm=\"{:.12g}\">{:.1f}</span> ({:.0f} %)"
+                 "<span class=\"bar\" style=\"width: {:.1f}mm\"></span></td>",
+                 c->g_mm, shown(c->g_mm * 1000.0, 0.1), c->share_mm,
+                 shown(c->share_mm * 1000.0, 0.1), shown(c->percent, 1.0), bar_mm);
+}
+
+// The diagnosis before and after side by side: each source's G alone and its share of the
+// modelled G.
+void diagnosis_table(std::string& s, const ReportPage& page) {
+  auto out = std::back_inserter(s);
+  const DiagnosisChart* after = page.diagnosis ? &*page.diagnosis : nullptr;
+  const DiagnosisChart* before =
+      page.before && page.before_diagnosis ? &*page.before_diagnosis : nullptr;
+  const bool two = page.before != nullptr;
+  s += "<table class=\"diagnosis\"><caption>Diagnosis: the error sources and their share of "
+       "G</caption>\n<tr><th rowspan=\"2\">Source</th>";
+  if (two) s += "<th colspan=\"2\">before</th>";
+  fmt::format_to(out, "<th colspan=\"2\">{}</th></tr>\n<tr>",
+                 two ? "after (this test)" : "this test");
+  for (int k = 0; k < (two ? 2 : 1); ++k) {
+    s += "<th class=\"num\">G alone µm</th><th class=\"num\">share of G µm (%)</th>";
+  }
+  s += "</tr>\n";
+  std::vector<std::string> sources;
+  for (const DiagnosisChart* d : {after, before}) {
+    if (!d) continue;
+    for (const auto& c : d->contributions) {
+      if (std::find(sources.begin(), sources.end(), c.source) == sources.end())
+        sources.push_back(c.source);
+    }
+  }
+  for (const auto& source : sources) {
+    fmt::format_to(out, "<tr class=\"contribution\"><td>{}</td>", xml_escape(source));
+    if (two) contribution_cells(s, before, source);
+    contribution_cells(s, after, source);
+    s += "</tr>\n";
+  }
+  if (sources.empty() && (after || before)) {
+    fmt::format_to(out,
+                   "<tr><td colspan=\"{}\">no error source found above its detection "
+                   "threshold</td></tr>\n",
+                   two ? 5 : 3);
+  }
+  auto totals = [&](const char* title, double DiagnosisChart::*mm) {
+    fmt::format_to(out, "<tr class=\"total\"><th>{}</th>", title);
+    for (const DiagnosisChart* d : two ? std::vector{before, after} : std::vector{after}) {
+      if (d) {
+        fmt::format_to(
+            out, "<td class=\"num\" colspan=\"2\"><span data-mm=\"{:.12g}\">{:.1f}</span> µm</td>",
+            d->*mm, d->*mm * 1000.0);
+      } else {
+        s += "<td class=\"num\" colspan=\"2\">&#8211;</td>";
+      }
+    }
+    s += "</tr>\n";
+  };
+  totals("Modelled G", &DiagnosisChart::model_g_mm);
+  totals("Residual G (not explained)", &DiagnosisChart::residual_g_mm);
+  s += "</table>\n";
+  for (const auto& [d, note, which] :
+       {std::tuple{before, &page.before_diagnosis_note, "before"},
+        std::tuple{after, &page.diagnosis_note, two ? "after" : "this test"}}) {
+    if (d || (std::string_view(which) == "before" && !two)) continue;
+    fmt::format_to(out, "<p class=\"note\">No diagnosis of {}: {}</p>\n", which,
+                   xml_escape(note->empty() ? "none given" : *note));
+  }
 }
 
 std::string machine_of(const Evaluation& ev) {
@@ -222,17 +351,39 @@ std::string machine_of(const Evaluation& ev) {
   return m && !m->empty() ? *m : std::string();
 }
 
+// A condition of the test, or "".
+std::string condition(const Evaluation& ev, const char* key) {
+  const std::string* v = ev.conditions.find(key);
+  return v ? *v : std::string();
+}
+
+// When the test ran: the recorder's start time, else the program's date; "2026-11-26 16:31
+// UTC" when it is an ISO 8601 UTC time, else as recorded.
+std::string test_date(const Evaluation& ev) {
+  std::string t = condition(ev, meta_key::start_time);
+  if (t.empty()) t = condition(ev, meta_key::date);
+  static const std::regex iso(R"((\d{4}-\d{2}-\d{2})T(\d{2}:\d{2})(:\d{2}(\.\d+)?)?Z)");
+  std::smatch m;
+  if (std::regex_match(t, m, iso)) return m[1].str() + " " + m[2].str() + " UTC";
+  return t;
+}
+
+void legend_list(std::string& s, const std::vector<std::pair<std::string, std::string>>& legend) {
+  auto out = std::back_inserter(s);
+  s += "<ul class=\"legend\">\n";
+  for (const auto& [text, colour] : legend) {
+    fmt::format_to(out, "<li><span class=\"swatch\" style=\"background: {}\"></span>{}</li>\n",
+                   colour == "black" ? "transparent" : colour, xml_escape(units_shown(text)));
+  }
+  s += "</ul>\n";
+}
+
 void page_html(std::string& s, const ReportPage& page, const PlotOptions& plot_options) {
   auto out = std::back_inserter(s);
   const Evaluation& ev = *page.evaluation;
   fmt::format_to(out, "<section class=\"plane\" data-plane=\"{}\">\n", plane_name(ev.plane));
-  fmt::format_to(out, "<h1>ISO 230-4 / JIS B 6194 circular test, plane {}</h1>\n",
-                 plane_name(ev.plane));
-  fmt::format_to(out, "<p class=\"source\">Trace {}</p>\n", xml_escape(ev.source));
-  if (page.before) {
-    fmt::format_to(out, "<p class=\"source\">Before: {}</p>\n", xml_escape(page.before->source));
-  }
-  header_table(s, ev);
+  fmt::format_to(out, "<h1>Plane {}: the measurement{}</h1>\n", plane_name(ev.plane),
+                 page.before ? ", before and after" : "");
 
   const auto hb = page.before ? h_rows(*page.before) : std::vector<Row>{};
   const auto rb = page.before ? run_rows(*page.before) : std::vector<Row>{};
@@ -252,38 +403,246 @@ void page_html(std::string& s, const ReportPage& page, const PlotOptions& plot_o
       run_rows(ev), page.before ? &rb : nullptr);
 
   s += "<div class=\"figures\">\n<figure class=\"plot\">";
-  std::vector<PlotLayer> layers{{page.evaluation, page.trace, page.before ? "this test" : ""}};
+  std::vector<PlotLayer> layers{{page.evaluation, page.trace, page.before ? "after" : ""}};
   if (page.before) layers.push_back({page.before, page.before_trace, "before"});
-  s += svg_plot(layers, plot_options);
+  std::vector<std::pair<std::string, std::string>> legend;
+  PlotOptions options = plot_options;
+  options.legend_out = &legend;
+  s += svg_plot(layers, options);
   s += "</figure>\n<div>\n";
-  s += "<figure class=\"diagnosis\"><figcaption>Diagnosis: contributions to G</figcaption>\n";
-  if (page.diagnosis) {
-    s += diagnosis_svg(*page.diagnosis);
-    fmt::format_to(out,
-                   "<p class=\"note\">Model G {:.1f} um, residual G {:.1f} um "
-                   "(docs/diagnosis.md)</p>\n",
-                   page.diagnosis->model_g_mm * 1000.0, page.diagnosis->residual_g_mm * 1000.0);
-  } else {
-    fmt::format_to(out, "<p class=\"note\">Not available: {}</p>\n",
-                   xml_escape(page.diagnosis_note.empty() ? "no diagnosis" : page.diagnosis_note));
+  legend_list(s, legend);
+  if (!page.trend_svg.empty()) {
+    s += "<figure class=\"trend\"><figcaption>Trend of this machine</figcaption>\n";
+    s += page.trend_svg;
+    s += "</figure>\n";
   }
-  s += "</figure>\n<figure class=\"trend\"><figcaption>Trend of this machine</figcaption>\n";
-  s += page.trend_svg;
   if (!page.trend_note.empty()) {
-    fmt::format_to(out, "<p class=\"note\">{}</p>\n", xml_escape(page.trend_note));
+    fmt::format_to(out, "<p class=\"note\">Trend: {}</p>\n", xml_escape(page.trend_note));
   }
-  s += "</figure>\n</div>\n</div>\n";
+  s += "</div>\n</div>\n";
+  diagnosis_table(s, page);
+  conditions_table(s, ev);
   for (const auto& n : ev.notes)
-    fmt::format_to(out, "<p class=\"note\">Note: {}</p>\n", xml_escape(n));
-  fmt::format_to(out, "<footer>{}; values in um, exact mm in the data-mm attributes</footer>\n",
-                 xml_escape(version_line("circana report")));
+    fmt::format_to(out, "<p class=\"note\">Note: {}</p>\n", xml_escape(units_shown(n)));
+  s += "<footer>Values in µm; the exact millimetres are in the data-mm attributes</footer>\n";
+  s += "</section>\n";
+}
+
+const char* result_word(VerdictLine::Result r) {
+  switch (r) {
+    case VerdictLine::Result::pass:
+      return "PASS";
+    case VerdictLine::Result::fail:
+      return "FAIL";
+    case VerdictLine::Result::not_measured:
+      return "FAIL (not measured)";
+    case VerdictLine::Result::no_limit:
+      break;
+  }
+  return "no limit set";
+}
+
+std::string amount_cell(const std::optional<double>& v, const std::string& unit) {
+  return v ? fmt::format("<td class=\"num\">{:.1f} {}</td>", *v, unit)
+           : std::string("<td class=\"num\">&#8211;</td>");
+}
+
+// The overall verdict: FAIL when any quantity with a limit fails or was not measured, PASS
+// when every one with a limit passes, NONE when no limit applies.
+std::string overall(const std::vector<VerdictLine>& lines) {
+  bool any_limit = false;
+  for (const auto& l : lines) {
+    if (l.result == VerdictLine::Result::fail || l.result == VerdictLine::Result::not_measured)
+      return "FAIL";
+    any_limit |= l.result == VerdictLine::Result::pass;
+  }
+  return any_limit ? "PASS" : "NONE";
+}
+
+// The instrument as recorded, else what the trace says of it: the file it was imported from,
+// or the kind of instrument the program was made for (circgen --instrument).
+std::string instrument_of(const Evaluation& ev) {
+  std::string i = condition(ev, meta_key::instrument);
+  if (!i.empty()) return i;
+  if (const auto from = condition(ev, meta_key::imported_from); !from.empty())
+    return "imported from " + from;
+  if (const auto profile = condition(ev, "instrument_profile"); !profile.empty())
+    return profile + " (the test program's instrument profile)";
+  return {};
+}
+
+// The facts of the hand-over: the machine, the test, who tested it and with what.
+void facts_table(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
+  auto out = std::back_inserter(s);
+  const Evaluation& ev = *pages.front().evaluation;
+  auto or_blank = [](std::string v) { return v.empty() ? std::string(kNotRecorded) : v; };
+  std::string machine = or_blank(machine_of(ev));
+  if (const auto serial = condition(ev, meta_key::machine_serial); !serial.empty())
+    machine += ", serial " + serial;
+  std::string date = or_blank(test_date(ev));
+  if (pages.front().before) {
+    const std::string d0 = test_date(*pages.front().before);
+    if (!d0.empty()) date += " (before: " + d0 + ")";
+  }
+  std::string planes, feeds, diameters;
+  for (const auto& p : pages) {
+    const Evaluation& e = *p.evaluation;
+    planes += (planes.empty() ? "" : ", ") + std::string(plane_name(e.plane));
+    std::vector<std::string> f;
+    for (const auto& r : e.runs) {
+      const std::string t = feed_text(r.feed_mm_per_min);
+      if (std::find(f.begin(), f.end(), t) == f.end()) f.push_back(t);
+    }
+    feeds += fmt::format("{}{}: {}", feeds.empty() ? "" : "; ", plane_name(e.plane), join(f, ", "));
+    const std::string d = e.nominal_radius_mm ? fmt::format("{:g} mm", 2 * *e.nominal_radius_mm)
+                                              : std::string(kNotRecorded);
+    if (diameters.find(d) == std::string::npos) diameters += (diameters.empty() ? "" : ", ") + d;
+  }
+  const std::string tested_by =
+      h.tested_by.empty() ? condition(ev, meta_key::operator_name) : h.tested_by;
+  const std::pair<const char*, std::string> rows[] = {
+      {"Machine", machine},
+      {"Location", or_blank(condition(ev, meta_key::location))},
+      {"Date of the test", date},
+      {"Tested by", or_blank(tested_by)},
+      {"Instrument", or_blank(instrument_of(ev))},
+      {"Plane(s)", planes},
+      {"Feed(s)", feeds},
+      {"Diameter", diameters},
+  };
+  s += "<table class=\"facts\">\n";
+  for (const auto& [title, value] : rows) {
+    fmt::format_to(out, "<tr><th>{}</th><td{}>{}</td></tr>\n", title,
+                   value == kNotRecorded ? " class=\"grey\"" : "", xml_escape(value));
+  }
+  s += "</table>\n";
+}
+
+void verdict_table(std::string& s, const HandOver& h, bool with_before) {
+  auto out = std::back_inserter(s);
+  const std::string all = overall(h.verdict);
+  fmt::format_to(
+      out, "<div class=\"banner {}\" data-verdict=\"{}\">Verdict: {}<small>{}</small></div>\n", all,
+      all,
+      all == "PASS"   ? "PASS"
+      : all == "FAIL" ? "FAIL"
+                      : "no limit set",
+      xml_escape(h.limits_source.empty()
+                     ? "No limits were given: the values are reported, not judged."
+                     : "Against the limits of " + h.limits_source + "."));
+  s += "<table class=\"verdict\"><caption>Results against the limits</caption>\n<tr><th>Plane</th>"
+       "<th>Quantity</th>";
+  if (with_before) s += "<th class=\"num\">before</th>";
+  s += "<th class=\"num\">this test</th><th class=\"num\">limit</th><th>result</th></tr>\n";
+  for (const auto& l : h.verdict) {
+    const std::string word = result_word(l.result);
+    const char* css = l.result == VerdictLine::Result::pass       ? "PASS"
+                      : l.result == VerdictLine::Result::no_limit ? "NONE"
+                                                                  : "FAIL";
+    fmt::format_to(
+        out,
+        "<tr class=\"verdict-line\" data-plane=\"{}\" data-quantity=\"{}\"><td>{}</td><td>{}</td>",
+        xml_escape(l.plane), xml_escape(l.quantity), xml_escape(l.plane), xml_escape(l.quantity));
+    if (with_before) s += amount_cell(l.before, l.unit);
+    s += amount_cell(l.now, l.unit) + amount_cell(l.limit, l.unit);
+    fmt::format_to(out, "<td class=\"result {}\">{}</td></tr>\n", css, word);
+  }
+  s += "</table>\n<p class=\"note\">H: the largest circular hysteresis, G: the largest circular "
+       "deviation, F: the largest radial deviation |F<sub>max</sub>|, |F<sub>min</sub>| of the "
+       "plane's runs (ISO 230-4).</p>\n";
+}
+
+void summary_html(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
+  auto out = std::back_inserter(s);
+  bool with_before = false;
+  for (const auto& p : pages) with_before |= p.before != nullptr;
+  s += "<section class=\"summary\">\n<h1>Circular test of the machine: hand-over report</h1>\n"
+       "<p class=\"note\">ISO 230-4 / JIS B 6194 circular test.</p>\n";
+  facts_table(s, pages, h);
+  verdict_table(s, h, with_before);
+  if (with_before || !h.changes_source.empty()) {
+    s += "<h2>Changed between the tests</h2>\n";
+    if (h.changes_source.empty()) {
+      s += "<p class=\"grey\">Not stated: no plan was given (circcomp plan --json, circana report "
+           "--changes).</p>\n";
+    } else if (h.changes.empty()) {
+      s += "<p>No setting: the plan corrects nothing.</p>\n";
+    } else {
+      s += "<ul class=\"changes\">\n";
+      for (const auto& c : h.changes)
+        fmt::format_to(out, "<li>{}</li>\n", xml_escape(units_shown(c)));
+      s += "</ul>\n";
+    }
+    if (!h.wiring.empty()) {
+      std::vector<std::string> w;
+      for (const auto& x : h.wiring) w.push_back(units_shown(x));
+      fmt::format_to(out, "<p class=\"note wiring\">To put them to work: {}.</p>\n",
+                     xml_escape(join(w, "; ")));
+    }
+    if (!h.advice.empty()) {
+      s += "<p>Not changed, advised:</p>\n<ul class=\"advice\">\n";
+      for (const auto& a : h.advice)
+        fmt::format_to(out, "<li>{}</li>\n", xml_escape(units_shown(a)));
+      s += "</ul>\n";
+    }
+  }
+  s += "<div class=\"signatures\">\n";
+  for (const auto& [role, name] :
+       {std::pair{"Tested by", h.tested_by.empty()
+                                   ? condition(*pages.front().evaluation, meta_key::operator_name)
+                                   : h.tested_by},
+        std::pair{"Accepted by", h.accepted_by}}) {
+    fmt::format_to(out,
+                   "<div class=\"signature\"><h2>{}</h2><p><span>Name:</span> {}</p>"
+                   "<p><span>Signature:</span></p><p><span>Date:</span></p></div>\n",
+                   role, xml_escape(name));
+  }
+  s += "</div>\n</section>\n";
+}
+
+// The internals of one trace: its file, hash and the logger's and generator's raw items.
+void internals_of(std::string& s, const char* what, const Evaluation& ev,
+                  const std::string& sha256) {
+  auto out = std::back_inserter(s);
+  fmt::format_to(
+      out,
+      "<h2>{}, plane {}</h2>\n<table>\n<tr><th style=\"width: 18%\">File</th><td>{}</td></tr>\n"
+      "<tr><th>SHA-256</th><td>{}</td></tr>\n",
+      what, plane_name(ev.plane), xml_escape(ev.source), sha256.empty() ? "not at hand" : sha256);
+  s += "</table>\n<div class=\"raw\">\n";
+  for (const ReportSection& section : header_sections(ev)) {
+    for (const ReportItem& item : section.items) {
+      if (!internal_item(item)) continue;
+      fmt::format_to(out, "<p><b>{}</b>: {}</p>\n", xml_escape(item.title),
+                     xml_escape(units_shown(item.value)));
+    }
+  }
+  s += "</div>\n";
+}
+
+void appendix_html(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
+  auto out = std::back_inserter(s);
+  s += "<section class=\"appendix\">\n<h1>Appendix: for the service engineer</h1>\n";
+  fmt::format_to(out, "<p>{}; limits: {}; changes: {}</p>\n",
+                 xml_escape(version_line("circana report")),
+                 xml_escape(h.limits_source.empty() ? "none" : h.limits_source),
+                 xml_escape(h.changes_source.empty() ? "none" : h.changes_source));
+  for (const auto& p : pages) {
+    internals_of(s, p.before ? "After (this test)" : "This test", *p.evaluation, p.trace_sha256);
+    if (p.before) internals_of(s, "Before", *p.before, p.before_sha256);
+  }
   s += "</section>\n";
 }
 
 }  // namespace
 
 DiagnosisChart diagnosis_chart(const Diagnosis& d) {
-  return {d.source, d.plane, d.contributions, d.model_g_mm, d.residual_g_mm};
+  DiagnosisChart c{d.source, d.plane, d.contributions, d.model_g_mm, d.residual_g_mm, {}, {}};
+  for (const Estimate& b : d.backlash_mm) {
+    if (b.value) c.backlash_mm = std::max(c.backlash_mm.value_or(0.0), std::abs(*b.value));
+  }
+  c.squareness_urad = d.squareness_urad.value;
+  return c;
 }
 
 DiagnosisChart diagnosis_chart_from_json(const nlohmann::json& j, const std::string& path) {
@@ -319,14 +678,27 @@ DiagnosisChart diagnosis_chart_from_json(const nlohmann::json& j, const std::str
   }
   d.model_g_mm = rd.number(j, K::model_g_mm, "");
   d.residual_g_mm = rd.number(rd.at(j, K::residual, ""), K::g_mm, K::residual);
+  // Backlash and squareness for the verdict's limits; a document without them judges neither.
+  if (j.contains(K::backlash_mm)) {
+    const auto& b = rd.at(j, K::backlash_mm, "");
+    if (!b.is_object()) rd.fail(K::backlash_mm, "an object of axis: mm or null");
+    for (const auto& [axis, v] : b.items()) {
+      if (v.is_null()) continue;
+      const double mm = rd.number(v, std::string(K::backlash_mm) + "." + axis);
+      d.backlash_mm = std::max(d.backlash_mm.value_or(0.0), std::abs(mm));
+    }
+  }
+  if (j.contains(K::squareness_urad)) {
+    const JsonReader<nlohmann::json> urad(path, "diagnosis JSON", 1e7);
+    d.squareness_urad = urad.optional_number(j, K::squareness_urad, "");
+  }
   return d;
 }
 
-std::string html_report(const std::vector<ReportPage>& pages, const PlotOptions& plot) {
-  std::string machine;
-  for (const auto& p : pages) {
-    if (machine.empty()) machine = machine_of(*p.evaluation);
-  }
+std::string html_report(const std::vector<ReportPage>& pages, const HandOver& handover,
+                        const PlotOptions& plot) {
+  if (pages.empty()) throw Error(ExitCode::usage, "a report needs at least one test");
+  const std::string machine = machine_of(*pages.front().evaluation);
   std::string s;
   auto out = std::back_inserter(s);
   fmt::format_to(out,
@@ -335,7 +707,9 @@ std::string html_report(const std::vector<ReportPage>& pages, const PlotOptions&
                  "<style>{}</style>\n</head>\n<body>\n",
                  xml_escape(version_line("circana")),
                  machine.empty() ? std::string() : " - " + xml_escape(machine), kStyle);
+  summary_html(s, pages, handover);
   for (const auto& p : pages) page_html(s, p, plot);
+  appendix_html(s, pages, handover);
   s += "</body>\n</html>\n";
   return s;
 }

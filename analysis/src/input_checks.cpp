@@ -297,7 +297,8 @@ std::vector<std::string> split_list(std::string_view text) {
   return out;
 }
 
-// circgen's `segments` (id:DIR:Ffeed, ...), else `directions` once per feed; none when the
+// circgen's `segments` (id:DIR:Ffeed:PLANE, ...; older programs without the plane), else
+// `directions` once per feed; none when the
 // trace says nothing of its runs (or says it in a form not understood).
 std::optional<Announced> announced_runs(const Trace& trace) {
   Announced a;

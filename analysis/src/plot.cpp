@@ -217,7 +217,11 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
 
   std::string s;
   auto out = std::back_inserter(s);
-  double height = size + 20.0 + 18.0 * static_cast<double>(legend.size());
+  if (options.legend_out) {
+    *options.legend_out = std::move(legend);
+    legend.clear();
+  }
+  double height = size + (legend.empty() ? 0.0 : 20.0 + 18.0 * static_cast<double>(legend.size()));
   // The diagnosis panel beside the plot: drawn first into its own string, as its height can
   // set the document's.
   constexpr double kPanelWidth = 380.0;
@@ -233,7 +237,9 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
                  "<text x=\"10\" y=\"18\" font-size=\"14\" font-weight=\"bold\">ISO 230-4 "
                  "circular test, plane {}</text>\n",
                  plane_name(first.plane));
-  fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", xml_escape(first.source));
+  if (!options.legend_out) {
+    fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", xml_escape(first.source));
+  }
   // Grid: the reference circle and rings every division, spokes every 45 deg.
   for (int j = -4; j <= 4; ++j) {
     fmt::format_to(out,

@@ -155,7 +155,7 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
   for (const std::size_t i : ev.conditions.distinct()) {
     const auto& [key, value] = ev.conditions.entries()[i];
     if (kShown.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) continue;
-    line(key, value);
+    sections.back().items.push_back({key, value, true});
   }
   return sections;
 }

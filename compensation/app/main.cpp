@@ -10,9 +10,11 @@
 
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/compensation/plan.hpp"
+#include "circtest/compensation/plan_json.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/cli_options.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/version.hpp"
 
@@ -25,7 +27,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
     "backlash,scale,squareness,cyclic,friction,servo]\n"
-    "                       [--gain F] [--force]\n"
+    "                       [--gain F] [--force] [--json]\n"
     "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
     "       circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
 
@@ -113,11 +115,11 @@ int run(int argc, char** argv) {
     throw UsageError("unknown command '" + command + "' (expected plan, apply or revert)");
   }
   std::string ini, diagnosis, only, gain_text = "1", to;
-  bool force = false;
+  bool force = false, json = false;
   po::options_description opts;
   opts.add_options()("ini", po::value(&ini))("diagnosis", po::value(&diagnosis))(
       "only", po::value(&only))("gain", po::value(&gain_text))("force", po::bool_switch(&force))(
-      "to", po::value(&to))("help,h", "");
+      "json", po::bool_switch(&json))("to", po::value(&to))("help,h", "");
   po::positional_options_description pos;
   pos.add("diagnosis", 1);
   po::variables_map vm;
@@ -133,6 +135,7 @@ int run(int argc, char** argv) {
     return 0;
   }
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
+  if (json && command != "plan") throw UsageError("--json: only for circcomp plan");
   if (command == "revert") return run_revert(ini, diagnosis, to, force);
   if (!to.empty()) throw UsageError("--to: only for revert");
   if (diagnosis.empty()) throw UsageError("expected DIAGNOSIS.json (circana diagnose --json)");
@@ -155,9 +158,15 @@ int run(int argc, char** argv) {
       if (w == "servo") options.servo_requested = true;
     }
   }
-  const DiagnosisInput d = read_diagnosis(diagnosis);
-  if (command == "apply") require_fresh(ini, d, force, circcomp_option_words);
-  const Plan plan = make_plan(ini, d, options);
+  // One plane's diagnosis, or a test set's (one entry per plane).
+  const std::vector<DiagnosisInput> planes = read_diagnosis_planes(diagnosis);
+  if (command == "apply") require_fresh(ini, planes.front(), force, circcomp_option_words);
+  const Plan plan = make_plan(ini, planes, options);
+  if (command == "plan" && json) {
+    // The changes as data (circtest.plan/1) for circana report --changes.
+    std::cout << json_text(plan_json(plan), 2) << "\n";
+    return 0;
+  }
   if (command == "plan") {
     std::cout << unified_diff(plan);
     print_summary(plan, std::cout);

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
@@ -102,9 +103,11 @@ struct Reader {
 
 }  // namespace
 
-DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source) {
-  const json doc = parse_json(text, source);
-  const Reader r{source};
+namespace {
+
+// The schema and version checks of a document (a whole one, or a test set's plane).
+void check_schema(const json& doc, const Reader& r) {
+  const std::string& source = r.source;
   if (!doc.is_object()) {
     throw ParseError(source, 0,
                      fmt::format("expected a {} document (circana diagnose --json)", kSchema));
@@ -126,6 +129,11 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
   if (r.text(r.member(doc, K::units, K::units), K::units).value_or("mm") != "mm") {
     r.fail(K::units, "expected mm");
   }
+}
+
+// One plane's document, its schema checked.
+DiagnosisInput parse_plane_document(const json& doc, const Reader& r) {
+  const std::string& source = r.source;
   DiagnosisInput d;
   d.source = source;
   const auto plane = r.text(r.member(doc, K::plane, K::plane), K::plane);
@@ -219,8 +227,92 @@ DiagnosisInput parse_diagnosis(const std::string& text, const std::string& sourc
   return d;
 }
 
+// A test set's document: each plane's own (test_set.diagnoses) with the per-axis values the
+// set joined (the top-level objects, keyed by every axis); an axis an earlier plane carries has
+// its per-axis values cleared in the later ones, so that each axis is corrected once.
+std::vector<DiagnosisInput> parse_set_document(const json& doc, const Reader& r,
+                                               const std::string& planes) {
+  const json& set = r.member(doc, K::test_set, K::test_set);
+  const json& diagnoses = r.member(set, K::diagnoses, K::test_set);
+  if (!diagnoses.is_array() || diagnoses.empty()) {
+    r.fail(std::string(K::test_set) + "." + K::diagnoses,
+           fmt::format("expected each plane's diagnosis (the planes {})", planes));
+  }
+  const json& se = r.member(doc, K::standard_error, K::standard_error);
+  std::vector<DiagnosisInput> out;
+  std::string seen;
+  std::set<char> carried;
+  for (const json& plane_doc : diagnoses) {
+    check_schema(plane_doc, r);
+    DiagnosisInput d = parse_plane_document(plane_doc, r);
+    seen += (seen.empty() ? "" : ",") + d.plane;
+    const auto joint = [&](const char* key) { return r.per_axis(doc, key, d.axes); };
+    const auto joint_se = [&](const char* key) {
+      return se.is_object() ? r.per_axis(se, key, d.axes) : std::array<std::optional<double>, 2>{};
+    };
+    const auto backlash = joint(K::backlash_mm), backlash_se = joint_se(K::backlash_mm);
+    const auto spike = joint(K::reversal_spike_mm), spike_se = joint_se(K::reversal_spike_mm);
+    const auto spike_ms = joint(K::reversal_spike_ms), spike_ms_se = joint_se(K::reversal_spike_ms);
+    const auto scale = joint(K::scale_ppm), scale_se = joint_se(K::scale_ppm);
+    for (int k = 0; k < 2; ++k) {
+      if (!carried.insert(d.axes[k]).second) {
+        d.axis_in_earlier_plane[k] = true;
+        d.backlash_mm[k] = {};
+        d.reversal_spike_mm[k] = {};
+        d.reversal_spike_ms[k] = std::nullopt;
+        d.reversal_spike_se_ms[k] = std::nullopt;
+        d.scale_ppm[k] = {};
+        d.cyclic[k] = std::nullopt;
+        continue;
+      }
+      d.backlash_mm[k] = {backlash[k], backlash_se[k]};
+      d.reversal_spike_mm[k] = {spike[k], spike_se[k]};
+      d.reversal_spike_ms[k] = spike_ms[k];
+      d.reversal_spike_se_ms[k] = spike_ms_se[k];
+      d.scale_ppm[k] = {scale[k], scale_se[k]};
+    }
+    out.push_back(std::move(d));
+  }
+  if (seen != planes) {
+    r.fail(std::string(K::test_set) + "." + K::diagnoses,
+           fmt::format("the planes' diagnoses are {}, the document's plane says {}", seen, planes));
+  }
+  return out;
+}
+
+}  // namespace
+
+DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source) {
+  std::vector<DiagnosisInput> planes = parse_diagnosis_planes(text, source);
+  if (planes.size() > 1) {
+    throw ParseError(source, 0,
+                     fmt::format("\"{}\": a test set ({} planes): read it plane by plane", K::plane,
+                                 planes.size()));
+  }
+  return std::move(planes.front());
+}
+
+std::vector<DiagnosisInput> parse_diagnosis_planes(const std::string& text,
+                                                   const std::string& source) {
+  const json doc = parse_json(text, source);
+  const Reader r{source};
+  check_schema(doc, r);
+  const auto plane = r.text(r.member(doc, K::plane, K::plane), K::plane);
+  if (plane && plane->find(',') != std::string::npos) {
+    std::vector<DiagnosisInput> set = parse_set_document(doc, r, *plane);
+    const auto sha = r.text(r.member(doc, K::ini_sha256, K::ini_sha256), K::ini_sha256);
+    for (DiagnosisInput& d : set) d.ini_sha256 = sha;
+    return set;
+  }
+  return {parse_plane_document(doc, r)};
+}
+
 DiagnosisInput read_diagnosis(const std::string& path) {
   return parse_diagnosis(read_input_text(path, kMaxDiagnosisBytes), path);
+}
+
+std::vector<DiagnosisInput> read_diagnosis_planes(const std::string& path) {
+  return parse_diagnosis_planes(read_input_text(path, kMaxDiagnosisBytes), path);
 }
 
 }  // namespace circtest::compensation

@@ -241,7 +241,7 @@ Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int jo
   auto refuse_literal = [&] {
     for (const auto& [pin, place] : w.setp) {
       if (!is_command_target(w, pin) || w.pin_signal.count(pin)) continue;
-      throw DataError(
+      throw WiringError(
           place.file, place.line,
           fmt::format("{} is a literal (setp) and no pid or stepgen reads {} (axis {}): "
                       "circcomp finds no position command to compensate; {}",
@@ -251,7 +251,7 @@ Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int jo
   if (it == w.pin_signal.end()) {
     refuse_literal();
     const HalPlace p = halfile_place(ini);
-    throw DataError(
+    throw WiringError(
         p.file, p.line,
         fmt::format("no net in the HAL files read ({}) carries {} (axis {}){}: {}",
                     list_text(w.read), cmd, axis,
@@ -268,7 +268,7 @@ Splice find_splice(const HalWiring& w, const IniDocument& ini, char axis, int jo
   }
   if (targets.empty()) refuse_literal();
   if (targets.size() != 1) {
-    throw DataError(
+    throw WiringError(
         s.pos_place.file, s.pos_place.line,
         fmt::format("signal {} carries {} (axis {}) to {}: {}; {}", s.pos_signal, cmd, axis,
                     list_text(targets.empty() ? others : targets),
@@ -301,11 +301,11 @@ std::pair<std::string, std::size_t> after_motion_controller(const HalWiring& w,
     }
   }
   const HalPlace p = halfile_place(ini);
-  throw DataError(p.file, p.line,
-                  fmt::format("no HAL file read ({}) adds motion-controller to a thread ('addf "
-                              "motion-controller servo-thread'): circfric must run right after "
-                              "it; {}",
-                              list_text(w.read), refusal_tail(o)));
+  throw WiringError(p.file, p.line,
+                    fmt::format("no HAL file read ({}) adds motion-controller to a thread ('addf "
+                                "motion-controller servo-thread'): circfric must run right after "
+                                "it; {}",
+                                list_text(w.read), refusal_tail(o)));
 }
 
 std::string lower(char c) {
@@ -401,6 +401,20 @@ std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const 
   return v;
 }
 
+// The share of a command pulse A exp(-t / decay) that reaches the table through a position
+// loop following with the lag T = 1 / Kv (first order): the peak of the lagged pulse,
+// (decay / T)^(-T / (decay - T)), which is 1/e at decay = T and tends to 1 as T vanishes.
+// circfric adds its pulse to the command, and a P loop without velocity feed-forward passes
+// only this share of it on to the table; with feed-forward the lag, and with it the loss, is
+// small. 1 when Kv is not known.
+double loop_pass(double decay_s, std::optional<double> kv_per_s) {
+  if (!kv_per_s || !(*kv_per_s > 0) || !std::isfinite(*kv_per_s) || !(decay_s > 0)) return 1.0;
+  const double lag_s = 1.0 / *kv_per_s;
+  const double ratio = decay_s / lag_s;
+  if (std::fabs(ratio - 1.0) < 1e-9) return std::exp(-1.0);
+  return std::pow(ratio, -1.0 / (ratio - 1.0));
+}
+
 // Step 1 of one axis: the INI values from the measured spike and decay. Returns false when
 // the axis is skipped (a note says why).
 bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
@@ -424,7 +438,11 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
         kFricMinDecayMs, kFricMaxDecayMs));
     return false;
   }
-  const double amplitude = o.gain * *spike * upm, amplitude_max = 2.0 * *spike * upm;
+  const double pass = loop_pass(*decay * 1e-3, d.kv_per_s);
+  // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
+  const double spike_written = parse_finite(number_text(*spike)).value_or(*spike);
+  const double amplitude_max = 2.0 * spike_written * upm;
+  const double amplitude = std::min(o.gain * *spike * upm / pass, amplitude_max);
   if (amplitude_max > kFricMaxUnits) {
     throw DataError(d.source, 0,
                     fmt::format("{} reversal spike {:.1f} um: twice it is beyond circfric's "
@@ -448,10 +466,17 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
                                  "in ms; SPIKE_MM is the spike first measured, and AMPLITUDE_MAX "
                                  "stays at most twice it",
                                  axis, kFrictionHalFile));
+  const std::string through =
+      pass < 1.0
+          ? fmt::format(" / {:.2f}, the share of the pulse the {:.1f} ms lag (1 / Kv) passes{}",
+                        pass, 1e3 / *d.kv_per_s,
+                        amplitude == amplitude_max ? ", bounded by AMPLITUDE_MAX" : "")
+          : "";
   plan.changes.push_back(fmt::format(
-      "[{}] step 1 (first tuning): AMPLITUDE {} (spike {:.2f} um), DECAY_MS {}, AMPLITUDE_MAX {} "
+      "[{}] step 1 (first tuning): AMPLITUDE {} (spike {:.2f} um{}), DECAY_MS {}, AMPLITUDE_MAX {} "
       "(2 x spike); rerun the circle and plan again for step 2",
-      sec, number_text(amplitude), *spike * 1e3, number_text(*decay), number_text(amplitude_max)));
+      sec, number_text(amplitude), *spike * 1e3, through, number_text(*decay),
+      number_text(amplitude_max)));
   return true;
 }
 
@@ -475,7 +500,8 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
     return;
   }
   const double limit = std::min(max_now, bound);
-  if (max_now > bound) {
+  // Written with a few digits: a last-digit difference is the same bound.
+  if (max_now > bound * (1.0 + 1e-6)) {
     ini.set(sec, "AMPLITUDE_MAX", number_text(bound));
     plan.notes.push_back(
         fmt::format("[{}] AMPLITUDE_MAX {} -> {}: at most twice the spike first "
@@ -495,6 +521,24 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
       "{:.2f} um compensated)",
       sec, number_text(amplitude), number_text(next), *residual * 1e3,
       std::fabs(*residual) / first_mm * 100.0, first_mm * 1e3));
+  // Where the bound holds the amplitude below what an outward residual asks for, the pulse's
+  // area (amplitude x decay, what it pushes the stuck table with) still grows by that share:
+  // the decay lengthens, at most to twice its value in one step.
+  if (wanted > limit && next > 0) {
+    const double decay = friction_value(ini, sec, "DECAY_MS", "a time in ms");
+    if (!(decay >= kFricMinDecayMs && decay <= kFricMaxDecayMs)) {
+      const auto e = ini.find(sec, "DECAY_MS");
+      throw DataError(e->file, e->line,
+                      fmt::format("[{}] DECAY_MS = {}: expected {} to {} ms (circfric's range)",
+                                  sec, e->value, kFricMinDecayMs, kFricMaxDecayMs));
+    }
+    const double longer = std::min({decay * wanted / next, 2.0 * decay, kFricMaxDecayMs});
+    ini.set(sec, "DECAY_MS", number_text(longer));
+    plan.changes.push_back(fmt::format(
+        "[{}] step 2 (refinement): DECAY_MS {} -> {} (AMPLITUDE bounded by AMPLITUDE_MAX: the "
+        "pulse's area amplitude x decay grows by the {:.0f} % the amplitude cannot)",
+        sec, number_text(decay), number_text(longer), (longer / decay - 1.0) * 100.0));
+  }
 }
 
 }  // namespace
@@ -566,10 +610,10 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
 
   const HalWiring hal = read_hal_wiring(ini, kFrictionHalFile);
   if (hal.loads_circfric) {
-    throw DataError(hal.loads_circfric->file, hal.loads_circfric->line,
-                    fmt::format("the configuration loads circfric itself: circcomp does not "
-                                "wire it a second time; {}",
-                                refusal_tail(o)));
+    throw WiringError(hal.loads_circfric->file, hal.loads_circfric->line,
+                      fmt::format("the configuration loads circfric itself: circcomp does not "
+                                  "wire it a second time; {}",
+                                  refusal_tail(o)));
   }
   const auto [thread, position] = after_motion_controller(hal, ini, o);
   auto splices_of = [&](const std::set<char>& axes) {
@@ -592,10 +636,10 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
     for (const char* suffix : {"-pos-out", "-vel-cmd", "-enable"}) {
       const auto it = hal.signals.find(s.instance + suffix);
       if (it != hal.signals.end()) {
-        throw DataError(it->second.place.file, it->second.place.line,
-                        fmt::format("signal {} exists already: circcomp's circfric wiring would "
-                                    "join it; rename it",
-                                    s.instance + suffix));
+        throw WiringError(it->second.place.file, it->second.place.line,
+                          fmt::format("signal {} exists already: circcomp's circfric wiring would "
+                                      "join it; rename it",
+                                      s.instance + suffix));
       }
     }
   }
@@ -605,10 +649,10 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   const std::string before = read_target(config, path.string(), existed);
   if (existed && before != text &&
       !(loaded && before == fric_hal_text(splices_of(wired), thread, position))) {
-    throw DataError(path.string(), 0,
-                    loaded ? "changed since circcomp wrote it: revert, or move it away first"
-                           : "exists but is not [HAL] HALFILE and not circcomp's: move it away "
-                             "first");
+    throw WiringError(path.string(), 0,
+                      loaded ? "changed since circcomp wrote it: revert, or move it away first"
+                             : "exists but is not [HAL] HALFILE and not circcomp's: move it away "
+                               "first");
   }
   if (!loaded) ini.append("HAL", "HALFILE", kFrictionHalFile);
   files[path.string()] = {existed, text};

@@ -28,7 +28,7 @@ namespace fs = std::filesystem;
 
 namespace detail {
 
-// Plausibility bounds (issue 10): beyond these a correction is more likely a mistake.
+// Plausibility bounds: beyond these a correction is more likely a mistake.
 constexpr double kMaxBacklashMm = 0.2;
 constexpr double kMaxScalePpm = 1000.0;
 constexpr double kMaxSquarenessUrad = 1000.0;
@@ -246,22 +246,18 @@ bool loads_kins_from_ini(const std::string& text) {
   return false;
 }
 
-// Squareness ALPHA (urad, already scaled by the gain) added to the kinematics' current value:
-// [KINS] KINEMATICS becomes circtest_kins (same arguments), a literal "loadrt trivkins" in a HAL
-// file follows, [CIRCTEST_COMP] keeps the three angles and circtest-comp.hal, added as the last
-// [HAL] HALFILE, sets the pins from them.
-void plan_squareness(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& d,
-                     double alpha_urad, Plan& plan,
-                     std::map<std::string, std::pair<bool, std::string>>& files) {
-  const auto kins = ini.find("KINS", "KINEMATICS");
-  joints_of(ini, d.axes[0]);  // refuses a kinematics circcomp cannot map, names a missing axis
-  joints_of(ini, d.axes[1]);
-  std::istringstream words(kins->value);
-  std::string module, rest;
-  words >> module;
-  std::getline(words, rest);
-  const bool active = module == "circtest_kins";
-  const std::string key = "SQUARENESS_" + d.plane;
+// One plane's squareness correction: its plane ("XY"), axes and angle (urad, gain applied).
+struct SquarenessChange {
+  std::string plane;
+  std::array<char, 2> axes;
+  double alpha_urad = 0.0;
+};
+
+// The [CIRCTEST_COMP] angle of one plane, rad: the current value plus the change, or the
+// change alone when the kinematics is not circtest_kins yet (ACTIVE false).
+double plan_squareness_angle(const IniDocument& ini, const SquarenessChange& change, bool active,
+                             const std::string& module, Plan& plan) {
+  const std::string key = "SQUARENESS_" + change.plane;
   double current = 0.0;
   if (const auto e = ini.find("CIRCTEST_COMP", key)) {
     const auto v = parse_finite(e->value);
@@ -279,12 +275,39 @@ void plan_squareness(IniDocument& ini, const ConfigDir& config, const DiagnosisI
           key, e->value, module));
     }
   }
-  const double next = current + alpha_urad * 1e-6;
+  const double next = current + change.alpha_urad * 1e-6;
+  plan.changes.push_back(fmt::format(
+      "[CIRCTEST_COMP] {}: {:.3f} -> {:.3f} urad (circtest_kins{})", key, current * 1e6, next * 1e6,
+      active ? "" : fmt::format(", replacing {} in [KINS] KINEMATICS", module)));
+  return next;
+}
+
+// Squareness corrections (each plane's at most once) added to the kinematics' current values:
+// [KINS] KINEMATICS becomes circtest_kins (same arguments), a literal "loadrt trivkins" in a HAL
+// file follows, [CIRCTEST_COMP] keeps the three angles and circtest-comp.hal, added as the last
+// [HAL] HALFILE, sets the pins from them.
+void plan_squareness_set(IniDocument& ini, const ConfigDir& config,
+                         const std::vector<SquarenessChange>& changes, Plan& plan,
+                         std::map<std::string, std::pair<bool, std::string>>& files) {
+  const auto kins = ini.find("KINS", "KINEMATICS");
+  for (const SquarenessChange& change : changes) {
+    // Refuses a kinematics circcomp cannot map, names a missing axis.
+    joints_of(ini, change.axes[0]);
+    joints_of(ini, change.axes[1]);
+  }
+  std::istringstream words(kins->value);
+  std::string module, rest;
+  words >> module;
+  std::getline(words, rest);
+  const bool active = module == "circtest_kins";
+  std::map<std::string, double> next;  // key -> rad
+  for (const SquarenessChange& change : changes) {
+    next["SQUARENESS_" + change.plane] = plan_squareness_angle(ini, change, active, module, plan);
+  }
   if (!active) ini.set("KINS", "KINEMATICS", "circtest_kins" + rest);
   for (const auto& k : kSquarenessKeys) {
-    const bool ours = key == k.key;
-    if (ours) {
-      ini.set("CIRCTEST_COMP", k.key, fmt::format("{:.6e}", next));
+    if (const auto it = next.find(k.key); it != next.end()) {
+      ini.set("CIRCTEST_COMP", k.key, fmt::format("{:.6e}", it->second));
     } else if (!ini.find("CIRCTEST_COMP", k.key) || !active) {
       ini.set("CIRCTEST_COMP", k.key, "0.0");
     }
@@ -294,9 +317,6 @@ void plan_squareness(IniDocument& ini, const ConfigDir& config, const DiagnosisI
                        "circcomp: squareness compensated by circtest_kins, rad (XY: x += value "
                        "* y; YZ: y += value * z; ZX: z += value * x); set by circtest-comp.hal");
   }
-  plan.changes.push_back(fmt::format(
-      "[CIRCTEST_COMP] {}: {:.3f} -> {:.3f} urad (circtest_kins{})", key, current * 1e6, next * 1e6,
-      active ? "" : fmt::format(", replacing {} in [KINS] KINEMATICS", module)));
 
   // The HAL side: the module loaded, and its pins set.
   const std::string dir = ini_dir(ini.path());
@@ -650,8 +670,8 @@ void plan_joint(PlanContext& c, char letter, const Correction& corr, int j) {
                                        next.type, what));
 }
 
-// Squareness: through the circtest_kins kinematics module.
-void plan_squareness_step(PlanContext& c) {
+// The plane's squareness correction when it passes its checks.
+std::optional<SquarenessChange> accepted_squareness(PlanContext& c) {
   std::optional<double> v;
   try {
     v = accepted(c.d.squareness_urad, fmt::format("{}/{} squareness", c.d.axes[0], c.d.axes[1]),
@@ -659,10 +679,15 @@ void plan_squareness_step(PlanContext& c) {
   } catch (const DataError& e) {
     throw DataError(c.d.source, 0, e.detail());
   }
-  if (v) {
-    plan_squareness(c.ini, c.config, c.d, c.o.gain * *v, c.plan, c.tables);
-    c.plan.needs_kins_module = true;
-  }
+  if (!v) return std::nullopt;
+  return SquarenessChange{c.d.plane, c.d.axes, c.o.gain * *v};
+}
+
+// Squareness: through the circtest_kins kinematics module.
+void plan_squareness_step(PlanContext& c, const std::vector<SquarenessChange>& changes) {
+  if (changes.empty()) return;
+  plan_squareness_set(c.ini, c.config, changes, c.plan, c.tables);
+  c.plan.needs_kins_module = true;
 }
 
 // Advice: the servo mismatch, which no configuration value of circcomp's changes.
@@ -726,10 +751,9 @@ bool friction_step(PlanContext& c) {
   TableFiles tables_tried = c.tables;
   try {
     plan_friction(ini_tried, c.config, c.d, c.o, plan_tried, tables_tried);
-  } catch (const DataError& e) {
-    // What the measurement says (an implausible spike) is refused as ever; only where to
-    // wire the compensator is in question here.
-    if (e.file() == c.d.source) throw;
+  } catch (const WiringError& e) {
+    // Only where to wire the compensator is in question here: what the measurement says (an
+    // implausible spike) is refused as ever.
     c.plan.notes.push_back(fmt::format("friction compensation not planned: {}", e.what()));
     return false;
   }
@@ -776,6 +800,17 @@ void collect_files(PlanContext& c) {
   for (const auto& [path, t] : c.tables) add(path, t.second);
 }
 
+// The per-axis corrections (backlash, scale, cyclic) of the plane's axes, except those a test
+// set's earlier plane carries.
+void plan_axes(PlanContext& c) {
+  for (int k = 0; k < 2; ++k) {
+    if (c.d.axis_in_earlier_plane[k]) continue;
+    const Correction corr = accepted_correction(c, k);
+    if (!corr.backlash_mm && !corr.scale_ppm && !corr.cyclic) continue;
+    for (const int j : joints_of(c.ini, c.d.axes[k])) plan_joint(c, c.d.axes[k], corr, j);
+  }
+}
+
 }  // namespace
 
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanOptions& o) {
@@ -790,14 +825,56 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
   TableFiles tables;
   PlanContext c{ini_path, d, o, ini, config, units_per_mm(ini), ini_dir(ini_path), plan, tables};
 
-  for (int k = 0; k < 2; ++k) {
-    const Correction corr = accepted_correction(c, k);
-    if (!corr.backlash_mm && !corr.scale_ppm && !corr.cyclic) continue;
-    for (const int j : joints_of(ini, d.axes[k])) plan_joint(c, d.axes[k], corr, j);
+  plan_axes(c);
+  if (c.wants("squareness")) {
+    const std::optional<SquarenessChange> change = accepted_squareness(c);
+    plan_squareness_step(
+        c, change ? std::vector<SquarenessChange>{*change} : std::vector<SquarenessChange>{});
   }
-  if (c.wants("squareness")) plan_squareness_step(c);
   if (!servo_step(c)) servo_advice(c);
   if (!friction_step(c)) spike_advice(c);
+  collect_files(c);
+  return plan;
+}
+
+Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& planes,
+               const PlanOptions& o) {
+  if (planes.size() == 1) return make_plan(ini_path, planes.front(), o);
+  if (planes.empty()) throw DataError(ini_path, 0, "no plane's diagnosis to plan from");
+  if (!(o.gain > 0.0 && o.gain <= 1.0)) {
+    throw UsageError(fmt::format("{}: expected 0 < F <= 1", o.setting_words(PlanSetting::gain)));
+  }
+  if (o.friction_requested && o.only.size() == 1) {
+    throw UsageError(fmt::format(
+        "{}: friction is planned from one plane's diagnosis, not from a test set (circana "
+        "diagnose --plane P --json)",
+        planes.front().source));
+  }
+  Plan plan;
+  plan.ini_path = ini_path;
+  IniDocument ini = IniDocument::load(ini_path);
+  const ConfigDir config(ini_path);
+  const DiagnosisInput& first = planes.front();
+  plan.provenance_checked = first.ini_sha256 && *first.ini_sha256 == sha256_hex(ini_text(ini_path));
+  TableFiles tables;
+  std::vector<SquarenessChange> squareness;
+  for (const DiagnosisInput& d : planes) {
+    PlanContext c{ini_path, d, o, ini, config, units_per_mm(ini), ini_dir(ini_path), plan, tables};
+    plan_axes(c);
+    if (c.wants("squareness")) {
+      if (const auto change = accepted_squareness(c)) squareness.push_back(*change);
+    }
+    servo_advice(c);
+    spike_advice(c);
+  }
+  PlanContext c{ini_path,          first, o,     ini, config, units_per_mm(ini),
+                ini_dir(ini_path), plan,  tables};
+  if (c.wants("squareness")) plan_squareness_step(c, squareness);
+  if (c.wants("friction")) {
+    plan.notes.push_back(
+        "friction compensation is not planned from a test set: plan it from one plane's "
+        "diagnosis (circana diagnose --plane P --json)");
+  }
   collect_files(c);
   return plan;
 }

@@ -7,6 +7,7 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
+#include "circtest/core/trace_keys.hpp"
 
 namespace circtest {
 
@@ -46,6 +47,12 @@ std::string sha256_of_file(const std::string& path) {
     throw Error(ExitCode::internal, "SHA-256 failed");
   }
   return hex_of(digest, size);
+}
+
+void record_ini_provenance(TraceMetadata& metadata, const std::string& ini_path) {
+  std::string digest = sha256_of_file(ini_path);
+  metadata.set(meta_key::ini, ini_path);
+  metadata.set(meta_key::ini_sha256, std::move(digest));
 }
 
 }  // namespace circtest

@@ -59,6 +59,27 @@ std::optional<Plane> parse_plane(std::string_view text) {
   return std::nullopt;
 }
 
+std::optional<std::vector<Plane>> parse_plane_list(std::string_view text) {
+  std::vector<Plane> planes;
+  std::size_t pos = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', pos);
+    std::string_view item =
+        text.substr(pos, comma == std::string_view::npos ? text.npos : comma - pos);
+    while (!item.empty() && (item.front() == ' ' || item.front() == '\t')) item.remove_prefix(1);
+    while (!item.empty() && (item.back() == ' ' || item.back() == '\t')) item.remove_suffix(1);
+    const std::optional<Plane> p = parse_plane(item);
+    if (!p) return std::nullopt;
+    for (Plane q : planes) {
+      if (q == *p) return std::nullopt;
+    }
+    planes.push_back(*p);
+    if (comma == std::string_view::npos) break;
+    pos = comma + 1;
+  }
+  return planes;
+}
+
 std::string_view direction_name(Direction direction) noexcept {
   return direction == Direction::CCW ? "CCW" : "CW";
 }

@@ -77,6 +77,7 @@ constexpr std::array kRules{
             "an expansion coefficient per K within +-0.001"},
     KeyRule{meta_key::expansion_instrument_per_K, Kind::number, -1e-3, 1e-3, false, 0,
             "an expansion coefficient per K within +-0.001"},
+    // A test set's trace lists its planes in program order (XY,YZ,ZX), each once.
     KeyRule{meta_key::plane, Kind::plane, 0, 0, false, 0, "XY, YZ or ZX"},
     KeyRule{meta_key::units, Kind::length_unit, 0, 0, false, 0, "mm or inch"},
     KeyRule{meta_key::rows, Kind::count, 0, 0, false, 0, "a row count (an integer >= 0)"},
@@ -115,7 +116,7 @@ bool valid(const KeyRule& r, std::string_view value) {
       return v && *v >= 0 && *v <= 9.007199254740992e15 && std::floor(*v) == *v;
     }
     case Kind::plane:
-      return parse_plane(value).has_value();
+      return parse_plane_list(value).has_value();
     case Kind::length_unit:
       return value == "mm" || value == "inch";
   }

@@ -3,13 +3,16 @@
 #include <fmt/format.h>
 #include <boost/program_options.hpp>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "circtest/core/cli.hpp"
 #include "circtest/core/cli_options.hpp"
@@ -64,14 +67,20 @@ po::options_description circgen_options() {
     ("feeds", po::value<std::string>(), "feed sweep F1,F2,...: one run pair per feed")
     ("ref-d", po::value<std::string>(), "Annex C reference diameter D2 (with --ref-f)")
     ("ref-f", po::value<std::string>(), "Annex C reference feed V2: feed = V2*sqrt(D/D2)")
-    ("plane", po::value<std::string>()->default_value("XY"), "XY (G17), YZ (G19) or ZX (G18)")
+    ("plane", po::value<std::string>()->default_value("XY"),
+     "XY (G17), YZ (G19) or ZX (G18); several, e.g. XY,YZ,ZX: a test set in one program")
     ("centre", po::value<std::string>(), "circle centre X,Y,Z in the active work offset (0,0,0)")
     ("center", po::value<std::string>(), "same as --centre")
-    ("safe-z", po::value<std::string>(),
-     "clearance position on the plane's normal axis (Z for XY); approach and leave through it")
+    ("clearance", po::value<std::string>(),
+     "clearance position on the plane's normal axis (Z for XY, X for YZ, Y for ZX), one or one "
+     "per plane; approach and leave through it (ballbar default: 50 mm beyond the centre)")
+    ("safe-z", po::value<std::string>(), "same as --clearance")
+    ("floor", po::value<std::string>(),
+     "lowest Z the tool may reach in the work offset (e.g. the table top plus a margin)")
     ("dir", po::value<std::string>()->default_value("both"), "both (CCW then CW), ccw or cw")
     ("arc", po::value<std::string>(),
-     "measured arc, 90..360 deg (default 360; ballbar in YZ/ZX: 180)")
+     "total angle travelled, overshoot (--lead) included: data arc + 2 x lead, the data arc "
+     "90..360 deg (default a 360 deg data arc; ballbar in YZ/ZX: 220 = 180 + 2 x 20)")
     ("start", po::value<std::string>(),
      "start angle, deg from the plane's first axis toward its second (default 0; a partial "
      "arc in YZ/ZX: centred on top)")
@@ -84,6 +93,8 @@ po::options_description circgen_options() {
      "half the lowest feed))")
     ("feed-in", po::value<std::string>(),
      "ballbar radial feed-in/out, outside the circle (default 1.5 mm)")
+    ("ballbar-lengths", po::value<std::string>(),
+     "the ballbar's lengths, mm (default 50,100,150,300): the radius must be one of them")
     ("dwell", po::value<std::string>()->default_value("0"),
      "pause where the direction reverses, s (at most 2)")
     ("inch", "program in inch (G20); lengths and feeds given in inch")
@@ -151,31 +162,63 @@ void set_feeds(CircleTestSpec& spec, const po::variables_map& vm, double diamete
   }
 }
 
-// Plane and centre.
-void set_plane(CircleTestSpec& spec, const po::variables_map& vm, double mm) {
-  auto text = [&vm](const char* name) { return opt_text(vm, name); };
-  auto number = [&vm](const char* name) { return opt_number(vm, name); };
-  const auto plane = parse_plane(text("plane"));
-  if (!plane) {
-    const std::string given = text("plane");
-    const bool xz = given == "XZ" || given == "xz" || given == "Xz" || given == "xZ";
-    // G18's positive sense runs from +Z toward +X; "XZ" would suggest the opposite.
-    throw UsageError(fmt::format("--plane: '{}' is not XY, YZ or ZX{}", given,
-                                 xz ? " (for G18 use ZX: CCW runs from +Z toward +X)" : ""));
+// --plane: one plane or a set, in program order.
+std::vector<Plane> planes_of(const po::variables_map& vm) {
+  std::vector<Plane> planes;
+  const std::string given = opt_text(vm, "plane");
+  std::size_t pos = 0;
+  while (pos <= given.size()) {
+    const std::size_t comma = std::min(given.find(',', pos), given.size());
+    const std::string item = given.substr(pos, comma - pos);
+    pos = comma + 1;
+    const auto plane = parse_plane(item);
+    if (!plane) {
+      const bool xz = item == "XZ" || item == "xz" || item == "Xz" || item == "xZ";
+      // G18's positive sense runs from +Z toward +X; "XZ" would suggest the opposite.
+      throw UsageError(fmt::format("--plane: '{}' is not XY, YZ or ZX{}", item,
+                                   xz ? " (for G18 use ZX: CCW runs from +Z toward +X)" : ""));
+    }
+    if (std::find(planes.begin(), planes.end(), *plane) != planes.end()) {
+      throw UsageError(fmt::format("--plane: {} is given twice in '{}'", item, given));
+    }
+    planes.push_back(*plane);
   }
-  spec.plane = *plane;
+  return planes;
+}
 
+// The centre and the floor, shared by every plane.
+void set_centre(CircleTestSpec& spec, const po::variables_map& vm, double mm) {
+  auto text = [&vm](const char* name) { return opt_text(vm, name); };
   if (vm.count("centre") && vm.count("center")) throw UsageError("give --centre only once");
   const char* centre_name = vm.count("center") ? "center" : "centre";
   if (vm.count(centre_name)) {
     const auto c = parse_option_list(std::string("--") + centre_name, text(centre_name), 3);
     for (int i = 0; i < 3; ++i) spec.centre_mm[i] = c[i] * mm;
   }
-  if (vm.count("safe-z")) spec.safe_mm = number("safe-z") * mm;
+  if (vm.count("floor")) spec.floor_mm = opt_number(vm, "floor") * mm;
 }
 
-// Directions, instrument, arcs, feeds of the moves around the runs, outputs, offsets; returns
-// the work offset origin in machine coordinates.
+// --clearance (or --safe-z): one position for every plane, or one per plane.
+std::vector<std::optional<double>> clearances_of(const po::variables_map& vm, std::size_t planes,
+                                                 double mm) {
+  if (vm.count("clearance") && vm.count("safe-z"))
+    throw UsageError("give --clearance or its alias --safe-z, not both");
+  const char* name = vm.count("safe-z") ? "safe-z" : "clearance";
+  std::vector<std::optional<double>> out(planes);
+  if (!vm.count(name)) return out;
+  const std::string option = std::string("--") + name;
+  std::vector<double> values = parse_option_list(option, opt_text(vm, name));
+  if (values.size() == 1) values.resize(planes, values.front());
+  if (values.size() != planes) {
+    throw UsageError(fmt::format("{}: {} positions for {} planes: give one, or one per plane",
+                                 option, values.size(), planes));
+  }
+  for (std::size_t k = 0; k < planes; ++k) out[k] = values[k] * mm;
+  return out;
+}
+
+// Directions, instrument, the moves around the runs, outputs, offsets, shared by every
+// plane; returns the work offset origin in machine coordinates.
 std::array<double, 3> set_path(CircleTestSpec& spec, const po::variables_map& vm, double mm) {
   auto text = [&vm](const char* name) { return opt_text(vm, name); };
   auto number = [&vm](const char* name) { return opt_number(vm, name); };
@@ -194,18 +237,17 @@ std::array<double, 3> set_path(CircleTestSpec& spec, const po::variables_map& vm
   }
   spec.instrument = *instrument;
   const bool ballbar = spec.instrument == Instrument::ballbar;
-  const bool vertical = spec.plane != Plane::XY;
-  // A ballbar's centre pivot sits on the table: in a vertical plane it runs the usual 220 deg
-  // (180 deg of data and 20 deg overshoot each end) over the top instead of a full circle.
-  spec.arc_deg = vm.count("arc") ? number("arc") : (ballbar && vertical ? 180.0 : 360.0);
-  spec.start_deg =
-      vm.count("start") ? number("start") : default_start_deg(spec.plane, spec.arc_deg);
   spec.lead_deg =
       vm.count("lead") ? number("lead") : (ballbar ? kBallbarDefaultOvershootDeg : 10.0);
   if (vm.count("approach-feed")) spec.approach_feed_mm_per_min = number("approach-feed") * mm;
   if (vm.count("feed-in")) {
     if (!ballbar) throw UsageError("--feed-in is only used with --instrument ballbar");
     spec.feed_in_mm = number("feed-in") * mm;
+  }
+  if (vm.count("ballbar-lengths")) {
+    if (!ballbar) throw UsageError("--ballbar-lengths is only used with --instrument ballbar");
+    // Bar lengths are in mm whatever the program units: that is how bars are sold.
+    spec.ballbar_lengths_mm = parse_option_list("--ballbar-lengths", text("ballbar-lengths"));
   }
   spec.dwell_s = number("dwell");
   spec.marker_output = parse_option_index("--marker", text("marker"));
@@ -225,6 +267,57 @@ std::array<double, 3> set_path(CircleTestSpec& spec, const po::variables_map& vm
     spec.work_offset_mm = offset;
   }
   return offset;
+}
+
+// The data arc from --arc, the total angle travelled: 360 deg of data without --arc, and a
+// ballbar's usual 220 deg in all over the top of a vertical plane.
+double data_arc_deg(const CircleTestSpec& spec, const po::variables_map& vm) {
+  const bool vertical = spec.plane != Plane::XY;
+  if (!vm.count("arc")) {
+    return spec.instrument == Instrument::ballbar && vertical
+               ? kBallbarVerticalTotalArcDeg - 2.0 * spec.lead_deg
+               : 360.0;
+  }
+  // Degrees without float noise: 379.9999 - 2 x 10 is 359.9999, not 359.99989999999997.
+  auto deg = [](double v) { return std::abs(v) < 1e9 ? std::round(v * 1e9) / 1e9 : v; };
+  const double total = opt_number(vm, "arc");
+  const double data = deg(total - 2.0 * spec.lead_deg);
+  if (std::isfinite(total) && std::isfinite(spec.lead_deg) && !(data >= 90.0 && data <= 360.0)) {
+    throw UsageError(fmt::format(
+        "--arc: {} deg is the total angle travelled; less 2 x {} deg overshoot (--lead) it leaves "
+        "{} deg of data, and the data arc must be 90..360 deg (ISO 230-4 clause 3.1): give --arc "
+        "{}..{}",
+        opt_text(vm, "arc"), spec.lead_deg, data, deg(90.0 + 2.0 * spec.lead_deg),
+        deg(360.0 + 2.0 * spec.lead_deg)));
+  }
+  return data;
+}
+
+// One spec per plane of --plane: the shared spec with the plane's own arc, start and
+// clearance.
+std::vector<CircleTestSpec> plane_specs(const CircleTestSpec& shared, const po::variables_map& vm,
+                                        double mm) {
+  const std::vector<Plane> planes = planes_of(vm);
+  const std::vector<std::optional<double>> clearances = clearances_of(vm, planes.size(), mm);
+  const bool ballbar = shared.instrument == Instrument::ballbar;
+  if (planes.size() > 1 && !ballbar && !clearances.front()) {
+    throw UsageError(fmt::format(
+        "--plane {}: a test set moves from plane to plane between its pauses; give --clearance "
+        "(one position on the normal axes, or one per plane)",
+        opt_text(vm, "plane")));
+  }
+  std::vector<CircleTestSpec> specs;
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    CircleTestSpec spec = shared;
+    spec.plane = planes[k];
+    spec.arc_deg = data_arc_deg(spec, vm);
+    spec.start_deg =
+        vm.count("start") ? opt_number(vm, "start") : default_start_deg(spec.plane, spec.arc_deg);
+    spec.safe_mm = clearances[k];
+    if (!spec.safe_mm && ballbar) spec.safe_mm = ballbar_default_clearance_mm(spec);
+    specs.push_back(std::move(spec));
+  }
+  return specs;
 }
 
 int run(int argc, char** argv) {
@@ -253,10 +346,10 @@ int run(int argc, char** argv) {
   const double diameter = diameter_of(vm, mm);
   spec.radius_mm = diameter / 2.0 * mm;
   set_feeds(spec, vm, diameter, mm);
-  set_plane(spec, vm, mm);
+  set_centre(spec, vm, mm);
   const std::array<double, 3> offset = set_path(spec, vm, mm);
   GenerateRequest request;
-  request.spec = std::move(spec);
+  request.planes = plane_specs(spec, vm, mm);
   if (vm.count("ini")) request.ini_path = opt_text(vm, "ini");
   request.work_offset_origin_mm = offset;
   if (vm.count("output")) request.output_path = opt_text(vm, "output");

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "circtest/core/error.hpp"
@@ -92,11 +93,19 @@ class ProgramWriter {
 
   std::string feed(double feed_mm_per_min) const {
     check_word(feed_mm_per_min * scale_);
-    // Feeds keep one decimal: enough for inch/min, and mm/min feeds are whole numbers.
-    std::string s = fmt::format("{:.1f}", feed_mm_per_min * scale_);
-    if (s.ends_with(".0")) s.resize(s.size() - 2);
+    // mm/min feeds keep one decimal (they are whole numbers); inch/min ones three, so that
+    // a feed converted from mm/min (200 mm/min = 7.874 in/min) is the feed asked for to
+    // 0.03 mm/min, not F7.9.
+    std::string s = fmt::format("{:.{}f}", feed_mm_per_min * scale_, feed_decimals());
+    while (s.find('.') != std::string::npos && (s.back() == '0' || s.back() == '.')) {
+      const bool point = s.back() == '.';
+      s.pop_back();
+      if (point) break;
+    }
     return s;
   }
+
+  int feed_decimals() const { return decimals_ == 4 ? 1 : 3; }
 
   // A point on the test circle, or on a concentric one `extra` program units further out.
   std::array<double, 3> point_at(double angle_deg, double extra = 0.0) const {
@@ -211,13 +220,12 @@ double lead_in_start_deg(const CircleTestSpec& spec, Direction direction) {
                                      : spec.start_deg + spec.arc_deg + spec.lead_deg;
 }
 
-std::string segments_value(const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs,
-                           const ProgramWriter& writer) {
-  (void)spec;
+// id:DIRECTION:Ffeed:PLANE for each run, the feed as programmed (program units).
+std::string segments_value(const std::vector<MeasuredRun>& runs, const ProgramWriter& writer) {
   std::vector<std::string> texts;
   for (const MeasuredRun& run : runs) {
-    texts.push_back(fmt::format("{}:{}:F{}", run.segment_id, direction_name(run.direction),
-                                writer.feed(run.feed_mm_per_min)));
+    texts.push_back(fmt::format("{}:{}:F{}:{}", run.segment_id, direction_name(run.direction),
+                                writer.feed(run.feed_mm_per_min), plane_name(run.plane)));
   }
   return join(texts);
 }
@@ -325,6 +333,12 @@ std::string_view library_spec_words(SpecSetting setting) noexcept {
       return "feed_in_mm";
     case SpecSetting::ballbar:
       return "instrument ballbar";
+    case SpecSetting::ballbar_lengths:
+      return "ballbar_lengths_mm";
+    case SpecSetting::floor:
+      return "floor_mm";
+    case SpecSetting::planes:
+      return "planes";
     case SpecSetting::test_diameter:
       return "test_diameter";
     case SpecSetting::reference_diameter:
@@ -378,6 +392,42 @@ std::string overlap_advice(const CircleTestSpec& spec, SpecWords words) {
   return fmt::format("{} {} or less, or {} 360", words(SpecSetting::arc),
                      header_number(std::floor((360.0 - 2.0 * lead_deg) * 1000.0) / 1000.0),
                      words(SpecSetting::arc));
+}
+
+// A ballbar measures at the lengths it can be set to: a radius between them is no test.
+void check_ballbar_length(const CircleTestSpec& spec, SpecWords words) {
+  for (double length : spec.ballbar_lengths_mm) {
+    if (!std::isfinite(length) || length < kBallbarMinRadiusMm || length > kBallbarMaxRadiusMm) {
+      throw UsageError(fmt::format("{}: a bar length of {} mm is outside {}..{} mm",
+                                   words(SpecSetting::ballbar_lengths), header_number(length),
+                                   header_number(kBallbarMinRadiusMm),
+                                   header_number(kBallbarMaxRadiusMm)));
+    }
+  }
+  for (double length : spec.ballbar_lengths_mm) {
+    if (std::abs(spec.radius_mm - length) <= kBallbarLengthToleranceMm) return;
+  }
+  std::vector<double> lengths = spec.ballbar_lengths_mm;
+  std::sort(lengths.begin(), lengths.end());
+  throw UsageError(fmt::format(
+      "{}: radius {} mm is not a length of the ballbar profile ({} mm); test at one of them, or "
+      "give the bar's lengths with {}",
+      words(SpecSetting::ballbar), header_number(spec.radius_mm), header_list(lengths),
+      words(SpecSetting::ballbar_lengths)));
+}
+
+// Above an XY circle the clearance is a height: one at or below the circle would lower the
+// tool at rapid onto the set-up.
+void check_clearance_and_floor(const CircleTestSpec& spec, SpecWords words) {
+  auto w = [words](SpecSetting setting) { return words(setting); };
+  if (spec.safe_mm && spec.plane == Plane::XY && !(*spec.safe_mm > spec.centre_mm[2])) {
+    throw UsageError(fmt::format(
+        "{}: Z {} mm is not above the circle's height Z {} mm: the clearance in XY must be above "
+        "it",
+        w(SpecSetting::safe), header_number(*spec.safe_mm), header_number(spec.centre_mm[2])));
+  }
+  if (spec.floor_mm && !std::isfinite(*spec.floor_mm))
+    throw UsageError(fmt::format("{}: not a finite height", w(SpecSetting::floor)));
 }
 }  // namespace
 
@@ -436,6 +486,7 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   }
   if (spec.safe_mm && !finite(*spec.safe_mm))
     throw UsageError(fmt::format("{}: not a finite position", w(SpecSetting::safe)));
+  check_clearance_and_floor(spec, words);
   if (!finite(spec.dwell_s) || spec.dwell_s < 0.0 || spec.dwell_s > kMaxDwellS) {
     throw UsageError(fmt::format("{}: must be 0..{} s, got {}", w(SpecSetting::dwell),
                                  header_number(kMaxDwellS), header_number(spec.dwell_s)));
@@ -491,6 +542,7 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
                       w(SpecSetting::ballbar), header_number(spec.radius_mm),
                       header_number(kBallbarMinRadiusMm), header_number(kBallbarMaxRadiusMm)));
     }
+    check_ballbar_length(spec, words);
     for (double f : spec.feeds_mm_per_min) {
       if (f > kBallbarMaxFeedMmPerMin) {
         throw UsageError(fmt::format(
@@ -512,13 +564,15 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   check_plausible(spec, words);
 }
 
-std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec) {
-  std::vector<MeasuredRun> runs;
-  int id = 1;
+namespace {
+// The runs of one plane, their ids from `first_id` on.
+void append_runs(const CircleTestSpec& spec, int first_id, std::vector<MeasuredRun>& runs) {
+  int id = first_id;
   for (double feed : spec.feeds_mm_per_min) {
     for (Direction direction : spec.directions) {
       MeasuredRun run;
       run.segment_id = id++;
+      run.plane = spec.plane;
       run.direction = direction;
       run.feed_mm_per_min = feed;
       run.start_deg = normalize_deg(direction == Direction::CCW ? spec.start_deg
@@ -527,6 +581,12 @@ std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec) {
       runs.push_back(run);
     }
   }
+}
+}  // namespace
+
+std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec) {
+  std::vector<MeasuredRun> runs;
+  append_runs(spec, 1, runs);
   return runs;
 }
 
@@ -534,13 +594,141 @@ std::pair<double, double> swept_range_deg(const CircleTestSpec& spec) {
   return {spec.start_deg - spec.lead_deg, spec.start_deg + spec.arc_deg + spec.lead_deg};
 }
 
+double lowest_z_mm(const CircleTestSpec& spec) {
+  const double cz = spec.centre_mm[2];
+  const auto top = top_deg(spec.plane);
+  if (!top) return spec.safe_mm ? std::min(cz, *spec.safe_mm) : cz;
+  const auto [from, to] = swept_range_deg(spec);
+  const bool bottom_inside = to - from >= 360.0 || normalize_deg(*top + 180.0 - from) <= to - from;
+  const double fi = spec.instrument == Instrument::ballbar ? spec.feed_in_mm : 0.0;
+  double lowest = std::numeric_limits<double>::infinity();
+  // Height above the centre: r cos(angle - top). The arcs at the ballbar's feed-in radius
+  // reach lower below the centre, the ones on the circle lower above it.
+  for (double r : {spec.radius_mm, spec.radius_mm + fi}) {
+    if (bottom_inside) {
+      lowest = std::min(lowest, cz - r);
+    } else {
+      lowest = std::min({lowest, cz + r * std::cos(deg_to_rad(from - *top)),
+                         cz + r * std::cos(deg_to_rad(to - *top))});
+    }
+  }
+  return lowest;
+}
+
+void check_floor(const CircleTestSpec& spec, SpecWords words) {
+  if (!spec.floor_mm) return;
+  const double low = lowest_z_mm(spec);
+  // A micrometre of slack: a path that touches the floor exactly is not refused.
+  if (low >= *spec.floor_mm - 1e-6) return;
+  throw LimitError(fmt::format(
+      "{} {}: the path in {} reaches Z {} mm (work offset), {} mm below that floor; raise the "
+      "centre, travel a shorter arc over the top or test a smaller circle",
+      words(SpecSetting::floor), header_number(*spec.floor_mm), plane_name(spec.plane),
+      header_number(low), header_number(*spec.floor_mm - low)));
+}
+
+double ballbar_default_clearance_mm(const CircleTestSpec& spec) {
+  return spec.centre_mm[axis_index(plane_axes(spec.plane).normal)] + kBallbarDefaultClearanceMm;
+}
+
+void validate_set(const std::vector<CircleTestSpec>& planes, SpecWords words) {
+  const std::string_view what = words(SpecSetting::planes);
+  if (planes.empty()) throw UsageError(fmt::format("{}: no plane", what));
+  for (const CircleTestSpec& p : planes) validate(p, words);
+  for (std::size_t i = 0; i < planes.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (planes[i].plane == planes[j].plane) {
+        throw UsageError(fmt::format("{}: {} is given twice", what, plane_name(planes[i].plane)));
+      }
+    }
+  }
+  // One header states them for the whole set, so they must be the same in every plane.
+  const CircleTestSpec& a = planes.front();
+  for (const CircleTestSpec& b : planes) {
+    const char* differs = nullptr;
+    if (b.radius_mm != a.radius_mm) differs = "the radius";
+    if (b.feeds_mm_per_min != a.feeds_mm_per_min) differs = "the feeds";
+    if (b.directions != a.directions) differs = "the directions";
+    if (b.centre_mm != a.centre_mm) differs = "the centre";
+    if (b.lead_deg != a.lead_deg) differs = "the lead";
+    if (b.instrument != a.instrument || b.feed_in_mm != a.feed_in_mm) differs = "the instrument";
+    if (b.approach_feed_mm_per_min != a.approach_feed_mm_per_min) differs = "the approach feed";
+    if (b.work_offset_mm != a.work_offset_mm || b.work_offset_code != a.work_offset_code ||
+        b.tool_length_offset != a.tool_length_offset)
+      differs = "the offsets";
+    if (b.dwell_s != a.dwell_s || b.units != a.units || b.floor_mm != a.floor_mm)
+      differs = "the dwell, units or floor";
+    if (b.marker_output != a.marker_output || b.segment_output != a.segment_output)
+      differs = "the outputs";
+    if (differs) {
+      throw UsageError(fmt::format(
+          "{}: the planes of a set share everything but the plane, arc, start and clearance; "
+          "{} differs in {}",
+          what, differs, plane_name(b.plane)));
+    }
+  }
+}
+
 namespace {
+
+// The key of a value that may differ between the planes: `key` alone for one plane, else
+// `key_PLANE` (e.g. arc_deg_YZ).
+std::string plane_key(const std::string& key, const CircleTestSpec& spec, bool set) {
+  return set ? fmt::format("{}_{}", key, plane_name(spec.plane)) : key;
+}
+
+// The header lines of the values that may differ between the planes of a set.
+void add_plane_values(const std::vector<CircleTestSpec>& planes,
+                      std::vector<std::pair<std::string, std::string>>& h) {
+  const bool set = planes.size() > 1;
+  auto add = [&h](std::string key, std::string value) {
+    h.emplace_back(std::move(key), std::move(value));
+  };
+  auto all_equal = [&planes](auto value) {
+    return std::all_of(planes.begin(), planes.end(),
+                       [&](const CircleTestSpec& p) { return value(p) == value(planes[0]); });
+  };
+  auto start = [](const CircleTestSpec& p) { return normalize_deg(p.start_deg); };
+  auto arc = [](const CircleTestSpec& p) { return p.arc_deg; };
+  auto total = [](const CircleTestSpec& p) { return p.arc_deg + 2.0 * p.lead_deg; };
+  // A set whose planes agree on a number states it unsuffixed too, as one plane does.
+  if (!set || all_equal(arc)) add(meta_key::arc_deg, header_number(arc(planes[0])));
+  if (!set || all_equal(total)) add("arc_total_deg", header_number(total(planes[0])));
+  if (!set || all_equal(start)) add(meta_key::start_deg, header_number(start(planes[0])));
+  add(meta_key::lead_deg, header_number(planes[0].lead_deg));
+  for (const CircleTestSpec& p : planes) {
+    const PlaneAxes axes = plane_axes(p.plane);
+    const bool inch = p.units == LengthUnit::inch;
+    if (set) {
+      add(plane_key(meta_key::axes, p, set),
+          fmt::format("{},{}", upper(axes.first), upper(axes.second)));
+      std::vector<std::string> labels;
+      for (Direction d : p.directions) labels.push_back(direction_label(p.plane, d));
+      add(plane_key(meta_key::direction_labels, p, set), join(labels));
+      add(plane_key(meta_key::arc_deg, p, set), header_number(arc(p)));
+      add(plane_key("arc_total_deg", p, set), header_number(total(p)));
+      add(plane_key(meta_key::start_deg, p, set), header_number(start(p)));
+    }
+    add(plane_key("lowest_z_mm", p, set), header_number(lowest_z_mm(p)));
+    if (p.work_offset_mm) {
+      add(plane_key("lowest_z_machine_mm", p, set),
+          header_number(lowest_z_mm(p) + (*p.work_offset_mm)[2]));
+    }
+    if (p.safe_mm) {
+      add(plane_key("safe_axis", p, set), std::string(1, axes.normal));
+      add(plane_key("safe_mm", p, set), header_number(*p.safe_mm));
+      if (inch) add(plane_key("safe_in", p, set), header_number(*p.safe_mm / kMmPerInch));
+    }
+  }
+}
 
 // The header's key: value lines (the recorder copies them into the trace's metadata).
 std::vector<std::pair<std::string, std::string>> program_header(
-    const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs, const ProgramWriter& w) {
+    const std::vector<CircleTestSpec>& planes, const std::vector<MeasuredRun>& runs,
+    const ProgramWriter& w) {
+  const CircleTestSpec& spec = planes.front();
   std::vector<std::pair<std::string, std::string>> h;
-  const PlaneAxes axes = plane_axes(spec.plane);
+  const bool set = planes.size() > 1;
   const bool inch = spec.units == LengthUnit::inch;
   const double to_units = inch ? 1.0 / kMmPerInch : 1.0;
   auto add = [&h](std::string key, std::string value) {
@@ -554,8 +742,13 @@ std::vector<std::pair<std::string, std::string>> program_header(
   add(meta_key::generator, generator_version());
   if (!spec.date.empty()) add(meta_key::date, spec.date);
   add(meta_key::test, "ISO 230-4 circular test");
-  add(meta_key::plane, std::string(plane_name(spec.plane)));
-  add(meta_key::axes, fmt::format("{},{}", upper(axes.first), upper(axes.second)));
+  std::vector<std::string_view> names;
+  for (const CircleTestSpec& p : planes) names.push_back(plane_name(p.plane));
+  add(meta_key::plane, join(names));
+  if (!set) {
+    const PlaneAxes axes = plane_axes(spec.plane);
+    add(meta_key::axes, fmt::format("{},{}", upper(axes.first), upper(axes.second)));
+  }
   add(meta_key::units, length_unit_name(spec.units));
   add(meta_key::diameter_mm, header_number(2.0 * spec.radius_mm));
   add(meta_key::radius_mm, header_number(spec.radius_mm));
@@ -572,33 +765,28 @@ std::vector<std::pair<std::string, std::string>> program_header(
     add(meta_key::feeds_in_per_min, header_list(feeds_units));
   }
   {
-    std::vector<std::string_view> names;
+    std::vector<std::string_view> dirs;
     std::vector<std::string> labels;
     for (Direction d : spec.directions) {
-      names.push_back(direction_name(d));
+      dirs.push_back(direction_name(d));
       labels.push_back(direction_label(spec.plane, d));
     }
-    add(meta_key::directions, join(names));
-    add(meta_key::direction_labels, join(labels));
+    add(meta_key::directions, join(dirs));
+    if (!set) add(meta_key::direction_labels, join(labels));
   }
-  add(meta_key::arc_deg, header_number(spec.arc_deg));
-  add(meta_key::start_deg, header_number(normalize_deg(spec.start_deg)));
-  add(meta_key::lead_deg, header_number(spec.lead_deg));
+  add_plane_values(planes, h);
   add(meta_key::dwell_s, header_number(spec.dwell_s));
-  if (spec.safe_mm) {
-    add("safe_axis", std::string(1, axes.normal));
-    add("safe_mm", header_number(*spec.safe_mm));
-    if (inch) add("safe_in", header_number(*spec.safe_mm * to_units));
-  }
+  if (spec.floor_mm) add("floor_z_mm", header_number(*spec.floor_mm));
   add("motion_mode", "G61");
   add("motion_mode_after", "G64");
   add("feed_override", "off during the runs by M50 P0, back on after by M50 P1");
   // Not `instrument`: that key is the clause 6 description of the instrument (circlog-record
   // --instrument), which the recorder would mix up with this copied header line.
   add("instrument_profile", instrument_name(spec.instrument));
+  // The approach feed as written (an inch feed has three decimals).
+  const std::string approach_word = w.feed(approach_feed_mm_per_min(spec));
   add("approach_feed_mm_per_min", header_number(approach_feed_mm_per_min(spec)));
-  if (inch)
-    add("approach_feed_in_per_min", header_number(approach_feed_mm_per_min(spec) * to_units));
+  if (inch) add("approach_feed_in_per_min", approach_word);
   if (spec.instrument == Instrument::ballbar) {
     add("feed_in_mm", header_number(spec.feed_in_mm));
     if (inch) add("feed_in_in", header_number(spec.feed_in_mm * to_units));
@@ -620,7 +808,7 @@ std::vector<std::pair<std::string, std::string>> program_header(
   }
   add(meta_key::marker_output, std::to_string(spec.marker_output));
   add(meta_key::segment_output, std::to_string(spec.segment_output));
-  add(meta_key::segments, segments_value(spec, runs, w));
+  add(meta_key::segments, segments_value(runs, w));
   if (spec.annex_c) {
     const AnnexCNote& a = *spec.annex_c;
     const char* u = inch ? "in" : "mm";
@@ -635,29 +823,36 @@ std::vector<std::pair<std::string, std::string>> program_header(
   return h;
 }
 
-// What the program's sections share: the plane's axes, the words, the first point.
+// What a plane's sections share: the plane's axes, the words, the first point, and where
+// the plane stands in the set.
 struct Layout {
   PlaneAxes axes;
   bool inch = false;
   double to_units = 1.0;
   bool ballbar = false;
+  bool vertical = false;         // YZ or ZX: Z lies in the plane
   char N = 'Z';                  // the normal axis, upper case
+  char H = 'X';                  // a vertical plane's horizontal axis, upper case
   std::string normal, in_plane;  // the axes a move may write
   std::string plane_word, marker, segment;
   std::string approach_f, centre_normal, feed_in_text;
   double outside = 0.0;  // the ballbar's radial moves end this far outside the circle
   double first_lead_deg = 0.0;
-  std::array<double, 3> start{};  // where the first lead-in starts
+  std::array<double, 3> start{};     // where the first lead-in starts
+  std::size_t index = 0, count = 1;  // this plane's place in the set
+  bool last() const { return index + 1 == count; }
 };
 
-Layout program_layout(const CircleTestSpec& spec, const std::vector<MeasuredRun>& runs,
-                      const ProgramWriter& w) {
+Layout program_layout(const CircleTestSpec& spec, const ProgramWriter& w, std::size_t index,
+                      std::size_t count) {
   Layout l;
   l.axes = plane_axes(spec.plane);
   l.inch = spec.units == LengthUnit::inch;
   l.to_units = l.inch ? 1.0 / kMmPerInch : 1.0;
   l.ballbar = spec.instrument == Instrument::ballbar;
+  l.vertical = spec.plane != Plane::XY;
   l.N = upper(l.axes.normal);
+  l.H = upper(spec.plane == Plane::YZ ? 'y' : 'x');
   l.normal = std::string(1, l.axes.normal);
   l.in_plane = std::string{l.axes.first, l.axes.second};
   l.plane_word = fmt::format("G{}", plane_gcode(spec.plane));
@@ -667,21 +862,15 @@ Layout program_layout(const CircleTestSpec& spec, const std::vector<MeasuredRun>
   l.centre_normal = w.number(w.centre()[axis_index(l.axes.normal)]);
   l.outside = l.ballbar ? w.to_units(spec.feed_in_mm) : 0.0;
   l.feed_in_text = w.number(l.outside);
-  l.first_lead_deg = lead_in_start_deg(spec, runs.front().direction);
+  l.first_lead_deg = lead_in_start_deg(spec, spec.directions.front());
   l.start = w.point_at(l.first_lead_deg, l.outside);
+  l.index = index;
+  l.count = count;
   return l;
 }
 
-// Modes, then what the operator reads, then M0: nothing moves before the operator said go.
-void write_preamble(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
-  std::string feeds_text;
-  for (double f : spec.feeds_mm_per_min)
-    feeds_text += (feeds_text.empty() ? "F" : ",F") + w.feed(f);
-  std::string dirs_text;
-  for (Direction d : spec.directions)
-    dirs_text += (dirs_text.empty() ? "" : " then ") + std::string(direction_name(d));
-
-  // Nothing moves before the operator has read where the program goes and said go (M0).
+// Modes and outputs, once for the whole program: none of them moves the machine.
+void write_modes(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
   w.line("M5 M9 (spindle and coolant off)");
   w.line(fmt::format("{} {} G90 G91.1 G94 G40 G80", l.inch ? "G20" : "G21", l.plane_word));
   // G61 (exact path): no blend arcs or parabolic blends, so no join can round off the
@@ -694,57 +883,125 @@ void write_preamble(const CircleTestSpec& spec, const Layout& l, ProgramWriter& 
   }
   w.line(fmt::format("M65 {}", l.marker));
   w.line(fmt::format("M68 {} Q0", l.segment));
-  const char* u = length_unit_name(spec.units);
-  w.line(fmt::format("(MSG, circtest: {} test in {} {}, R{} {}, {} at {} {}/min, centre {})",
-                     instrument_name(spec.instrument), plane_name(spec.plane), l.plane_word,
-                     w.number(w.to_units(spec.radius_mm)), u, dirs_text, feeds_text, u,
-                     w.point_text(w.centre())));
-  if (spec.safe_mm) {
-    w.line(
-        fmt::format("(MSG, Next: {} rapid alone to {}, rapid in the plane to above {}, "
-                    "{} down to {} at F{})",
-                    l.N, w.number(*spec.safe_mm * l.to_units), w.plane_point_text(l.start), l.N,
-                    l.centre_normal, l.approach_f));
-  } else {
-    w.line(
-        fmt::format("(MSG, Raise {} clear of the set-up now. Next: rapid in the plane at "
-                    "this {} height to above {}, then {} alone to {} at F{})",
-                    l.N, l.N, w.plane_point_text(l.start), l.N, l.centre_normal, l.approach_f));
-  }
-  const std::string offsets =
-      spec.work_offset_code || spec.tool_length_offset
-          ? fmt::format("work offset {} and tool length {} as measured for this set-up",
-                        spec.work_offset_code.value_or("in use"),
-                        spec.tool_length_offset ? fmt::format("G43 H{}", *spec.tool_length_offset)
-                                                : std::string("in use"))
-          : std::string("work offset and tool length as intended");
-  w.line(
-      fmt::format("(MSG, Check: {}, the path clear{}, "
-                  "then cycle start)",
-                  offsets,
-                  l.ballbar ? ", ballbar NOT mounted yet"
-                            : (spec.instrument == Instrument::grid ? ", grid head mounted" : "")));
-  w.line("M0 (operator check before any motion)");
 }
 
-// Approach: the normal axis and the plane's axes never move together.
+// The approach in the plane's own axis names, as write_approach moves.
+std::string approach_text(const CircleTestSpec& spec, const Layout& l, const ProgramWriter& w) {
+  const std::string start_z = w.number(l.start[2]);
+  const std::string start_h = w.number(l.start[axis_index(static_cast<char>(l.H - 'A' + 'a'))]);
+  if (!l.vertical) {
+    if (spec.safe_mm) {
+      return fmt::format(
+          "Next: Z rapid alone to {}, X Y rapid to above {}, Z down alone to {} at F{}",
+          w.number(*spec.safe_mm * l.to_units), w.plane_point_text(l.start), l.centre_normal,
+          l.approach_f);
+    }
+    return fmt::format(
+        "Raise Z clear of the set-up now. Next: X Y rapid at this Z height to above {}, then Z "
+        "down alone to {} at F{}",
+        w.plane_point_text(l.start), l.centre_normal, l.approach_f);
+  }
+  const std::string tail = fmt::format(
+      "{} rapid alone to the start {}{}, Z alone to the start Z{} at F{}, then {} "
+      "alone into the plane to {} at F{}",
+      l.H, l.H, start_h, start_z, l.approach_f, l.N, l.centre_normal, l.approach_f);
+  if (spec.safe_mm) {
+    return fmt::format("Next: {} rapid alone to {} beside the plane, {}", l.N,
+                       w.number(*spec.safe_mm * l.to_units), tail);
+  }
+  return fmt::format("Move {} clear of the set-up now, beside the plane. Next: {}", l.N, tail);
+}
+
+// What the operator does at a plane's pause: the first checks the set-up, a later one sets
+// the instrument up for its plane.
+std::string set_up_text(const CircleTestSpec& spec, const Layout& l) {
+  const std::string_view plane = plane_name(spec.plane);
+  if (l.index == 0) {
+    const std::string offsets =
+        spec.work_offset_code || spec.tool_length_offset
+            ? fmt::format("work offset {} and tool length {} as measured for this set-up",
+                          spec.work_offset_code.value_or("in use"),
+                          spec.tool_length_offset ? fmt::format("G43 H{}", *spec.tool_length_offset)
+                                                  : std::string("in use"))
+            : std::string("work offset and tool length as intended");
+    const std::string instrument = l.ballbar
+                                       ? ", ballbar NOT mounted yet"
+                                       : (spec.instrument == Instrument::grid
+                                              ? fmt::format(", grid head mounted for {}", plane)
+                                              : std::string());
+    return fmt::format("Check: {}, the path clear{}, then cycle start", offsets, instrument);
+  }
+  switch (spec.instrument) {
+    case Instrument::ballbar:
+      return fmt::format(
+          "Set up {}: set the centre pivot and the tool cup for {}, ballbar NOT mounted yet, "
+          "the path clear, then cycle start",
+          plane, plane);
+    case Instrument::grid:
+      return fmt::format(
+          "Set up {}: re-orient the grid head and its plate into {}, the path clear, then "
+          "cycle start",
+          plane, plane);
+    case Instrument::encoder:
+      break;
+  }
+  return fmt::format("Set up {}: nothing to mount, the path clear, then cycle start", plane);
+}
+
+// A plane's operator pause: what comes, what to check or set up, M0. Nothing moves before
+// the operator has read it and said go.
+void write_plane_pause(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
+  std::string feeds_text;
+  for (double f : spec.feeds_mm_per_min)
+    feeds_text += (feeds_text.empty() ? "F" : ",F") + w.feed(f);
+  std::string dirs_text;
+  for (Direction d : spec.directions)
+    dirs_text += (dirs_text.empty() ? "" : " then ") + std::string(direction_name(d));
+  if (l.index > 0) w.line(fmt::format("{} (plane {})", l.plane_word, plane_name(spec.plane)));
+  const char* u = length_unit_name(spec.units);
+  const std::string where = l.count > 1 ? fmt::format("test set, plane {} of {}: {}", l.index + 1,
+                                                      l.count, plane_name(spec.plane))
+                                        : fmt::format("test in {}", plane_name(spec.plane));
+  w.line(fmt::format("(MSG, circtest: {} {} {}, R{} {}, {} at {} {}/min, centre {})",
+                     instrument_name(spec.instrument), where, l.plane_word,
+                     w.number(w.to_units(spec.radius_mm)), u, dirs_text, feeds_text, u,
+                     w.point_text(w.centre())));
+  w.line(fmt::format("(MSG, {})", approach_text(spec, l, w)));
+  w.line(fmt::format("(MSG, {})", set_up_text(spec, l)));
+  w.line(l.index == 0 ? std::string("M0 (operator check before any motion)")
+                      : fmt::format("M0 (set up plane {})", plane_name(spec.plane)));
+}
+
+// The approach (docs/circgen.md "Approach"): clear on the normal axis first, then in the
+// plane at rapid only where that does not lower the tool, then down to the circle's height
+// at the approach feed; in YZ and ZX then the normal axis into the plane at the approach
+// feed. No move writes the normal axis and an in-plane axis together, and no rapid lowers Z
+// together with another axis.
 void write_approach(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
   const char* u = length_unit_name(spec.units);
   if (spec.safe_mm) {
     std::array<double, 3> safe = l.start;
     safe[axis_index(l.axes.normal)] = *spec.safe_mm * l.to_units;
-    w.move("G0", safe, l.normal, " (clearance)");
-    w.move("G0", safe, l.in_plane, " (above the start)");
-  } else {
-    w.move("G0", l.start, l.in_plane, " (in the plane, at the height the operator left)");
+    w.move("G0", safe, l.normal, fmt::format(" (clear on {})", l.N));
   }
-  w.move("G1", l.start, l.normal, fmt::format(" F{} (approach)", l.approach_f));
+  if (!l.vertical) {
+    w.move(
+        "G0", l.start, l.in_plane,
+        spec.safe_mm ? " (above the start)" : " (in the plane, at the height the operator left)");
+    w.move("G1", l.start, l.normal, fmt::format(" F{} (approach)", l.approach_f));
+  } else {
+    const std::string h(1, static_cast<char>(l.H - 'A' + 'a'));
+    w.move("G0", l.start, h, fmt::format(" ({} to the start)", l.H));
+    w.move("G1", l.start, "z", fmt::format(" F{} (Z to the start height)", l.approach_f));
+    w.move("G1", l.start, l.normal, fmt::format(" F{} (approach, into the plane)", l.approach_f));
+  }
   if (l.ballbar) {
     w.line(
-        fmt::format("(MSG, Mount the ballbar now: centre pivot at {}, tool cup here, {} {} "
+        fmt::format("(MSG, Mount the ballbar for {} now: centre pivot at {}, tool cup here, {} {} "
                     "outside the circle; next a radial feed-in of {} {} at F{})",
-                    w.point_text(w.centre()), l.feed_in_text, u, l.feed_in_text, u, l.approach_f));
-    w.line("M0 (mount the ballbar)");
+                    plane_name(spec.plane), w.point_text(w.centre()), l.feed_in_text, u,
+                    l.feed_in_text, u, l.approach_f));
+    w.line(fmt::format("M0 (mount the ballbar for {})", plane_name(spec.plane)));
   }
   // The feed override would change the feed of the measured arcs.
   w.line("M50 P0 (feed override off for the runs)");
@@ -774,8 +1031,9 @@ void write_runs(const CircleTestSpec& spec, const Layout& l, const std::vector<M
     angle_deg = lead_start;
     const bool ccw = run.direction == Direction::CCW;
     const double sign = ccw ? 1.0 : -1.0;
-    w.line(fmt::format("(run {}: {} {} F{})", run.segment_id, direction_name(run.direction),
-                       direction_label(spec.plane, run.direction), f));
+    w.line(fmt::format("(run {}: {} {} {} F{})", run.segment_id, plane_name(run.plane),
+                       direction_name(run.direction), direction_label(spec.plane, run.direction),
+                       f));
     if (l.ballbar) {
       w.move("G1", w.point_at(angle_deg), l.in_plane,
              fmt::format(" F{} (feed-in {})", l.approach_f, l.feed_in_text));
@@ -801,14 +1059,14 @@ void write_runs(const CircleTestSpec& spec, const Layout& l, const std::vector<M
   }
 }
 
-// Overrides and blending back on, the ballbar off, the retract, M2.
-void write_ending(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
+// Overrides back on, blending back on after the last plane, the ballbar off, the retract.
+void write_plane_ending(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w) {
   w.line("M50 P1 (feed override back on)");
-  w.line("G64 (path blending back on)");
+  if (l.last()) w.line("G64 (path blending back on)");
   if (l.ballbar) {
     w.line(
         spec.safe_mm
-            ? fmt::format("(MSG, Remove the ballbar now: next {} rapids to {})", l.N,
+            ? fmt::format("(MSG, Remove the ballbar now: next {} rapids alone to {})", l.N,
                           w.number(*spec.safe_mm * l.to_units))
             : std::string("(MSG, Remove the ballbar now: the program then ends without moving)"));
     w.line("M0 (remove the ballbar before any retract)");
@@ -816,29 +1074,47 @@ void write_ending(const CircleTestSpec& spec, const Layout& l, ProgramWriter& w)
   if (spec.safe_mm) {
     std::array<double, 3> safe = w.position();
     safe[axis_index(l.axes.normal)] = *spec.safe_mm * l.to_units;
-    w.move("G0", safe, l.normal, " (clearance)");
+    w.move("G0", safe, l.normal, fmt::format(" (clear on {})", l.N));
   }
-  w.line("M2");
 }
 
 }  // namespace
 
-TestProgram generate_test_program(const CircleTestSpec& spec) {
-  validate(spec);
+TestProgram generate_test_set(const std::vector<CircleTestSpec>& planes) {
+  validate_set(planes);
+  for (const CircleTestSpec& p : planes) check_floor(p);
   TestProgram program;
-  program.runs = plan_runs(spec);
-  ProgramWriter w(spec);
-  program.header = program_header(spec, program.runs, w);
-  for (const auto& [key, value] : program.header) {
-    w.line(fmt::format("(circtest: {}: {})", key, value));
+  std::vector<std::vector<MeasuredRun>> plane_runs;
+  for (const CircleTestSpec& p : planes) {
+    std::vector<MeasuredRun> runs;
+    append_runs(p, static_cast<int>(program.runs.size()) + 1, runs);
+    program.runs.insert(program.runs.end(), runs.begin(), runs.end());
+    plane_runs.push_back(std::move(runs));
   }
-  const Layout l = program_layout(spec, program.runs, w);
-  write_preamble(spec, l, w);
-  write_approach(spec, l, w);
-  write_runs(spec, l, program.runs, w);
-  write_ending(spec, l, w);
-  program.text = w.take();
+  ProgramWriter head(planes.front());
+  program.header = program_header(planes, program.runs, head);
+  for (const auto& [key, value] : program.header) {
+    head.line(fmt::format("(circtest: {}: {})", key, value));
+  }
+  write_modes(planes.front(), program_layout(planes.front(), head, 0, planes.size()), head);
+  program.text = head.take();
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    // Each plane's moves write every axis its arcs start from, so a writer per plane needs
+    // no position from the one before.
+    ProgramWriter w(planes[k]);
+    const Layout l = program_layout(planes[k], w, k, planes.size());
+    write_plane_pause(planes[k], l, w);
+    write_approach(planes[k], l, w);
+    write_runs(planes[k], l, plane_runs[k], w);
+    write_plane_ending(planes[k], l, w);
+    program.text += w.take();
+  }
+  program.text += "M2\n";
   return program;
+}
+
+TestProgram generate_test_program(const CircleTestSpec& spec) {
+  return generate_test_set({spec});
 }
 
 }  // namespace circtest

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <limits>
 #include <numbers>
+#include <sstream>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
@@ -219,6 +220,14 @@ MachineLimits parse_machine_limits(const std::string& text, const std::string& s
 
 MachineLimits read_machine_limits(const std::string& path) {
   MachineLimits limits = machine_limits_from(IniDocument::load(path));
+  {
+    const auto it = limits.values.find("RS274NGC/PARAMETER_FILE");
+    const std::string name =
+        it == limits.values.end() || it->second.empty() ? "rs274ngc.var" : it->second;
+    const std::filesystem::path file(name);
+    limits.parameter_file =
+        file.is_absolute() ? name : (std::filesystem::path(path).parent_path() / file).string();
+  }
   // HAL files are found beside the INI (LinuxCNC runs halcmd in the configuration's
   // folder), LIB: ones in the installed HAL library. A file that is not there (or a .tcl
   // one) is not checked: the output check then says nothing rather than guess.
@@ -239,59 +248,125 @@ MachineLimits read_machine_limits(const std::string& path) {
   return limits;
 }
 
-std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
-                                               const MachineLimits& limits,
-                                               const std::array<double, 3>& work_offset_mm,
-                                               SpecWords words) {
-  validate(spec, words);
-  const PlaneAxes axes = plane_axes(spec.plane);
-  const double unit = limits.mm_per_machine_unit;
-  const char* unit_name = unit == 1.0 ? "mm" : "inch";
-  auto in_machine_units = [unit](double mm) { return mm / unit; };
-  auto section = [](char axis) {
-    return fmt::format("[AXIS_{}]", static_cast<char>(std::toupper(axis)));
+int work_offset_index(std::string_view code) {
+  static constexpr std::string_view kCodes[] = {"G54", "G55",   "G56",   "G57",  "G58",
+                                                "G59", "G59.1", "G59.2", "G59.3"};
+  for (int i = 0; i < 9; ++i)
+    if (code == kCodes[i]) return i + 1;
+  return 0;
+}
+
+WorkOffsets parse_work_offsets(const std::string& text, const std::string& path,
+                               double mm_per_unit) {
+  WorkOffsets w;
+  w.path = path;
+  std::map<long, double> values;
+  long previous = 0;
+  std::size_t line_no = 0;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    ++line_no;
+    std::istringstream words(line);
+    std::string number_text, value_text;
+    words >> number_text >> value_text;
+    long number = 0;
+    const auto [end, ec] =
+        std::from_chars(number_text.data(), number_text.data() + number_text.size(), number);
+    // As LinuxCNC's sscanf("%d %lf"): a line without a number and a value is not one.
+    if (ec != std::errc() || end == number_text.data() || value_text.empty()) continue;
+    const auto value = parse_finite(value_text);
+    if (!value) {
+      throw ParseError(path, line_no,
+                       fmt::format("#{}: '{}' is not a finite number", number, value_text));
+    }
+    if (number <= previous) {
+      throw ParseError(path, line_no,
+                       fmt::format("#{} after #{}: LinuxCNC refuses a parameter file whose "
+                                   "numbers are not increasing",
+                                   number, previous));
+    }
+    previous = number;
+    values[number] = *value;
+  }
+  auto at = [&values](long n) {
+    const auto it = values.find(n);
+    return it == values.end() ? 0.0 : it->second;
   };
+  for (int n = 1; n <= 9; ++n) {
+    for (int i = 0; i < 3; ++i) w.origin_mm[n][i] = at(5201 + 20 * n + i) * mm_per_unit;
+    w.rotation_deg[n] = at(5210 + 20 * n);
+  }
+  w.selected = static_cast<int>(std::lround(at(5220)));
+  if (w.selected < 1 || w.selected > 9) w.selected = 1;
+  w.g92_applied = at(5210) != 0.0;
+  for (int i = 0; i < 3; ++i) w.g92_mm[i] = at(5211 + i) * mm_per_unit;
+  return w;
+}
+
+std::optional<WorkOffsets> read_work_offsets(const std::string& path, double mm_per_unit) {
+  if (!std::filesystem::exists(path)) return std::nullopt;
+  return parse_work_offsets(read_file(path), path, mm_per_unit);
+}
+
+namespace {
+
+std::string axis_section(char axis) {
+  return fmt::format("[AXIS_{}]", static_cast<char>(std::toupper(axis)));
+}
+
+// The machine must have every axis the test moves.
+void check_axes_present(const CircleTestSpec& spec, const MachineLimits& limits) {
+  const PlaneAxes axes = plane_axes(spec.plane);
   for (char axis : {axes.first, axes.second, axes.normal}) {
     if (!limits.axes[axis - 'x'].present) {
       throw ParseError(limits.source, 0,
                        fmt::format("the machine has no {} axis (not in [TRAJ] COORDINATES, "
                                    "no {} section): cannot run the test there",
-                                   static_cast<char>(std::toupper(axis)), section(axis)));
+                                   static_cast<char>(std::toupper(axis)), axis_section(axis)));
     }
   }
+}
 
-  // Extent of every position the program visits, per axis, in work coordinates (mm).
+// Extent of every position the program visits, per axis, in work coordinates (mm).
+std::pair<std::array<double, 3>, std::array<double, 3>> path_extent_mm(const CircleTestSpec& spec) {
+  const PlaneAxes axes = plane_axes(spec.plane);
   std::array<double, 3> low = spec.centre_mm;
   std::array<double, 3> high = spec.centre_mm;
-  {
-    const auto [from_deg, to_deg] = swept_range_deg(spec);
-    std::vector<double> angles{from_deg, to_deg};
-    if (to_deg - from_deg >= 360.0) {
-      for (int q = 0; q < 4; ++q) angles.push_back(90.0 * q);
-    } else {
-      for (double q = std::ceil(from_deg / 90.0) * 90.0; q <= to_deg; q += 90.0) {
-        angles.push_back(q);
-      }
-    }
-    const int a = axes.first - 'x';
-    const int b = axes.second - 'x';
-    // The tool never visits the centre of the circle, only the normal axis stays there.
-    low[a] = low[b] = std::numeric_limits<double>::infinity();
-    high[a] = high[b] = -std::numeric_limits<double>::infinity();
-    // A ballbar's feed-in starts outside the circle.
-    const double reach_mm =
-        spec.radius_mm + (spec.instrument == Instrument::ballbar ? spec.feed_in_mm : 0.0);
-    for (double deg : angles) {
-      const double pa = spec.centre_mm[a] + reach_mm * std::cos(deg_to_rad(deg));
-      const double pb = spec.centre_mm[b] + reach_mm * std::sin(deg_to_rad(deg));
-      low[a] = std::min(low[a], pa), high[a] = std::max(high[a], pa);
-      low[b] = std::min(low[b], pb), high[b] = std::max(high[b], pb);
-    }
-    if (spec.safe_mm) {
-      const int n = axes.normal - 'x';
-      low[n] = std::min(low[n], *spec.safe_mm), high[n] = std::max(high[n], *spec.safe_mm);
+  const auto [from_deg, to_deg] = swept_range_deg(spec);
+  std::vector<double> angles{from_deg, to_deg};
+  if (to_deg - from_deg >= 360.0) {
+    for (int q = 0; q < 4; ++q) angles.push_back(90.0 * q);
+  } else {
+    for (double q = std::ceil(from_deg / 90.0) * 90.0; q <= to_deg; q += 90.0) {
+      angles.push_back(q);
     }
   }
+  const int a = axes.first - 'x';
+  const int b = axes.second - 'x';
+  // The tool never visits the centre of the circle, only the normal axis stays there.
+  low[a] = low[b] = std::numeric_limits<double>::infinity();
+  high[a] = high[b] = -std::numeric_limits<double>::infinity();
+  // A ballbar's feed-in starts outside the circle.
+  const double reach_mm =
+      spec.radius_mm + (spec.instrument == Instrument::ballbar ? spec.feed_in_mm : 0.0);
+  for (double deg : angles) {
+    const double pa = spec.centre_mm[a] + reach_mm * std::cos(deg_to_rad(deg));
+    const double pb = spec.centre_mm[b] + reach_mm * std::sin(deg_to_rad(deg));
+    low[a] = std::min(low[a], pa), high[a] = std::max(high[a], pa);
+    low[b] = std::min(low[b], pb), high[b] = std::max(high[b], pb);
+  }
+  if (spec.safe_mm) {
+    const int n = axes.normal - 'x';
+    low[n] = std::min(low[n], *spec.safe_mm), high[n] = std::max(high[n], *spec.safe_mm);
+  }
+  return {low, high};
+}
+
+void check_soft_limits(const CircleTestSpec& spec, const MachineLimits& limits,
+                       const std::array<double, 3>& work_offset_mm) {
+  const double unit = limits.mm_per_machine_unit;
+  const char* unit_name = unit == 1.0 ? "mm" : "inch";
+  const auto [low, high] = path_extent_mm(spec);
   for (int i = 0; i < 3; ++i) {
     const AxisLimits& axis = limits.axes[i];
     const char letter = static_cast<char>('X' + i);
@@ -302,17 +377,22 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
     if (axis.min_limit_mm && machine_low < *axis.min_limit_mm - kSlackMm) {
       throw LimitError(fmt::format(
           "{}: the test reaches {} = {} {} in machine coordinates, below {} MIN_LIMIT = {}",
-          limits.source, letter, in_machine_units(machine_low), unit_name, section(axis.axis),
-          in_machine_units(*axis.min_limit_mm)));
+          limits.source, letter, machine_low / unit, unit_name, axis_section(axis.axis),
+          *axis.min_limit_mm / unit));
     }
     if (axis.max_limit_mm && machine_high > *axis.max_limit_mm + kSlackMm) {
       throw LimitError(fmt::format(
           "{}: the test reaches {} = {} {} in machine coordinates, above {} MAX_LIMIT = {}",
-          limits.source, letter, in_machine_units(machine_high), unit_name, section(axis.axis),
-          in_machine_units(*axis.max_limit_mm)));
+          limits.source, letter, machine_high / unit, unit_name, axis_section(axis.axis),
+          *axis.max_limit_mm / unit));
     }
   }
+}
 
+void check_velocity(const CircleTestSpec& spec, const MachineLimits& limits) {
+  const double unit = limits.mm_per_machine_unit;
+  const char* unit_name = unit == 1.0 ? "mm" : "inch";
+  const PlaneAxes axes = plane_axes(spec.plane);
   const double max_feed =
       *std::max_element(spec.feeds_mm_per_min.begin(), spec.feeds_mm_per_min.end());
   const double v_mm_per_s = max_feed / 60.0;
@@ -322,18 +402,26 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
     const AxisLimits& axis = limits.axes[a - 'x'];
     if (axis.max_velocity_mm_per_s && v_mm_per_s > *axis.max_velocity_mm_per_s) {
       throw LimitError(fmt::format("{}: feed {} mm/min = {:.4g} {}/s exceeds {} MAX_VELOCITY = {}",
-                                   limits.source, max_feed, in_machine_units(v_mm_per_s), unit_name,
-                                   section(a), in_machine_units(*axis.max_velocity_mm_per_s)));
+                                   limits.source, max_feed, v_mm_per_s / unit, unit_name,
+                                   axis_section(a), *axis.max_velocity_mm_per_s / unit));
     }
   }
   if (limits.max_linear_velocity_mm_per_s && v_mm_per_s > *limits.max_linear_velocity_mm_per_s) {
-    throw LimitError(
-        fmt::format("{}: feed {} mm/min = {:.4g} {}/s exceeds [TRAJ] "
-                    "MAX_LINEAR_VELOCITY = {}",
-                    limits.source, max_feed, in_machine_units(v_mm_per_s), unit_name,
-                    in_machine_units(*limits.max_linear_velocity_mm_per_s)));
+    throw LimitError(fmt::format(
+        "{}: feed {} mm/min = {:.4g} {}/s exceeds [TRAJ] MAX_LINEAR_VELOCITY = {}", limits.source,
+        max_feed, v_mm_per_s / unit, unit_name, *limits.max_linear_velocity_mm_per_s / unit));
   }
+}
 
+// The arc's centripetal acceleration and the lead-in's run-up against the lowest
+// acceleration limit of the plane; false when no limit applies.
+bool check_acceleration(const CircleTestSpec& spec, const MachineLimits& limits, SpecWords words) {
+  const double unit = limits.mm_per_machine_unit;
+  const char* unit_name = unit == 1.0 ? "mm" : "inch";
+  const PlaneAxes axes = plane_axes(spec.plane);
+  const double max_feed =
+      *std::max_element(spec.feeds_mm_per_min.begin(), spec.feeds_mm_per_min.end());
+  const double v_mm_per_s = max_feed / 60.0;
   const double centripetal = v_mm_per_s * v_mm_per_s / spec.radius_mm;
   // LinuxCNC 2.9's planner (blendmath.c, pmCircleActualMaxVel) keeps sqrt(1 - 0.5^2) of the
   // acceleration for the normal component on an arc and silently slows the arc down beyond
@@ -346,7 +434,7 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
     const AxisLimits& axis = limits.axes[a - 'x'];
     if (axis.max_acceleration_mm_per_s2 && *axis.max_acceleration_mm_per_s2 < a_max) {
       a_max = *axis.max_acceleration_mm_per_s2;
-      a_name = fmt::format("{} MAX_ACCELERATION", section(a));
+      a_name = fmt::format("{} MAX_ACCELERATION", axis_section(a));
     }
   }
   if (limits.max_linear_acceleration_mm_per_s2 &&
@@ -354,54 +442,74 @@ std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
     a_max = *limits.max_linear_acceleration_mm_per_s2;
     a_name = "[TRAJ] MAX_LINEAR_ACCELERATION";
   }
-  if (std::isfinite(a_max)) {
-    if (centripetal > a_max) {
-      throw LimitError(fmt::format(
-          "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm exceeds {} = {}",
-          limits.source, in_machine_units(centripetal), unit_name, max_feed, spec.radius_mm, a_name,
-          in_machine_units(a_max)));
-    }
-    if (centripetal > normal_share * a_max) {
-      throw LimitError(fmt::format(
-          "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm is above the "
-          "{:.4g} {}/s^2 [0.866 * {} = {}] that LinuxCNC's planner allows on an arc; it would "
-          "slow the arc below the feed",
-          limits.source, in_machine_units(centripetal), unit_name, max_feed, spec.radius_mm,
-          in_machine_units(normal_share * a_max), unit_name, a_name, in_machine_units(a_max)));
-    }
-    // The run-up from rest on the lead-in arc, with the tangential acceleration the planner
-    // leaves on an arc of this curvature.
-    const double tangential =
-        a_max * std::max(tangential_share, std::sqrt(1.0 - std::pow(centripetal / a_max, 2)));
-    const double run_up_mm = v_mm_per_s * v_mm_per_s / (2.0 * tangential);
-    const double lead_mm = spec.radius_mm * deg_to_rad(spec.lead_deg);
-    if (run_up_mm > lead_mm) {
-      const double needed_deg = run_up_mm / spec.radius_mm * 180.0 / std::numbers::pi;
-      throw LimitError(fmt::format(
-          "{}: the {} deg lead-in [{:.3f} mm] is shorter than the {:.3f} mm needed to reach "
-          "F{} with {} = {}; use {} {:.0f} or more",
-          limits.source, spec.lead_deg, lead_mm, run_up_mm, max_feed, a_name,
-          in_machine_units(a_max), words(SpecSetting::lead), std::ceil(needed_deg)));
-    }
+  if (!std::isfinite(a_max)) return false;
+  if (centripetal > a_max) {
+    throw LimitError(fmt::format(
+        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm exceeds {} = {}",
+        limits.source, centripetal / unit, unit_name, max_feed, spec.radius_mm, a_name,
+        a_max / unit));
   }
+  if (centripetal > normal_share * a_max) {
+    throw LimitError(fmt::format(
+        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm is above the "
+        "{:.4g} {}/s^2 [0.866 * {} = {}] that LinuxCNC's planner allows on an arc; it would "
+        "slow the arc below the feed",
+        limits.source, centripetal / unit, unit_name, max_feed, spec.radius_mm,
+        normal_share * a_max / unit, unit_name, a_name, a_max / unit));
+  }
+  // The run-up from rest on the lead-in arc, with the tangential acceleration the planner
+  // leaves on an arc of this curvature.
+  const double tangential =
+      a_max * std::max(tangential_share, std::sqrt(1.0 - std::pow(centripetal / a_max, 2)));
+  const double run_up_mm = v_mm_per_s * v_mm_per_s / (2.0 * tangential);
+  const double lead_mm = spec.radius_mm * deg_to_rad(spec.lead_deg);
+  if (run_up_mm > lead_mm) {
+    const double needed_deg = run_up_mm / spec.radius_mm * 180.0 / std::numbers::pi;
+    throw LimitError(fmt::format(
+        "{}: the {} deg lead-in [{:.3f} mm] is shorter than the {:.3f} mm needed to reach "
+        "F{} with {} = {}; use {} {:.0f} or more",
+        limits.source, spec.lead_deg, lead_mm, run_up_mm, max_feed, a_name, a_max / unit,
+        words(SpecSetting::lead), std::ceil(needed_deg)));
+  }
+  return true;
+}
+
+void check_motion_outputs(const CircleTestSpec& spec, const MachineLimits& limits,
+                          SpecWords words) {
+  const MotionOutputs& m = *limits.motion_outputs;
+  if (spec.marker_output >= m.num_dio) {
+    throw LimitError(
+        fmt::format("{}: {} {}: the motion module loaded at {} has num_dio={} (M62/M63 P0..P{}); "
+                    "raise num_dio there or use another output",
+                    limits.source, words(SpecSetting::marker), spec.marker_output, m.where,
+                    m.num_dio, m.num_dio - 1));
+  }
+  if (spec.segment_output >= m.num_aio) {
+    throw LimitError(
+        fmt::format("{}: {} {}: the motion module loaded at {} has num_aio={} (M67 E0..E{}); "
+                    "raise num_aio there or use another output",
+                    limits.source, words(SpecSetting::segment_out), spec.segment_output, m.where,
+                    m.num_aio, m.num_aio - 1));
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> check_against_machine(const CircleTestSpec& spec,
+                                               const MachineLimits& limits,
+                                               const std::array<double, 3>& work_offset_mm,
+                                               SpecWords words) {
+  validate(spec, words);
+  check_axes_present(spec, limits);
+  check_soft_limits(spec, limits, work_offset_mm);
+  check_velocity(spec, limits);
   std::vector<std::string> checks{"soft limits", "velocity"};
-  if (std::isfinite(a_max)) checks.push_back("acceleration"), checks.push_back("lead run-up");
+  if (check_acceleration(spec, limits, words)) {
+    checks.push_back("acceleration");
+    checks.push_back("lead run-up");
+  }
   if (limits.motion_outputs) {
-    const MotionOutputs& m = *limits.motion_outputs;
-    if (spec.marker_output >= m.num_dio) {
-      throw LimitError(
-          fmt::format("{}: {} {}: the motion module loaded at {} has num_dio={} (M62/M63 P0..P{}); "
-                      "raise num_dio there or use another output",
-                      limits.source, words(SpecSetting::marker), spec.marker_output, m.where,
-                      m.num_dio, m.num_dio - 1));
-    }
-    if (spec.segment_output >= m.num_aio) {
-      throw LimitError(
-          fmt::format("{}: {} {}: the motion module loaded at {} has num_aio={} (M67 E0..E{}); "
-                      "raise num_aio there or use another output",
-                      limits.source, words(SpecSetting::segment_out), spec.segment_output, m.where,
-                      m.num_aio, m.num_aio - 1));
-    }
+    check_motion_outputs(spec, limits, words);
     checks.push_back("motion outputs");
   }
   return checks;

@@ -41,15 +41,8 @@ void check_plausible(const CircleTestSpec& spec, SpecWords words) {
                                  words(SpecSetting::feeds), spec.feeds_mm_per_min.size(),
                                  plausible::kMaxFeeds));
   }
-  const bool inch = spec.units == LengthUnit::inch;
-  for (double f : spec.feeds_mm_per_min) {
-    check_in_units(plausible::feed, f, u, words);
-    if (inch && std::round(f / kMmPerInch * 10.0) < 1.0) {
-      throw UsageError(
-          fmt::format("{}: a feed of {} in/min would be written as F0 (one decimal); at least 0.05",
-                      words(SpecSetting::feeds), f / kMmPerInch));
-    }
-  }
+  // The smallest feed, 1 mm/min, is F0.039 in inch (three decimals): no feed word is F0.
+  for (double f : spec.feeds_mm_per_min) check_in_units(plausible::feed, f, u, words);
   if (spec.approach_feed_mm_per_min) {
     check_in_units(plausible::approach_feed, *spec.approach_feed_mm_per_min, u, words);
   }

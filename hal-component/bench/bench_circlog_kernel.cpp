@@ -11,6 +11,8 @@
 
 namespace {
 
+namespace circlog = circtest::circlog;
+
 struct FreeDeleter {
   void operator()(void* p) const { std::free(p); }
 };

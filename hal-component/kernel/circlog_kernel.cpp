@@ -3,7 +3,7 @@
 #include <cstring>
 #include <new>
 
-namespace circlog {
+namespace circtest::circlog {
 
 namespace {
 
@@ -197,4 +197,4 @@ std::size_t Consumer::read(void* out, std::size_t max_records) noexcept {
   return n;
 }
 
-}  // namespace circlog
+}  // namespace circtest::circlog

@@ -11,7 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 
-namespace circlog {
+namespace circtest::circlog {
 
 inline constexpr std::uint32_t kMagic = 0x47'4c'43'43;  // "CCLG" in memory order
 inline constexpr std::uint32_t kLayoutVersion = 1;
@@ -163,4 +163,4 @@ inline const double* record_values(const RecordHead* record) {
   return reinterpret_cast<const double*>(record + 1);
 }
 
-}  // namespace circlog
+}  // namespace circtest::circlog

@@ -13,6 +13,7 @@ extern "C" {
 #include <csignal>
 #include <cstring>
 #include <ctime>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -65,7 +66,7 @@ class HalRing {
     // The ring first, with plain shmget: rtapi_shmem_new would create an empty ring when
     // circlog is not loaded, and hal_init succeeds (creating HAL's memory) even when no
     // realtime session runs at all.
-    shm_id_ = shmget(circlog::kShmKeyBase, 0, 0);
+    shm_id_ = shmget(circtest::circlog::kShmKeyBase, 0, 0);
     if (shm_id_ < 0) {
       const int e = errno;
       if (e == ENOENT) {
@@ -74,7 +75,7 @@ class HalRing {
             "channels=N' and 'addf circlog.0 servo-thread' in the HAL file");
       }
       throw HalError(fmt::format("cannot open circlog's ring (key 0x{:08x}): {}{}",
-                                 circlog::kShmKeyBase, std::strerror(e),
+                                 circtest::circlog::kShmKeyBase, std::strerror(e),
                                  e == EACCES ? " (run as the user that runs LinuxCNC)" : ""));
     }
     const std::string name = fmt::format("circlog-record-{}", getpid());
@@ -98,9 +99,10 @@ class HalRing {
           "it has been removed)");
     }
     const auto result = ring_.attach(mem, stat.shm_segsz);
-    if (result != circlog::AttachResult::ok) {
+    if (result != circtest::circlog::AttachResult::ok) {
       cleanup();
-      throw HalError(fmt::format("circlog's ring: {}", circlog::attach_result_text(result)));
+      throw HalError(
+          fmt::format("circlog's ring: {}", circtest::circlog::attach_result_text(result)));
     }
     hal_ready(comp_id_);
   }
@@ -108,7 +110,7 @@ class HalRing {
   HalRing(const HalRing&) = delete;
   HalRing& operator=(const HalRing&) = delete;
 
-  circlog::Consumer& ring() { return ring_; }
+  circtest::circlog::Consumer& ring() { return ring_; }
 
  private:
   void cleanup() {
@@ -129,17 +131,21 @@ class HalRing {
   int comp_id_ = -1;
   int shm_id_ = -1;
   void* memory_ = nullptr;
-  circlog::Consumer ring_;
+  circtest::circlog::Consumer ring_;
 };
 
 int run(int argc, char** argv) {
   using namespace circtest::circlog_record;
   const auto options = parse_options(argc, argv, stdout);
   if (!options) return 0;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> progress(
+      options->progress_to.empty() ? nullptr : open_progress_terminal(options->progress_to),
+      &std::fclose);
   install_signal_handlers();
   HalRing hal;
   SystemEnvironment env;
-  const Summary s = record(hal.ring(), static_cast<std::int32_t>(getpid()), *options, env, stderr);
+  const Summary s = record(hal.ring(), static_cast<std::int32_t>(getpid()), *options, env, stderr,
+                           progress.get());
   std::fprintf(stderr,
                "circlog-record: %s: %zu rows, %llu run(s), %llu overrun(s), %llu gap(s), "
                "%llu lost sample(s); stopped by %s\n",

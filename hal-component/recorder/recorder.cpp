@@ -1,5 +1,8 @@
 #include "recorder.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -17,6 +20,7 @@
 #include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
+#include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace.hpp"
@@ -137,7 +141,9 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
       "decimals", po::value(&o.decimals)->value_name("N"),
       "decimals of the channel values (default 6: 1 nm in mm)")(
       "poll", po::value(&o.poll_s)->value_name("S"),
-      "sleep between polls of an empty ring (default 0.005)");
+      "sleep between polls of an empty ring (default 0.005)")(
+      "progress-to", po::value(&o.progress_to)->value_name("TTY"),
+      "show the status line on this terminal (default: stderr when it is a terminal)");
   // The test conditions of clauses 4.4 and 6, written as metadata (docs/trace-format.md).
   std::vector<std::string> condition_values(condition_options().size());
   for (std::size_t i = 0; i < condition_options().size(); ++i) {
@@ -305,16 +311,18 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
     int id = 0;
     const std::string id_text = parts.empty() ? std::string() : parts[0];
     const auto [end, ec] = std::from_chars(id_text.data(), id_text.data() + id_text.size(), id);
-    const auto direction = parts.size() == 3 ? parse_direction(parts[1]) : std::nullopt;
-    const double feed = parts.size() == 3 && parts[2].size() > 1 && parts[2][0] == 'F'
+    // circgen writes the plane as a 4th field (id:DIR:Ffeed:PLANE); older programs have 3.
+    const bool fields = parts.size() == 3 || (parts.size() == 4 && parse_plane(parts[3]));
+    const auto direction = fields ? parse_direction(parts[1]) : std::nullopt;
+    const double feed = fields && parts[2].size() > 1 && parts[2][0] == 'F'
                             ? parse_finite(parts[2].substr(1)).value_or(0.0)
                             : 0.0;
-    const bool ok = parts.size() == 3 && ec == std::errc() &&
-                    end == id_text.data() + id_text.size() && id > 0 && direction && feed > 0.0;
+    const bool ok = fields && ec == std::errc() && end == id_text.data() + id_text.size() &&
+                    id > 0 && direction && feed > 0.0;
     if (!ok) {
       throw ParseError(path, line.line,
-                       fmt::format("segments: '{}' is not ID:DIRECTION:FFEED (e.g. 1:CCW:F500, "
-                                   "ID a whole number from 1)",
+                       fmt::format("segments: '{}' is not ID:DIRECTION:FFEED[:PLANE] (e.g. "
+                                   "1:CCW:F500:XY, ID a whole number from 1)",
                                    std::string(trim(item))));
     }
     if (!ids.insert(id).second) {
@@ -323,7 +331,18 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
                                    "tell the runs apart",
                                    id));
     }
-    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2])});
+    // circgen's entries name their plane.
+    const std::optional<Plane> plane = parts.size() == 4 ? parse_plane(parts[3]) : std::nullopt;
+    runs.push_back({id, *direction, feed, fmt::format("{} {}", parts[1], parts[2]), plane});
+  }
+  // A test set's runs (more than one plane) say their plane where the recorder names them.
+  const bool set = std::any_of(runs.begin(), runs.end(), [&](const AnnouncedRun& r) {
+    return r.plane != runs.front().plane;
+  });
+  if (set) {
+    for (AnnouncedRun& r : runs) {
+      if (r.plane) r.label += fmt::format(" {}", plane_name(*r.plane));
+    }
   }
   return runs;
 }
@@ -363,6 +382,8 @@ std::optional<double> longest_pause_s(const std::vector<HeaderLine>& lines,
   const double back_mm = 2.0 * std::numbers::pi * (*radius + feed_in_mm) * gap_deg / 360.0;
   double longest = 0.0;
   for (std::size_t i = 1; i < runs.size(); ++i) {
+    // Between a set's planes the program pauses for the operator: no planned length.
+    if (runs[i - 1].plane != runs[i].plane) continue;
     const double from = runs[i - 1].feed_per_min * mm_per_unit / 60.0;
     const double to = runs[i].feed_per_min * mm_per_unit / 60.0;
     const bool same_way = runs[i - 1].direction == runs[i].direction;
@@ -401,12 +422,29 @@ double run_wait_s(const Options& options) {
   return kDefaultRunWait_s;
 }
 
+bool operator_pause_before(const ProgramPlan& plan, std::size_t k) {
+  return k > 0 && k < plan.runs.size() && plan.runs[k].plane != plan.runs[k - 1].plane;
+}
+
+double run_wait_s(const Options& options, std::size_t k) {
+  if (!operator_pause_before(options.program_plan, k)) return run_wait_s(options);
+  return options.run_wait_s.value_or(kMaxWait_s);
+}
+
 namespace {
 
 class Loop {
  public:
-  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log)
-      : ring_(ring), h_(ring.header()), options_(options), env_(env), log_(log) {}
+  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log,
+       std::FILE* progress)
+      : ring_(ring),
+        h_(ring.header()),
+        options_(options),
+        env_(env),
+        log_(log),
+        started_s_(env.monotonic_s()),
+        progress_(progress ? progress : log, "circlog-record",
+                  is_terminal(progress ? progress : log), started_s_) {}
 
   Summary run(std::int32_t pid);
 
@@ -418,9 +456,12 @@ class Loop {
   void note_gap(std::uint64_t lost, std::uint64_t period, bool at_end);
   void track_run(bool marker, std::int32_t segment, bool run_start);
   bool every_announced_run_recorded() const;
+  // The first announced run (in program order) not yet recorded whole.
+  std::size_t next_missing_run() const;
   std::vector<std::string> missing_runs() const;
   const char* should_stop();
   void wait_for_producer_to_see_release();
+  std::string status(const TraceWriter& writer) const;
 
   circlog::Consumer& ring_;
   const circlog::SharedHeader& h_;
@@ -449,6 +490,9 @@ class Loop {
   std::vector<double> row_;
   Summary summary_;
   std::uint64_t gap_messages_ = 0;
+  // What has been seen so far, on a terminal (log_ is one): cleared before each message.
+  double started_s_;
+  ProgressLine progress_;
 };
 
 void Loop::wait_for_servo() {
@@ -474,6 +518,7 @@ void Loop::claim(std::int32_t pid) {
   const int other = ring_.claim(pid);
   if (other == 0) return;
   if (other > 0 && !env_.process_alive(other) && ring_.steal(other, pid)) {
+    progress_.clear();
     std::fprintf(log_, "circlog-record: took over circlog.0 from process %d, which has died\n",
                  other);
     return;
@@ -493,10 +538,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
     meta.set(meta_key::channel_prefix + name, text);
   meta.set(meta_key::module_channels, std::to_string(ring_.channels()));
   meta.set(meta_key::module_depth, std::to_string(ring_.depth()));
-  if (!options_.ini.empty()) {
-    meta.set(meta_key::ini, options_.ini);
-    meta.set(meta_key::ini_sha256, sha256_of_file(options_.ini));
-  }
+  if (!options_.ini.empty()) record_ini_provenance(meta, options_.ini);
   if (!options_.program.empty()) {
     meta.set(meta_key::program, options_.program);
     for (const auto& [key, value] : options_.program_plan.header) {
@@ -504,6 +546,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
                                      [&k = key](const auto& c) { return c.first == k; });
       if (given) continue;  // the command line states it
       if (kReservedKeys.count(key) || key.rfind(meta_key::channel_prefix, 0) == 0) {
+        progress_.clear();
         std::fprintf(log_, "circlog-record: %s: header key '%s' is the recorder's own; skipped\n",
                      options_.program.c_str(), key.c_str());
         continue;
@@ -526,6 +569,7 @@ std::unique_ptr<TraceWriter> Loop::open_writer(const std::vector<std::string>& n
 void Loop::note_gap(std::uint64_t lost, std::uint64_t period, bool at_end) {
   ++summary_.gaps;
   summary_.lost += lost;
+  if (gap_messages_ <= 20) progress_.clear();
   if (++gap_messages_ <= 20) {
     if (at_end) {
       std::fprintf(log_, "circlog-record: gap: %llu record(s) lost after the last one received\n",
@@ -585,6 +629,13 @@ void Loop::track_run(bool marker, std::int32_t segment, bool run_start) {
   }
 }
 
+std::size_t Loop::next_missing_run() const {
+  const auto& runs = options_.program_plan.runs;
+  std::size_t k = 0;
+  while (k < runs.size() && runs_whole_.count(runs[k].segment_id)) ++k;
+  return k;
+}
+
 bool Loop::every_announced_run_recorded() const {
   return std::all_of(options_.program_plan.runs.begin(), options_.program_plan.runs.end(),
                      [this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id); });
@@ -628,7 +679,7 @@ const char* Loop::should_stop() {
     const double idle_s = static_cast<double>(periods - last_active_period_) * period_s_;
     if (every_announced_run_recorded()) {
       if (idle_s >= *options_.idle_s) return "idle";
-    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_))) {
+    } else if (idle_s >= std::max(*options_.idle_s, run_wait_s(options_, next_missing_run()))) {
       return "idle with runs missing";
     }
   }
@@ -683,6 +734,7 @@ Summary Loop::run(std::int32_t pid) {
       // Check before draining, so everything published up to the decision is written.
       reason = should_stop();
       const std::size_t n = drain(*writer);
+      if (progress_.enabled()) progress_.update(env_.monotonic_s(), status(*writer));
       if (reason) break;
       if (n == 0) env_.sleep(options_.poll_s);
     }
@@ -717,14 +769,55 @@ Summary Loop::run(std::int32_t pid) {
                                              : join(summary_.missing_runs, "; "));
   }
   writer->commit();
+  progress_.clear();
   return summary_;
+}
+
+// "12 s, 12000 samples, 1 run; waiting for run 2 of 3".
+std::string Loop::status(const TraceWriter& writer) const {
+  std::string text = fmt::format("{:.0f} s, {} samples, {} run(s)", env_.monotonic_s() - started_s_,
+                                 writer.rows_written(), summary_.runs);
+  if (summary_.gaps > 0) text += fmt::format(", {} gap(s)", summary_.gaps);
+  const std::vector<AnnouncedRun>& announced = options_.program_plan.runs;
+  const auto position = [&announced](auto&& is) -> std::size_t {
+    const auto it = std::find_if(announced.begin(), announced.end(), is);
+    return it == announced.end() ? 0 : static_cast<std::size_t>(it - announced.begin()) + 1;
+  };
+  if (in_run_) {
+    const std::size_t k =
+        position([this](const AnnouncedRun& r) { return r.segment_id == run_segment_; });
+    return text + (k > 0 ? fmt::format("; recording run {} of {}", k, announced.size())
+                         : fmt::format("; recording run {}", summary_.runs));
+  }
+  if (!announced.empty()) {
+    const std::size_t k =
+        position([this](const AnnouncedRun& r) { return runs_whole_.count(r.segment_id) == 0; });
+    return text + (k > 0
+                       ? fmt::format("; waiting for run {} of {}", k, announced.size())
+                       : fmt::format("; all {} runs recorded, waiting for idle", announced.size()));
+  }
+  return text + (seen_marker_ ? "; waiting for the next run" : "; waiting for the first run");
 }
 
 }  // namespace
 
+std::FILE* open_progress_terminal(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0 || ::isatty(fd) != 1) {
+    if (fd >= 0) ::close(fd);
+    throw UsageError(fmt::format("--progress-to {}: not a terminal", path));
+  }
+  std::FILE* stream = ::fdopen(fd, "w");
+  if (stream == nullptr) {
+    ::close(fd);
+    throw UsageError(fmt::format("--progress-to {}: cannot be written", path));
+  }
+  return stream;
+}
+
 Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log) {
-  Loop loop(ring, options, env, log);
+               std::FILE* log, std::FILE* progress) {
+  Loop loop(ring, options, env, log, progress);
   return loop.run(pid);
 }
 

@@ -15,12 +15,14 @@
 namespace circtest::circlog_record {
 
 // A measured run a program announces: circgen's `segments` header ("1:CCW:F500,2:CW:F500"),
-// one entry per run in program order.
+// one entry per run in program order; a test set's entries name their plane
+// ("1:CCW:F500:XY,...,5:CCW:F500:YZ").
 struct AnnouncedRun {
   int segment_id = 0;
   Direction direction = Direction::CCW;
-  double feed_per_min = 0.0;  // in the program's units
-  std::string label;          // "CCW F500", as the header writes it
+  double feed_per_min = 0.0;   // in the program's units
+  std::string label;           // "CCW F500", as the header writes it ("CCW F500 XY" in a set)
+  std::optional<Plane> plane;  // a test set's entry: its plane
 };
 
 // What the recorder takes from the G-code program (--program).
@@ -28,10 +30,14 @@ struct ProgramPlan {
   std::vector<std::pair<std::string, std::string>> header;  // (key: value) comments, in order
   std::vector<AnnouncedRun> runs;                           // empty: none announced
   // The longest pause the program plans between the end of one run and the start of the
-  // next (lead arcs, radial moves, the way back, the dwell at the feeds written), when the
-  // header says enough to compute it.
+  // next of the same plane (lead arcs, radial moves, the way back, the dwell at the feeds
+  // written), when the header says enough to compute it.
   std::optional<double> longest_pause_s;
 };
+
+// Whether the program pauses for the operator before announced run K: a test set's first run
+// of a plane after another plane's runs (the operator mounts or re-orients the instrument).
+bool operator_pause_before(const ProgramPlan& plan, std::size_t k);
 
 // How long --until-idle waits with enable false while an announced run is still missing,
 // when the header does not say enough to compute it.
@@ -55,6 +61,9 @@ struct Options {
   std::vector<std::pair<std::string, std::string>> conditions;
   int decimals = 6;
   double poll_s = 0.005;
+  // --progress-to: a terminal for the status line when stderr is not one (circtest-run, whose
+  // LinuxCNC output goes to a log, passes its own terminal).
+  std::string progress_to;
 };
 
 // Parses the command line; nullopt when --help or --version was given (printed to `out`).
@@ -66,12 +75,16 @@ std::optional<Options> parse_options(int argc, const char* const* argv, std::FIL
 std::vector<std::pair<std::string, std::string>> read_program_header(const std::string& path);
 
 // The header, the announced runs and the planned pauses of a program. Throws IoError, and
-// ParseError (file and line) for a `segments` entry that is not ID:DIRECTION:FFEED with a
-// positive whole ID given once.
+// ParseError (file and line) for a `segments` entry that is not ID:DIRECTION:FFEED or
+// ID:DIRECTION:FFEED:PLANE (XY, YZ or ZX) with a positive whole ID given once.
 ProgramPlan read_program_plan(const std::string& path);
 
 // How long --until-idle waits, enable false, for a run that is still missing.
 double run_wait_s(const Options& options);
+// The same for announced run K: before a test set's plane (operator_pause_before) the
+// operator's pause has no planned length, so the wait is --run-wait when given, else
+// kMaxWait_s (end it with Ctrl-C).
+double run_wait_s(const Options& options, std::size_t k);
 
 // What the loop needs from the world outside the ring.
 class Environment {
@@ -96,11 +109,17 @@ struct Summary {
   std::vector<std::string> missing_runs;
 };
 
+// The terminal at PATH (--progress-to), opened for writing without creating or truncating
+// anything; UsageError when it is not a terminal.
+std::FILE* open_progress_terminal(const std::string& path);
+
 // Claims the ring, writes options.output (an unnamed temporary that appears there when complete)
 // and returns what happened. Lost records are reported on `log` and in the trailer metadata; the
 // caller decides the exit code. Throws HalError when the ring cannot be used (no servo thread,
 // another reader), IoError for the file.
+// While it records, a status line (elapsed, samples, runs, the run it waits for) goes to
+// PROGRESS, else to `log` when that is a terminal.
 Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log);
+               std::FILE* log, std::FILE* progress = nullptr);
 
 }  // namespace circtest::circlog_record

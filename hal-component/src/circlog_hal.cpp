@@ -19,7 +19,7 @@ MODULE_LICENSE("GPL");
 
 static int channels = 0;
 RTAPI_MP_INT(channels, "number of float input channels, 1..16 (required)");
-static int depth = circlog::kDefaultDepth;
+static int depth = circtest::circlog::kDefaultDepth;
 RTAPI_MP_INT(depth, "records in the ring (default 16384: 16 s at 1 kHz)");
 
 int rtapi_app_main(void);
@@ -29,7 +29,7 @@ void rtapi_app_exit(void);
 namespace {
 
 struct Instance {
-  hal_float_t* in[circlog::kMaxChannels];
+  hal_float_t* in[circtest::circlog::kMaxChannels];
   hal_bit_t* enable;
   hal_float_t* segment;
   hal_u32_t* written;
@@ -38,7 +38,7 @@ struct Instance {
   hal_bit_t* reading;
   hal_u32_t channels_param;
   hal_u32_t depth_param;
-  circlog::Producer producer;
+  circtest::circlog::Producer producer;
 };
 
 int comp_id = -1;
@@ -52,7 +52,7 @@ std::uint32_t low32(std::uint64_t v) {
 void sample(void* arg, long period) {
   auto* inst = static_cast<Instance*>(arg);
   inst->producer.step(*inst->enable, *inst->segment, inst->in, period);
-  const circlog::Status s = inst->producer.status();
+  const circtest::circlog::Status s = inst->producer.status();
   *inst->written = low32(s.written);
   *inst->overruns = low32(s.overruns);
   *inst->high_water = low32(s.high_water);
@@ -88,21 +88,21 @@ int fail(const char* message, int code) {
 }  // namespace
 
 int rtapi_app_main(void) {
-  if (channels < 1 || channels > circlog::kMaxChannels) {
+  if (channels < 1 || channels > circtest::circlog::kMaxChannels) {
     rtapi_print_msg(RTAPI_MSG_ERR, "circlog: channels=%d: give channels=N with N in 1..%d\n",
-                    channels, circlog::kMaxChannels);
+                    channels, circtest::circlog::kMaxChannels);
     return -EINVAL;
   }
-  if (depth < circlog::kMinDepth || depth > circlog::kMaxDepth) {
+  if (depth < circtest::circlog::kMinDepth || depth > circtest::circlog::kMaxDepth) {
     rtapi_print_msg(RTAPI_MSG_ERR, "circlog: depth=%d: give depth=K with K in %d..%d\n", depth,
-                    circlog::kMinDepth, circlog::kMaxDepth);
+                    circtest::circlog::kMinDepth, circtest::circlog::kMaxDepth);
     return -EINVAL;
   }
   comp_id = hal_init("circlog");
   if (comp_id < 0) return comp_id;
 
-  const std::size_t bytes = circlog::shared_size(channels, depth);
-  shmem_id = rtapi_shmem_new(circlog::kShmKeyBase, comp_id, bytes);
+  const std::size_t bytes = circtest::circlog::shared_size(channels, depth);
+  shmem_id = rtapi_shmem_new(circtest::circlog::kShmKeyBase, comp_id, bytes);
   if (shmem_id < 0) {
     // shmget refuses a size larger than an existing segment's: a recorder that outlived
     // an earlier circlog with a smaller ring still holds it.
@@ -110,7 +110,8 @@ int rtapi_app_main(void) {
                     "circlog: cannot create the %lu-byte ring (key 0x%08x); if an old "
                     "circlog-record is still running stop it, else remove the segment with "
                     "'ipcrm -M 0x%08x'\n",
-                    static_cast<unsigned long>(bytes), circlog::kShmKeyBase, circlog::kShmKeyBase);
+                    static_cast<unsigned long>(bytes), circtest::circlog::kShmKeyBase,
+                    circtest::circlog::kShmKeyBase);
     const int code = shmem_id;
     shmem_id = -1;
     return fail("ring allocation failed", code);

@@ -91,22 +91,35 @@ Limits parse_limits(const std::string& text, std::string_view setting) {
   return l;
 }
 
+std::vector<Verdict> verdicts(const TestRecord& t, const Limits& limits) {
+  std::vector<Verdict> out;
+  for (const auto& q : kQuantities) {
+    Verdict v{q.name, q.unit, std::nullopt, std::nullopt, Verdict::Result::no_limit};
+    if (const auto& value = t.*(q.value)) v.value = std::abs(*value) * q.scale;
+    if (const auto& lim = limits.*(q.limit)) v.limit = *lim * q.scale;
+    if (v.limit) {
+      // A check that cannot be made does not pass; "inf" and NaN never pass either.
+      v.result = !v.value               ? Verdict::Result::not_measured
+                 : *v.value <= *v.limit ? Verdict::Result::pass
+                                        : Verdict::Result::fail;
+    }
+    out.push_back(v);
+  }
+  return out;
+}
+
 std::vector<std::string> breaches(const TestRecord& t, const Limits& limits) {
   std::vector<std::string> out;
-  for (const auto& q : kQuantities) {
-    const auto& lim = limits.*(q.limit);
-    if (!lim) continue;
-    const auto& v = t.*(q.value);
-    if (!v) {
-      // A check that cannot be made does not pass.
+  for (const Verdict& v : verdicts(t, limits)) {
+    if (v.result == Verdict::Result::not_measured) {
+      const std::string q = v.quantity;
       out.push_back(
-          fmt::format("{} not measured{}", q.name,
-                      q.value == &TestRecord::backlash_mm || q.value == &TestRecord::squareness_urad
-                          ? " (no diagnosis stored)"
-                          : ""));
-    } else if (!(std::abs(*v) <= *lim)) {
-      out.push_back(fmt::format("{} {} > {:.1f} {}", q.name, cell(std::abs(*v), q.scale),
-                                *lim * q.scale, q.unit));
+          fmt::format("{} not measured{}", q,
+                      q == "backlash" || q == "squareness" ? " (no diagnosis stored)" : ""));
+    } else if (v.result == Verdict::Result::fail) {
+      out.push_back(fmt::format("{} {} > {:.1f} {}", v.quantity,
+                                std::isfinite(*v.value) ? fmt::format("{:.1f}", *v.value) : "n/a",
+                                *v.limit, v.unit));
     }
   }
   return out;

@@ -27,7 +27,7 @@ _circtest() {
     --f-centre) COMPREPLY=($(compgen -W "auto nominal lsc" -- "$cur")); return ;;
     --ini) _filedir ini; return ;;
     --program) _filedir ngc; return ;;
-    -o | --output | --svg | --trace | --points | --before | --diagnosis | --compare) _filedir; return ;;
+    -o | --output | --svg | --trace | --points | --before | --diagnosis | --compare | --limits-file | --changes) _filedir; return ;;
   esac
   if [[ $cur == -* ]]; then
     COMPREPLY=($(compgen -W "$(_circtest_options "${cmd[@]}")" -- "$cur"))

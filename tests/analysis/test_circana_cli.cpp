@@ -169,8 +169,8 @@ std::string edited_example(const fs::path& dir, const std::string& name, std::si
 }
 
 TEST_F(CircanaCli, OneOutlierRowIsADataErrorAtItsLine) {
-  // y = 0 in one row of run 1 (columns t,x,y,...): once G = 150 mm (the MZC zone set by
-  // that row); now refused naming the row's line (5 metadata lines + header + 3000). (assign,
+  // y = 0 in one row of run 1 (columns t,x,y,...) would make G = 150 mm (the MZC zone set
+  // by that row): refused naming the row's line (5 metadata lines + header + 3000). (assign,
   // not = "0": GCC 12 warns falsely, -Wrestrict, on the inlined copy of the literal.)
   const std::string t = edited_example(dir_, "outlier.csv", 3000,
                                        [](std::vector<std::string>& f) { f[2].assign(1, '0'); });
@@ -253,10 +253,9 @@ TEST_F(CircanaCli, BadOptions) {
   expect_error("analyze " + t + " --plane XZ", 2, "--plane: expected XY, YZ or ZX, got 'XZ'");
   expect_error("analyze", 2, "missing the trace argument: expected a file name");
   expect_error("fit --json", 2, "missing the points argument: expected a file name");
-  expect_error(
-      "frobnicate", 2,
-      "unknown command 'frobnicate': expected analyze, diagnose, report, fit, import-polar, "
-      "store or history");
+  expect_error("frobnicate", 2,
+               "unknown command 'frobnicate': expected analyze, diagnose, report, fit, import, "
+               "export-polar, store or history");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
@@ -351,7 +350,7 @@ TEST_F(CircanaCli, ImportPolarWritesARadialTrace) {
   const std::string out = (dir_ / "imported.csv").string();
   const CommandResult r = run("import-polar " + in + " --radius 50 -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("361 points, 1 run(s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("361 rows, 1 run(s)"), std::string::npos) << r.out;
   const CommandResult a = run("analyze " + out + " --json --f-centre nominal --centre 0,0");
   ASSERT_EQ(a.exit_code, 0) << a.err;
   const auto j = nlohmann::json::parse(a.out);
@@ -360,8 +359,7 @@ TEST_F(CircanaCli, ImportPolarWritesARadialTrace) {
   EXPECT_NEAR(j["runs"][0]["F_min"].get<double>(), 0.0005, 1e-6);
   expect_error(
       "import-polar " + write("bad.txt", "0 1\n1 one\n") + " --radius 50 -o " + out, 4,
-      (dir_ / "bad.txt").string() +
-          ":2: expected two numbers: angle in deg and radial deviation in um, got '1 one'");
+      (dir_ / "bad.txt").string() + ":2: column 'dev_um': expected a number, got 'one' in '1 one'");
   expect_error("import-polar " + in + " --radius -5 -o " + out, 2,
                "--radius: expected a radius in mm above 0 and at most 100000, got '-5'");
 }

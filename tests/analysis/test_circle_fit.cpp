@@ -514,7 +514,7 @@ namespace circtest {
 namespace {
 
 // A D150 run about (250, 250) with a 2-lobe and a 3-lobe form error (5 um each) and one
-// glitched sample: y recorded as 0 (issue 12: "did not converge on 462 candidate points").
+// glitched sample: y recorded as 0.
 // With the outlier p at distance D > 225 from c0 a centre inside the circle needs a width of
 // at least D - 75 - 0.01 > 150; a centre outside it, at distance s from c0, at least
 // (s + 75) - (s - 75) - 0.02 = 150 - 0.02, and that is reached on the line from c0 towards p

@@ -1,11 +1,13 @@
 // circana report opened in real headless Chromium (label report): the page loads with no
 // console message and references nothing outside itself, is not blank, its DOM holds the
-// numbers of circana analyze --json and of the simulator's injected errors, and printing
-// gives exactly one A4 page per plane. Without chromium every test here is skipped with a
-// message (ctest shows it as skipped), never passed.
+// numbers of circana analyze --json and of the simulator's injected errors, no element is
+// wider than A4 portrait at 96 dpi, and printing gives the hand-over with the verdict on page
+// 1, then exactly one A4 page per plane, then the appendix. Without chromium every test here
+// is skipped with a message (ctest shows it as skipped), never passed.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -110,6 +112,45 @@ class HtmlReport : public ::testing::Test {
     return static_cast<int>(
         std::distance(std::sregex_iterator(bytes.begin(), bytes.end(), page), {}));
   }
+  // The text of page K of the PDF (pdftotext).
+  std::string pdf_page_text(const std::string& pdf, int k) {
+    if (std::string(PDFTOTEXT_PATH).empty()) {
+      ADD_FAILURE() << "pdftotext (poppler-utils) is needed to read the printed pages";
+      return {};
+    }
+    const std::string n = std::to_string(k);
+    const CommandResult r = run_command({PDFTOTEXT_PATH, "-f", n, "-l", n, pdf, "-"});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.out;
+  }
+  // The right edge, in CSS px, of the widest element of the report laid out in a window as
+  // wide as A4 portrait at 96 dpi (794 px), measured by a script in a copy of the page.
+  double widest_px(const std::string& html, std::string& which) {
+    std::string text = slurp(html);
+    const auto body = text.rfind("</body>");
+    EXPECT_NE(body, std::string::npos);
+    text.insert(
+        body,
+        "<script>let w = document.documentElement.scrollWidth, who = 'html';"
+        "for (const e of document.querySelectorAll('*')) {"
+        "  const r = e.getBoundingClientRect();"
+        "  if (r.right > w) { w = r.right; who = e.tagName + ' ' + e.getAttribute('class'); }"
+        "}"
+        "document.body.setAttribute('data-widest', Math.ceil(w));"
+        "document.body.setAttribute('data-widest-element', who);</script>");
+    const std::string probe = (dir_ / "probe.html").string();
+    circtest::testing::spit(probe, text);
+    const CommandResult r = chromium({"--window-size=794,1123", "--dump-dom", "file://" + probe});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    std::smatch m;
+    static const std::regex widest(R"re(data-widest="(\d+)" data-widest-element="([^"]*)")re");
+    if (!std::regex_search(r.out, m, widest)) {
+      ADD_FAILURE() << "the width probe did not run";
+      return 1e9;
+    }
+    which = m[2];
+    return std::stod(m[1]);
+  }
   // The page's console lines in Chromium's log (errors, warnings, logs alike).
   std::string console_messages() const {
     std::string out;
@@ -158,11 +199,20 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
   }
   EXPECT_EQ(count(d, "http"), count(d, "http://www.w3.org/2000/svg"));
   EXPECT_EQ(count(d, "<section class=\"plane\""), 3u);
-  // Clause 6 header, as in the text report.
-  EXPECT_NE(d.find("Test (clause 6)"), std::string::npos);
+  // The hand-over: who tested which machine; no limits given, so nothing is judged.
   EXPECT_NE(d.find("A. Sato"), std::string::npos);
   EXPECT_NE(d.find("VMC-3"), std::string::npos);
-  EXPECT_NE(d.find("not recorded"), std::string::npos);
+  EXPECT_NE(d.find("data-verdict=\"NONE\""), std::string::npos);
+  EXPECT_EQ(count(d, "class=\"verdict-line\""), 9u);  // H, G, F of each plane
+  EXPECT_EQ(count(d, "<td class=\"result NONE\">no limit set</td>"), 9u);
+  // Conditions not recorded: one grey line a plane, never red on every line.
+  EXPECT_EQ(count(d, "class=\"grey unrecorded\">Not recorded: "), 3u);
+  for (auto p = d.find("<table class=\"conditions\""); p != std::string::npos;
+       p = d.find("<table class=\"conditions\"", p + 1)) {
+    const std::string table = d.substr(p, d.find("</table>", p) - p);
+    EXPECT_EQ(table.find("not recorded"), std::string::npos) << table;
+  }
+  EXPECT_NE(d.find("Conditions of the test (clause 4.4)"), std::string::npos);
 
   // Every H, G, F of analyze --json is in the DOM, exactly (data-mm) and as read (um).
   const std::vector<std::pair<std::string, double>> truth = {{xy, 0.005}, {yz, 0.003}, {zx, 0.004}};
@@ -194,7 +244,16 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
             std::string::npos);
   EXPECT_GE(count(d, "class=\"contribution\""), diag["contributions"].size());
 
-  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 3);
+  // Summary, one page per plane, appendix.
+  const std::string pdf = (dir_ / "report.pdf").string();
+  EXPECT_EQ(printed_pages(html, pdf), 5);
+  EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: no limit set"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY: the measurement"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 3).find("Plane YZ: the measurement"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 4).find("Plane ZX: the measurement"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 5).find("Appendix"), std::string::npos);
+  std::string which;
+  EXPECT_LE(widest_px(html, which), 794.0) << which;
 
   // Not blank: a screenshot of the report is far richer than one of an empty page.
   const std::string empty = (dir_ / "empty.html").string();
@@ -241,9 +300,9 @@ TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
   const std::string d = dom(html);
   EXPECT_EQ(console_messages(), "");
   // Before and after: both traces drawn (the before dashed), H of both in the table.
-  EXPECT_NE(d.find("Before: " + before), std::string::npos);
+  EXPECT_NE(d.find("<td>" + before + "</td>"), std::string::npos);  // in the appendix
   EXPECT_GE(count(d, "stroke-dasharray=\"5,3\""), 2u);
-  EXPECT_NE(d.find("1 division = 2 um (fixed)"), std::string::npos);
+  EXPECT_NE(d.find("1 division = 2 µm (fixed)"), std::string::npos);
   const auto h_of = [&](const std::string& trace) {
     const CommandResult a = circana({"analyze", trace, "--json"});
     return nlohmann::json::parse(a.out)["pairs"][0]["H"].get<double>();
@@ -263,7 +322,166 @@ TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
   ASSERT_NE(h_panel, std::string::npos);
   const std::string panel = d.substr(h_panel, d.find("</g>", h_panel) - h_panel);
   EXPECT_EQ(count(panel, "class=\"point\""), 3u);
-  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 1);
+  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 3);
+}
+
+// The hand-over of a before/after visit: the verdict against a limits file, what circcomp
+// changed in plain words, the signature block, all on printed page 1; the diagnosis of both
+// tests on the plane's page; µm and µrad, never "um"; nothing wider than A4.
+TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
+  const std::string before = simtrace("before.csv", "--backlash-x 0.008 --seed 4");
+  const std::string after = simtrace("after.csv", "--backlash-x 0.002 --seed 5");
+  const std::string limits = (dir_ / "shop.limits").string();
+  // H passes after (2 um), F cannot pass at 0.1 um, G is judged against a wide limit.
+  circtest::testing::spit(limits, "# the shop's limits\nH=0.004, G=0.05\n\nF=0.0001  # tight\n");
+  const std::string plan = (dir_ / "plan.json").string();
+  circtest::testing::spit(plan,
+                          R"({"schema": "circtest.plan/1", "changes": [
+           {"words": "X backlash 0 → 10.2 µm"},
+           {"words": "squareness XY correction 0 → 100.0 µrad"},
+           {"words": "FF1 X 0 → 1.0"}],
+         "advice": ["servo mismatch: X lags Y by 1.08 ms"]})");
+  const std::string html = (dir_ / "report.html").string();
+  CommandResult r = circana({"report", after, before, "-o", html, "--machine", "VMC-3",
+                             "--limits-file", limits, "--changes", plan, "--tested-by", "A. Sato",
+                             "--accepted-by", "B. Kunde", "--instrument", "grid encoder KGM 182"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string d = dom(html);
+  EXPECT_EQ(console_messages(), "");
+
+  auto analyzed = [&](const std::string& trace) {
+    const CommandResult a = circana({"analyze", trace, "--json"});
+    EXPECT_EQ(a.exit_code, 0) << a.err;
+    return nlohmann::json::parse(a.out);
+  };
+  const auto ja = analyzed(after), jb = analyzed(before);
+  auto row = [&](const std::string& q) {
+    const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
+    EXPECT_NE(p, std::string::npos) << q;
+    return p == std::string::npos ? std::string() : d.substr(p, d.find("</tr>", p) - p);
+  };
+  char cells[200];
+  const double h_after = ja["pairs"][0]["H"].get<double>() * 1000.0;
+  const double h_before = jb["pairs"][0]["H"].get<double>() * 1000.0;
+  std::snprintf(cells, sizeof cells,
+                "<td class=\"num\">%.1f µm</td><td class=\"num\">%.1f µm</td>"
+                "<td class=\"num\">4.0 µm</td><td class=\"result PASS\">PASS</td>",
+                h_before, h_after);
+  EXPECT_NE(row("H").find(cells), std::string::npos) << row("H") << "\n" << cells;
+  EXPECT_NE(row("F").find("<td class=\"num\">0.1 µm</td><td class=\"result FAIL\">FAIL</td>"),
+            std::string::npos)
+      << row("F");
+  EXPECT_NE(row("G").find("<td class=\"num\">50.0 µm</td><td class=\"result PASS\">PASS</td>"),
+            std::string::npos)
+      << row("G");
+  EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
+  EXPECT_NE(d.find("Against the limits of the file " + limits), std::string::npos);
+  EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
+
+  // The diagnosis of both tests, each source with its share of G.
+  for (const auto& trace : {before, after}) {
+    r = circana({"diagnose", trace, "--json"});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto diag = nlohmann::json::parse(r.out);
+    ASSERT_FALSE(diag["contributions"].empty()) << trace;
+    EXPECT_NE(d.find("data-mm=\"" + mm(diag["contributions"][0]["share_mm"].get<double>()) + "\""),
+              std::string::npos)
+        << trace;
+  }
+
+  const std::string pdf = (dir_ / "report.pdf").string();
+  EXPECT_EQ(printed_pages(html, pdf), 3);
+  const std::string page1 = pdf_page_text(pdf, 1);
+  for (const char* text : {"Verdict: FAIL", "VMC-3", "grid encoder KGM 182", "XY", "1000 mm/min",
+                           "X backlash 0 → 10.2 µm", "squareness XY correction 0 → 100.0 µrad",
+                           "FF1 X 0 → 1.0", "servo mismatch: X lags Y by 1.08 ms", "Tested by",
+                           "A. Sato", "Accepted by", "B. Kunde", "Signature", "Date"}) {
+    EXPECT_NE(page1.find(text), std::string::npos) << text << "\n" << page1;
+  }
+  EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY"), std::string::npos);
+  const CommandResult sum = run_command({"/usr/bin/sha256sum", after});
+  ASSERT_EQ(sum.exit_code, 0);
+  EXPECT_NE(pdf_page_text(pdf, 3).find(sum.out.substr(0, 64)), std::string::npos)
+      << "the appendix holds the trace's SHA-256";
+  std::string which;
+  EXPECT_LE(widest_px(html, which), 794.0) << which;
+}
+
+// Any report, above all the one the README's demo writes (out/report.html): named by
+// CIRCTEST_REPORT_HTML (absolute path) after the demo ran, checked for what the hand-over
+// needs: nothing wider than A4, the verdict on printed page 1, one page per plane, then the
+// appendix, µm and µrad written as such. Skipped with a message when the variable is unset.
+TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
+  const char* given = std::getenv("CIRCTEST_REPORT_HTML");
+  if (!given || !*given) {
+    GTEST_SKIP() << "CIRCTEST_REPORT_HTML is not set: no report of a demo run to check";
+  }
+  const std::string html = fs::absolute(given).string();
+  ASSERT_TRUE(fs::is_regular_file(html)) << html;
+  const std::string d = dom(html);
+  EXPECT_EQ(console_messages(), "");
+  std::vector<std::string> planes;
+  static const std::regex plane(R"re(<section class="plane" data-plane="(XY|YZ|ZX)")re");
+  for (std::sregex_iterator it(d.begin(), d.end(), plane), end; it != end; ++it) {
+    planes.push_back((*it)[1]);
+  }
+  ASSERT_FALSE(planes.empty()) << "no plane page: not a circana report";
+  const std::string pdf = (dir_ / "given.pdf").string();
+  EXPECT_EQ(printed_pages(html, pdf), static_cast<int>(planes.size()) + 2);
+  EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: "), std::string::npos);
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    EXPECT_NE(pdf_page_text(pdf, static_cast<int>(k) + 2).find("Plane " + planes[k] + ": "),
+              std::string::npos)
+        << planes[k];
+  }
+  EXPECT_NE(pdf_page_text(pdf, static_cast<int>(planes.size()) + 2).find("Appendix"),
+            std::string::npos);
+  EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
+  std::string which;
+  EXPECT_LE(widest_px(html, which), 794.0) << which;
+}
+
+// Backlash and squareness limits are judged from the plane's diagnosis, as circana history
+// judges them; a diagnosis without the value is not measured, which does not pass.
+TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
+  const std::string xy = simtrace("xy.csv", "--backlash-x 0.005 --seed 6");
+  const std::string html = (dir_ / "report.html").string();
+  CommandResult r = circana({"report", xy, "-o", html, "--limits", "backlash=0.004,squareness=50"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::string d = dom(html);
+  r = circana({"diagnose", xy, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto diag = nlohmann::json::parse(r.out);
+  const double b_um = diag["backlash_mm"]["X"].get<double>() * 1000.0;
+  ASSERT_NEAR(b_um, 5.0, 0.5);
+  auto row = [&d](const std::string& q) {
+    const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
+    return p == std::string::npos ? std::string() : d.substr(p, d.find("</tr>", p) - p);
+  };
+  char cells[160];
+  std::snprintf(cells, sizeof cells,
+                "<td class=\"num\">%.1f µm</td><td class=\"num\">4.0 µm</td>"
+                "<td class=\"result FAIL\">FAIL</td>",
+                b_um);
+  EXPECT_NE(row("backlash").find(cells), std::string::npos) << row("backlash") << "\n" << cells;
+  EXPECT_NE(row("squareness").find("<td class=\"num\">50.0 µrad</td><td class=\"result PASS\">"),
+            std::string::npos)
+      << row("squareness");
+  // H, G, F have no limit here: listed, not judged.
+  EXPECT_NE(row("H").find("no limit set"), std::string::npos);
+  EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
+
+  // A diagnosis that does not state the squareness: that limit cannot pass.
+  diag["squareness_urad"] = nullptr;
+  const std::string diag_path = (dir_ / "diag.json").string();
+  circtest::testing::spit(diag_path, diag.dump());
+  r = circana({"report", xy, "-o", html, "--limits", "squareness=50", "--diagnosis", diag_path});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  d = dom(html);
+  EXPECT_NE(row("squareness").find("<td class=\"result FAIL\">FAIL (not measured)</td>"),
+            std::string::npos)
+      << row("squareness");
+  EXPECT_EQ(row("backlash"), "") << "no backlash limit, no backlash line";
 }
 
 // Bad requests: one clear line, the documented exit code, no file left behind.
@@ -290,6 +508,27 @@ TEST_F(HtmlReport, BadRequests) {
   circtest::testing::spit(newer, "{\"schema\": \"circtest.diagnosis/1\", \"version\": \"2.0\"}");
   expect({"report", xy, "-o", out, "--diagnosis", newer}, 4,
          newer + ": \"version\": 2.0 is newer than this circana reads (1.x)");
+  // Limits: the history's format, in an option or a file; a bad item names the file's line.
+  expect({"report", xy, "-o", out, "--limits", "H=0.01,Q=1"}, 2,
+         "--limits: expected NAME=VALUE,... with NAME one of H, G, F");
+  const std::string lim = (dir_ / "shop.limits").string();
+  circtest::testing::spit(lim, "H=0.01\n# G next\nG=abc\n");
+  expect({"report", xy, "-o", out, "--limits-file", lim}, 4, lim + ":3: limit G");
+  circtest::testing::spit(lim, "H=0.01\nG=0.02,H=0.02\n");
+  expect({"report", xy, "-o", out, "--limits-file", lim}, 4,
+         lim + ":2: H is given twice (also on line 1)");
+  circtest::testing::spit(lim, "# nothing yet\n\n");
+  expect({"report", xy, "-o", out, "--limits-file", lim}, 4, lim + ": no limit in the file");
+  expect({"report", xy, "-o", out, "--limits-file", (dir_ / "none.limits").string()}, 3,
+         "none.limits");
+  expect({"report", xy, "-o", out, "--limits", "H=0.01", "--limits-file", lim}, 2,
+         "--limits and --limits-file: give the limits one way");
+  // Changes: only a circtest.plan/1 document whose changes have words.
+  expect({"report", xy, "-o", out, "--changes", junk}, 4,
+         junk + ": expected a circtest.plan/1 document (circcomp plan --json)");
+  const std::string plan = (dir_ / "plan.json").string();
+  circtest::testing::spit(plan, R"({"schema": "circtest.plan/1", "changes": [{"words": 3}]})");
+  expect({"report", xy, "-o", out, "--changes", plan}, 4, "'changes[0].words': expected a string");
   // A directory in the output's place is never replaced.
   fs::create_directory(dir_ / "dir.html");
   const CommandResult r = circana({"report", xy, "-o", (dir_ / "dir.html").string()});

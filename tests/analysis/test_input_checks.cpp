@@ -1,6 +1,6 @@
 // The input-consistency checks (analysis/input_checks) on traces from the test simulator,
 // whose circle, plane and runs are known: each check must pass the good trace and refuse
-// (or note) the one made inconsistent in the way issue 12 found.
+// (or note) the one made inconsistent in a way seen on real traces.
 #include "circtest/analysis/input_checks.hpp"
 
 #include <gtest/gtest.h>
@@ -181,7 +181,7 @@ TEST(Segmentation, OneMarkedSpanHoldingBothDirectionsIsSplitAtTheReversal) {
   EXPECT_TRUE(two.notes.empty());
 }
 
-// Library text names no command-line option (issue 8): a remedy is named by the words the
+// Library text names no command-line option: a remedy is named by the words the
 // caller gives (circana: its options, tested with the CLI), else by the library's own.
 TEST(Remedies, TheLibrarysOwnWordsNameNoOption) {
   const Trace t = simulated();

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/instrument_export.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/core/error.hpp"
 #include "machine_sim.hpp"
@@ -146,19 +147,30 @@ TEST(Radial, MissingCommandedColumnsAreAParseError) {
 
 namespace {
 
+struct PolarPoint {
+  double angle_deg;
+  double deviation_um;
+};
+
 // Deviations of a known shape: two lobes, an offset and a step, CCW 0..360 then CW back.
 std::vector<PolarPoint> polar_points() {
   std::vector<PolarPoint> pts;
   for (int i = 0; i <= 720; ++i) {
     const double a = i * 0.5;
-    pts.push_back({a, 3.0 * std::sin(2 * a * std::numbers::pi / 180) + 1.25, 0});
+    pts.push_back({a, 3.0 * std::sin(2 * a * std::numbers::pi / 180) + 1.25});
   }
   for (int i = 720; i >= 0; --i) {
     const double a = i * 0.5;
-    pts.push_back(
-        {a, 2.5 * std::cos(2 * a * std::numbers::pi / 180) - 0.75 + (a > 180 ? 2 : 0), 0});
+    pts.push_back({a, 2.5 * std::cos(2 * a * std::numbers::pi / 180) - 0.75 + (a > 180 ? 2 : 0)});
   }
   return pts;
+}
+
+Trace import_polar(const std::string& text, double radius_mm, Plane plane = Plane::XY) {
+  ExportImportOptions o;
+  o.radius_mm = radius_mm;
+  o.plane = plane;
+  return import_export_text(text, "e.txt", o);
 }
 
 }  // namespace
@@ -169,13 +181,13 @@ TEST(PolarImport, RoundTripsThroughTheTraceFormat) {
   text << "# exported by some ballbar software\nAngle[deg]\tDeviation[um]\n";
   text.precision(12);
   for (const auto& p : pts) text << p.angle_deg << '\t' << p.deviation_um << '\n';
-  const auto parsed = parse_polar_text(text.str(), "export.txt");
-  ASSERT_EQ(parsed.size(), pts.size());
-  EXPECT_EQ(parsed.front().line, 3u);
+  const Trace imported = import_polar(text.str(), 150.0, Plane::YZ);
+  ASSERT_EQ(imported.rows(), pts.size());
+  EXPECT_EQ(imported.line_of_row.front(), 3u);
 
   const std::string path =
       (std::filesystem::temp_directory_path() / "circtest-polar-roundtrip.csv").string();
-  write_trace(path, polar_to_trace(parsed, Plane::YZ, 150.0, "export.txt"));
+  write_trace(path, imported);
   const Trace back = read_trace(path);
   std::filesystem::remove(path);
   const RadialPositions radial = radial_positions(back, {});
@@ -209,17 +221,17 @@ TEST(PolarImport, RoundTripsThroughTheTraceFormat) {
 
 TEST(PolarImport, BadLinesNameFileAndLine) {
   try {
-    parse_polar_text("0 1\n1 2\n2 x\n", "e.txt");
+    import_polar("0 1\n1 2\n2 x\n", 50.0);
     FAIL();
   } catch (const ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("e.txt:3"), std::string::npos) << e.what();
   }
   try {
-    parse_polar_text("0 1 2\n", "e.txt");
+    import_polar("0 1 2\n", 50.0);
     FAIL();
   } catch (const ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("e.txt:1"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(parse_polar_text("angle dev\n0 1\n", "e.txt"), ParseError);  // too few points
-  EXPECT_EQ(parse_polar_text("0;1\r\n1,2\r\n\n; note\n2\t3\r\n", "e.txt").size(), 3u);
+  EXPECT_THROW(import_polar("angle_deg dev_um\n0 1\n", 50.0), ParseError);  // too few points
+  EXPECT_EQ(import_polar("0;1\r\n1,2\r\n\n; note\n2\t3\r\n", 50.0).rows(), 3u);
 }

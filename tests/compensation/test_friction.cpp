@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -386,7 +387,7 @@ TEST(Friction, UnfindablePositionCommandIsRefusedWithFileAndLine) {
     try {
       make_plan(c.ini, spikes(0.004, std::nullopt), friction_only());
       ADD_FAILURE() << "no refusal";
-    } catch (const DataError& e) {
+    } catch (const WiringError& e) {
       const std::string what = e.what();
       EXPECT_NE(what.find(k.where + ": "), std::string::npos) << what;
       EXPECT_NE(what.find(k.words), std::string::npos) << what;
@@ -449,4 +450,117 @@ TEST(Friction, IniReferencesInHalWordsAreReplacedAsHalcmdDoes) {
   ASSERT_EQ(w.signals.count("x"), 1u);
   EXPECT_EQ(w.signals.at("x").pins,
             (std::set<std::string>{"x.y", "[x]", "[A]C", "[A]", "[A](B", "50.q"}));
+}
+
+// What circcomp cannot wire is told from what it refuses to do by the error's type, not by the
+// file it names: a diagnosis named like the HAL file still only loses friction (a note), and
+// a [FRICTION_X] value broken by hand is refused (exit 5, file and line) even when friction was
+// not asked for by name.
+TEST(Friction, OnlyWiringErrorsBecomeNotesWhenFrictionIsNotNamed) {
+  {
+    Config c("servo-mill");
+    std::string hal = c.read("servo-mill.hal");
+    const std::string from = "net x-pos-cmd       =>  pid.x.command\n";
+    hal.replace(hal.find(from), from.size(), "setp pid.x.command 0\n");
+    c.write("servo-mill.hal", hal);
+    DiagnosisInput d = spikes(0.004, std::nullopt);
+    d.source = (c.dir / "servo-mill.hal").string();
+    try {
+      make_plan(c.ini, d, friction_only());
+      ADD_FAILURE() << "no refusal";
+    } catch (const WiringError& e) {
+      EXPECT_EQ(e.code(), ExitCode::data);
+      EXPECT_NE(std::string(e.what()).find("servo-mill.hal:17: pid.x.command is a literal"),
+                std::string::npos)
+          << e.what();
+    }
+    const Plan plan = make_plan(c.ini, d, PlanOptions{});
+    EXPECT_TRUE(has_text(plan.notes, "friction compensation not planned: "));
+    EXPECT_TRUE(has_text(plan.notes, "pid.x.command is a literal"));
+  }
+  {
+    Config c("servo-mill");
+    apply_plan(make_plan(c.ini, spikes(0.005, std::nullopt), friction_only()));
+    IniDocument edited = IniDocument::load(c.ini);
+    edited.set("FRICTION_X", "AMPLITUDE", "abc");
+    c.write("servo-mill.ini", edited.render());
+    try {
+      make_plan(c.ini, spikes(0.003, std::nullopt), PlanOptions{});
+      ADD_FAILURE() << "a broken [FRICTION_X] became a note";
+    } catch (const WiringError& e) {
+      ADD_FAILURE() << "not a wiring error: " << e.what();
+    } catch (const DataError& e) {
+      EXPECT_EQ(e.code(), ExitCode::data);
+      EXPECT_NE(std::string(e.what()).find("servo-mill.ini:"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("[FRICTION_X] AMPLITUDE = 'abc': expected a length"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+// Step 1 on a P loop without feed-forward: the command pulse reaches the table through the
+// loop's lag 1 / Kv, which passes only (decay / lag)^(-lag / (decay - lag)) of it: the
+// amplitude is the spike divided by that share, bounded by AMPLITUDE_MAX (2 x spike).
+TEST(Friction, StepOneDividesByTheShareOfThePulseTheLagPasses) {
+  auto amplitude = [](std::optional<double> kv, Plan* out = nullptr) {
+    Config c("servo-mill");
+    DiagnosisInput d = spikes(0.0047, std::nullopt);
+    d.kv_per_s = kv;
+    Plan plan = make_plan(c.ini, d, friction_only());
+    const IniDocument after = IniDocument::parse(file_of(plan, "servo-mill.ini")->after);
+    EXPECT_EQ(after.get("FRICTION_X", "AMPLITUDE_MAX"), "0.0094");
+    EXPECT_EQ(after.get("FRICTION_X", "DECAY_MS"), "18.5");
+    if (out != nullptr) *out = std::move(plan);
+    return std::stod(*after.get("FRICTION_X", "AMPLITUDE"));
+  };
+  // Lag 3.33 ms, decay 18.5 ms: ratio 5.55, share 5.55^(-1 / 4.55) = 0.686.
+  const double ratio = 18.5 / (1e3 / 300.0);
+  Plan plan;
+  EXPECT_NEAR(amplitude(300.0, &plan), 0.0047 / std::pow(ratio, -1.0 / (ratio - 1.0)), 1e-7);
+  EXPECT_TRUE(
+      has_text(plan.changes, "/ 0.69, the share of the pulse the 3.3 ms lag (1 / Kv) passes"));
+  // Lag 33 ms (sim-servo's P 30) against 18.5 ms: 0.27, so 2.7 x the spike: bounded.
+  EXPECT_EQ(amplitude(30.0, &plan), 0.0094);
+  EXPECT_TRUE(has_text(plan.changes, "bounded by AMPLITUDE_MAX"));
+  // No Kv in the diagnosis (or nonsense): the spike itself.
+  EXPECT_EQ(amplitude(std::nullopt), 0.0047);
+  EXPECT_EQ(amplitude(-5.0), 0.0047);
+  EXPECT_EQ(amplitude(0.0), 0.0047);
+}
+
+// Step 2 where AMPLITUDE_MAX holds the amplitude below what an outward residual asks for: the
+// decay lengthens by that share (the pulse's area), at most twice; an over-compensation only
+// lowers the amplitude.
+TEST(Friction, StepTwoLengthensTheDecayWhereTheAmplitudeIsBounded) {
+  auto step2 = [](double residual_mm) {
+    Config c("servo-mill");
+    apply_plan(make_plan(c.ini, spikes(0.005, std::nullopt), friction_only()));
+    Plan plan = make_plan(c.ini, spikes(residual_mm, std::nullopt), friction_only());
+    const IniDocument after = IniDocument::parse(file_of(plan, "servo-mill.ini")->after);
+    return std::make_pair(*after.get("FRICTION_X", "AMPLITUDE"),
+                          *after.get("FRICTION_X", "DECAY_MS"));
+  };
+  // 5 + 8 um wanted, 10 um allowed: the decay 18.5 ms x 13 / 10.
+  EXPECT_EQ(step2(0.008), std::make_pair(std::string("0.01"), std::string("24.05")));
+  // 5 + 20 um wanted: 2.5 x, bounded to twice the decay.
+  EXPECT_EQ(step2(0.020), std::make_pair(std::string("0.01"), std::string("37.0")));
+  // Within the bound, or over-compensated: the decay stays.
+  EXPECT_EQ(step2(0.002), std::make_pair(std::string("0.007"), std::string("18.5")));
+  EXPECT_EQ(step2(-0.003), std::make_pair(std::string("0.002"), std::string("18.5")));
+}
+
+// AMPLITUDE_MAX is twice SPIKE_MM as written: step 2 finds it at its bound, not a last digit
+// above it to be lowered.
+TEST(Friction, StepOneBoundIsTwiceTheSpikeAsWritten) {
+  Config c("servo-mill");
+  DiagnosisInput d = spikes(0.010498736, std::nullopt);
+  d.kv_per_s = 30.0;
+  apply_plan(make_plan(c.ini, d, friction_only()));
+  const IniDocument ini = IniDocument::load(c.ini);
+  EXPECT_EQ(std::stod(*ini.get("FRICTION_X", "AMPLITUDE_MAX")),
+            2.0 * std::stod(*ini.get("FRICTION_X", "SPIKE_MM")));
+  const Plan plan = make_plan(c.ini, spikes(0.004, std::nullopt), friction_only());
+  EXPECT_FALSE(has_text(plan.notes, "] AMPLITUDE_MAX ")) << "no bound lowered by a rounding";
+  EXPECT_TRUE(has_text(plan.changes, "DECAY_MS"));
 }

@@ -568,7 +568,7 @@ TEST(TraceParallel, TheFirstErrorInFileOrderWinsWithItsLine) {
             "non-decreasing time");
 }
 
-// ---------------------------------------------------------------- hostile input (issue 12)
+// ---------------------------------------------------------------- hostile input
 
 TEST(TraceReaderErrors, LineLongerThanTheCap) {
   std::string text = "t,x\n0,1\n" + std::string(kMaxInputLineBytes + 1, '5') + "\n";

@@ -164,11 +164,11 @@ TEST_F(SimMachine, BacklashShowsAsHysteresisOnTheTableOnly) {
 // radial feed-in/out outside the circle and the overshoot arcs, and the marked runs still
 // the measured arcs: H is the 20 um play as with the default program.
 TEST_F(SimMachine, BallbarProgramRunsWithItsPauses) {
-  generate("XY", "--instrument ballbar --safe-z 20");
+  generate("XY", "--instrument ballbar --ballbar-lengths 75 --safe-z 20");
   expected_pauses_ = 3;
   run_machine({{"BACKLASH_X", "0.020"}});
   const std::string log = slurp_if_exists(out_ / "run" / "linuxcnc.log");
-  EXPECT_NE(log.find("message: Mount the ballbar now"), std::string::npos) << log;
+  EXPECT_NE(log.find("message: Mount the ballbar for XY now"), std::string::npos) << log;
   EXPECT_NE(log.find("message: Remove the ballbar now"), std::string::npos) << log;
   const json table = analyse();
   ASSERT_EQ(table["runs"].size(), 2u);

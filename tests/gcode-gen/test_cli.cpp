@@ -45,11 +45,13 @@ std::vector<BadCase> option_cases() {
       {"arc_too_short",
        {"--d", "150", "--f", "300", "--arc", "45"},
        2,
-       "--arc: the measured arc must be 90..360 deg"},
+       "--arc: 45 deg is the total angle travelled; less 2 x 10 deg overshoot (--lead) it leaves "
+       "25 deg of data, and the data arc must be 90..360 deg (ISO 230-4 clause 3.1): give --arc "
+       "110..380"},
       {"arc_too_long",
        {"--d", "150", "--f", "300", "--arc", "400"},
        2,
-       "--arc: the measured arc must be 90..360 deg"},
+       "leaves 380 deg of data, and the data arc must be 90..360 deg"},
       {"unknown_plane",
        {"--d", "150", "--f", "300", "--plane", "AB"},
        2,
@@ -78,7 +80,7 @@ std::vector<BadCase> option_cases() {
        2,
        "--centre: expected 3 comma-separated numbers, got '1,y,3'"},
       {"lead_overlap_partial",
-       {"--d", "150", "--f", "300", "--arc", "270", "--lead", "50"},
+       {"--d", "150", "--f", "300", "--arc", "370", "--lead", "50"},
        2,
        "--lead: 50 deg lead arcs around a 270 deg arc would overlap"},
       {"lead_overlap_full",
@@ -191,7 +193,7 @@ std::vector<BadCase> number_range_cases() {
       {"huge_safe_z",
        {"--d", "150", "--f", "300", "--safe-z", "1e308"},
        2,
-       "--safe-z: clearance position of 1e+308 mm is outside the plausible range"},
+       "--clearance: clearance position of 1e+308 mm is outside the plausible range"},
       {"huge_feed",
        {"--d", "150", "--f", "1e308"},
        2,
@@ -200,10 +202,6 @@ std::vector<BadCase> number_range_cases() {
        {"--d", "150", "--feeds", "300,1e6"},
        2,
        "--f/--feeds: feed of 1000000 mm/min is outside the plausible range"},
-      {"inch_feed_written_as_f0",
-       {"--d", "6", "--f", "0.04", "--inch"},
-       2,
-       "--f/--feeds: a feed of 0.04 in/min would be written as F0"},
       {"huge_offset",
        {"--d", "150", "--f", "300", "--ini", "/nonexistent.ini", "--offset", "0,-1e308,0"},
        2,
@@ -219,10 +217,107 @@ std::vector<BadCase> number_range_cases() {
   };
 }
 
+// Test sets, the clearance, the floor and the ballbar's lengths.
+std::vector<BadCase> set_and_instrument_cases() {
+  return {
+      {"set_without_clearance",
+       {"--d", "100", "--f", "500", "--plane", "XY,ZX"},
+       2,
+       "--plane XY,ZX: a test set moves from plane to plane between its pauses; give --clearance "
+       "(one position on the normal axes, or one per plane)"},
+      {"set_plane_twice",
+       {"--d", "100", "--f", "500", "--plane", "XY,YZ,XY", "--clearance", "50"},
+       2,
+       "--plane: XY is given twice in 'XY,YZ,XY'"},
+      {"set_plane_unknown",
+       {"--d", "100", "--f", "500", "--plane", "XY,XZ", "--clearance", "50"},
+       2,
+       "--plane: 'XZ' is not XY, YZ or ZX (for G18 use ZX"},
+      {"set_plane_empty",
+       {"--d", "100", "--f", "500", "--plane", "XY,", "--clearance", "50"},
+       2,
+       "--plane: '' is not XY, YZ or ZX"},
+      {"set_clearance_count",
+       {"--d", "100", "--f", "500", "--plane", "XY,YZ", "--clearance", "50,60,70"},
+       2,
+       "--clearance: 3 positions for 2 planes: give one, or one per plane"},
+      {"clearance_and_safe_z",
+       {"--d", "100", "--f", "500", "--clearance", "50", "--safe-z", "50"},
+       2,
+       "give --clearance or its alias --safe-z, not both"},
+      {"clearance_below_an_xy_circle",
+       {"--d", "100", "--f", "500", "--centre", "0,0,10", "--clearance", "10"},
+       2,
+       "--clearance: Z 10 mm is not above the circle's height Z 10 mm: the clearance in XY must "
+       "be above it"},
+      {"floor_above_the_path",
+       {"--d", "300", "--f", "500", "--plane", "YZ", "--instrument", "ballbar", "--floor", "-40"},
+       6,
+       "--floor -40: the path in YZ reaches Z -51.816051714 mm (work offset), 11.816051714 mm "
+       "below that floor"},
+      {"floor_in_a_set",
+       {"--d", "200", "--f", "500", "--plane", "XY,ZX", "--clearance", "50", "--floor", "-99"},
+       6,
+       "--floor -99: the path in ZX reaches Z -100 mm (work offset), 1 mm below that floor"},
+      {"floor_not_finite", {"--d", "200", "--f", "500", "--floor", "inf"}, 2, "--floor"},
+      {"ballbar_length_not_in_profile",
+       {"--d", "150", "--f", "500", "--instrument", "ballbar"},
+       2,
+       "--instrument ballbar: radius 75 mm is not a length of the ballbar profile (50,100,150,300 "
+       "mm); test at one of them, or give the bar's lengths with --ballbar-lengths"},
+      {"ballbar_lengths_without_ballbar",
+       {"--d", "150", "--f", "500", "--ballbar-lengths", "75"},
+       2,
+       "--ballbar-lengths is only used with --instrument ballbar"},
+      {"ballbar_length_implausible",
+       {"--d", "150", "--f", "500", "--instrument", "ballbar", "--ballbar-lengths", "75,1e9"},
+       2,
+       "--ballbar-lengths: a bar length of 1000000000 mm is outside 50..600 mm"},
+  };
+}
+
 std::vector<BadCase> usage_cases() {
   std::vector<BadCase> cases = option_cases();
   for (BadCase& c : number_range_cases()) cases.push_back(std::move(c));
+  for (BadCase& c : set_and_instrument_cases()) cases.push_back(std::move(c));
   return cases;
+}
+
+// A ballbar's radius is one of its profile's lengths: 75 mm with a profile that lists it.
+TEST(CircgenCli, BallbarLengthsFromTheProfile) {
+  const CommandResult r = run_circgen(
+      {"--d", "150", "--f", "500", "--instrument", "ballbar", "--ballbar-lengths", "75,150"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  // A diameter in inch to 4 decimals is the 100 mm bar.
+  EXPECT_EQ(
+      run_circgen({"--inch", "--d", "7.874", "--f", "20", "--instrument", "ballbar"}).exit_code, 0);
+}
+
+// Inch feeds keep three decimals: the default approach feed 200 mm/min is F7.874, not F7.9.
+TEST(CircgenCli, InchFeedsKeepTheirPrecision) {
+  const CommandResult r =
+      run_circgen({"--inch", "--d", "7.874", "--f", "40", "--instrument", "ballbar"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(" F7.874 (feed-in 0.05906)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("F7.9"), std::string::npos);
+  EXPECT_NE(r.out.find("(circtest: approach_feed_in_per_min: 7.874)"), std::string::npos);
+  // The smallest plausible feed, 1 mm/min, keeps a word that is not F0.
+  const CommandResult slow = run_circgen({"--inch", "--d", "6", "--f", "0.04"});
+  ASSERT_EQ(slow.exit_code, 0) << slow.err;
+  EXPECT_NE(slow.out.find(" F0.04 (lead-in)"), std::string::npos);
+}
+
+// The header of a vertical-plane ballbar test: data arc, total arc, overshoot, lowest point.
+TEST(CircgenCli, HeaderStatesTheArcsAndTheLowestPoint) {
+  const CommandResult r = run_circgen({"--d", "300", "--f", "500", "--plane", "ZX", "--instrument",
+                                       "ballbar", "--offset", "0,0,-300"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* line :
+       {"(circtest: arc_deg: 180)", "(circtest: arc_total_deg: 220)", "(circtest: lead_deg: 20)",
+        "(circtest: lowest_z_mm: -51.816051714)", "(circtest: lowest_z_machine_mm: -351.816051714)",
+        "(circtest: safe_axis: y)", "(circtest: safe_mm: 50)"}) {
+    EXPECT_NE(r.out.find(line), std::string::npos) << line;
+  }
 }
 
 class CircgenCliBadInput : public ::testing::TestWithParam<BadCase> {};
@@ -282,6 +377,72 @@ TEST_F(CircgenCliIni, AcceptsATestWithinTheLimitsAndSaysSoInTheHeader) {
             std::string::npos);
 }
 
+// Without a parameter file (LinuxCNC's default rs274ngc.var beside the INI) or --offset the
+// origin is not known: said on stderr and in the header, checked as machine zero.
+TEST_F(CircgenCliIni, AnUnknownWorkOffsetIsSaidNotAssumedSilently) {
+  const CommandResult r = run({"--d", "150", "--f", "300"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err, "circgen: warning: the work offset's origin is not known (no parameter file " +
+                       dir_.file("rs274ngc.var") +
+                       ", no --offset): the path is checked as if it were machine zero\n");
+  EXPECT_NE(r.out.find("(circtest: work_offset_origin_source: not known: no parameter file "),
+            std::string::npos);
+  EXPECT_EQ(r.out.find("centre_machine_mm"), std::string::npos);
+}
+
+// [RS274NGC] PARAMETER_FILE: G55's origin at #5241..#5243 (LinuxCNC's interp_array.cc), in
+// the INI's units, beside the INI.
+TEST_F(CircgenCliIni, TheParameterFileGivesTheWorkOffsetTheProgramUses) {
+  spit(ini(), std::string(kMachineIni) + "\n[RS274NGC]\nPARAMETER_FILE = m.var\n");
+  spit(dir_.file("m.var"),
+       "5220\t1.000000\n5221\t0.000000\n5222\t0\n5223\t-20\n5241\t-180.000000\n5242\t0\n"
+       "5243\t0\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 6,
+                 "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+  const CommandResult g54 = run({"--d", "150", "--f", "300", "--work-offset", "G54"});
+  ASSERT_EQ(g54.exit_code, 0) << g54.err;
+  EXPECT_TRUE(g54.err.empty()) << g54.err;
+  EXPECT_NE(g54.out.find("(circtest: work_offset_origin_source: G54 #5221..#5223 in " +
+                         dir_.file("m.var") + ")"),
+            std::string::npos)
+      << g54.out.substr(0, 3000);
+  EXPECT_NE(g54.out.find("(circtest: centre_machine_mm: 0,0,-20)"), std::string::npos);
+  EXPECT_NE(g54.out.find("(circtest: lowest_z_machine_mm: -20)"), std::string::npos);
+  // Inherited: the system selected when the file was saved (#5220), with a warning.
+  spit(dir_.file("m.var"), "5220 2\n5241 -180\n");
+  const CommandResult inherited = run({"--d", "150", "--f", "300"});
+  EXPECT_EQ(inherited.exit_code, 6);
+  EXPECT_NE(inherited.err.find("X = -255 mm"), std::string::npos) << inherited.err;
+  spit(dir_.file("m.var"), "5220 2\n5241 -10\n");
+  const CommandResult warned = run({"--d", "150", "--f", "300"});
+  ASSERT_EQ(warned.exit_code, 0) << warned.err;
+  EXPECT_NE(warned.err.find("the program inherits the work offset; the path is checked in G55"),
+            std::string::npos)
+      << warned.err;
+  // G92 in effect (#5210) moves every system.
+  spit(dir_.file("m.var"), "5210 1\n5211 -180\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G54"}), 6, "X = -255 mm");
+}
+
+TEST_F(CircgenCliIni, ParameterFileRefusals) {
+  spit(ini(), std::string(kMachineIni) + "\n[RS274NGC]\nPARAMETER_FILE = m.var\n");
+  spit(dir_.file("m.var"), "5241 -180\n5221 0\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 4,
+                 dir_.file("m.var") +
+                     ":2: #5221 after #5241: LinuxCNC refuses a parameter file whose numbers are "
+                     "not increasing");
+  spit(dir_.file("m.var"), "5241 nan\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 4,
+                 dir_.file("m.var") + ":1: #5241: 'nan' is not a finite number");
+  spit(dir_.file("m.var"), "5241 -10\n5250 30\n");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G55"}), 5,
+                 "G55 has an XY rotation of 30 deg (#5250): circgen cannot check the path in a "
+                 "rotated work offset");
+  expect_refused(run({"--d", "150", "--f", "300", "--work-offset", "G54", "--offset", "5,0,0"}), 2,
+                 "--offset 5,0,0 mm disagrees with G54 #5221..#5223 in " + dir_.file("m.var") +
+                     " = 0,0,0 mm: give the origin that is right, or drop --offset");
+}
+
 TEST_F(CircgenCliIni, RefusesACircleBeyondMaxLimit) {
   expect_refused(run({"--d", "150", "--f", "300", "--centre", "150,0,0"}), 6,
                  "X = 225 mm in machine coordinates, above [AXIS_X] MAX_LIMIT = 200");
@@ -292,7 +453,7 @@ TEST_F(CircgenCliIni, WorkOffsetMovesTheCircleInMachineCoordinates) {
                  "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
   // Only the arcs count, not the centre: a partial arc on the +X side of a circle centred
   // 240 mm into the -X side stays clear of the -200 limit, the full circle does not.
-  const CommandResult ok = run({"--d", "150", "--f", "300", "--offset", "-240,0,0", "--arc", "90",
+  const CommandResult ok = run({"--d", "150", "--f", "300", "--offset", "-240,0,0", "--arc", "110",
                                 "--start", "-45", "--lead", "10"});
   EXPECT_EQ(ok.exit_code, 0) << ok.err;
   expect_refused(run({"--d", "150", "--f", "300", "--offset", "-240,0,0"}), 6, "MIN_LIMIT = -200");
@@ -390,8 +551,9 @@ TEST_F(CircgenCliIni, InchMachineLimitsAreConverted) {
 TEST_F(CircgenCliIni, BallbarFeedInStartCountsForTheSoftLimits) {
   // R 199 reaches X 199 on the circle; the feed-in starts 1.5 mm further out, at 200.5.
   EXPECT_EQ(run({"--d", "398", "--f", "300"}).exit_code, 0);
-  expect_refused(run({"--d", "398", "--f", "300", "--instrument", "ballbar"}), 6,
-                 "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+  expect_refused(
+      run({"--d", "398", "--f", "300", "--instrument", "ballbar", "--ballbar-lengths", "199"}), 6,
+      "X = -200.5 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
 }
 
 TEST_F(CircgenCliIni, MarkerAndSegmentOutputsAgainstTheMotionModule) {
@@ -428,20 +590,21 @@ TEST(CircgenCli, HeaderStatesInheritedOffsetsAndTheCentreInMachineCoordinates) {
 }
 
 TEST(CircgenCli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
-  // ZX: +Z is 0 deg, the bottom 180 deg. 180 deg from 90 with 10 deg leads covers 80..280.
+  // ZX: +Z is 0 deg, the bottom 180 deg. 200 deg in all (180 deg of data) from 90 with 10 deg
+  // leads covers 80..280.
   const CommandResult below =
-      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180", "--start", "90"});
+      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "200", "--start", "90"});
   ASSERT_EQ(below.exit_code, 0) << below.err;
   EXPECT_TRUE(below.err.starts_with("circgen: warning: the 180 deg arc")) << below.err;
   EXPECT_NE(below.err.find("passes below the centre in ZX"), std::string::npos);
   EXPECT_FALSE(below.out.empty());
   // Without --start the partial arc is centred on top: no warning, and the start says so.
   const CommandResult top =
-      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "180"});
+      run_circgen({"--plane", "ZX", "--d", "150", "--f", "300", "--arc", "200"});
   EXPECT_TRUE(top.err.empty()) << top.err;
   EXPECT_NE(top.out.find("(circtest: start_deg: 270)"), std::string::npos);
   const CommandResult yz =
-      run_circgen({"--plane", "YZ", "--d", "150", "--f", "300", "--arc", "120"});
+      run_circgen({"--plane", "YZ", "--d", "150", "--f", "300", "--arc", "140"});
   EXPECT_TRUE(yz.err.empty()) << yz.err;
   EXPECT_NE(yz.out.find("(circtest: start_deg: 30)"), std::string::npos);
   // A ballbar in a vertical plane defaults to 180 deg of data with 20 deg overshoots on top.
@@ -454,7 +617,7 @@ TEST(CircgenCli, WarnsWhenAVerticalArcPassesBelowTheCentre) {
   EXPECT_NE(bar.out.find("(circtest: lead_deg: 20)"), std::string::npos);
   // A full circle with a ballbar in a vertical plane goes through the bottom: warned.
   const CommandResult full = run_circgen(
-      {"--plane", "YZ", "--d", "200", "--f", "500", "--instrument", "ballbar", "--arc", "360"});
+      {"--plane", "YZ", "--d", "200", "--f", "500", "--instrument", "ballbar", "--arc", "400"});
   EXPECT_EQ(full.exit_code, 0);
   EXPECT_NE(full.err.find("passes below the centre in YZ"), std::string::npos) << full.err;
   // XY has no below.

@@ -82,7 +82,7 @@ TEST(ProgramPlan, SweepGivesOneCcwCwPairPerFeedWithIdsFromOne) {
   EXPECT_DOUBLE_EQ(runs[1].start_deg, 150);  // the CW run starts at the far end
   EXPECT_DOUBLE_EQ(runs[3].feed_mm_per_min, 1000);
   const TestProgram p = generate_test_program(spec);
-  EXPECT_EQ(header_value(p, "segments"), "1:CCW:F100,2:CW:F100,3:CCW:F1000,4:CW:F1000");
+  EXPECT_EQ(header_value(p, "segments"), "1:CCW:F100:XY,2:CW:F100:XY,3:CCW:F1000:XY,4:CW:F1000:XY");
   EXPECT_EQ(header_value(p, "feed_mm_per_min"), "<absent>");  // a sweep has no single feed
   EXPECT_EQ(header_value(p, "feeds_mm_per_min"), "100,1000");
 }
@@ -193,14 +193,16 @@ TEST(MotionOutputs, RefusesOutputsTheModuleDoesNotHave) {
 // warnings go to the error stream, and a refused specification writes nothing.
 TEST(Commands, RunGenerateWritesTheProgramAndItsWarnings) {
   GenerateRequest request;
-  request.spec.radius_mm = 75.0;
-  request.spec.feeds_mm_per_min = {500.0};
-  request.spec.plane = Plane::ZX;
-  request.spec.instrument = Instrument::ballbar;
-  request.spec.arc_deg = 360.0;
-  const std::vector<std::string> warnings = program_warnings(request.spec);
+  CircleTestSpec spec;
+  spec.radius_mm = 100.0;
+  spec.feeds_mm_per_min = {500.0};
+  spec.plane = Plane::ZX;
+  spec.instrument = Instrument::ballbar;
+  spec.arc_deg = 360.0;
+  request.planes = {spec};
+  const std::vector<std::string> warnings = program_warnings(spec);
   ASSERT_FALSE(warnings.empty());  // a ballbar's full circle in ZX passes below the centre
-  const std::string program = generate_test_program(request.spec).text;
+  const std::string program = generate_test_program(spec).text;
   std::ostringstream out, err;
   EXPECT_EQ(run_generate(request, out, err), 0);
   EXPECT_EQ(out.str(), program);
@@ -213,7 +215,7 @@ TEST(Commands, RunGenerateWritesTheProgramAndItsWarnings) {
   }
   EXPECT_EQ(err.str(), expected_err);
 
-  request.spec.radius_mm = 0.0;
+  request.planes.front().radius_mm = 0.0;
   std::ostringstream none;
   EXPECT_THROW(run_generate(request, none, err), UsageError);
   EXPECT_EQ(none.str(), "");

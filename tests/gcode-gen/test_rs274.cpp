@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -69,7 +70,7 @@ std::vector<Variant> encoder_variants() {
        {500},
        {CCW, CW}},
       {"zx_partial_180",
-       {"--plane", "zx", "--d", "120", "--f", "400", "--arc", "180", "--lead", "20"},
+       {"--plane", "zx", "--d", "120", "--f", "400", "--arc", "220", "--lead", "20"},
        Plane::ZX,
        60,
        {0, 0, 0},
@@ -79,7 +80,7 @@ std::vector<Variant> encoder_variants() {
        270,  // a partial arc in ZX is centred on top (+Z) by default
        20},
       {"yz_partial_90_cw_sweep",
-       {"--plane", "YZ", "--d", "100", "--arc", "90", "--start", "45", "--dir", "cw", "--feeds",
+       {"--plane", "YZ", "--d", "100", "--arc", "110", "--start", "45", "--dir", "cw", "--feeds",
         "100,200"},
        Plane::YZ,
        50,
@@ -99,7 +100,7 @@ std::vector<Variant> encoder_variants() {
        0,
        30},
       {"xy_partial_270_ccw_sweep_outputs",
-       {"--d", "60", "--arc", "270", "--start", "90", "--dir", "ccw", "--feeds", "300,600",
+       {"--d", "60", "--arc", "290", "--start", "90", "--dir", "ccw", "--feeds", "300,600",
         "--marker", "2", "--segment-out", "3"},
        Plane::XY,
        30,
@@ -124,7 +125,7 @@ std::vector<Variant> encoder_variants() {
        10,
        "inch"},
       {"inch_zx_partial",
-       {"--inch", "--plane", "ZX", "--d", "3", "--f", "15", "--arc", "120", "--start", "-30"},
+       {"--inch", "--plane", "ZX", "--d", "3", "--f", "15", "--arc", "140", "--start", "-30"},
        Plane::ZX,
        1.5,
        {0, 0, 0},
@@ -160,7 +161,7 @@ std::vector<Variant> instrument_variants() {
        20},
       {"ballbar_xy_ccw_sweep_feed_in_approach",
        {"--instrument", "ballbar", "--d", "150", "--feeds", "500,1000", "--dir", "ccw", "--feed-in",
-        "2", "--approach-feed", "120", "--start", "45"},
+        "2", "--approach-feed", "120", "--start", "45", "--ballbar-lengths", "75,150"},
        Plane::XY,
        75,
        {0, 0, 0},
@@ -192,9 +193,9 @@ std::vector<Variant> instrument_variants() {
        270,
        20},
       {"ballbar_inch_xy",
-       {"--instrument", "ballbar", "--inch", "--d", "8", "--f", "40", "--safe-z", "2"},
+       {"--instrument", "ballbar", "--inch", "--d", "7.874", "--f", "40", "--safe-z", "2"},
        Plane::XY,
-       4,
+       3.937,
        {0, 0, 0},
        {40},
        {CCW, CW},
@@ -211,7 +212,7 @@ std::vector<Variant> instrument_variants() {
        {2000},
        {CCW, CW}},
       {"grid_yz_partial",
-       {"--instrument", "grid", "--plane", "YZ", "--d", "100", "--f", "1000", "--arc", "200"},
+       {"--instrument", "grid", "--plane", "YZ", "--d", "100", "--f", "1000", "--arc", "220"},
        Plane::YZ,
        50,
        {0, 0, 0},
@@ -238,7 +239,7 @@ std::vector<Variant> instrument_variants() {
        270,
        20},
       {"encoder_zx_partial_safe",
-       {"--plane", "ZX", "--d", "100", "--f", "500", "--arc", "120", "--safe-z", "-10"},
+       {"--plane", "ZX", "--d", "100", "--f", "500", "--arc", "140", "--clearance", "-10"},
        Plane::ZX,
        50,
        {0, 0, 0},
@@ -278,6 +279,15 @@ double approach_feed(const Variant& v) {
   if (const auto f = arg(v, "--approach-feed")) return std::stod(*f);
   const double per_mm = v.units == "mm" ? 1.0 : 1.0 / 25.4;
   return std::min(200.0 * per_mm, *std::min_element(v.feeds.begin(), v.feeds.end()) / 2.0);
+}
+
+// --clearance (or --safe-z) in program units; a ballbar's default 50 mm beyond the centre.
+std::optional<double> clearance(const Variant& v) {
+  for (const char* name : {"--clearance", "--safe-z"})
+    if (const auto c = arg(v, name)) return std::stod(*c);
+  if (!is_ballbar(v)) return std::nullopt;
+  const int n = plane_axes(v.plane).normal - 'x';
+  return v.centre[n] + (v.units == "mm" ? 50.0 : 50.0 / 25.4);
 }
 
 double wrap360(double deg) {
@@ -424,7 +434,7 @@ struct Structure {
   PlaneAxes axes;
   int a, b, n;  // the plane's first, second and normal axis
   bool ballbar;
-  std::optional<std::string> safe;   // --safe-z
+  std::optional<double> safe;        // the clearance on the normal axis, program units
   double fi;                         // the ballbar's feed-in
   std::vector<std::size_t> stops{};  // motions before each PROGRAM_STOP
   std::vector<std::string> all_messages{};
@@ -506,63 +516,83 @@ void check_no_mixed_moves(const Structure& s) {
   }
 }
 
-// The approach: nothing but straight moves before the first run, in-plane moves only at the
-// clearance (with --safe-z) or after the raise pause, and the one feed move is the descent
-// alone to the circle's height at the approach feed.
+// The approach (docs/circgen.md "Approach"), move by move: the clearance on the normal axis
+// alone (when there is one), then in XY the plane's axes at rapid and the normal axis down
+// alone at the approach feed; in YZ and ZX the horizontal axis of the plane at rapid, Z alone
+// at the approach feed and the normal axis alone into the plane at the approach feed. The
+// start point the first pause announces is where the approach ends.
 void check_approach(const Structure& s) {
   const Variant& v = s.v;
   const auto& motions = s.motions;
-  const auto& safe = s.safe;
-  const auto& first_text = s.first_text;
-  const std::size_t first_run = s.first_run;
   const double tol = s.tol, feed_tol = s.feed_tol;
   const int a = s.a, b = s.b, n = s.n;
-  const PlaneAxes& axes = s.axes;
-  std::size_t descents = 0;
-  for (std::size_t i = 0; i < first_run; ++i) {
-    const CanonMotion& m = motions[i];
-    ASSERT_NE(m.kind, CanonMotion::arc) << m.source_line;
-    const bool plane_moves = moved(m.start[a], m.end[a]) || moved(m.start[b], m.end[b]);
-    if (plane_moves) {
-      EXPECT_EQ(m.kind, CanonMotion::traverse) << m.source_line;
-      if (safe) {
-        EXPECT_NEAR(m.start[n], std::stod(*safe), tol) << m.source_line;
-      }
+  const bool vertical = v.plane != Plane::XY;
+  const int h = v.plane == Plane::YZ ? 1 : 0;  // a vertical plane's horizontal axis
+  // Which axes a move changes, as a set of indices.
+  auto only = [](const CanonMotion& m, std::vector<int> axes) {
+    for (int i = 0; i < 3; ++i) {
+      if (std::find(axes.begin(), axes.end(), i) == axes.end() && moved(m.start[i], m.end[i]))
+        return false;
     }
-    if (m.kind == CanonMotion::linear) {
-      ++descents;
-      EXPECT_FALSE(plane_moves) << m.source_line;
-      EXPECT_NEAR(m.end[n], v.centre[n], tol) << m.source_line;
-      EXPECT_NEAR(m.feed, approach_feed(v), feed_tol) << m.source_line;
-      EXPECT_TRUE(m.feed_override) << "the operator keeps the override on the approach";
-    }
+    return true;
+  };
+  std::size_t i = 0;
+  if (s.safe) {
+    ASSERT_LT(i, s.first_run);
+    EXPECT_EQ(motions[i].kind, CanonMotion::traverse) << "clearance first";
+    EXPECT_TRUE(only(motions[i], {n})) << motions[i].source_line;
+    EXPECT_NEAR(motions[i].end[n], *s.safe, tol);
+    ++i;
   }
-  EXPECT_EQ(descents, 1u);
-  if (safe) {
-    ASSERT_GE(first_run, 2u);
-    EXPECT_EQ(motions[0].kind, CanonMotion::traverse);
-    EXPECT_NEAR(motions[0].end[n], std::stod(*safe), tol) << "clearance first";
+  ASSERT_EQ(s.first_run, i + (vertical ? 3 : 2)) << "the approach has its documented moves";
+  const CanonMotion& rapid = motions[i];
+  EXPECT_EQ(rapid.kind, CanonMotion::traverse) << rapid.source_line;
+  EXPECT_TRUE(vertical ? only(rapid, {h}) : only(rapid, {a, b})) << rapid.source_line;
+  std::vector<const CanonMotion*> feeds{&motions[i + 1]};
+  if (vertical) {
+    EXPECT_TRUE(only(motions[i + 1], {2})) << "Z alone " << motions[i + 1].source_line;
+    feeds.push_back(&motions[i + 2]);
+  }
+  const CanonMotion& in = *feeds.back();
+  EXPECT_TRUE(only(in, {n})) << in.source_line;
+  EXPECT_NEAR(in.end[n], v.centre[n], tol) << in.source_line;
+  for (const CanonMotion* m : feeds) {
+    EXPECT_EQ(m->kind, CanonMotion::linear) << m->source_line;
+    EXPECT_NEAR(m->feed, approach_feed(v), feed_tol) << m->source_line;
+    EXPECT_TRUE(m->feed_override) << "the operator keeps the override on the approach";
+  }
+  if (s.safe) {
     // The last motion goes back to the clearance along the normal alone.
     EXPECT_EQ(motions.back().kind, CanonMotion::traverse);
-    EXPECT_NEAR(motions.back().end[n], std::stod(*safe), tol);
+    EXPECT_TRUE(only(motions.back(), {n}));
+    EXPECT_NEAR(motions.back().end[n], *s.safe, tol);
   } else {
-    EXPECT_NE(first_text.find("Raise"), std::string::npos) << first_text;
-    // From wherever the operator left the normal axis: the in-plane move does not set it.
-    EXPECT_NE(motions[0].kind, CanonMotion::linear);
+    EXPECT_NE(s.first_text.find(vertical ? "Move " : "Raise Z clear"), std::string::npos)
+        << s.first_text;
   }
-  // The start point the first pause announces is where the in-plane approach goes.
-  {
-    const std::size_t above = first_text.find("above ");
-    ASSERT_NE(above, std::string::npos) << first_text;
-    std::istringstream in(first_text.substr(above + 6));
-    std::array<double, 2> p{};
-    std::array<char, 2> letter{};
-    in >> letter[0] >> p[0] >> letter[1] >> p[1];
-    EXPECT_EQ(letter[0], std::toupper(axes.first));
-    EXPECT_EQ(letter[1], std::toupper(axes.second));
-    const CanonMotion& descent = motions[first_run - 1];
-    EXPECT_NEAR(p[0], descent.end[a], tol);
-    EXPECT_NEAR(p[1], descent.end[b], tol);
+  // The start point the first pause announces: "above X.. Y.." in XY, "the start H.." and
+  // "the start Z.." in YZ and ZX.
+  auto announced = [&](const std::string& marker, int count) {
+    const std::size_t at = s.first_text.find(marker);
+    EXPECT_NE(at, std::string::npos) << marker << " in " << s.first_text;
+    std::istringstream text(at == std::string::npos ? "" : s.first_text.substr(at + marker.size()));
+    std::vector<std::pair<char, double>> words(count);
+    for (auto& [letter, value] : words) text >> letter >> value;
+    return words;
+  };
+  if (!vertical) {
+    const auto words = announced("above ", 2);
+    EXPECT_EQ(words[0].first, std::toupper(s.axes.first));
+    EXPECT_EQ(words[1].first, std::toupper(s.axes.second));
+    EXPECT_NEAR(words[0].second, in.end[a], tol);
+    EXPECT_NEAR(words[1].second, in.end[b], tol);
+  } else {
+    const auto hw = announced("to the start ", 1);
+    EXPECT_EQ(hw[0].first, "XY"[h]);
+    EXPECT_NEAR(hw[0].second, in.end[h], tol);
+    const std::size_t at = s.first_text.find("to the start Z");
+    ASSERT_NE(at, std::string::npos);
+    EXPECT_NEAR(std::stod(s.first_text.substr(at + 14)), in.end[2], tol);
   }
 }
 
@@ -667,7 +697,7 @@ TEST_P(Rs274Variant, SafeProgramStructure) {
               axes.second - 'x',
               axes.normal - 'x',
               is_ballbar(v),
-              arg(v, "--safe-z"),
+              clearance(v),
               feed_in(v)};
   check_set_up_before_the_first_pause(s);
   ASSERT_NO_FATAL_FAILURE(check_first_pause(s));
@@ -706,6 +736,174 @@ TEST(Rs274Default, CcwThenCwFullCircleOfRadius75AtF300) {
     EXPECT_NEAR(std::abs(m.sweep_deg()), 360.0, 1e-9);
     EXPECT_DOUBLE_EQ(m.feed, 300.0);
   }
+}
+
+// How a set's pause names its plane: "plane 2 of 3: YZ".
+std::string fmt_plane_of(std::size_t k, std::size_t count, const std::string& name) {
+  return "plane " + std::to_string(k + 1) + " of " + std::to_string(count) + ": " + name;
+}
+
+// A header value of a generated program, "" when absent.
+std::string header_value(const std::string& text, const std::string& key) {
+  const std::string tag = "(circtest: " + key + ": ";
+  const std::size_t at = text.find(tag);
+  if (at == std::string::npos) return "";
+  return text.substr(at + tag.size(), text.find(")\n", at) - at - tag.size());
+}
+
+// Z along a motion: its end point, and for an arc 64 points on it.
+std::vector<double> heights_along(const CanonMotion& m) {
+  std::vector<double> z{m.end[2]};
+  if (m.kind != CanonMotion::arc || (m.first != 'z' && m.second != 'z')) return z;
+  const int f = m.first - 'x', sec = m.second - 'x';
+  const double r = m.radius_start();
+  for (int k = 0; k <= 64; ++k) {
+    const double a = (m.start_angle_deg() + m.sweep_deg() * k / 64.0) * std::numbers::pi / 180.0;
+    z.push_back(m.first == 'z' ? m.centre[f] + r * std::cos(a) : m.centre[sec] + r * std::sin(a));
+  }
+  return z;
+}
+
+struct SetCase {
+  std::vector<Plane> planes;
+  std::vector<std::string> args;  // besides --plane
+  bool inch = false;
+};
+
+// One test set as rs274 runs it: the runs in segment order, each in its plane; a pause
+// that names the plane before each plane's first motion; no move mixing a plane's axes with
+// its normal, no rapid lowering Z together with another axis (none at all in YZ and ZX);
+// each plane's lowest point as the header states it.
+void check_set(const SetCase& c) {
+  std::string plane_list;
+  for (Plane p : c.planes)
+    plane_list += (plane_list.empty() ? "" : ",") + std::string(plane_name(p));
+  std::vector<std::string> args{"--plane", plane_list};
+  args.insert(args.end(), c.args.begin(), c.args.end());
+  SCOPED_TRACE(plane_list + " " + args.back());
+  const CommandResult gen = run_circgen(args);
+  ASSERT_EQ(gen.exit_code, 0) << gen.err;
+  const Rs274Result rs = run_rs274(gen.out);
+  ASSERT_EQ(rs.exit_code, 0) << rs.output;
+  ASSERT_TRUE(rs.canon.ended);
+  const auto& motions = rs.canon.motions;
+  const bool set = c.planes.size() > 1;
+  EXPECT_EQ(header_value(gen.out, "plane"), plane_list);
+  const double per_mm = c.inch ? 1.0 / 25.4 : 1.0;
+  const double tol = c.inch ? 1e-4 : 2e-3;
+
+  // The segment table: id:DIR:Ffeed:PLANE, ids 1..N in program order.
+  std::vector<std::pair<Plane, int>> segments;  // plane, rotation sign
+  {
+    std::istringstream list(header_value(gen.out, "segments"));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      const auto colon = item.rfind(':');
+      const auto plane = parse_plane(item.substr(colon + 1));
+      ASSERT_TRUE(plane) << item;
+      EXPECT_TRUE(item.starts_with(std::to_string(segments.size() + 1) + ":")) << item;
+      segments.emplace_back(*plane, item.find(":CCW:") != std::string::npos ? 1 : -1);
+    }
+  }
+  // The sections: from each plane's pause to the next one.
+  std::vector<std::size_t> section;
+  for (std::size_t k = 0; k < c.planes.size(); ++k) {
+    const std::string name(plane_name(c.planes[k]));
+    const std::string words = set ? fmt_plane_of(k, c.planes.size(), name) : "test in " + name;
+    std::optional<std::size_t> said;
+    bool paused = false;
+    for (const CanonCall& call : rs.canon.call_log) {
+      if (!said && call.name == "MESSAGE" && call.args.find(words) != std::string::npos) {
+        said = call.motions_before;
+      } else if (said && call.name == "PROGRAM_STOP") {
+        EXPECT_EQ(call.motions_before, *said) << "no motion between the message and the M0";
+        paused = true;
+        break;
+      }
+    }
+    ASSERT_TRUE(said && paused) << words;
+    section.push_back(*said);
+  }
+  EXPECT_EQ(section.front(), 0u) << "motion before the first pause";
+  section.push_back(motions.size());
+  std::size_t run = 0;
+  for (std::size_t k = 0; k < c.planes.size(); ++k) {
+    const Plane plane = c.planes[k];
+    const PlaneAxes axes = plane_axes(plane);
+    const int a = axes.first - 'x', b = axes.second - 'x', n = axes.normal - 'x';
+    ASSERT_LT(section[k], section[k + 1]);
+    double lowest = std::numeric_limits<double>::infinity();
+    for (std::size_t i = section[k]; i < section[k + 1]; ++i) {
+      const CanonMotion& m = motions[i];
+      const bool in_plane = moved(m.start[a], m.end[a]) || moved(m.start[b], m.end[b]);
+      EXPECT_FALSE(in_plane && moved(m.start[n], m.end[n]))
+          << "mixed, canon line " << m.source_line;
+      if (m.kind == CanonMotion::traverse && m.end[2] < m.start[2] - 1e-9) {
+        EXPECT_FALSE(moved(m.start[0], m.end[0]) || moved(m.start[1], m.end[1]))
+            << "a rapid lowering Z with another axis, canon line " << m.source_line;
+        EXPECT_EQ(plane, Plane::XY)
+            << "a rapid lowering Z in a vertical plane, canon line " << m.source_line;
+      }
+      for (double z : heights_along(m)) lowest = std::min(lowest, z);
+      if (m.bits.count(0) && m.bits.at(0)) {
+        ASSERT_LT(run, segments.size());
+        EXPECT_EQ(segments[run].first, plane) << "run " << run + 1 << " in its plane";
+        EXPECT_EQ(m.kind, CanonMotion::arc);
+        EXPECT_EQ(m.first, axes.first);
+        EXPECT_EQ(m.second, axes.second);
+        EXPECT_EQ(m.rotation > 0 ? 1 : -1, segments[run].second);
+        EXPECT_NEAR(m.values.at(0), static_cast<double>(run + 1), 1e-9);
+        ++run;
+      }
+    }
+    const std::string key = set ? "lowest_z_mm_" + std::string(plane_name(plane)) : "lowest_z_mm";
+    const std::string stated = header_value(gen.out, key);
+    ASSERT_FALSE(stated.empty()) << key;
+    EXPECT_NEAR(lowest, std::stod(stated) * per_mm, tol) << key << " as stated";
+  }
+  EXPECT_EQ(run, segments.size());
+}
+
+// Every ordered subset of the three planes.
+std::vector<std::vector<Plane>> plane_orders() {
+  const std::vector<Plane> all{Plane::XY, Plane::YZ, Plane::ZX};
+  std::vector<std::vector<Plane>> out;
+  for (Plane p : all) {
+    out.push_back({p});
+    for (Plane q : all) {
+      if (q == p) continue;
+      out.push_back({p, q});
+      for (Plane r : all)
+        if (r != p && r != q) out.push_back({p, q, r});
+    }
+  }
+  return out;
+}
+
+TEST(Rs274Set, EveryOrderedSubsetOfPlanesWithEveryInstrument) {
+  if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
+  const std::vector<std::vector<Plane>> orders = plane_orders();
+  ASSERT_EQ(orders.size(), 15u);
+  for (const auto& planes : orders) {
+    const std::vector<std::string> common{"--d",      "200",      "--feeds",
+                                          "500,1000", "--centre", "10,-20,30"};
+    for (const char* instrument : {"encoder", "grid", "ballbar"}) {
+      std::vector<std::string> args = common;
+      if (std::string(instrument) != "ballbar") {
+        args.insert(args.end(), {"--clearance", "90"});
+      }
+      args.insert(args.end(), {"--instrument", instrument});
+      ASSERT_NO_FATAL_FAILURE(check_set({planes, args}));
+    }
+  }
+  // Partial arcs, one direction, per-plane clearances, inch.
+  ASSERT_NO_FATAL_FAILURE(check_set({{Plane::ZX, Plane::XY, Plane::YZ},
+                                     {"--d", "100", "--f", "800", "--arc", "200", "--dir", "cw",
+                                      "--clearance", "-60,70,55", "--instrument", "encoder"}}));
+  ASSERT_NO_FATAL_FAILURE(check_set({{Plane::YZ, Plane::XY},
+                                     {"--inch", "--d", "7.874", "--feeds", "20,40", "--centre",
+                                      "0,0,1", "--instrument", "ballbar"},
+                                     true}));
 }
 
 // The arcs a spec asks for, in program order: per run the way back to its lead-in start

@@ -15,6 +15,8 @@
 
 namespace {
 
+namespace circlog = circtest::circlog;
+
 using circlog::Consumer;
 using circlog::Producer;
 using circlog::RecordHead;

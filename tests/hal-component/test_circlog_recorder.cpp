@@ -17,6 +17,7 @@
 #include "circlog_kernel.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
+#include "pty_capture.hpp"
 #include "recorder.hpp"
 #include "scratch.hpp"
 
@@ -33,13 +34,13 @@ struct FreeDeleter {
 class FakeServo final : public rec::Environment {
  public:
   FakeServo(int channels, int depth)
-      : bytes_(circlog::shared_size(channels, depth)),
+      : bytes_(circtest::circlog::shared_size(channels, depth)),
         memory_(std::aligned_alloc(64, (bytes_ + 63) / 64 * 64)),
         values_(static_cast<std::size_t>(channels)),
         pointers_(static_cast<std::size_t>(channels)) {
     for (std::size_t i = 0; i < values_.size(); ++i) pointers_[i] = &values_[i];
     EXPECT_TRUE(producer_.init(memory_.get(), bytes_, channels, depth));
-    EXPECT_EQ(consumer.attach(memory_.get(), bytes_), circlog::AttachResult::ok);
+    EXPECT_EQ(consumer.attach(memory_.get(), bytes_), circtest::circlog::AttachResult::ok);
   }
 
   std::function<bool(std::uint64_t)> enable = [](std::uint64_t) { return false; };
@@ -74,15 +75,15 @@ class FakeServo final : public rec::Environment {
   }
   std::string utc_now_iso8601() override { return "2026-01-02T03:04:05.000Z"; }
 
-  circlog::Consumer consumer;
-  circlog::Status status() const { return producer_.status(); }
+  circtest::circlog::Consumer consumer;
+  circtest::circlog::Status status() const { return producer_.status(); }
 
  private:
   std::size_t bytes_;
   std::unique_ptr<void, FreeDeleter> memory_;
   std::vector<double> values_;
   std::vector<const volatile double*> pointers_;
-  circlog::Producer producer_;
+  circtest::circlog::Producer producer_;
   std::uint64_t period_ = 0;
   double now_ = 0.0;
   int sleeps_ = 0;
@@ -338,10 +339,10 @@ TEST_F(Recorder, RefusesAServoThatDoesNotRun) {
 
 TEST_F(Recorder, RefusesASecondReaderButTakesOverFromADeadOne) {
   FakeServo servo(1, 16);
-  circlog::Consumer other;
-  ASSERT_EQ(other.attach(const_cast<circlog::SharedHeader*>(&servo.consumer.header()),
-                         circlog::shared_size(1, 16)),
-            circlog::AttachResult::ok);
+  circtest::circlog::Consumer other;
+  ASSERT_EQ(other.attach(const_cast<circtest::circlog::SharedHeader*>(&servo.consumer.header()),
+                         circtest::circlog::shared_size(1, 16)),
+            circtest::circlog::AttachResult::ok);
   ASSERT_EQ(other.claim(7), 0);
   servo.alive = {7};
   rec::Options o = options_for(path("t.csv"));
@@ -523,15 +524,62 @@ std::string parse_error(const std::string& file) {
   return "no error";
 }
 
+// A test set: the program pauses for the operator before each plane, for as long as the
+// operator takes; the recorder waits through it for the next plane's runs.
+TEST_F(Recorder, ATestSetWaitsThroughTheOperatorsPauseBeforeEachPlane) {
+  FakeServo servo(1, 1 << 14);
+  // XY's runs, 60 s of the operator re-mounting the ball bar, YZ's runs.
+  script(servo, {{100, 1100, 1.0}, {1200, 2200, 2.0}, {62200, 63200, 3.0}, {63300, 64300, 4.0}});
+  rec::Options o = with_program(dir_, "1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:YZ,4:CW:F1000:YZ");
+  o.idle_s = 2.0;
+  ASSERT_LT(rec::run_wait_s(o), 60.0);  // the wait between two runs of one plane
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.stop_reason, "idle");
+  EXPECT_EQ(s.runs, 4u);
+  EXPECT_TRUE(s.missing_runs.empty());
+  const circtest::Trace t = circtest::read_trace(path("t.csv"));
+  EXPECT_EQ(*t.metadata.find("runs_announced"), "4");
+  EXPECT_EQ(*t.metadata.find("runs_missing"), "none");
+}
+
+TEST_F(Recorder, ATestSetsRunsNameTheirPlanesAndItsPausesAreThePlanes) {
+  std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:ZX");
+  rec::Options o;
+  o.program_plan = rec::read_program_plan(path("p.ngc"));
+  ASSERT_EQ(o.program_plan.runs.size(), 3u);
+  EXPECT_EQ(o.program_plan.runs[2].plane, circtest::Plane::ZX);
+  EXPECT_EQ(o.program_plan.runs[2].label, "CCW F1000 ZX");
+  EXPECT_FALSE(rec::operator_pause_before(o.program_plan, 1));
+  EXPECT_TRUE(rec::operator_pause_before(o.program_plan, 2));
+  // The planned pause is XY's reversal only, not the change of plane.
+  const double lead_s = 2.0 * 3.141592653589793 * 50.0 * 20.0 / 360.0 / (1000.0 / 60.0);
+  ASSERT_TRUE(o.program_plan.longest_pause_s);
+  EXPECT_NEAR(*o.program_plan.longest_pause_s, 2.0 * lead_s + 2.0 * 1.5 / (200.0 / 60.0), 1e-9);
+  EXPECT_EQ(rec::run_wait_s(o, 1), rec::run_wait_s(o));
+  EXPECT_EQ(rec::run_wait_s(o, 2), rec::kMaxWait_s);
+  o.run_wait_s = 600.0;
+  EXPECT_EQ(rec::run_wait_s(o, 2), 600.0);
+  std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500:XZ)\nG0 X0\n";
+  EXPECT_NE(parse_error(path("p.ngc")).find("is not ID:DIRECTION:FFEED[:PLANE]"), std::string::npos)
+      << parse_error(path("p.ngc"));
+}
+
 TEST_F(Recorder, AnnouncedRunsThatCannotBeToldApartAreRefused) {
-  for (const std::string bad : {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5",
-                                "1:CCW", "1.5:CW:F5", "1:CCW:F500:9", ""}) {
+  for (const std::string bad :
+       {"1:CCW:F500,x", "0:CCW:F500", "1:UP:F500", "1:CCW:500", "1:CCW:F-5", "1:CCW", "1.5:CW:F5",
+        "1:CCW:F500:9", "1:CCW:F500:XZ", "1:CCW:F500:XY:1", ""}) {
     std::ofstream(path("p.ngc")) << "(circtest: plane: XY)\n(circtest: segments: " << bad
                                  << ")\nG0 X0\n";
     const std::string e = parse_error(path("p.ngc"));
     EXPECT_NE(e.find("p.ngc:2"), std::string::npos) << bad << ": " << e;
     EXPECT_NE(e.find("is not ID:DIRECTION:FFEED"), std::string::npos) << bad << ": " << e;
   }
+  // circgen's plane field: a set's runs in two planes.
+  std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500:XY,2:CW:F500:YZ)\nG0 X0\n";
+  const auto set = rec::read_program_plan(path("p.ngc"));
+  ASSERT_EQ(set.runs.size(), 2u);
+  EXPECT_EQ(set.runs[1].direction, circtest::Direction::CW);
+  EXPECT_EQ(set.runs[1].feed_per_min, 500.0);
   std::ofstream(path("p.ngc")) << "(circtest: segments: 1:CCW:F500,1:CW:F500)\nG0 X0\n";
   EXPECT_NE(parse_error(path("p.ngc")).find("p.ngc:1: segments: run 1 is announced twice"),
             std::string::npos)
@@ -551,3 +599,69 @@ TEST(CirclogRecordOptions, WaitsAreBounded) {
 }
 
 }  // namespace
+
+TEST_F(Recorder, ShowsWhatItHasSeenOnATerminalOnly) {
+  // Two announced runs with a pause between them, recorded once to a terminal, once to a file.
+  for (const bool terminal : {true, false}) {
+    circtest::testing::PtyCapture pty;
+    FakeServo servo(1, 1 << 14);
+    script(servo, {{1500, 2500, 1.0}, {4000, 5000, 2.0}});
+    rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+    o.idle_s = 1.0;
+    const rec::Summary s =
+        rec::record(servo.consumer, 42, o, servo, terminal ? pty.terminal() : log_);
+    EXPECT_EQ(s.runs, 2u);
+    const std::string shown = pty.finish();
+    if (!terminal) {
+      EXPECT_EQ(shown, "");
+      EXPECT_EQ(log_text().find("samples"), std::string::npos) << log_text();
+      continue;
+    }
+    // Nothing before a second; then elapsed, samples, runs and what it waits for, in place.
+    EXPECT_TRUE(shown.starts_with("\rcirclog-record: 1 s, ")) << shown;
+    for (const std::string words :
+         {"samples, 0 run(s); waiting for run 1 of 2\033[K",
+          "samples, 1 run(s); recording run 1 of 2\033[K",
+          "samples, 1 run(s); waiting for run 2 of 2\033[K",
+          "samples, 2 run(s); recording run 2 of 2\033[K",
+          "samples, 2 run(s); all 2 runs recorded, waiting for idle\033[K"}) {
+      EXPECT_NE(shown.find(words), std::string::npos) << words << "\n" << shown;
+    }
+    EXPECT_EQ(shown.find('\n'), std::string::npos) << shown;
+    EXPECT_TRUE(shown.ends_with("\r\033[K")) << "the line is gone at the end:\n" << shown;
+  }
+}
+
+TEST_F(Recorder, ShowsTheStatusOnTheTerminalItIsGiven) {
+  // circtest-run's case: stderr goes to a log, the status line to the person's terminal.
+  circtest::testing::PtyCapture pty;
+  const std::string tty = ::ttyname(pty.terminal_fd());
+  const auto parsed = parse({"-o", "t.csv", "--progress-to", tty.c_str()});
+  ASSERT_TRUE(parsed);
+  EXPECT_EQ(parsed->progress_to, tty);
+  std::FILE* terminal = rec::open_progress_terminal(parsed->progress_to);
+  FakeServo servo(1, 1 << 14);
+  script(servo, {{1500, 2500, 1.0}});
+  rec::Options o = options_for(path("t.csv"));
+  o.idle_s = 0.5;
+  EXPECT_EQ(rec::record(servo.consumer, 42, o, servo, log_, terminal).runs, 1u);
+  std::fclose(terminal);
+  const std::string shown = pty.finish();
+  EXPECT_NE(shown.find("samples, 1 run(s); recording run 1\033[K"), std::string::npos) << shown;
+  EXPECT_NE(shown.find("samples, 1 run(s); waiting for the next run\033[K"), std::string::npos)
+      << shown;
+  EXPECT_EQ(log_text().find("samples"), std::string::npos) << log_text();
+
+  // Anything but a terminal is refused, and a file is neither created nor truncated.
+  std::ofstream(path("notes.txt")) << "keep\n";
+  for (const std::string& p : {path("notes.txt"), path("absent"), dir_.string()}) {
+    try {
+      std::fclose(rec::open_progress_terminal(p));
+      ADD_FAILURE() << p << " accepted";
+    } catch (const circtest::UsageError& e) {
+      EXPECT_EQ(std::string(e.what()), "--progress-to " + p + ": not a terminal");
+    }
+  }
+  EXPECT_EQ(circtest::testing::slurp(path("notes.txt")), "keep\n");
+  EXPECT_FALSE(fs::exists(path("absent")));
+}

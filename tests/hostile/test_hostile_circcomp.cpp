@@ -24,11 +24,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::slurp;
-using circtest::testing::spit;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 // What lies at a path, without following a link: kind, bytes (or link target) and mtime.
 struct Seen {

@@ -12,10 +12,7 @@
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::spit;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 struct Refusal {
   std::vector<std::string> args;
@@ -70,7 +67,7 @@ TEST(HostileCircgen, LeadsAndArcsThatCannotBeWrittenAsTheirArcs) {
        "--lead: 1e+308 deg lead-in and lead-out arcs would overlap each other on a full circle "
        "(at most 180 deg)"},
       {{"--d", "100", "--f", "500", "--lead", "nan"}, 2, "--lead: expected a number, got 'nan'"},
-      {{"--d", "100", "--f", "500", "--arc", "180", "--lead", "89.9999"},
+      {{"--d", "100", "--f", "500", "--arc", "359.9998", "--lead", "89.9999"},
        2,
        "--lead: 89.9999 deg leads around a 180 deg arc leave 0.0002 deg of the circle between "
        "the lead-out end and the lead-in start, less than 1 deg: that arc cannot be written; use "
@@ -80,22 +77,26 @@ TEST(HostileCircgen, LeadsAndArcsThatCannotBeWrittenAsTheirArcs) {
        "--lead: 179.9999 deg leads around a 360 deg arc leave 0.0002 deg of the circle between "
        "the lead-out end and the lead-in start, less than 1 deg: that arc cannot be written; use "
        "--lead 179.5 or less, or --lead 180 to close the circle"},
-      {{"--d", "100", "--f", "500", "--arc", "357.5", "--lead", "1.2"},
+      {{"--d", "100", "--f", "500", "--arc", "359.9", "--lead", "1.2"},
        2,
        "--lead: 1.2 deg leads around a 357.5 deg arc leave 0.1 deg of the circle between the "
        "lead-out end and the lead-in start, less than 1 deg: that arc cannot be written; use "
        "--lead 1.25 to close the circle"},
-      {{"--d", "100", "--f", "500", "--arc", "359.9999"},
+      {{"--d", "100", "--f", "500", "--arc", "379.9999"},
        2,
        "--lead: 10 deg lead arcs around a 359.9999 deg arc would overlap each other (arc + 2 * "
-       "lead = 379.9999 > 360 deg); use --arc 340 or less, or --arc 360"},
-      {{"--d", "100", "--f", "500", "--arc", "358.5", "--lead", "1"},
+       "lead = 379.9999 > 360 deg); use the data arc [--arc less 2 x --lead] 340 or less, or the "
+       "data arc [--arc less 2 x --lead] 360"},
+      {{"--d", "100", "--f", "500", "--arc", "360.5", "--lead", "1"},
        2,
        "--lead: 1 deg lead arcs around a 358.5 deg arc would overlap each other (arc + 2 * lead "
-       "= 360.5 > 360 deg); use --arc 358 or less, or --arc 360"},
-      {{"--d", "100", "--f", "500", "--arc", "89.9999"},
+       "= 360.5 > 360 deg); use the data arc [--arc less 2 x --lead] 358 or less, or the data "
+       "arc [--arc less 2 x --lead] 360"},
+      {{"--d", "100", "--f", "500", "--arc", "109.9999"},
        2,
-       "--arc: the measured arc must be 90..360 deg (ISO 230-4 clause 3.1), got 89.9999"},
+       "--arc: 109.9999 deg is the total angle travelled; less 2 x 10 deg overshoot (--lead) it "
+       "leaves 89.9999 deg of data, and the data arc must be 90..360 deg (ISO 230-4 clause 3.1): "
+       "give --arc 110..380"},
       {{"--d", "100", "--f", "500", "--start", "1e300"},
        2,
        "--start: start angle of 1e+300 deg is outside the plausible range -360..360 deg "
@@ -136,7 +137,7 @@ TEST(HostileCircgen, SizesFeedsCountsAndPausesOutsideTheirRanges) {
       {{"--d", "100", "--f", "500", "--dwell", "-0.1"}, 2, "--dwell: must be 0..2 s, got -0.1"},
       {{"--d", "100", "--f", "500", "--safe-z", "1e12"},
        2,
-       "--safe-z: clearance position of 1000000000000 mm is outside the plausible range "
+       "--clearance: clearance position of 1000000000000 mm is outside the plausible range "
        "-100000..100000 mm (docs/circgen.md)"},
       {{"--d", "100", "--f", "500", "--centre", "1e300,0,0"},
        2,
@@ -226,8 +227,8 @@ TEST(HostileCirclogRecord, AnnouncedRunsAndWaitsAreCheckedBeforeRecording) {
       {{"-o", out, "--program", dir.file("bad.ngc")},
        4,
        dir.file("bad.ngc") +
-           ":1: segments: '2:sideways:F500' is not ID:DIRECTION:FFEED (e.g. 1:CCW:F500, ID a "
-           "whole number from 1)"},
+           ":1: segments: '2:sideways:F500' is not ID:DIRECTION:FFEED[:PLANE] (e.g. 1:CCW:F500:XY, "
+           "ID a whole number from 1)"},
       {{"-o", out, "--until-idle", "1e300"},
        2,
        "--until-idle must be a number of seconds in 0..86400 (a day)"},

@@ -13,11 +13,7 @@
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::slurp;
-using circtest::testing::spit;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 const std::string kExample = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
 

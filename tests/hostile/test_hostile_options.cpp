@@ -9,8 +9,7 @@
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 void expect_suggestion(const std::vector<std::string>& argv, const std::string& meant) {
   SCOPED_TRACE(argv.at(0) + " " + argv.back());

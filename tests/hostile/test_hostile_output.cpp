@@ -11,10 +11,7 @@
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::ScratchDir;
-using circtest::testing::spit;
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
 
 const std::string kExample = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
 const std::string kSimIni = std::string(CIRCTEST_SOURCE_DIR) + "/configs/sim-mill/sim-mill.ini";

@@ -32,6 +32,12 @@ struct MachineModel {
   AxisModel x, y, z;
   // Squareness of the plane's first axis to its second: a_actual = a + squareness * b.
   double squareness_rad = 0.0;
+  // The three squarenesses of a test set, as circtest_kins and configs/sim-mill have them
+  // (each from the slide positions): x += xy * y, y += yz * z, z += zx * x. Added to the
+  // plane's squareness_rad above.
+  double squareness_xy_rad = 0.0;
+  double squareness_yz_rad = 0.0;
+  double squareness_zx_rad = 0.0;
   double noise_mm = 0.0;  // Gaussian noise on the measured positions (standard deviation)
   std::uint64_t seed = 1;
 };
@@ -56,9 +62,23 @@ struct CircleProgram {
   std::optional<double> bar_length_mm;
 };
 
+// A test set: the planes' circles one after another in one trace, as circgen's set program
+// runs them (all on one circle centre and radius, one period).
+struct TestSetProgram {
+  std::vector<CircleProgram> planes;
+  double pause_s = 0.5;  // at rest at each plane's first point: the operator's pause
+  double approach_feed_mm_per_min = 3000.0;  // the straight move to each plane's first point
+};
+
 // Columns: t, x, y, z (measured), x_cmd, y_cmd, z_cmd, marker, segment (1, 2, ... per run),
 // and r with `radial`.
 // Metadata: plane, radius, centre, feed.
 Trace simulate(const MachineModel& machine, const CircleProgram& program);
+
+// The set's trace: the same columns, segments numbered 1..N over all planes. Metadata: plane
+// (the planes in order, "XY,YZ,ZX"), radius, centre, feeds_mm_per_min and segments
+// ("id:DIR:Ffeed:PLANE"), as circgen's set program and circlog-record write them. Throws
+// std::invalid_argument for planes with different circles or periods.
+Trace simulate_set(const MachineModel& machine, const TestSetProgram& set);
 
 }  // namespace circtest::sim

@@ -259,6 +259,7 @@ void residual_and_contributions(DiagnosisState& ds) {
   std::vector<double> resid;
   const Extremes all = residual_pass(ds, rev, src, resid);
   reversal_steps(S, resid, all.events, D);
+  measure_spikes(ds, resid, all.events, D);
   D.residual_rms_mm = std::sqrt(all.ss / static_cast<double>(S.size()));
   std::size_t imax = 0, imin = 0;
   for (std::size_t k = 0; k < nruns; ++k) {

@@ -100,6 +100,10 @@ void residual_and_contributions(DiagnosisState& ds);
 // reversals.cpp: the backlash at each end of an axis' travel from the residual's steps.
 void reversal_steps(const Samples& S, const std::vector<double>& resid,
                     const std::array<std::vector<ReversalEvent>, 2>& events, Diagnosis& D);
+// spikes.cpp: the spikes' height and decay measured again on the reversals' mean profile when
+// the spike rises after the reversal (friction's stick) instead of jumping there.
+void measure_spikes(const DiagnosisState& ds, const std::vector<double>& resid,
+                    const std::array<std::vector<ReversalEvent>, 2>& events, Diagnosis& D);
 // plausibility.cpp: refuses a diagnosis with a number that is not finite.
 void check_finite(const DiagnosisState& ds);
 

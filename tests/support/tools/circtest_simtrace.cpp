@@ -2,6 +2,7 @@
 // CLI tests and the bundled example: `circtest-simtrace -o out.csv --backlash-x 0.02 ...`.
 #include <boost/program_options.hpp>
 #include <iostream>
+#include <sstream>
 
 #include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
@@ -33,7 +34,15 @@ int main(int argc, char** argv) {
         "pitch-x", po::value(&m.x.cyclic_pitch_mm), "mm")(
         "cyclic-y", po::value(&m.y.cyclic_amplitude_mm), "mm")(
         "pitch-y", po::value(&m.y.cyclic_pitch_mm), "mm")("noise", po::value(&m.noise_mm), "mm")(
-        "seed", po::value(&m.seed), "")("radial", "add a ball bar's length column r")(
+        "seed", po::value(&m.seed), "")("backlash-z", po::value(&m.z.backlash_mm), "mm")(
+        "scale-z", po::value(&m.z.scale), "")("squareness-xy", po::value(&m.squareness_xy_rad),
+                                              "rad")("squareness-yz",
+                                                     po::value(&m.squareness_yz_rad), "rad")(
+        "squareness-zx", po::value(&m.squareness_zx_rad), "rad")(
+        "set", po::value<std::string>(),
+        "a test set of these planes in this order (XY,YZ,ZX), CCW and CW at every feed")(
+        "feeds", po::value<std::string>(), "with --set: the feeds, mm/min (500,1000)")(
+        "radial", "add a ball bar's length column r")(
         "bar-length", po::value<double>(), "with --radial: r is the change from this length, mm");
     po::variables_map vm;
     try {
@@ -52,6 +61,28 @@ int main(int argc, char** argv) {
     p.radius_mm = d / 2.0;
     p.radial = vm.count("radial") > 0;
     if (vm.count("bar-length")) p.bar_length_mm = vm["bar-length"].as<double>();
+    if (vm.count("set")) {
+      const auto planes = parse_plane_list(vm["set"].as<std::string>());
+      if (!planes) throw UsageError("--set: expected planes each once, e.g. XY,YZ,ZX");
+      std::vector<double> feeds;
+      std::istringstream in(vm.count("feeds") ? vm["feeds"].as<std::string>()
+                                              : std::to_string(p.feed_mm_per_min));
+      for (std::string item; std::getline(in, item, ',');) feeds.push_back(std::stod(item));
+      sim::TestSetProgram set;
+      p.runs.clear();
+      for (double f : feeds) {
+        for (Direction d : {Direction::CCW, Direction::CW}) {
+          p.runs.push_back(d);
+          p.run_feeds_mm_per_min.push_back(f);
+        }
+      }
+      for (Plane plane : *planes) {
+        p.plane = plane;
+        set.planes.push_back(p);
+      }
+      write_trace(out, sim::simulate_set(m, set));
+      return 0;
+    }
     Trace t = sim::simulate(m, p);
     write_trace(out, t);
     return 0;

@@ -1,8 +1,11 @@
 #pragma once
 // `circana report`: one self-contained HTML file a service engineer hands over (inline CSS
-// and SVG, no script, nothing fetched): per plane the clause 6 header, the H/G/F table, the
-// polar plot (with a before test overlaid), the diagnosis as a bar chart and the machine's
-// trend. A print stylesheet puts each plane on one A4 page. docs/html-report.md.
+// and SVG, no script, nothing fetched). Page 1 is the hand-over: the machine, the test, the
+// verdict per plane and quantity against the limits, what was changed between before and
+// after, the signatures. Then a page of evidence per plane: H/G/F, the polar plot (a before
+// test overlaid), the diagnosis before and after, the recorded conditions, the trend. Last an
+// appendix of internals (files, hashes, logger settings, versions). A print stylesheet puts
+// each part on its own A4 portrait page. docs/html-report.md.
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -22,6 +25,8 @@ struct DiagnosisChart {
   std::vector<Contribution> contributions;  // ranked, largest first
   double model_g_mm = 0.0;
   double residual_g_mm = 0.0;
+  std::optional<double> backlash_mm;      // the larger |backlash| of the plane's axes
+  std::optional<double> squareness_urad;  // as measured (signed)
 };
 DiagnosisChart diagnosis_chart(const Diagnosis& diagnosis);
 // From a circtest.diagnosis/1 document (circana diagnose --json); ParseError naming `path`
@@ -38,8 +43,34 @@ struct ReportPage {
   std::string diagnosis_note;  // why there is none, when there is none
   std::string trend_svg;       // the machine's trend (history), inline SVG; may be empty
   std::string trend_note;      // what the trend shows, or why there is none
+  std::optional<DiagnosisChart> before_diagnosis;  // of the before test
+  std::string before_diagnosis_note;
+  std::string trace_sha256;   // of the trace file; empty when not at hand
+  std::string before_sha256;  // of the before trace file
 };
 
-std::string html_report(const std::vector<ReportPage>& pages, const PlotOptions& plot = {});
+// One line of the verdict: a quantity of a plane against its limit.
+struct VerdictLine {
+  enum class Result { pass, fail, no_limit, not_measured };
+  std::string plane;
+  std::string quantity;                      // "H", "G", "F", "backlash", "squareness"
+  std::string unit;                          // "µm", "µrad"
+  std::optional<double> before, now, limit;  // |value| and limit in the unit
+  Result result = Result::no_limit;
+};
+
+// What the first page holds beyond the tests.
+struct HandOver {
+  std::vector<VerdictLine> verdict;
+  std::string limits_source;           // where the limits come from; empty: none given
+  std::vector<std::string> changes;    // plain words, from circcomp plan --json
+  std::vector<std::string> wiring;     // what makes LinuxCNC use them (HAL files, kinematics)
+  std::vector<std::string> advice;     // what the plan could not change
+  std::string changes_source;          // the plan document; empty: none given
+  std::string tested_by, accepted_by;  // empty: a blank line to write the name on
+};
+
+std::string html_report(const std::vector<ReportPage>& pages, const HandOver& handover = {},
+                        const PlotOptions& plot = {});
 
 }  // namespace circtest

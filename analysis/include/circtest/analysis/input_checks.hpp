@@ -1,6 +1,6 @@
 #pragma once
 // Checks that the inputs of an evaluation agree with each other before a number is reported
-// (issue 12: "never a confident wrong number"): the trace's units, the plane, the nominal
+// (never a confident wrong number): the trace's units, the plane, the nominal
 // radius against the measured circle, each run against the arc the program said, and single
 // samples far off the circle. Each either passes, refuses (DataError naming the file and
 // line, exit 5), or with InputCheckOptions::warn_only gives a note for the report instead.

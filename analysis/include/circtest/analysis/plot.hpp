@@ -3,6 +3,7 @@
 // the nominal circle, both directions about one centre, the magnification stated.
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "circtest/analysis/diagnosis.hpp"
@@ -20,6 +21,9 @@ struct PlotOptions {
   // A diagnosis of the same trace: drawn as a panel beside the polar plot (the identified
   // sources with their values, and the ranked contributions to G as bars). Not owned.
   const Diagnosis* diagnosis = nullptr;
+  // When set, the legend's lines (text, colour) go here instead of into the SVG, and the SVG
+  // names no trace file: the HTML report writes the legend as text that wraps at print size.
+  std::vector<std::pair<std::string, std::string>>* legend_out = nullptr;
 };
 
 // An SVG document of the evaluation's runs, drawn from the trace it was made from: each

@@ -48,26 +48,4 @@ struct RadialPositions {
 // bar_length_mm (or a commanded point sits on the pivot).
 RadialPositions radial_positions(const Trace& trace, const RadialOptions& options);
 
-// One point of a polar export: angle (deg, from the plane's first axis toward its second)
-// and radial deviation from the nominal radius (um).
-struct PolarPoint {
-  double angle_deg = 0.0;
-  double deviation_um = 0.0;
-  std::size_t line = 0;
-};
-
-// Plain two-column text (angle deg, radial deviation um), separated by blanks, tabs, a
-// comma or a semicolon; '#' and ';' comment lines, blank lines and one header line of
-// non-numbers before the data are skipped. ParseError "file:line: ..." otherwise, also for an
-// angle beyond +-kMaxPolarAngleDeg or a deviation beyond +-kMaxPolarDeviationUm.
-inline constexpr double kMaxPolarAngleDeg = 3600.0;
-inline constexpr double kMaxPolarDeviationUm = 10'000.0;
-std::vector<PolarPoint> parse_polar_text(std::string_view text, const std::string& source);
-
-// The points as a radial trace: <a>_cmd, <b>_cmd on the nominal circle about `centre`,
-// r = deviation in mm (length change, bar_length_mm = radius), marker 1 and segment 1, 2, ...
-// split where the angle turns back (a CCW and a CW run in one file).
-Trace polar_to_trace(const std::vector<PolarPoint>& points, Plane plane, double radius_mm,
-                     const std::string& source);
-
 }  // namespace circtest

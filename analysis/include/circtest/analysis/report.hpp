@@ -19,6 +19,7 @@ std::string text_report(const Evaluation& evaluation);
 struct ReportItem {
   std::string title;
   std::string value;
+  bool raw = false;  // a condition of the trace with no line of its own: title is its key
 };
 struct ReportSection {
   std::string title;

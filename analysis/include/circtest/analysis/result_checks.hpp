@@ -1,6 +1,6 @@
 #pragma once
 // The last gate before a result is printed: every number of the report finite and of a size
-// a circular test can have, or a DataError instead of "F = -inf um" (issue 12).
+// a circular test can have, or a DataError instead of "F = -inf um".
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/remedy.hpp"
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace circtest::compensation {
 
@@ -40,6 +41,9 @@ struct DiagnosisInput {
   std::array<std::string, 2> axis_lag_source;
   std::array<std::optional<Cyclic>, 2> cyclic;
   std::optional<std::string> ini_sha256;
+  // A test set's plane: its axis k is corrected from an earlier plane of the set (its
+  // per-axis values here are null).
+  std::array<bool, 2> axis_in_earlier_plane{false, false};
 };
 
 // The largest diagnosis read (a real one is a few kB).
@@ -50,7 +54,15 @@ inline constexpr std::size_t kMaxDiagnosisBytes = std::size_t{4} << 20;
 // a newer version of it, a "version" that is not MAJOR.MINOR or of a newer major, a key of
 // the wrong type: file and key named), DataError (a cyclic
 // pitch outside 0.001..10000 mm).
+// A test set's document (its "plane" lists several) is refused by these with ParseError.
 DiagnosisInput read_diagnosis(const std::string& path);
 DiagnosisInput parse_diagnosis(const std::string& text, const std::string& source);
+// The same, and a test set's document as one entry per plane in the set's order: each plane's
+// own diagnosis (test_set.diagnoses) with the joint per-axis values, an axis's values only in
+// the first plane that has the axis. ParseError also for a set without test_set.diagnoses or
+// whose diagnoses' planes are not the document's "plane".
+std::vector<DiagnosisInput> read_diagnosis_planes(const std::string& path);
+std::vector<DiagnosisInput> parse_diagnosis_planes(const std::string& text,
+                                                   const std::string& source);
 
 }  // namespace circtest::compensation

@@ -14,6 +14,7 @@
 
 #include "circtest/compensation/config_dir.hpp"
 #include "circtest/compensation/plan.hpp"
+#include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 
 namespace circtest::compensation {
@@ -26,6 +27,17 @@ inline constexpr double kMinFrictionSpikeMm = 0.002;
 inline constexpr double kMaxFrictionSpikeMm = 0.1;
 // Step 2 runs when the residual spike exceeds this share of the first measured one.
 inline constexpr double kFrictionRefineShare = 0.3;
+
+// The configuration's HAL cannot take circfric where circcomp splices it (no pid or stepgen
+// reads the joint's position command, two do, no motion-controller in a thread, circfric
+// loaded already, a signal of circcomp's wiring taken, circtest-fric.hal not circcomp's): a
+// data error (exit 5) naming the HAL file and line. plan() tells it from the measurement's
+// refusals by its type: when friction was not asked for by name, a configuration it cannot
+// wire keeps every other correction.
+class WiringError : public DataError {
+ public:
+  using DataError::DataError;
+};
 
 // Where a HAL command stands.
 struct HalPlace {
@@ -60,9 +72,9 @@ HalWiring parse_hal_text(const std::string& text, const std::string& file, const
 
 // Plans [FRICTION_<axis>] for both axes of the diagnosis (step 1: first tuning; step 2:
 // refinement of what circtest-fric.hal already loads) and, for a first tuning, the HAL file
-// into FILES (path -> (existed, content)). Throws DataError naming the HAL file and line when
-// the joint's position command cannot be found or spliced, or the servo thread has no
-// motion-controller.
+// into FILES (path -> (existed, content)). Throws WiringError naming the HAL file and line
+// when the joint's position command cannot be found or spliced, or the servo thread has no
+// motion-controller; DataError naming the diagnosis for a spike it refuses.
 void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& diagnosis,
                    const PlanOptions& options, Plan& plan,
                    std::map<std::string, std::pair<bool, std::string>>& files);

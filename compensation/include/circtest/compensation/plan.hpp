@@ -69,6 +69,12 @@ struct Plan {
 // see require_fresh).
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& diagnosis,
                const PlanOptions& options);
+// A test set (read_diagnosis_planes): every plane's corrections in one plan, each axis once
+// (from the first plane that has it), the squareness of every plane into circtest_kins.
+// Friction is not planned from a set (a note says so; UsageError when it is the only
+// correction asked for).
+Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& planes,
+               const PlanOptions& options);
 // Throws StaleError unless the diagnosis's ini_sha256 is the INI's SHA-256 now (or force).
 void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force,
                    PlanSettingWords words = library_setting_words);

@@ -66,8 +66,7 @@ inline constexpr const char* lag_ms = "lag_ms";
 // Per axis: the following lag, its effective position gain, how it was measured
 // ("feedback", "instrument", "feeds" or null); the lag difference; per feed the mismatch
 // ellipse's G and its share of the measured G ([{feed_mm_per_min, G_mm, measured_G_mm,
-// percent}]).
-inline constexpr const char* axis_lag_ms = "axis_lag_ms";
+// percent}]). axis_lag_ms is defined with the test set's keys below (the same key).
 inline constexpr const char* axis_kv_per_s = "axis_kv_per_s";
 inline constexpr const char* axis_lag_source = "axis_lag_source";
 inline constexpr const char* axis_lag_mismatch_ms = "axis_lag_mismatch_ms";
@@ -79,6 +78,19 @@ inline constexpr const char* runs = "runs";
 inline constexpr const char* samples = "samples";
 inline constexpr const char* ini_sha256 = "ini_sha256";
 inline constexpr const char* notes = "notes";
+// A test set's document (several planes in one trace): `plane` lists the planes ("XY,YZ,ZX"),
+// `axes` every axis they cover, the per-axis objects above hold the joint values, and
+// `test_set` holds the planes, their squarenesses, each axis's per-plane values with their
+// agreement, and each plane's own diagnosis (docs/diagnosis-json.md).
+inline constexpr const char* test_set = "test_set";
+inline constexpr const char* planes = "planes";
+inline constexpr const char* diagnoses = "diagnoses";
+inline constexpr const char* agreement = "agreement";
+inline constexpr const char* axis_lag_ms = "axis_lag_ms";  // per axis: its own following lag
+inline constexpr const char* value = "value";
+inline constexpr const char* chi2 = "chi2";
+inline constexpr const char* dof = "dof";
+inline constexpr const char* consistent = "consistent";
 }  // namespace key
 
 // Checks a document's "version" (absent in documents written before it existed: 1.0). Throws

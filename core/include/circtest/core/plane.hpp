@@ -3,6 +3,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace circtest {
 
@@ -29,6 +30,10 @@ PlaneAxes plane_axes(Plane plane) noexcept;
 std::string_view plane_name(Plane plane) noexcept;        // "XY", "YZ", "ZX"
 int plane_gcode(Plane plane) noexcept;                    // 17, 19, 18
 std::optional<Plane> parse_plane(std::string_view text);  // case-insensitive "XY" | "YZ" | "ZX"
+// A test set's planes in program order ("XY,YZ,ZX", the trace's `plane` metadata of a set):
+// one or more planes separated by commas, blanks around them allowed, none twice; nullopt
+// for anything else (an empty item, an unknown plane, a repeated one).
+std::optional<std::vector<Plane>> parse_plane_list(std::string_view text);
 
 std::string_view direction_name(Direction direction) noexcept;  // "CCW", "CW"
 std::optional<Direction> parse_direction(std::string_view text);

@@ -6,13 +6,15 @@
 #include <ostream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "circtest/gcode/generator.hpp"
 
 namespace circtest {
 
 struct GenerateRequest {
-  CircleTestSpec spec;
+  // One spec per plane, in program order (a test set when more than one).
+  std::vector<CircleTestSpec> planes;
   // A LinuxCNC INI file whose limits the test must keep (empty: no check); what was checked
   // goes into the program's header.
   std::string ini_path;

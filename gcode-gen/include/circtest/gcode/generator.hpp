@@ -34,6 +34,17 @@ inline constexpr double kBallbarMinFeedInMm = 0.5;
 inline constexpr double kBallbarMaxFeedInMm = 3.0;
 inline constexpr double kBallbarDefaultFeedInMm = 1.5;
 inline constexpr double kBallbarDefaultOvershootDeg = 20.0;
+// A vertical-plane ballbar test travels this far in all, overshoot included (Renishaw's
+// 220 deg = 180 deg of data + 2 x 20 deg), over the top of the circle.
+inline constexpr double kBallbarVerticalTotalArcDeg = 220.0;
+// Without --clearance a ballbar test approaches and leaves through this far from the circle
+// on the plane's normal axis (+Z above an XY circle; +X, +Y beside a YZ, ZX circle): clear
+// of the centre pivot and its magnetic base.
+inline constexpr double kBallbarDefaultClearanceMm = 50.0;
+// The bar lengths (= test radii) of the usual telescoping ball bar with its extensions.
+inline const std::vector<double> kBallbarDefaultLengthsMm{50.0, 100.0, 150.0, 300.0};
+// A radius matches a bar length within this (a diameter given in inch to 4 decimals).
+inline constexpr double kBallbarLengthToleranceMm = 0.005;
 
 // The approach feed when --approach-feed is not given: well below the test feed.
 inline constexpr double kDefaultApproachFeedMmPerMin = 200.0;
@@ -57,10 +68,17 @@ struct CircleTestSpec {
   std::vector<double> feeds_mm_per_min;  // one run per direction per feed, in this order
   std::vector<Direction> directions{Direction::CCW, Direction::CW};
   std::array<double, 3> centre_mm{0.0, 0.0, 0.0};  // x, y, z in the active work offset
-  double arc_deg = 360.0;                          // measured arc, 90..360
-  double start_deg = 0.0;                          // from the plane's first axis toward its second
-  double lead_deg = 10.0;                          // lead-in and lead-out arcs on the same circle
-  std::optional<double> safe_mm;                   // clearance position on the plane's normal axis
+  // The measured (data) arc, 90..360. circgen's --arc is the total angle travelled, this
+  // plus the lead arcs at both ends (docs/circgen.md "Arc").
+  double arc_deg = 360.0;
+  double start_deg = 0.0;         // from the plane's first axis toward its second
+  double lead_deg = 10.0;         // lead-in and lead-out arcs on the same circle
+  std::optional<double> safe_mm;  // clearance position on the plane's normal axis
+  // The lowest Z the tool may reach, in the work offset (e.g. the table top plus a margin):
+  // a path below it is refused (LimitError).
+  std::optional<double> floor_mm;
+  // Ballbar only: the lengths the bar can be set to; the radius must be one of them.
+  std::vector<double> ballbar_lengths_mm = kBallbarDefaultLengthsMm;
   Instrument instrument = Instrument::encoder;
   // Feed of the descent to the circle's height and of the ballbar's radial moves; unset:
   // default_approach_feed_mm_per_min().
@@ -82,7 +100,8 @@ struct CircleTestSpec {
 
 // One measured arc of the program.
 struct MeasuredRun {
-  int segment_id = 0;  // 1, 2, ... in program order
+  int segment_id = 0;  // 1, 2, ... in program order, across the planes of a set
+  Plane plane = Plane::XY;
   Direction direction = Direction::CCW;
   double feed_mm_per_min = 0.0;
   double start_deg = 0.0;  // where this run's measured arc begins
@@ -116,6 +135,9 @@ enum class SpecSetting {
   tool,
   feed_in,
   ballbar,  // the ball bar instrument
+  ballbar_lengths,
+  floor,
+  planes,  // the planes of a test set
   // Annex C's feed scaling (annex_c.hpp) and the work offset's values.
   test_diameter,
   reference_diameter,
@@ -135,6 +157,25 @@ std::vector<MeasuredRun> plan_runs(const CircleTestSpec& spec);
 
 // Validates and builds the whole program in memory.
 TestProgram generate_test_program(const CircleTestSpec& spec);
+
+// A test set: one program that runs the planes in the given order, each with its own
+// approach, operator pause, runs and retract; segment ids run on across the planes. The
+// specs differ only in plane, arc_deg, start_deg and safe_mm (validate_set says which
+// else differs). A set of one is generate_test_program's program.
+TestProgram generate_test_set(const std::vector<CircleTestSpec>& planes);
+void validate_set(const std::vector<CircleTestSpec>& planes, SpecWords words = library_spec_words);
+
+// The lowest Z (work offset, mm) the tool reaches in this plane's part of the program: the
+// circle's height in XY, the lowest point of the swept range (at the ballbar's feed-in
+// radius too) in YZ and ZX.
+double lowest_z_mm(const CircleTestSpec& spec);
+
+// Throws LimitError when the path goes below spec.floor_mm, naming both heights.
+void check_floor(const CircleTestSpec& spec, SpecWords words = library_spec_words);
+
+// The ballbar's clearance without --clearance: kBallbarDefaultClearanceMm beyond the centre
+// on the plane's normal axis.
+double ballbar_default_clearance_mm(const CircleTestSpec& spec);
 
 // min(kDefaultApproachFeedMmPerMin, half the lowest test feed), or the given one.
 double approach_feed_mm_per_min(const CircleTestSpec& spec);

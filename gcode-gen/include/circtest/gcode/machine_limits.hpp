@@ -4,6 +4,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "circtest/gcode/generator.hpp"
@@ -38,7 +39,34 @@ struct MachineLimits {
   std::vector<std::string> hal_files;           // every [HAL] HALFILE, in order, as written
   std::map<std::string, std::string> values;    // "SECTION/KEY" -> first value, for HAL [S]K
   std::optional<MotionOutputs> motion_outputs;  // when a HAL file loads the motion module
+  // [RS274NGC] PARAMETER_FILE beside the INI (LinuxCNC runs in the INI's folder), else
+  // LinuxCNC's default rs274ngc.var there; empty for an INI parsed from text.
+  std::string parameter_file;
 };
+
+// The work offsets of a LinuxCNC parameter (var) file, in mm. LinuxCNC (rs274ngc_pre.cc
+// restore_parameters, interp_array.cc required_parameters) reads "number value" lines in
+// increasing order and sets every number not given to 0: G54..G59.3 (index 1..9) have their
+// origin at #5201+20n, #5202+20n, #5203+20n and an XY rotation at #5210+20n; #5220 is the
+// system selected when the file was saved; #5210 says G92 applies, #5211..#5213 its offset.
+struct WorkOffsets {
+  std::string path;
+  std::array<std::array<double, 3>, 10> origin_mm{};  // [1..9]
+  std::array<double, 10> rotation_deg{};              // [1..9]
+  int selected = 1;                                   // #5220
+  bool g92_applied = false;                           // #5210
+  std::array<double, 3> g92_mm{};                     // #5211..#5213
+};
+
+// nullopt when the file does not exist (LinuxCNC then starts with every offset 0, until it
+// writes one). ParseError (file:line) for numbers out of order, as LinuxCNC refuses them, or
+// a value that is no finite number.
+std::optional<WorkOffsets> read_work_offsets(const std::string& path, double mm_per_unit);
+WorkOffsets parse_work_offsets(const std::string& text, const std::string& path,
+                               double mm_per_unit);
+
+// "G54" -> 1 ... "G59.3" -> 9; 0 for anything else.
+int work_offset_index(std::string_view code);
 
 // Reads the keys circgen needs as LinuxCNC 2.9 reads them (core IniDocument: #INCLUDE,
 // continuation lines, first occurrence wins). Throws IoError, or ParseError naming file:line

@@ -54,8 +54,7 @@ inline constexpr std::size_t kMaxFeeds = 100;
 void check_plausible(const PlausibleRange& range, double value,
                      SpecWords words = library_spec_words);
 
-// Every number of the spec against the table (validate() calls it), and every feed against
-// what its word can say: one decimal in the program's units, so never F0.
+// Every number of the spec against the table (validate() calls it).
 void check_plausible(const CircleTestSpec& spec, SpecWords words = library_spec_words);
 
 }  // namespace circtest

@@ -89,6 +89,19 @@ Limits parse_limits(const std::string& text, std::string_view setting = "limits"
 // The quantities of a test that exceed their limit, e.g. {"H 0.0210 > 0.0150 mm"}.
 std::vector<std::string> breaches(const TestRecord& test, const Limits& limits);
 
+// One quantity of a test against its limit: H, G, F, backlash (values and limit in um) and
+// squareness (urad). A quantity with a limit that was not measured does not pass.
+struct Verdict {
+  enum class Result { pass, fail, no_limit, not_measured };
+  const char* quantity;         // as in the limits: "H", "G", "F", "backlash", "squareness"
+  const char* unit;             // "um" or "urad" (ASCII; a front end writes its own symbol)
+  std::optional<double> value;  // |value| in the unit, when measured
+  std::optional<double> limit;  // in the unit, when set
+  Result result = Result::no_limit;
+};
+// Every quantity of the test, in the order above.
+std::vector<Verdict> verdicts(const TestRecord& test, const Limits& limits);
+
 // Outputs of `circana history`: a text table, a circtest.history/1 document, an SVG trend.
 std::string history_text(const std::string& machine, const std::vector<TestRecord>& tests,
                          const Limits& limits);

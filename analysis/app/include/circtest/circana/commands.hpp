@@ -7,6 +7,7 @@
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/instrument_export.hpp"
 #include "circtest/analysis/plot.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -33,6 +34,8 @@ inline constexpr NumberRange kRadiusToleranceRangeMm{
 inline constexpr NumberRange kPitchRangeMm{0.001, 1000.0, false,
                                            "AXIS=MM items like X=5,Y=5, each pitch from 0.001 to "
                                            "1000 mm"};
+inline constexpr NumberRange kFeedRange{0.0, 1e6, true,
+                                        "a feed in mm/min above 0 and at most 1000000"};
 // A polar export read whole: about 20 bytes a point, so 3 million points.
 inline constexpr std::size_t kMaxPolarExportBytes = std::size_t{64} << 20;
 
@@ -43,8 +46,15 @@ struct EvaluatedTrace {
   Evaluation evaluation;
   bool radial = false;  // evaluated from the length channel r
 };
+// A test set's trace (its `plane` metadata lists several planes) is refused with DataError
+// unless options.plane picks one of its planes, which is then evaluated alone.
 EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& options,
                              bool radial);
+// The same for every plane of a test set in program order (test_set.hpp); one entry for a
+// single-plane trace, or for the set's plane options.plane names (DataError when the set has
+// no such plane).
+std::vector<EvaluatedTrace> evaluate_file_planes(const std::string& path,
+                                                 const EvaluationOptions& options, bool radial);
 
 struct AnalyzeRequest {
   std::string trace_path;
@@ -62,7 +72,9 @@ struct AnalyzeRequest {
   std::string db_url;  // the history: empty for the default SQLite file
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
-// nothing reaches stdout when an error is thrown. Returns the exit code.
+// nothing reaches stdout when an error is thrown. Returns the exit code. A test set: each
+// plane's report in program order (JSON: {"test_set": [planes], "planes": [evaluations]}),
+// its plot to svg_path with the plane before the extension (plot-XY.svg).
 int run_analyze(const AnalyzeRequest& request, std::ostream& out);
 
 struct DiagnoseRequest {
@@ -75,7 +87,8 @@ struct DiagnoseRequest {
   std::string svg_path;  // also write the plot with the diagnosis panel there, when set
   PlotOptions plot;
 };
-// Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write.
+// Reads, evaluates and diagnoses (docs/diagnosis.md); prints text or JSON in one write. A
+// test set: the planes' diagnoses joined (test_set.hpp), plots per plane as run_analyze.
 int run_diagnose(const DiagnoseRequest& request, std::ostream& out);
 // circana store: an evaluation document (analyze --json) or a trace (evaluated with
 // `options`) into the history. Prints one line naming the stored test.
@@ -110,6 +123,11 @@ struct ReportRequest {
   PlotOptions plot;
   std::string db_url;  // the trend from this history; empty: no trend
   std::string output_path;
+  std::string limits;        // "H=0.015,G=0.020" as circana history --limits; empty: none
+  std::string limits_file;   // the same items in a file, one or more a line, '#' comments
+  std::string changes_path;  // circcomp plan --json: what was changed between the tests
+  std::string tested_by;     // empty: the trace's operator
+  std::string accepted_by;   // empty: a blank line to sign on
 };
 int run_report(const ReportRequest& request, std::ostream& out);
 
@@ -121,14 +139,23 @@ struct FitRequest {
 };
 int run_fit(const FitRequest& request, std::ostream& out);
 
-// circana import-polar: a plain two-column polar export (angle deg, radial deviation um)
-// written as a radial trace (docs/trace-format.md "Radial traces").
-struct ImportPolarRequest {
+// circana import (import-polar): an instrument's export (instrument_export.hpp) written as
+// a trace; one line on `out` says what was read.
+struct ImportRequest {
   std::string input_path;
   std::string output_path;
-  double radius_mm = 0.0;  // the nominal radius the deviations are taken from
-  Plane plane = Plane::XY;
+  ExportImportOptions options;
 };
-int run_import_polar(const ImportPolarRequest& request, std::ostream& out);
+int run_import(const ImportRequest& request, std::ostream& out);
+
+// circana export-polar: a trace, evaluated as analyze does, as a polar export that circana
+// import reads back and that other polar software can plot.
+struct ExportPolarRequest {
+  std::string trace_path;
+  std::string output_path;
+  EvaluationOptions options;
+  bool radial = false;
+};
+int run_export_polar(const ExportPolarRequest& request, std::ostream& out);
 
 }  // namespace circtest

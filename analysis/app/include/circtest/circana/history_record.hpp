@@ -20,6 +20,10 @@ namespace circtest {
 // is no date, or a number that is not finite or beyond kMaxReportedMagnitude, is a DataError
 // naming `source` (the file the evaluation was read from; empty: the evaluation's source) and
 // the key: such a record is never stored.
+// The measures of the evaluation (H per pair, G, F_max, F_min per run) added to R, with the
+// trend's largest H, G and |F|: what history_record and the report's verdict judge.
+void add_measures(const Evaluation& evaluation, history::TestRecord& r);
+
 history::TestRecord history_record(const Evaluation& evaluation,
                                    const Diagnosis* diagnosis = nullptr,
                                    const std::string& machine = {},

@@ -1,0 +1,252 @@
+// Test sets (analysis/include/circtest/analysis/test_set.hpp): a set's trace split into its
+// planes, the refusals of a set that cannot be split, and the planes' diagnoses joined (the
+// joint value, the planes' agreement, the three squarenesses). Traces from the machine
+// simulator's set program (tests/support/machine_sim).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "circtest/analysis/test_set.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
+#include "expect_error.hpp"
+#include "machine_sim.hpp"
+
+using namespace circtest;
+
+namespace {
+
+sim::TestSetProgram set_program(std::vector<Plane> planes, std::vector<double> feeds) {
+  sim::TestSetProgram set;
+  for (Plane p : planes) {
+    sim::CircleProgram c;
+    c.plane = p;
+    c.radius_mm = 50.0;
+    c.centre_mm[0] = 10.0;
+    c.centre_mm[1] = -20.0;
+    c.centre_mm[2] = 5.0;
+    c.runs.clear();
+    for (double f : feeds) {
+      c.runs.push_back(Direction::CCW);
+      c.runs.push_back(Direction::CW);
+      c.run_feeds_mm_per_min.push_back(f);
+      c.run_feeds_mm_per_min.push_back(f);
+    }
+    c.dwell_s = 0.1;
+    set.planes.push_back(c);
+  }
+  return set;
+}
+
+Trace three_plane_trace(const sim::MachineModel& m) {
+  return sim::simulate_set(m, set_program({Plane::XY, Plane::YZ, Plane::ZX}, {2000.0, 4000.0}));
+}
+
+void set_meta(Trace& t, const std::string& key, const std::string& value) {
+  TraceMetadata m;
+  for (const auto& [k, v] : t.metadata.entries()) {
+    if (k != key) m.set(k, v);
+  }
+  m.set(key, value);
+  t.metadata = m;
+}
+
+}  // namespace
+
+TEST(TestSet, SinglePlaneTraceIsNoSet) {
+  sim::CircleProgram p;
+  const Trace t = sim::simulate(sim::MachineModel{}, p);
+  EXPECT_FALSE(test_set_planes(t));
+}
+
+TEST(TestSet, ASinglePlanesSegmentsNameItsPlane) {
+  sim::CircleProgram p;
+  p.plane = Plane::YZ;
+  Trace t = sim::simulate(sim::MachineModel{}, p);
+  // circgen writes the plane for every program: the trace's own is fine, so is none.
+  set_meta(t, meta_key::segments, "1:CCW:F1000:YZ,2:CW:F1000");
+  EXPECT_FALSE(test_set_planes(t));
+  set_meta(t, meta_key::segments, "1:CCW:F1000:YZ,2:CW:F1000:XY");
+  EXPECT_ERROR(test_set_planes(t), ExitCode::parse,
+               "metadata 'segments': entry '2:CW:F1000:XY' names the plane 'XY', the trace's "
+               "plane is YZ");
+}
+
+TEST(TestSet, SplitsIntoPlanesInProgramOrder) {
+  const Trace t = three_plane_trace(sim::MachineModel{});
+  const auto planes = test_set_planes(t);
+  ASSERT_TRUE(planes);
+  ASSERT_EQ(planes->size(), 3u);
+  const std::vector<PlaneTrace> split = split_test_set(t, *planes);
+  ASSERT_EQ(split.size(), 3u);
+  EXPECT_EQ(split[0].plane, Plane::XY);
+  EXPECT_EQ(split[1].plane, Plane::YZ);
+  EXPECT_EQ(split[2].plane, Plane::ZX);
+  std::size_t rows = 0;
+  for (const PlaneTrace& p : split) {
+    rows += p.trace.rows();
+    EXPECT_EQ(*p.trace.metadata.find(meta_key::plane), plane_name(p.plane));
+    EXPECT_EQ(p.trace.values.size(), t.columns.size());
+  }
+  // The planes share the trace's rows out among them, none twice.
+  EXPECT_EQ(rows, t.rows());
+  EXPECT_EQ(*split[1].trace.metadata.find(meta_key::segments),
+            "5:CCW:F2000,6:CW:F2000,7:CCW:F4000,8:CW:F4000");
+  // Row lines are kept, so that messages name the set's lines.
+  EXPECT_EQ(split[1].trace.line_of_row.front(), t.line_of_row[split[0].trace.rows()]);
+  const Evaluation ev = evaluate(split[1].trace, {});
+  EXPECT_EQ(ev.plane, Plane::YZ);
+  EXPECT_EQ(ev.runs.size(), 4u);
+  EXPECT_EQ(ev.runs.front().run.segment_id, 5);
+}
+
+TEST(TestSet, RefusesWhatCannotBeSplit) {
+  const Trace good = three_plane_trace(sim::MachineModel{});
+  const std::vector<Plane> planes = *test_set_planes(good);
+  {
+    Trace t = good;
+    set_meta(t, meta_key::segments, "1:CCW:F2000:XY,2:CW:F2000");
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::parse,
+                 "entry '2:CW:F2000' names no plane: a test set's entries are id:DIR:Ffeed:PLANE");
+  }
+  {
+    Trace t = good;
+    set_meta(t, meta_key::segments, "1:CCW:F2000:XY,2:CW:F2000:XZ");
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::parse,
+                 "plane 'XZ' is not one of the set's planes (XY,YZ,ZX");
+  }
+  {
+    Trace t = good;
+    set_meta(t, meta_key::segments, "1:CCW:F2000:XY,1:CW:F2000:YZ");
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::parse, "run id 1 is given twice");
+  }
+  {
+    // Runs 1-4 announced only: run 5 has no plane.
+    Trace t = good;
+    set_meta(t, meta_key::segments, "1:CCW:F2000:XY,2:CW:F2000:XY,3:CCW:F4000:XY,4:CW:F4000:XY");
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data,
+                 "segment 5: a run the metadata 'segments'");
+  }
+  {
+    // Run 9 (ZX's first) said to be XY's: XY's runs resume after YZ's.
+    Trace t = good;
+    std::string segs;
+    for (int id = 1; id <= 12; ++id) {
+      const char* p = id <= 4 || id == 9 ? "XY" : (id <= 8 ? "YZ" : "ZX");
+      segs += (id > 1 ? "," : "") + std::to_string(id) + ":CCW:F2000:" + p;
+    }
+    set_meta(t, meta_key::segments, segs);
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data,
+                 "segment 9 (XY) comes after runs of YZ: a set's planes run one after another");
+  }
+  {
+    // ZX announced but never run.
+    Trace t = good;
+    std::string segs;
+    for (int id = 1; id <= 12; ++id) {
+      segs += (id > 1 ? "," : "") + std::to_string(id) + ":CCW:F2000:" + (id <= 6 ? "XY" : "YZ");
+    }
+    set_meta(t, meta_key::segments, segs);
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data,
+                 "plane ZX of the set has no run in the trace");
+  }
+  {
+    Trace t = good;
+    const std::size_t seg = *t.column_index(column_name::segment);
+    t.columns.erase(t.columns.begin() + static_cast<std::ptrdiff_t>(seg));
+    t.values.erase(t.values.begin() + static_cast<std::ptrdiff_t>(seg));
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data,
+                 "a test set without a 'segment' column");
+  }
+  {
+    Trace t = good;
+    set_meta(t, meta_key::segments, "");
+    TraceMetadata m;
+    for (const auto& [k, v] : t.metadata.entries()) {
+      if (k != meta_key::segments) m.set(k, v);
+    }
+    t.metadata = m;
+    EXPECT_ERROR(split_test_set(t, planes), ExitCode::data, "without 'segments' metadata");
+  }
+}
+
+TEST(TestSet, PlaneListsInMetadata) {
+  EXPECT_EQ(parse_plane_list("XY, yz ,ZX")->size(), 3u);
+  EXPECT_FALSE(parse_plane_list("XY,XY"));
+  EXPECT_FALSE(parse_plane_list("XY,"));
+  EXPECT_FALSE(parse_plane_list("XY,XZ"));
+  // A repeated plane is refused where the trace is read, with its line.
+  const std::string text = "# plane: XY,YZ,XY\nt,x,y\n0,1,2\n";
+  EXPECT_ERROR(parse_trace(text, "set.csv"), ExitCode::parse,
+               "set.csv:1: metadata 'plane': expected XY, YZ or ZX");
+}
+
+TEST(TestSet, JointValueAndAgreement) {
+  auto plane = [](Plane p, double backlash_a_mm, double se_mm) {
+    Diagnosis d;
+    d.plane = p;
+    const PlaneAxes ax = plane_axes(p);
+    d.axes = {static_cast<char>(ax.first - 'a' + 'A'), static_cast<char>(ax.second - 'a' + 'A')};
+    d.backlash_mm[0] = {backlash_a_mm, se_mm};
+    d.squareness_urad = {12.0, 0.5};
+    return d;
+  };
+  // X: 10 um +- 0.1 in XY (first axis) and, in ZX, X is the second axis: none given there.
+  Diagnosis xy = plane(Plane::XY, 0.010, 0.0001);
+  Diagnosis zx = plane(Plane::ZX, 0.0, 0.0001);
+  zx.backlash_mm[1] = {0.0104, 0.0002};
+  {
+    const SetDiagnosis s = join_set_diagnoses("t", {xy, zx});
+    const AxisJoint& x = s.axes.front();
+    ASSERT_EQ(x.axis, 'X');
+    ASSERT_EQ(x.backlash_mm.planes.size(), 2u);
+    // Weights 1/0.1^2 and 1/0.2^2: (4 * 10 + 10.4) / 5 = 10.08 um, se 1/sqrt(125) mm.
+    EXPECT_NEAR(*x.backlash_mm.joint.value, 0.01008, 1e-9);
+    EXPECT_NEAR(*x.backlash_mm.joint.standard_error, 1.0 / std::sqrt(1e8 + 0.25e8), 1e-12);
+    EXPECT_TRUE(x.backlash_mm.consistent);
+    EXPECT_EQ(x.backlash_mm.dof, 1);
+    ASSERT_TRUE(s.squareness_urad[0]);
+    EXPECT_FALSE(s.squareness_urad[1]);
+    ASSERT_TRUE(s.squareness_urad[2]);
+    const auto j = to_json(s);
+    namespace K = diagnosis_json::key;
+    EXPECT_EQ(j[K::plane], "XY,ZX");
+    EXPECT_EQ(j[K::test_set][K::agreement][K::backlash_mm]["X"]["ZX"][K::value], 0.0104);
+    EXPECT_EQ(j[K::test_set][K::squareness_urad]["XY"][K::value], 12.0);
+    EXPECT_TRUE(j[K::squareness_urad].is_null());
+  }
+  // 10 um against 14 um, each +- 0.2: chi2 = 200, the planes disagree.
+  zx.backlash_mm[1] = {0.014, 0.0002};
+  xy.backlash_mm[0] = {0.010, 0.0002};
+  const SetDiagnosis s = join_set_diagnoses("t", {xy, zx});
+  const AxisJoint& x = s.axes.front();
+  EXPECT_FALSE(x.backlash_mm.consistent);
+  EXPECT_NEAR(*x.backlash_mm.chi2, 200.0, 1e-6);
+  // Widened by sqrt(chi2 / dof): the spread of the planes, not the fit's precision.
+  EXPECT_NEAR(*x.backlash_mm.joint.standard_error, 0.0002 / std::sqrt(2.0) * std::sqrt(200.0),
+              1e-9);
+  ASSERT_FALSE(s.notes.empty());
+  EXPECT_NE(s.notes.front().find("the planes disagree on X backlash"), std::string::npos)
+      << s.notes.front();
+  EXPECT_NE(s.notes.front().find("XY 10.000 um (+- 0.200) ZX 14.000 um"), std::string::npos)
+      << s.notes.front();
+  EXPECT_NE(text_report(s).find("DISAGREE"), std::string::npos);
+
+  // Without standard errors: the plain mean, and more than 10 % apart is a disagreement.
+  xy.backlash_mm[0] = {0.010, std::nullopt};
+  zx.backlash_mm[1] = {0.0105, std::nullopt};
+  const SetDiagnosis close = join_set_diagnoses("t", {xy, zx});
+  EXPECT_NEAR(*close.axes.front().backlash_mm.joint.value, 0.01025, 1e-12);
+  EXPECT_FALSE(close.axes.front().backlash_mm.joint.standard_error);
+  EXPECT_TRUE(close.axes.front().backlash_mm.consistent);
+  zx.backlash_mm[1] = {0.012, std::nullopt};
+  const SetDiagnosis apart = join_set_diagnoses("t", {xy, zx});
+  EXPECT_FALSE(apart.axes.front().backlash_mm.consistent);
+  ASSERT_FALSE(apart.notes.empty());
+  EXPECT_NE(apart.notes.front().find("the planes disagree on X backlash by more than 10 % (no "
+                                     "standard errors): XY 10.000 um ZX 12.000 um"),
+            std::string::npos)
+      << apart.notes.front();
+}
