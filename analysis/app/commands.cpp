@@ -84,6 +84,8 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
                                      column_name::actual(axes.normal),
                                      column_name::commanded(axes.first),
                                      column_name::commanded(axes.second),
+                                     column_name::feedback(axes.first),
+                                     column_name::feedback(axes.second),
                                      std::string(kRadialColumn)};
     if (!a.empty()) keep.push_back(a);
     if (!b.empty()) keep.push_back(b);

@@ -26,6 +26,7 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   report_estimates(ds);
   measure_following_lag(ds);
   split_radius_change(ds);
+  measure_axis_lags(ds);
   residual_and_contributions(ds);
   check_finite(ds);
   return std::move(ds.D);

@@ -36,6 +36,36 @@ std::string pm_um(const Estimate& e) {
   return fmt::format("{:+.2f} um (+- {:.2f})", *e.value * 1e3, e.standard_error.value_or(0) * 1e3);
 }
 
+// The servo per axis: lag, gain and source, the mismatch, and per feed the ellipse's share.
+void servo_axis_lines(const Diagnosis& d, std::string& s) {
+  auto out = std::back_inserter(s);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const AxisLag& al = d.axis_lag[k];
+    if (!al.lag_ms.value) {
+      fmt::format_to(out, "  {} servo lag: not measured\n", d.axes[k]);
+      continue;
+    }
+    fmt::format_to(out, "  {} servo lag {:.3f} ms (+- {:.3f}), position gain {} (from the {})\n",
+                   d.axes[k], *al.lag_ms.value, al.lag_ms.standard_error.value_or(0),
+                   al.kv_per_s ? fmt::format("{:.2f} 1/s", *al.kv_per_s) : "not positive",
+                   al.source == "feedback"     ? "motor feedback"
+                   : al.source == "instrument" ? "instrument"
+                                               : "radius change over the feeds");
+  }
+  if (d.axis_lag_mismatch_ms.value) {
+    fmt::format_to(out, "  servo lag mismatch {} - {}: {:+.3f} ms (+- {:.3f})\n", d.axes[0],
+                   d.axes[1], *d.axis_lag_mismatch_ms.value,
+                   d.axis_lag_mismatch_ms.standard_error.value_or(0));
+  }
+  for (const ServoShare& sh : d.servo_share) {
+    fmt::format_to(out, "  servo mismatch ellipse at {:.0f} mm/min: G {:.2f} um{}\n",
+                   sh.feed_mm_per_min, sh.g_mm * 1e3,
+                   sh.percent ? fmt::format(" ({:.0f} % of the measured {:.2f} um)", *sh.percent,
+                                            *sh.measured_g_mm * 1e3)
+                              : "");
+  }
+}
+
 }  // namespace
 
 json to_json(const Diagnosis& d) {
@@ -116,6 +146,29 @@ json to_json(const Diagnosis& d) {
   j[K::standard_error] = se;
   j[K::kv_source] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
   j[K::lag_ms] = opt(d.lag_ms.value);
+  json lag = json::object(), kv = json::object(), src = json::object(), lag_se = json::object();
+  for (std::size_t k = 0; k < 2; ++k) {
+    const std::string a(1, d.axes[k]);
+    const AxisLag& al = d.axis_lag[k];
+    lag[a] = opt(al.lag_ms.value);
+    lag_se[a] = opt(al.lag_ms.standard_error);
+    kv[a] = opt(al.kv_per_s);
+    src[a] = al.source.empty() ? json(nullptr) : json(al.source);
+  }
+  j[K::axis_lag_ms] = lag;
+  j[K::axis_kv_per_s] = kv;
+  j[K::axis_lag_source] = src;
+  j[K::axis_lag_mismatch_ms] = opt(d.axis_lag_mismatch_ms.value);
+  j[K::standard_error][K::axis_lag_ms] = lag_se;
+  j[K::standard_error][K::axis_lag_mismatch_ms] = opt(d.axis_lag_mismatch_ms.standard_error);
+  json shares = json::array();
+  for (const ServoShare& sh : d.servo_share) {
+    shares.push_back({{K::feed_mm_per_min, sh.feed_mm_per_min},
+                      {K::g_mm, sh.g_mm},
+                      {K::measured_g_mm, opt(sh.measured_g_mm)},
+                      {K::percent, opt(sh.percent)}});
+  }
+  j[K::servo_share] = shares;
   j[K::nominal_radius_mm] = d.radius_mm;
   j[K::absolute_channels] = d.absolute_channels;
   j[K::runs] = d.runs;
@@ -200,6 +253,7 @@ std::string text_report(const Diagnosis& d) {
     fmt::format_to(out, "  position-loop gain Kv {:.1f} 1/s (from the {})\n", *d.kv_per_s.value,
                    d.kv_source == "feeds" ? "radius change over the feeds" : "following lag");
   }
+  servo_axis_lines(d, s);
   for (std::size_t k = 0; k < 2; ++k) {
     const auto& c = d.cyclic[k];
     if (c) {

@@ -26,7 +26,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
-    "backlash,scale,squareness,cyclic,friction]\n"
+    "backlash,scale,squareness,cyclic,friction,servo]\n"
     "                       [--gain F] [--force] [--json]\n"
     "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
     "       circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
@@ -42,9 +42,9 @@ std::string_view circcomp_option_words(PlanSetting setting) noexcept {
     case PlanSetting::record_with_ini:
       return "with circtest-run or circlog-record --ini";
     case PlanSetting::without_squareness:
-      return "leave squareness out (--only backlash,scale,cyclic,friction)";
+      return "leave squareness out (--only backlash,scale,cyclic,friction,servo)";
     case PlanSetting::without_friction:
-      return "leave friction out (--only backlash,scale,squareness,cyclic)";
+      return "leave friction out (--only backlash,scale,squareness,cyclic,servo)";
   }
   return library_setting_words(setting);
 }
@@ -148,12 +148,14 @@ int run(int argc, char** argv) {
     std::istringstream in(only);
     for (std::string w; std::getline(in, w, ',');) {
       if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic" &&
-          w != "friction") {
-        throw UsageError("--only: expected backlash, scale, squareness, cyclic or friction, got '" +
-                         w + "'");
+          w != "friction" && w != "servo") {
+        throw UsageError(
+            "--only: expected backlash, scale, squareness, cyclic, friction or servo, got '" + w +
+            "'");
       }
       options.only.insert(w);
       if (w == "friction") options.friction_requested = true;
+      if (w == "servo") options.servo_requested = true;
     }
   }
   // One plane's diagnosis, or a test set's (one entry per plane).

@@ -180,6 +180,16 @@ DiagnosisInput parse_plane_document(const json& doc, const Reader& r) {
   d.squareness_urad = scalar(K::squareness_urad);
   d.servo_mismatch_ms = scalar(K::servo_mismatch_ms);
   d.kv_per_s = r.number(r.member(doc, K::kv_per_s, K::kv_per_s), K::kv_per_s);
+  const auto lag = r.per_axis(doc, K::axis_lag_ms, d.axes);
+  const auto lag_se = se_axis(K::axis_lag_ms);
+  const json& lag_source = r.member(doc, K::axis_lag_source, K::axis_lag_source);
+  for (int k = 0; k < 2; ++k) {
+    d.axis_lag_ms[k] = {lag[k], lag_se[k]};
+    if (lag_source.is_null()) continue;
+    const std::string a(1, d.axes[k]);
+    const std::string path = std::string(K::axis_lag_source) + "." + a;
+    d.axis_lag_source[k] = r.text(r.member(lag_source, a, K::axis_lag_source), path).value_or("");
+  }
   const json& cyclic = r.member(doc, K::cyclic, K::cyclic);
   if (!cyclic.is_null()) {
     for (int k = 0; k < 2; ++k) {

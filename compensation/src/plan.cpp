@@ -713,6 +713,29 @@ void servo_advice(PlanContext& c) {
       slow, fast, std::fabs(m), joints, how, fast));
 }
 
+// Servo: FF1 (and P) per pid joint from the per-axis lags (servo.cpp), tried on copies as
+// friction is. Returns whether it answered the servo (else the mismatch advice follows).
+bool servo_step(PlanContext& c) {
+  if (!c.wants("servo")) return false;
+  IniDocument ini_tried = c.ini;
+  Plan plan_tried = c.plan;
+  TableFiles tables_tried = c.tables;
+  try {
+    if (!plan_servo(ini_tried, c.d, c.o, plan_tried, tables_tried)) {
+      c.plan.notes = std::move(plan_tried.notes);
+      return false;
+    }
+  } catch (const DataError& e) {
+    if (c.o.servo_requested || e.file() == c.d.source) throw;
+    c.plan.notes.push_back(fmt::format("servo gains not planned: {}", e.what()));
+    return false;
+  }
+  c.ini = std::move(ini_tried);
+  c.plan = std::move(plan_tried);
+  c.tables = std::move(tables_tried);
+  return true;
+}
+
 // Friction: circfric wired by circtest-fric.hal, its values in [FRICTION_<axis>]. Returns
 // whether it was planned.
 bool friction_step(PlanContext& c) {
@@ -808,7 +831,7 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     plan_squareness_step(
         c, change ? std::vector<SquarenessChange>{*change} : std::vector<SquarenessChange>{});
   }
-  servo_advice(c);
+  if (!servo_step(c)) servo_advice(c);
   if (!friction_step(c)) spike_advice(c);
   collect_files(c);
   return plan;

@@ -1,9 +1,12 @@
 #pragma once
 // Helpers plan.cpp shares with the other parts of the plan (friction.cpp); not installed.
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "circtest/compensation/config_dir.hpp"
+#include "circtest/compensation/plan.hpp"
 #include "circtest/core/ini.hpp"
 
 namespace circtest::compensation::detail {
@@ -23,3 +26,16 @@ std::string slurp_if(const std::string& path, bool& existed);
 std::string read_target(const ConfigDir& config, const std::string& path, bool& existed);
 
 }  // namespace circtest::compensation::detail
+
+namespace circtest::compensation {
+
+// servo.cpp: FF1 (and P where FF1 alone cannot match) per pid joint of the diagnosis's axes,
+// from their measured lags, written where the HAL reads them (an INI key, or a literal setp
+// edited in place, into FILES: path -> (existed, content)); stepgen joints get the stepgen
+// checks. Returns false when the diagnosis has no per-axis lag for a pid joint (the plan then
+// gives the mismatch advice). Throws DataError naming the HAL or INI file and line where a
+// gain cannot be read or written, or the new lag breaks FERROR.
+bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o, Plan& plan,
+                std::map<std::string, std::pair<bool, std::string>>& files);
+
+}  // namespace circtest::compensation

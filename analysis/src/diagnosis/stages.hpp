@@ -91,6 +91,10 @@ void report_estimates(DiagnosisState& ds);
 void measure_following_lag(DiagnosisState& ds);
 // radius_loss.cpp: the radius change split into absolute scale and servo loss (Kv).
 void split_radius_change(DiagnosisState& ds);
+// servo_axes.cpp: each axis' following lag and position gain (commanded against feedback or
+// instrument columns, else a feed sweep's radius change), the lag mismatch, and the mismatch
+// ellipse's part of G at each feed.
+void measure_axis_lags(DiagnosisState& ds);
 // contributions.cpp: the residual over every sample, the modelled G and each term's share.
 void residual_and_contributions(DiagnosisState& ds);
 // reversals.cpp: the backlash at each end of an axis' travel from the residual's steps.

@@ -66,6 +66,24 @@ struct Contribution {
   double percent = 0.0;   // share_mm / modelled G * 100
 };
 
+// The following lag of one axis: following error over velocity at constant feed.
+struct AxisLag {
+  Estimate lag_ms;
+  std::optional<double> kv_per_s;  // effective position gain, 1000 / lag_ms
+  // "feedback" (commanded minus motor feedback), "instrument" (commanded minus the measured
+  // position, geometry fitted out) or "feeds" (mean lag from the radius change over a feed
+  // sweep, split by the fitted mismatch); empty when not measurable.
+  std::string source;
+};
+
+// What the lag mismatch makes of the circle at one feed.
+struct ServoShare {
+  double feed_mm_per_min = 0.0;
+  double g_mm = 0.0;                    // G of the mismatch ellipse alone: v |lag_A - lag_B|
+  std::optional<double> measured_g_mm;  // the largest G of the runs at this feed
+  std::optional<double> percent;        // g_mm / measured_g_mm * 100
+};
+
 struct Diagnosis {
   std::string source;
   Plane plane = Plane::XY;
@@ -90,6 +108,12 @@ struct Diagnosis {
   Estimate kv_per_s;
   std::string kv_source;  // "feeds", "lag" or empty
   Estimate lag_ms;        // mean following lag of the axes (commanded columns)
+
+  // The servo per axis (diagnosis/servo_axes.cpp): lag and gain, A minus B, per feed.
+  std::array<AxisLag, 2> axis_lag;
+  Estimate axis_lag_mismatch_ms;
+  std::vector<ServoShare> servo_share;
+
   std::array<std::optional<CyclicEstimate>, 2> cyclic;
   std::array<Estimate, 2> centre_offset_mm;  // from the nominal centre (set-up, nuisance)
 

@@ -35,6 +35,10 @@ struct DiagnosisInput {
   Measured squareness_urad;    // a_actual = a + alpha * b
   Measured servo_mismatch_ms;  // lag of the first axis minus lag of the second
   std::optional<double> kv_per_s;
+  // Per axis: the following lag (ms) and how it was measured ("feedback", "instrument",
+  // "feeds"; empty when not measured).
+  std::array<Measured, 2> axis_lag_ms;
+  std::array<std::string, 2> axis_lag_source;
   std::array<std::optional<Cyclic>, 2> cyclic;
   std::optional<std::string> ini_sha256;
   // A test set's plane: its axis k is corrected from an earlier plane of the set (its

@@ -30,10 +30,13 @@ using PlanSettingWords = SettingWords<PlanSetting>;
 std::string_view library_setting_words(PlanSetting setting) noexcept;
 
 struct PlanOptions {
-  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic", "friction"};
+  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic", "friction", "servo"};
   // Friction asked for by name: a configuration circfric cannot be wired into is then refused;
   // when it is only part of the default set, that is a note and the other corrections go on.
   bool friction_requested = false;
+  // The same for the servo gains (FF1, P): asked for by name, a HAL whose gains circcomp cannot
+  // read or write is refused; else that is a note.
+  bool servo_requested = false;
   double gain = 1.0;   // share of the measured residual to apply, (0, 1]
   bool force = false;  // apply implausible or uncertain corrections, or to a changed INI
   PlanSettingWords setting_words = library_setting_words;  // for the refusals' text

@@ -63,6 +63,15 @@ inline constexpr const char* rms_mm = "rms_mm";
 inline constexpr const char* standard_error = "standard_error";
 inline constexpr const char* kv_source = "kv_source";
 inline constexpr const char* lag_ms = "lag_ms";
+// Per axis: the following lag, its effective position gain, how it was measured
+// ("feedback", "instrument", "feeds" or null); the lag difference; per feed the mismatch
+// ellipse's G and its share of the measured G ([{feed_mm_per_min, G_mm, measured_G_mm,
+// percent}]). axis_lag_ms is defined with the test set's keys below (the same key).
+inline constexpr const char* axis_kv_per_s = "axis_kv_per_s";
+inline constexpr const char* axis_lag_source = "axis_lag_source";
+inline constexpr const char* axis_lag_mismatch_ms = "axis_lag_mismatch_ms";
+inline constexpr const char* servo_share = "servo_share";
+inline constexpr const char* measured_g_mm = "measured_G_mm";
 inline constexpr const char* nominal_radius_mm = "nominal_radius_mm";
 inline constexpr const char* absolute_channels = "absolute_channels";
 inline constexpr const char* runs = "runs";

@@ -25,6 +25,11 @@ inline std::string actual(char axis) {
 inline std::string commanded(char axis) {
   return actual(axis) + commanded_suffix;
 }
+// The motor (encoder) feedback column of an axis letter ('x' -> "x_fb"): joint.N.motor-pos-fb.
+inline constexpr const char* feedback_suffix = "_fb";
+inline std::string feedback(char axis) {
+  return actual(axis) + feedback_suffix;
+}
 // The position column circana computes from a radial trace's `r` ('x' -> "x_r").
 inline constexpr const char* from_radial_suffix = "_r";
 inline std::string from_radial(char axis) {
