@@ -62,7 +62,7 @@ if [ $sanitize = 1 ]; then
   # When the background pass got there (the suite may have finished before or after).
   echo "test.sh: sanitizer build done after $(sed -n 1p "$san_mark") s"
   echo "test.sh: sanitizer and fuzz pass done after $(sed -n 2p "$san_mark") s"
-  phase "waiting for the sanitizer pass"
+  phase "everything"
   if [ $san_rc != 0 ]; then
     echo "test.sh: the sanitizer and fuzz pass failed (exit $san_rc; whole log: $san_test_log)" >&2
     [ $suite_rc != 0 ] || suite_rc=$san_rc
