@@ -176,8 +176,9 @@ for a in axes:
     if lag_keys:
         for k in lag_keys:
             vals = [per_axis(d, k).get(a) for d in dia]
-            rows.append((f"servo: {k} {a}", "", [v if not isinstance(v, dict) else None
-                                                for v in vals], 1))
+            unit = "ms" if k.endswith("_ms") else ""
+            rows.append((f"servo: lag {a} ({k})", unit,
+                         [v if isinstance(v, (int, float)) else None for v in vals], 1))
     else:
         sign = 0.5 if a == axes[0] else -0.5
         vals = [None if d.get("lag_ms") is None or d.get("servo_mismatch_ms") is None
