@@ -19,8 +19,7 @@ if [ $# -eq 0 ]; then full_run=1; set -- -LE soak; fi
 # CIRCTEST_FUZZ_SECONDS, in a second build dir (scripts/sanitize.sh). CIRCTEST_SANITIZE_PASS=0
 # skips it. Its build and then its tests run at the lowest priority beside the suite: the
 # LinuxCNC runs (e2e) wait on real-time motion for most of the suite and leave the CPU idle,
-# and at nice 19 the pass takes only what the suite leaves (the servo threads keep their
-# periods: docs/development.md has the measurement).
+# and at nice 19 the pass takes only what the suite leaves.
 sanitize=0
 [ $full_run = 1 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ] && sanitize=1
 san_log=$BUILD_DIR/sanitize-build.log san_test_log=$BUILD_DIR/sanitize-test.log
@@ -38,17 +37,10 @@ if [ $sanitize = 1 ]; then
   ) &
   san_pass=$!
 fi
-# Two LinuxCNC runs side by side (tests/e2e/CMakeLists.txt: each takes one slot of the
-# resource linuxcnc; configs/circtest-run one of its own CIRCTEST_RUN_SLOTS): each waits on
-# its machine's motion, in real time, for most of its minute. Twice as many tests as cores:
-# the unit tests use the CPU the runs leave.
-export CIRCTEST_RUN_SLOTS=${CIRCTEST_RUN_SLOTS:-2}
-slots_file=$(cd "$BUILD_DIR" && pwd)/linuxcnc-slots.json  # ctest reads it from the build dir
-printf '{"version": {"major": 1, "minor": 0},\n "local": [{"linuxcnc": [{"id": "0", "slots": %d}]}]}\n' \
-  "$CIRCTEST_RUN_SLOTS" >"$slots_file"
+# Twice as many tests as cores: the LinuxCNC runs (e2e, one at a time) wait on the machine's
+# motion, in real time, most of their minute, and the unit tests use that CPU meanwhile.
 suite_rc=0
-ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" \
-  --resource-spec-file "$slots_file" "$@" || suite_rc=$?
+ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" "$@" || suite_rc=$?
 phase "test suite"
 if [ $sanitize = 1 ]; then
   san_rc=0
