@@ -1,119 +1,225 @@
 #!/usr/bin/env bash
 # The README's main command: install, build, then the closed loop on the simulated LinuxCNC
-# mill (configs/sim-mill, copied to ./out/machine so the repository's copy never changes):
-#   measure  circgen writes the D150 F1000 program, circtest-run runs it headless while
+# servo mill (configs/sim-servo, built as pncconf builds one and arriving untuned: FF1 = 0,
+# P 30/31; copied to ./out/machine so the repository's copy never changes):
+#   measure  circgen writes the D100 F1000 program, circtest-run runs it headless while
 #            circlog logs the servo thread, circana evaluates the instrument (table) channels;
-#   diagnose circana diagnose splits H and G into backlash, scale, squareness, servo ...;
+#   diagnose circana diagnose splits H and G into backlash, scale, squareness, spikes, cyclic,
+#            servo lag and mismatch ...;
 #   plan     circcomp plan shows the diff of what it would write;
-#   apply    circcomp apply writes it (BACKLASH / COMP_FILE, circtest_kins for squareness);
+#   apply    circcomp apply writes it;
 #   measure  the same program again on the compensated machine, diagnose again;
-# then prints H, G, F and the diagnosis before and after side by side. Everything lands in
-# ./out/ (or $1). Run as root.
+#   round 2  when the rerun's plan still changes something (a refinement step such as
+#            circfric's step 2), plan, apply and measure once more, if the time budget allows;
+# then prints H, G, F and the diagnosis (geometry and servo per axis) of each run side by
+# side, and where the time went. Everything lands in ./out/ (or OUT). Run as root.
+#   scripts/demo.sh [--no-setup] [OUT]
+# --no-setup: the build tree (CIRCTEST_BUILD_DIR, default build) is used as it is (the e2e
+# test runs it so); otherwise scripts/setup.sh installs and builds first.
+# CIRCTEST_DEMO_ROUNDS (default 2) caps the apply rounds; CIRCTEST_DEMO_BUDGET_S (default 180)
+# is the time after the build within which a further round must fit.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh
+setup=1
+if [ "${1:-}" = --no-setup ]; then setup=0; shift; fi
+[ $setup = 0 ] || scripts/setup.sh
+t_start=$SECONDS
+timings=()
+timed() {  # LABEL COMMAND...: run it, note its seconds
+  local label=$1 t=$SECONDS
+  shift
+  "$@"
+  timings+=("$label=$((SECONDS - t))")
+}
 BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
 bin=$(cd "$BUILD_DIR" && pwd)
 out=${1:-out}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
 circana=$bin/analysis/circana circcomp=$bin/compensation/circcomp ini_tool=$bin/core/circtest-ini
+rounds=${CIRCTEST_DEMO_ROUNDS:-2} budget_s=${CIRCTEST_DEMO_BUDGET_S:-180}
 # circcomp apply checks that the realtime modules a plan loads are where the run loads them:
 # circtest-run takes them from this build tree, not from an installed package.
 export CIRCTEST_KINS_MODULE=$bin/hal-component/circtest_kins.so
 export CIRCTEST_FRIC_MODULE=$bin/hal-component/circfric.so
 
-# The machine: sim-mill's own errors (backlash on X, X out of square to Y, unequal
-# position-loop gains) plus a scale error on X, in a copy that circcomp may change.
-rm -rf "$out/machine"
-cp -r configs/sim-mill "$out/machine"
-ini=$out/machine/sim-mill.ini
+# The machine: sim-servo's own errors (X backlash 10 um, X out of square to Y by 100 urad,
+# friction that makes the reversal spikes, P 30/31 with FF1 = 0: X lags Y) plus a scale error
+# on X and a cyclic error on Y, in a copy (links resolved) that circcomp may change.
+rm -rf "$out"/machine "$out"/*-run "$out"/after-*.csv "$out"/plan-*.diff "$out"/apply-*.txt
+cp -rL configs/sim-servo "$out/machine"
+ini=$out/machine/sim-servo.ini
 "$ini_tool" set "$ini" SIM SCALE_X 50e-6
+"$ini_tool" set "$ini" SIM CYCLIC_Y 0.002
+"$ini_tool" set "$ini" SIM CYCLIC_PITCH_Y 5
 sim() { "$ini_tool" get "$ini" SIM "$1"; }
+joint() { "$ini_tool" get "$ini" "JOINT_$1" "$2"; }
+injected="backlash X $(sim BACKLASH_X) mm, scale X $(sim SCALE_X), squareness XY \
+$(sim SQUARENESS_XY) rad, cyclic Y $(sim CYCLIC_Y) mm (pitch $(sim CYCLIC_PITCH_Y) mm), friction \
+X/Y $(sim FRICTION_X)/$(sim FRICTION_Y) mm/s, P $(joint 0 P)/$(joint 1 P) 1/s with FF1 \
+$(joint 0 FF1)/$(joint 1 FF1)"
 
-"$bin/gcode-gen/circgen" --d 150 --f 1000 --ini "$ini" -o "$out/test.ngc"
+# D100: the servo mismatch ellipse (v x the lag difference) does not shrink with the radius,
+# and each run takes about 40 s instead of a minute at D150.
+"$bin/gcode-gen/circgen" --d 100 --f 1000 --ini "$ini" -o "$out/test.ngc"
 
 measure() {  # NAME: run the program, evaluate and diagnose
   local name=$1
-  echo "circtest: running $out/test.ngc on the simulated mill ($name, about a minute)..."
-  CIRCTEST_BIN=$bin configs/circtest-run --ini "$ini" --program "$out/test.ngc" \
-    --out "$out/$name-run"
+  echo "circtest: running $out/test.ngc on the simulated servo mill ($name, about 45 s)..."
+  timed "run $name" env CIRCTEST_BIN="$bin" configs/circtest-run --ini "$ini" \
+    --program "$out/test.ngc" --out "$out/$name-run"
+  local t=$SECONDS
   cp "$out/$name-run/trace.csv" "$out/$name.csv"
   "$circana" analyze "$out/$name.csv" --json >"$out/$name.json"
   "$circana" analyze "$out/$name.csv" --svg "$out/$name.svg" --scale-um-per-div 5 \
     >"$out/$name-report.txt"
+  local diag=$out/$name-diagnosis
+  [ "$name" != before ] || diag=$out/diagnosis
+  "$circana" diagnose "$out/$name.csv" --json >"$diag.json"
+  "$circana" diagnose "$out/$name.csv" >"$diag.txt"
+  timings+=("analyse $name=$((SECONDS - t))")
 }
+# plan and apply the diagnosis of run NAME; SUFFIX names the round's files
+compensate() {
+  local diag=$1 suffix=$2 t=$SECONDS
+  "$circcomp" plan --ini "$ini" "$diag" >"$out/plan$suffix.diff"
+  "$circcomp" apply --ini "$ini" "$diag" >"$out/apply$suffix.txt"
+  timings+=("plan and apply$suffix=$((SECONDS - t))")
+}
+changes() { grep -c '^# change:' "$1" || true; }
 
+runs=(before)
 measure before
-"$circana" diagnose "$out/before.csv" --json >"$out/diagnosis.json"
-"$circana" diagnose "$out/before.csv" >"$out/diagnosis.txt"
-"$circcomp" plan --ini "$ini" "$out/diagnosis.json" >"$out/plan.diff"
-"$circcomp" apply --ini "$ini" "$out/diagnosis.json" >"$out/apply.txt"
+compensate "$out/diagnosis.json" ""
 measure after
-"$circana" diagnose "$out/after.csv" --json >"$out/after-diagnosis.json"
-"$circana" diagnose "$out/after.csv" >"$out/after-diagnosis.txt"
-"$circana" analyze "$out/after.csv" --compare "$out/before.csv" --svg "$out/before-after.svg" \
+runs+=(after)
+last=after
+for ((round = 2; round <= rounds; round++)); do
+  "$circcomp" plan --ini "$ini" "$out/$last-diagnosis.json" >"$out/plan-$round.diff"
+  [ "$(changes "$out/plan-$round.diff")" -gt 0 ] || break
+  # The round's cost: the last run and its evaluation again.
+  cost=0
+  for t in "${timings[@]}"; do
+    case "$t" in "run $last="* | "analyse $last="*) cost=$((cost + ${t##*=})) ;; esac
+  done
+  if [ $((SECONDS - t_start + cost)) -gt "$budget_s" ]; then
+    echo "circtest: round $round left out: it would end after ${budget_s} s" \
+      "(plan in $out/plan-$round.diff)"
+    break
+  fi
+  compensate "$out/$last-diagnosis.json" "-$round"
+  measure "after-$round"
+  last=after-$round
+  runs+=("$last")
+done
+
+t=$SECONDS
+"$circana" analyze "$out/$last.csv" --compare "$out/before.csv" --svg "$out/before-after.svg" \
   --scale-um-per-div 5 >/dev/null
 # The report a service engineer hands over: after against before, with the remaining diagnosis.
-"$circana" report "$out/after.csv" "$out/before.csv" -o "$out/report.html" --scale-um-per-div 5 \
-  --diagnosis "$out/after-diagnosis.json" >/dev/null
+"$circana" report "$out/$last.csv" "$out/before.csv" -o "$out/report.html" \
+  --scale-um-per-div 5 --diagnosis "$out/$last-diagnosis.json" >/dev/null
+timings+=("plots and report=$((SECONDS - t))")
 
 cat "$out/before-report.txt"
 echo
-echo "circcomp plan (the whole diff is in $out/plan.diff):"
-grep '^# ' "$out/plan.diff" || true
-echo
-python3 - "$out" <<'EOF'
+for suffix in "" $(seq -f -%g 2 $((${#runs[@]} - 1))); do
+  echo "circcomp plan$suffix (the whole diff is in $out/plan$suffix.diff):"
+  grep '^# ' "$out/plan$suffix.diff" || true
+  echo
+done
+# The side-by-side table, also kept as summary.json (the figures the e2e test checks).
+python3 - "$out" "${runs[@]}" <<'EOF'
 import json, sys
-out = sys.argv[1]
-before, after = (json.load(open(f"{out}/{n}.json")) for n in ("before", "after"))
-d0, d1 = (json.load(open(f"{out}/{n}.json")) for n in ("diagnosis", "after-diagnosis"))
-def um(v): return "-" if v is None else f"{v * 1e3:8.2f}"
-def num(v, f="{:8.2f}"): return "-" if v is None else f.format(v)
+out, names = sys.argv[1], sys.argv[2:]
+res = [json.load(open(f"{out}/{n}.json")) for n in names]
+dia = [json.load(open(f"{out}/{'diagnosis' if n == 'before' else n + '-diagnosis'}.json"))
+       for n in names]
 def geometric_g(d):  # the modelled G less the servo terms' shares
-    g = d["model_G_mm"]
-    for c in d["contributions"]:
+    g = d.get("model_G_mm")
+    if g is None:
+        return None
+    for c in d.get("contributions", []):
         if c["source"] in ("servo mismatch", "radius change"):
             g -= c["share_mm"]
     return g
-rows = [("H (um)", um(before["H"]), um(after["H"]))]
-for i, (r0, r1) in enumerate(zip(before["runs"], after["runs"])):
+def per_axis(d, key):
+    v = d.get(key)
+    return v if isinstance(v, dict) else {}
+axes = dia[0]["axes"]
+rows = []  # (label, unit, [value per run], format)
+rows.append(("H", "um", [r["H"] for r in res], 1e3))
+for i, r0 in enumerate(res[0]["runs"]):
     lab = r0["label"]
-    rows += [(f"G {lab} (um)", um(r0["G"]), um(r1["G"])),
-             (f"F {lab} max/min (um)", f"{um(r0['F_max']).strip()}/{um(r0['F_min']).strip()}",
-              f"{um(r1['F_max']).strip()}/{um(r1['F_min']).strip()}")]
-ax = d0["axes"]
-for a in ax:
-    rows.append((f"backlash {a} (um)", um(d0["backlash_mm"][a]), um(d1["backlash_mm"][a])))
-for a in ax:
-    rows.append((f"scale {a} (ppm)", num(d0["scale_ppm"][a]), num(d1["scale_ppm"][a])))
-rows += [("scale mismatch (ppm)", num(d0["scale_mismatch_ppm"]), num(d1["scale_mismatch_ppm"])),
-         ("squareness (urad)", num(d0["squareness_urad"]), num(d1["squareness_urad"])),
-         ("servo mismatch (ms)", num(d0["servo_mismatch_ms"], "{:8.3f}"),
-          num(d1["servo_mismatch_ms"], "{:8.3f}")),
-         ("modelled G (um)", um(d0["model_G_mm"]), um(d1["model_G_mm"])),
-         ("  without servo terms (um)", um(geometric_g(d0)), um(geometric_g(d1)))]
-print(f"{'':28} {'before':>14} {'after':>14}")
-for name, b, a in rows:
-    print(f"{name:28} {b:>14} {a:>14}")
+    rows.append((f"G {lab}", "um", [r["runs"][i]["G"] for r in res], 1e3))
+rows.append(("G worst", "um", [max(x["G"] for x in r["runs"]) for r in res], 1e3))
+for a in axes:
+    rows.append((f"backlash {a}", "um", [per_axis(d, "backlash_mm").get(a) for d in dia], 1e3))
+for a in axes:
+    rows.append((f"reversal spike {a}", "um",
+                 [per_axis(d, "reversal_spike_mm").get(a) for d in dia], 1e3))
+for a in axes:
+    rows.append((f"scale {a}", "ppm", [per_axis(d, "scale_ppm").get(a) for d in dia], 1))
+for a in axes:
+    rows.append((f"cyclic {a}", "um", [(per_axis(d, "cyclic").get(a) or {}).get("amplitude_mm")
+                                       for d in dia], 1e3))
+rows.append(("squareness", "urad", [d.get("squareness_urad") for d in dia], 1))
+# The servo: the mean following lag and the mismatch (X lags Y by ...), and per axis the lag
+# wherever the diagnosis has a per-axis lag object (its key names "lag"); without one, the
+# mean +- half the mismatch, which is what diagnose's model of two first-order loops fits.
+rows.append(("servo: mean lag", "ms", [d.get("lag_ms") for d in dia], 1))
+rows.append(("servo: mismatch", "ms", [d.get("servo_mismatch_ms") for d in dia], 1))
+rows.append(("servo: Kv", "1/s", [d.get("kv_per_s") for d in dia], 1))
+lag_keys = sorted(k for k in dia[0] if "lag" in k and isinstance(dia[0][k], dict)
+                  and set(dia[0][k]) & set(axes))
+for a in axes:
+    if lag_keys:
+        for k in lag_keys:
+            vals = [per_axis(d, k).get(a) for d in dia]
+            unit = "ms" if k.endswith("_ms") else ""
+            rows.append((f"servo: lag {a} ({k})", unit,
+                         [v if isinstance(v, (int, float)) else None for v in vals], 1))
+    else:
+        sign = 0.5 if a == axes[0] else -0.5
+        vals = [None if d.get("lag_ms") is None or d.get("servo_mismatch_ms") is None
+                else d["lag_ms"] + sign * d["servo_mismatch_ms"] for d in dia]
+        rows.append((f"servo: lag {a} (model)", "ms", vals, 1))
+rows.append(("modelled G", "um", [d.get("model_G_mm") for d in dia], 1e3))
+rows.append(("  without servo terms", "um", [geometric_g(d) for d in dia], 1e3))
+def fmt(v, scale, unit):
+    if v is None:
+        return "-"
+    return f"{v * scale:.3f}" if unit in ("ms",) else f"{v * scale:.2f}"
+print(f"{'':30}" + "".join(f"{n:>14}" for n in names))
+for label, unit, vals, scale in rows:
+    name = f"{label} ({unit})" if unit else label
+    print(f"{name:30}" + "".join(f"{fmt(v, scale, unit):>14}" for v in vals))
+json.dump({"runs": names,
+           "rows": [{"label": l, "unit": u, "values": [None if v is None else v * s
+                                                       for v in vals]}
+                    for l, u, vals, s in rows]},
+          open(f"{out}/summary.json", "w"), indent=1)
 EOF
 
 echo
+printf 'circtest: where the time went (s):'
+for t in "${timings[@]}"; do printf ' %s %s;' "${t%=*}" "${t##*=}"; done
+echo " total $((SECONDS - t_start)) after the build"
+echo
 echo "circtest: done. Files in $out/:"
-echo "  test.ngc                   the ISO 230-4 test program (circgen --d 150 --f 1000)"
-echo "  before.csv, after.csv      what circlog logged every servo period (commanded x_cmd,"
+echo "  test.ngc                   the ISO 230-4 test program (circgen --d 100 --f 1000)"
+echo "  before.csv, after*.csv     what circlog logged every servo period (commanded x_cmd,"
 echo "                             motor x_fb and table x, the instrument), before and after"
-echo "  before.json, after.json    H, G, F per direction in mm (circana analyze --json)"
-echo "  before-report.txt, after-report.txt   the clause 6 reports"
-echo "  before-after.svg           both tests in one plot at 5 um/div: before solid, after dashed"
-echo "  before.svg, after.svg      each test alone, at the same scale"
+echo "  before.json, after*.json   H, G, F per direction in mm (circana analyze --json)"
+echo "  before-report.txt, after*-report.txt   the clause 6 reports"
+echo "  before-after.svg           first and last test in one plot at 5 um/div"
+echo "  before.svg, after*.svg     each test alone, at the same scale"
 echo "  report.html                the report to hand over (circana report): clause 6 header, H/G/F"
 echo "                             before and after, both paths, the remaining diagnosis; prints A4"
 echo "  diagnosis.json/.txt        circana diagnose of the first run (what circcomp reads)"
-echo "  plan.diff                  circcomp plan: every file it changes or creates, and advice"
-echo "  after-diagnosis.json/.txt  circana diagnose of the compensated machine"
+echo "  plan*.diff, apply*.txt     circcomp plan and apply of each round"
+echo "  after*-diagnosis.json/.txt circana diagnose of the compensated machine"
+echo "  summary.json               the table above"
 echo "  machine/                   the compensated configuration (circcomp revert --ini"
-echo "                             $ini undoes it)"
-echo "The simulated machine has backlash $(sim BACKLASH_X) mm and scale $(sim SCALE_X) on X,"
-echo "squareness $(sim SQUARENESS_XY) rad of X to Y, position-loop gains $(sim KV_X)/$(sim KV_Y) 1/s."
-echo "circcomp writes backlash, scale and squareness; the gain mismatch stays (advice in plan.diff)."
+echo "                             $ini --to as-found undoes it)"
+echo "The simulated machine has $injected."

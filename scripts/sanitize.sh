@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # The second build of scripts/test.sh: clang with CIRCTEST_SANITIZE (ASan + UBSan with
 # float-cast-overflow) and CIRCTEST_FUZZ, in its own build dir; runs the unit tests once
-# under the sanitizers and each fuzz harness for CIRCTEST_FUZZ_SECONDS (docs/fuzzing.md). The HAL part and
-# the benchmarks are left out: they are not unit-tested code paths and would double the build.
+# under the sanitizers and each fuzz harness for CIRCTEST_FUZZ_SECONDS (default 10: the gate
+# replays its fixed seed from the corpus; exploration is the longer hand run of docs/fuzzing.md).
+# The HAL part and the benchmarks are left out: they are not unit-tested code paths and would
+# double the build.
 #   scripts/sanitize.sh [all|build|test] [CTEST ARGS...]   (default all: build, then test)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -17,6 +19,7 @@ if [ "$phase" != test ]; then
   cmake -S . -B "$SAN_DIR" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCIRCTEST_SANITIZE=ON -DCIRCTEST_FUZZ=ON \
     -DCIRCTEST_BUILD_HAL=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
+    -DCIRCTEST_FUZZ_SECONDS="${CIRCTEST_FUZZ_SECONDS:-10}" \
     "${launcher[@]}"
   cmake --build "$SAN_DIR" -j"$(nproc)"
 fi

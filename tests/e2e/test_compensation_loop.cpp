@@ -125,7 +125,9 @@ TEST_F(CompensationLoop, DiagnosedBacklashScaleAndSquarenessWrittenBackAndGone) 
   set("SQUARENESS_XY", "100e-6");
   const std::string original = slurp(ini_);
   const std::string hal_original = slurp(out_ / "machine" / "sim-mill.hal");
-  ASSERT_EQ(run(std::string(CIRCGEN_PATH) + " --d 150 --f 1000 --ini " + ini_ + " -o " +
+  // D100: the thresholds below are ratios and the diagnosed errors do not depend on the
+  // radius; each run takes 45 s instead of a minute at D150.
+  ASSERT_EQ(run(std::string(CIRCGEN_PATH) + " --d 100 --f 1000 --ini " + ini_ + " -o " +
                 (out_ / "test.ngc").string()),
             0);
   const json before = measure("before");
