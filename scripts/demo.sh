@@ -16,7 +16,7 @@
 #   scripts/demo.sh [--no-setup] [OUT]
 # --no-setup: the build tree (CIRCTEST_BUILD_DIR, default build) is used as it is (the e2e
 # test runs it so); otherwise scripts/setup.sh installs and builds first.
-# CIRCTEST_DEMO_ROUNDS (default 2) caps the apply rounds; CIRCTEST_DEMO_BUDGET_S (default 180)
+# CIRCTEST_DEMO_ROUNDS (default 3) caps the apply rounds; CIRCTEST_DEMO_BUDGET_S (default 180)
 # is the time after the build within which a further round must fit.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -37,7 +37,7 @@ out=${1:-out}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
 circana=$bin/analysis/circana circcomp=$bin/compensation/circcomp ini_tool=$bin/core/circtest-ini
-rounds=${CIRCTEST_DEMO_ROUNDS:-2} budget_s=${CIRCTEST_DEMO_BUDGET_S:-180}
+rounds=${CIRCTEST_DEMO_ROUNDS:-3} budget_s=${CIRCTEST_DEMO_BUDGET_S:-180}
 # circcomp apply checks that the realtime modules a plan loads are where the run loads them:
 # circtest-run takes them from this build tree, not from an installed package.
 export CIRCTEST_KINS_MODULE=$bin/hal-component/circtest_kins.so
@@ -46,7 +46,7 @@ export CIRCTEST_FRIC_MODULE=$bin/hal-component/circfric.so
 # The machine: sim-servo's own errors (X backlash 10 um, X out of square to Y by 100 urad,
 # friction that makes the reversal spikes, P 30/31 with FF1 = 0: X lags Y) plus a scale error
 # on X and a cyclic error on Y, in a copy (links resolved) that circcomp may change.
-rm -rf "$out"/machine "$out"/*-run "$out"/after-*.csv "$out"/plan-*.diff "$out"/apply-*.txt
+rm -rf "$out"/machine "$out"/*-run "$out"/after-*.csv "$out"/plan-*.diff "$out"/plan*.json "$out"/apply-*.txt
 cp -rL configs/sim-servo "$out/machine"
 ini=$out/machine/sim-servo.ini
 "$ini_tool" set "$ini" SIM SCALE_X 50e-6
@@ -83,12 +83,16 @@ measure() {  # NAME: run the program, evaluate and diagnose
 compensate() {
   local diag=$1 suffix=$2 t=$SECONDS
   "$circcomp" plan --ini "$ini" "$diag" >"$out/plan$suffix.diff"
+  # The same plan as data: what the report's first page says was changed.
+  "$circcomp" plan --ini "$ini" "$diag" --json >"$out/plan$suffix.json"
+  plans+=("--changes" "$out/plan$suffix.json")
   "$circcomp" apply --ini "$ini" "$diag" >"$out/apply$suffix.txt"
   timings+=("plan and apply$suffix=$((SECONDS - t))")
 }
 changes() { grep -c '^# change:' "$1" || true; }
 
 runs=(before)
+plans=()
 measure before
 compensate "$out/diagnosis.json" ""
 measure after
@@ -118,7 +122,10 @@ t=$SECONDS
   --scale-um-per-div 5 >/dev/null
 # The report a service engineer hands over: after against before, with the remaining diagnosis.
 "$circana" report "$out/$last.csv" "$out/before.csv" -o "$out/report.html" \
-  --scale-um-per-div 5 --diagnosis "$out/$last-diagnosis.json" >/dev/null
+  --scale-um-per-div 5 --diagnosis "$out/diagnosis.json" --diagnosis "$out/$last-diagnosis.json" \
+  "${plans[@]}" --machine "sim-servo (simulated)" --tested-by "circtest demo" \
+  --instrument "table position (simulated linear scales)" \
+  --limits H=0.012,G=0.020,F=0.015 >/dev/null
 timings+=("plots and report=$((SECONDS - t))")
 
 cat "$out/before-report.txt"

@@ -40,7 +40,7 @@ const char* kUsage =
     "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
     "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
     "                      [--db URL] [--limits H=MM,... | --limits-file FILE]\n"
-    "                      [--changes PLAN.json] [--tested-by NAME] [--accepted-by NAME]\n"
+    "                      [--changes PLAN.json]... [--tested-by NAME] [--accepted-by NAME]\n"
     "       circana fit POINTS.csv [--columns A,B] [--json]\n"
     "       circana import EXPORT.txt -o TRACE.csv [--columns angle_deg,dev_um|t_s,x_mm,y_mm|...]\n"
     "                      [--radius MM] [--plane XY|YZ|ZX] [--feed MM_PER_MIN]\n"
@@ -72,8 +72,9 @@ void answer_info(const po::options_description& desc, const std::vector<std::str
 // Options whose values are file names or URLs: any bytes the file system allows. Every other
 // value goes into a JSON document, a plot or the history, so it must be UTF-8 text.
 bool names_a_file(const std::string& option) {
-  static const char* const kFileOptions[] = {"trace",   "before", "diagnosis", "output", "svg",
-                                             "compare", "db",     "input",     "points", "ini"};
+  static const char* const kFileOptions[] = {"trace",  "before",  "diagnosis", "output",
+                                             "svg",    "compare", "db",        "input",
+                                             "points", "ini",     "changes",   "limits-file"};
   return std::find(std::begin(kFileOptions), std::end(kFileOptions), option) !=
          std::end(kFileOptions);
 }
@@ -359,7 +360,8 @@ int report(const std::vector<std::string>& args) {
             "db", po::value<std::string>(), "the trend from this history (SQLite file or URL)")(
             "limits", po::value<std::string>(), "H=MM,G=MM,...: the verdict's limits")(
             "limits-file", po::value<std::string>(), "the verdict's limits from a file")(
-            "changes", po::value<std::string>(), "what was changed (circcomp plan --json)")(
+            "changes", po::value<std::vector<std::string>>(),
+            "what was changed (circcomp plan --json; one per round, in order)")(
             "tested-by", po::value<std::string>(), "the name for the signature block")(
             "accepted-by", po::value<std::string>(), "the customer's name for the signature");
       },
@@ -381,7 +383,7 @@ int report(const std::vector<std::string>& args) {
   };
   req.limits = text("limits");
   req.limits_file = text("limits-file");
-  req.changes_path = text("changes");
+  if (p.vm.count("changes")) req.changes_paths = p.vm["changes"].as<std::vector<std::string>>();
   req.tested_by = text("tested-by");
   req.accepted_by = text("accepted-by");
   return run_report(req, std::cout);

@@ -119,8 +119,9 @@ std::pair<history::Limits, std::string> limits_of(const ReportRequest& request) 
   return {};
 }
 
-// What circcomp changed (circcomp plan --json, circtest.plan/1): each change's words and the
-// plan's advice. A ParseError names the file and the key of anything else.
+// What circcomp changed (circcomp plan --json, circtest.plan/1): each change's words, appended
+// round after round; the advice is the last plan's (what is still left). A ParseError names the
+// file and the key of anything else.
 void read_changes(const std::string& path, HandOver& h) {
   // The schema circcomp writes (compensation/plan_json.hpp); circana reads it as data only.
   constexpr const char* kPlanSchema = "circtest.plan/1";
@@ -140,6 +141,7 @@ void read_changes(const std::string& path, HandOver& h) {
     const bool wiring = changes[i].contains("kind") && rd.text(changes[i], "kind", at) == "wiring";
     (wiring ? h.wiring : h.changes).push_back(std::move(words));
   }
+  h.advice.clear();
   if (j.contains("advice")) {
     const auto& advice = rd.array(j, "advice", "");
     for (std::size_t i = 0; i < advice.size(); ++i) {
@@ -147,7 +149,7 @@ void read_changes(const std::string& path, HandOver& h) {
       h.advice.push_back(advice[i].get<std::string>());
     }
   }
-  h.changes_source = path;
+  h.changes_source += (h.changes_source.empty() ? "" : ", ") + path;
 }
 
 // The verdict of one plane: H, G, F always, backlash and squareness when a limit is set for
@@ -221,7 +223,7 @@ int run_report(const ReportRequest& request, std::ostream& out) {
   handover.limits_source = limits_source;
   handover.tested_by = request.tested_by;
   handover.accepted_by = request.accepted_by;
-  if (!request.changes_path.empty()) read_changes(request.changes_path, handover);
+  for (const std::string& path : request.changes_paths) read_changes(path, handover);
   auto eval = [&request](const std::string& path) {
     return evaluate_file(path, request.options, request.radial);
   };

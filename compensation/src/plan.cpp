@@ -831,8 +831,18 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
     plan_squareness_step(
         c, change ? std::vector<SquarenessChange>{*change} : std::vector<SquarenessChange>{});
   }
+  const std::size_t changes_before_servo = plan.changes.size();
   if (!servo_step(c)) servo_advice(c);
-  if (!friction_step(c)) spike_advice(c);
+  if (plan.changes.size() > changes_before_servo && c.wants("friction")) {
+    // The spike is the loop's answer to the friction: new gains make another spike, and step 1
+    // divides by the share of the pulse the old lag passes. Tuned on the old loop, circfric
+    // would push the table by that share's inverse (2.5x at FF1 0 -> 1).
+    plan.notes.push_back(
+        "friction compensation not planned in this round: the servo gains change, and the "
+        "reversal spike changes with them; rerun the circle and plan again");
+  } else if (!friction_step(c)) {
+    spike_advice(c);
+  }
   collect_files(c);
   return plan;
 }

@@ -378,3 +378,24 @@ TEST(Servo, CirccompPlanRefusalExitsWithFive) {
 }
 
 }  // namespace
+
+// Gains and spikes in one diagnosis: the gains now, the friction after a rerun. circfric's
+// step 1 divides the spike by the share of the pulse the measured lag passes; with FF1 going
+// from 0 to 1 that share changes (0.4 -> about 1), and a pulse tuned on the old loop would
+// push the table by 2.5x the spike.
+TEST(Servo, FrictionWaitsForTheRerunWhenTheGainsChange) {
+  Config c("pncconf-servo");
+  DiagnosisInput d = lags(kLagX, kLagY);
+  d.reversal_spike_mm[0] = {0.010, 0.0002};
+  d.reversal_spike_ms[0] = 40.0;
+  const Plan plan = make_plan(c.ini, d, PlanOptions{});
+  const FileChange* ini = file_of(plan, "pncconf-servo.ini");
+  ASSERT_NE(ini, nullptr) << all(plan.notes);
+  EXPECT_NEAR(number(IniDocument::parse(ini->after), "JOINT_0", "FF1"), 1.0, 1e-6);
+  EXPECT_EQ(file_of(plan, "circtest-fric.hal"), nullptr);
+  EXPECT_EQ(ini->after.find("[FRICTION_X]"), std::string::npos) << ini->after;
+  EXPECT_TRUE(has_text(plan.notes,
+                       "friction compensation not planned in this round: the servo "
+                       "gains change"))
+      << all(plan.notes);
+}

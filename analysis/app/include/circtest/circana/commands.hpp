@@ -123,11 +123,12 @@ struct ReportRequest {
   PlotOptions plot;
   std::string db_url;  // the trend from this history; empty: no trend
   std::string output_path;
-  std::string limits;        // "H=0.015,G=0.020" as circana history --limits; empty: none
-  std::string limits_file;   // the same items in a file, one or more a line, '#' comments
-  std::string changes_path;  // circcomp plan --json: what was changed between the tests
-  std::string tested_by;     // empty: the trace's operator
-  std::string accepted_by;   // empty: a blank line to sign on
+  std::string limits;       // "H=0.015,G=0.020" as circana history --limits; empty: none
+  std::string limits_file;  // the same items in a file, one or more a line, '#' comments
+  // circcomp plan --json of each apply between the tests, in order: what was changed
+  std::vector<std::string> changes_paths;
+  std::string tested_by;    // empty: the trace's operator
+  std::string accepted_by;  // empty: a blank line to sign on
 };
 int run_report(const ReportRequest& request, std::ostream& out);
 
