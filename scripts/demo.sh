@@ -9,8 +9,9 @@
 #   plan     circcomp plan shows the diff of what it would write;
 #   apply    circcomp apply writes it;
 #   measure  the same program again on the compensated machine, diagnose again;
-#   round 2  when the rerun's plan still changes something (a refinement step such as
-#            circfric's step 2), plan, apply and measure once more, if the time budget allows;
+#   round 2+ when the rerun's plan still changes something (friction compensation, which
+#            waits for the servo gains' rerun; circfric's step 2; refinements), plan, apply
+#            and measure once more, if the time budget allows;
 # then prints H, G, F and the diagnosis (geometry and servo per axis) of each run side by
 # side, and where the time went. Everything lands in ./out/ (or OUT). Run as root.
 #   scripts/demo.sh [--no-setup] [OUT]

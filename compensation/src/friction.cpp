@@ -600,6 +600,16 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   }
   std::set<char> added;
   for (int k = 0; k < 2; ++k) {
+    const std::optional<double> lag_ms = d.axis_lag_ms[k].value;
+    if (lag_ms && *lag_ms < kFrictionMinLagMs && d.reversal_spike_mm[k].value &&
+        std::fabs(*d.reversal_spike_mm[k].value) >= kMinFrictionSpikeMm) {
+      plan.notes.push_back(fmt::format(
+          "{} friction compensation not planned: the axis follows within {:.1f} ms (below "
+          "{:.0f} ms: feed-forward or a stepgen), and circfric's pulse at the reversal then "
+          "arrives before the table sticks; tune it by hand (docs/circfric.md, Halscope)",
+          d.axes[k], *lag_ms, kFrictionMinLagMs));
+      continue;
+    }
     if (wired.count(d.axes[k])) {
       refinement(ini, d, k, upm, o, plan);
     } else if (first_tuning(ini, d, k, upm, o, plan)) {

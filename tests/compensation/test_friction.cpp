@@ -564,3 +564,21 @@ TEST(Friction, StepOneBoundIsTwiceTheSpikeAsWritten) {
   EXPECT_FALSE(has_text(plan.notes, "] AMPLITUDE_MAX ")) << "no bound lowered by a rounding";
   EXPECT_TRUE(has_text(plan.changes, "DECAY_MS"));
 }
+
+// A loop that follows within a few ms passes circfric's pulse before the table sticks: no
+// pulse is planned for that axis, a note says why; the lagging axis is tuned as ever.
+TEST(Friction, NoPulseWhereTheAxisFollowsWithinAFewMs) {
+  Config c("servo-mill");
+  DiagnosisInput d = spikes(0.010, 0.008);
+  d.axis_lag_ms[0] = {0.7, 0.01};   // X: FF1 about 1
+  d.axis_lag_ms[1] = {33.0, 0.01};  // Y: FF1 0
+  const Plan plan = make_plan(c.ini, d, friction_only());
+  const FileChange* ini = file_of(plan, "servo-mill.ini");
+  ASSERT_NE(ini, nullptr);
+  const IniDocument after = IniDocument::parse(ini->after);
+  EXPECT_FALSE(after.get("FRICTION_X", "AMPLITUDE"));
+  EXPECT_TRUE(after.get("FRICTION_Y", "AMPLITUDE"));
+  EXPECT_TRUE(has_text(plan.notes,
+                       "X friction compensation not planned: the axis follows "
+                       "within 0.7 ms"));
+}

@@ -27,6 +27,12 @@ inline constexpr double kMinFrictionSpikeMm = 0.002;
 inline constexpr double kMaxFrictionSpikeMm = 0.1;
 // Step 2 runs when the residual spike exceeds this share of the first measured one.
 inline constexpr double kFrictionRefineShare = 0.3;
+// circfric's pulse starts at the reversal. Through a loop that lags (FF1 0: 1/Kv, about 33 ms)
+// it reaches the table when the table sticks; a loop that follows within a few ms (FF1 about
+// 1, a stepgen) passes it before the stick, which on the simulated servo machine peaks 60 ms
+// after the reversal: there step 1 left 98 % of X's spike and raised G (12.6 -> 15.3 um).
+// Below this measured lag (ms) circcomp plans no pulse and says so.
+inline constexpr double kFrictionMinLagMs = 5.0;
 
 // The configuration's HAL cannot take circfric where circcomp splices it (no pid or stepgen
 // reads the joint's position command, two do, no motion-controller in a thread, circfric
