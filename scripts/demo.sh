@@ -143,12 +143,13 @@ out, names = sys.argv[1], sys.argv[2:]
 res = [json.load(open(f"{out}/{n}.json")) for n in names]
 dia = [json.load(open(f"{out}/{'diagnosis' if n == 'before' else n + '-diagnosis'}.json"))
        for n in names]
-def geometric_g(d):  # the modelled G less the servo terms' shares
+def geometric_g(d):  # the modelled G less the shares of the servo and friction terms
     g = d.get("model_G_mm")
     if g is None:
         return None
     for c in d.get("contributions", []):
-        if c["source"] in ("servo mismatch", "radius change"):
+        if c["source"] in ("servo mismatch", "radius change") or \
+                c["source"].startswith("reversal spike"):
             g -= c["share_mm"]
     return g
 def per_axis(d, key):
@@ -193,7 +194,7 @@ for a in axes:
                 else d["lag_ms"] + sign * d["servo_mismatch_ms"] for d in dia]
         rows.append((f"servo: lag {a} (model)", "ms", vals, 1))
 rows.append(("modelled G", "um", [d.get("model_G_mm") for d in dia], 1e3))
-rows.append(("  without servo terms", "um", [geometric_g(d) for d in dia], 1e3))
+rows.append(("  without servo and friction", "um", [geometric_g(d) for d in dia], 1e3))
 def fmt(v, scale, unit):
     if v is None:
         return "-"
