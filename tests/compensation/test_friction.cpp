@@ -21,41 +21,19 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/sha256.hpp"
+#include "plan_test_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
 using namespace circtest::compensation;
+using circtest::testing::file_of;
+using circtest::testing::has_text;
 
 namespace {
 
-// A copy of one fixture configuration in a scratch folder.
-struct Config {
-  fs::path dir;
-  std::string ini;
-  explicit Config(const std::string& fixture) {
-    dir = fs::temp_directory_path() /
-          ("circcomp-fric-" + std::to_string(::getpid()) + "-" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    for (const auto& e : fs::directory_iterator(fs::path(FIXTURE_DIR) / fixture)) {
-      fs::copy_file(e.path(), dir / e.path().filename());
-    }
-    ini = (dir / (fixture + ".ini")).string();
-  }
-  ~Config() { fs::remove_all(dir); }
-  std::string read(const std::string& name) const { return read_file((dir / name).string()); }
-  void write(const std::string& name, const std::string& text) const {
-    std::ofstream(dir / name, std::ios::binary) << text;
-  }
-  // Every file of the folder (but .circcomp) with its bytes.
-  std::map<std::string, std::string> files() const {
-    std::map<std::string, std::string> out;
-    for (const auto& e : fs::directory_iterator(dir)) {
-      if (e.is_regular_file()) out[e.path().filename().string()] = read_file(e.path().string());
-    }
-    return out;
-  }
+// A copy of one fixture configuration (tests/compensation/fixtures) in a scratch folder.
+struct Config : circtest::testing::ConfigCopy {
+  explicit Config(const std::string& fixture) : ConfigCopy(FIXTURE_DIR, fixture, "fric") {}
 };
 
 // A diagnosis with reversal spikes X and Y (mm, standard error 0.1 um) and decays (ms).
@@ -77,20 +55,6 @@ PlanOptions friction_only() {
   o.only = {"friction"};
   o.friction_requested = true;
   return o;
-}
-
-const FileChange* file_of(const Plan& plan, const std::string& name) {
-  for (const auto& f : plan.files) {
-    if (fs::path(f.path).filename() == name) return &f;
-  }
-  return nullptr;
-}
-
-bool has_text(const std::vector<std::string>& lines, const std::string& words) {
-  for (const auto& l : lines) {
-    if (l.find(words) != std::string::npos) return true;
-  }
-  return false;
 }
 
 const char* kServoFricHal =

@@ -21,35 +21,22 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "expect_error.hpp"
+#include "plan_test_support.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
 using namespace circtest::compensation;
+using circtest::testing::all;
+using circtest::testing::file_of;
+using circtest::testing::has_text;
 
 namespace {
 
 // A copy of one fixture configuration (tests/compensation/data) in a scratch folder.
-struct Config {
-  fs::path dir;
-  std::string ini;
+struct Config : circtest::testing::ConfigCopy {
   std::string name;
-  explicit Config(const std::string& fixture) : name(fixture) {
-    dir = fs::temp_directory_path() /
-          ("circcomp-servo-" + std::to_string(::getpid()) + "-" +
-           ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    for (const auto& e : fs::directory_iterator(fs::path(DATA_DIR) / fixture)) {
-      fs::copy_file(e.path(), dir / e.path().filename());
-    }
-    ini = (dir / (fixture + ".ini")).string();
-  }
-  ~Config() { fs::remove_all(dir); }
-  std::string path(const std::string& file) const { return (dir / file).string(); }
-  std::string read(const std::string& file) const { return read_file(path(file)); }
-  void write(const std::string& file, const std::string& text) const {
-    std::ofstream(dir / file, std::ios::binary) << text;
-  }
+  explicit Config(const std::string& fixture)
+      : ConfigCopy(DATA_DIR, fixture, "servo"), name(fixture) {}
   // Replaces every FROM in FILE by TO (at least one).
   void edit(const std::string& file, const std::string& from, const std::string& to) const {
     std::string text = read(file);
@@ -59,13 +46,6 @@ struct Config {
       text.replace(at, from.size(), to);
     }
     write(file, text);
-  }
-  std::map<std::string, std::string> files() const {
-    std::map<std::string, std::string> out;
-    for (const auto& e : fs::directory_iterator(dir)) {
-      if (e.is_regular_file()) out[e.path().filename().string()] = read_file(e.path().string());
-    }
-    return out;
   }
 };
 
@@ -88,26 +68,6 @@ PlanOptions servo_only() {
   o.only = {"servo"};
   o.servo_requested = true;
   return o;
-}
-
-const FileChange* file_of(const Plan& plan, const std::string& name) {
-  for (const auto& f : plan.files) {
-    if (fs::path(f.path).filename() == name) return &f;
-  }
-  return nullptr;
-}
-
-bool has_text(const std::vector<std::string>& lines, const std::string& words) {
-  for (const auto& l : lines) {
-    if (l.find(words) != std::string::npos) return true;
-  }
-  return false;
-}
-
-std::string all(const std::vector<std::string>& lines) {
-  std::string out;
-  for (const auto& l : lines) out += l + "\n";
-  return out;
 }
 
 double number(const IniDocument& ini, const char* section, const char* key) {
