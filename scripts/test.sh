@@ -17,9 +17,11 @@ full_run=0
 if [ $# -eq 0 ]; then full_run=1; set -- -LE soak; fi
 # The full run (CI) also runs the unit tests once under ASan/UBSan and each fuzz harness for
 # CIRCTEST_FUZZ_SECONDS, in a second build dir (scripts/sanitize.sh). CIRCTEST_SANITIZE_PASS=0
-# skips it. Its build and then its tests run at the lowest priority beside the suite: the
-# LinuxCNC runs (e2e) wait on real-time motion for most of the suite and leave the CPU idle,
-# and at nice 19 the pass takes only what the suite leaves.
+# skips it. Its build runs at the lowest priority beside the suite: the LinuxCNC runs (e2e)
+# wait on real-time motion for most of the suite and leave the CPU idle, and at nice 19 the
+# build takes only what the suite leaves. Its tests and fuzzers (a core each, flat out) run
+# after the suite: beside them the stepper machine's 50 us base thread (non-realtime POSIX)
+# missed enough periods to stop on a following error in the fresh-Debian run.
 sanitize=0
 [ $full_run = 1 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ] && sanitize=1
 san_log=$BUILD_DIR/sanitize-build.log san_test_log=$BUILD_DIR/sanitize-test.log
@@ -30,10 +32,6 @@ if [ $sanitize = 1 ]; then
   (
     nice -n 19 scripts/sanitize.sh build >"$san_log" 2>&1 || { echo build >"$san_mark"; exit 1; }
     echo "$((SECONDS - start))" >"$san_mark"
-    rc=0
-    nice -n 19 scripts/sanitize.sh test >"$san_test_log" 2>&1 || rc=$?
-    echo "$((SECONDS - start))" >>"$san_mark"
-    exit $rc
   ) &
   san_pass=$!
 fi
@@ -43,18 +41,18 @@ suite_rc=0
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" "$@" || suite_rc=$?
 phase "test suite"
 if [ $sanitize = 1 ]; then
-  san_rc=0
-  wait "$san_pass" || san_rc=$?
+  wait "$san_pass" || true
   if [ ! -f "$san_mark" ] || [ "$(sed -n 1p "$san_mark")" = build ]; then
     tail -n 60 "$san_log"
     echo "test.sh: the sanitizer build failed (whole log: $san_log)" >&2
     exit 1
   fi
-  cat "$san_test_log"  # the pass ran in the background: its output comes here, whole
-  # When the background pass got there (the suite may have finished before or after).
+  # When the background build got there (the suite may have finished before or after).
   echo "test.sh: sanitizer build done after $(sed -n 1p "$san_mark") s"
-  echo "test.sh: sanitizer and fuzz pass done after $(sed -n 2p "$san_mark") s"
-  phase "everything"
+  san_rc=0
+  scripts/sanitize.sh test >"$san_test_log" 2>&1 || san_rc=$?
+  cat "$san_test_log"
+  phase "sanitizer and fuzz pass"
   if [ $san_rc != 0 ]; then
     echo "test.sh: the sanitizer and fuzz pass failed (exit $san_rc; whole log: $san_test_log)" >&2
     [ $suite_rc != 0 ] || suite_rc=$san_rc
