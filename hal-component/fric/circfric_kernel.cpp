@@ -17,13 +17,24 @@ bool amplitude_ok(double v) {
   return v >= 0.0 && v <= kMaxAmplitude;
 }
 
+bool rise_ok(double rise_ms, double decay_ms) {
+  if (rise_ms == 0.0) return true;
+  return rise_ms >= kMinDecayMs && rise_ms <= kMaxRiseShareOfDecay * decay_ms;
+}
+
 }  // namespace
+
+double pulse_peak_time_s(double decay_s, double rise_s) noexcept {
+  if (!(rise_s > 0.0) || !(decay_s > rise_s)) return 0.0;
+  return std::log(decay_s / rise_s) * decay_s * rise_s / (decay_s - rise_s);
+}
 
 std::uint32_t check(const Params& p, double vel_cmd, double period_s) noexcept {
   std::uint32_t r = kRejectNone;
   if (!amplitude_ok(p.amplitude)) r |= kRejectAmplitude;
   if (!amplitude_ok(p.amplitude_max)) r |= kRejectAmplitudeMax;
   if (!(p.decay_ms >= kMinDecayMs && p.decay_ms <= kMaxDecayMs)) r |= kRejectDecay;
+  if (!rise_ok(p.rise_ms, p.decay_ms)) r |= kRejectRise;
   if (!non_negative(p.vel_threshold)) r |= kRejectThreshold;
   if (!non_negative(p.min_travel)) r |= kRejectMinTravel;
   if (!std::isfinite(vel_cmd)) r |= kRejectVelocity;
@@ -59,7 +70,11 @@ double Compensator::pulse_value(const Params& p) noexcept {
     pulse_active_ = false;
     return 0.0;
   }
-  const double v = pulse_amplitude_ * std::exp(-pulse_elapsed_s_ / pulse_tau_s_);
+  double shape = std::exp(-pulse_elapsed_s_ / pulse_tau_s_);
+  if (pulse_rise_s_ > 0.0) {
+    shape = (shape - std::exp(-pulse_elapsed_s_ / pulse_rise_s_)) * pulse_scale_;
+  }
+  const double v = pulse_amplitude_ * shape;
   // amplitude_max may have been lowered since the pulse started.
   const double bounded = v < p.amplitude_max ? v : p.amplitude_max;
   return pulse_direction_ * bounded;
@@ -80,6 +95,13 @@ double Compensator::step(double vel_cmd, double period_s, const Params& p) noexc
       pulse_direction_ = direction_;
       pulse_amplitude_ = p.amplitude < p.amplitude_max ? p.amplitude : p.amplitude_max;
       pulse_tau_s_ = p.decay_ms * 1e-3;
+      pulse_rise_s_ = p.rise_ms * 1e-3;
+      pulse_scale_ = 1.0;
+      if (pulse_rise_s_ > 0.0) {
+        // check() keeps rise at most 0.95 decay, where the peak is still 0.019 of the scale.
+        const double tp = pulse_peak_time_s(pulse_tau_s_, pulse_rise_s_);
+        pulse_scale_ = 1.0 / (std::exp(-tp / pulse_tau_s_) - std::exp(-tp / pulse_rise_s_));
+      }
       pulse_elapsed_s_ = 0.0;
     }
   }

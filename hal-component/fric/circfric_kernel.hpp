@@ -18,6 +18,14 @@
 // ended (exactly 0) after kPulseEndTimeConstants tau. A new reversal replaces a running
 // pulse. amplitude_max and enable act in every period: |offset| never exceeds amplitude_max,
 // and enable false gives 0 in the same period and cancels the pulse.
+//
+// With rise_ms > 0 the pulse rises before it decays: offset(t) = direction * A *
+// (exp(-t / tau) - exp(-t / rise)) / peak, the difference of two exponentials scaled so that
+// its peak, at t_peak = ln(tau / rise) tau rise / (tau - rise), is exactly A. A loop with
+// feed-forward passes a position pulse to the table at once, while the table of a drive with
+// friction sticks at the reversal for tens of ms: a pulse that starts at 0 and peaks later
+// pushes the stuck drive free without a jump in the command (whose derivative FF1 would pass
+// on as a velocity kick). rise_ms = 0 keeps the plain decaying pulse.
 #include <cstdint>
 
 namespace circtest::fric {
@@ -30,6 +38,9 @@ inline constexpr double kMaxAmplitude = 1.0;
 // by zero); beyond a second they are a slow position shift, not friction compensation.
 inline constexpr double kMinDecayMs = 1e-3;
 inline constexpr double kMaxDecayMs = 1000.0;
+// A rise time is 0 (none) or at least kMinDecayMs and below the decay: at rise = decay the
+// difference of exponentials vanishes, and near it the peak scale divides two small numbers.
+inline constexpr double kMaxRiseShareOfDecay = 0.95;
 // exp(-20) = 2e-9: below any machine's resolution, so the pulse is ended there.
 inline constexpr double kPulseEndTimeConstants = 20.0;
 // Servo periods the kernel accepts (LinuxCNC's servo thread runs at 0.1..10 ms).
@@ -42,6 +53,7 @@ struct Params {
   double amplitude = 0.0;       // pulse height at the reversal, 0..kMaxAmplitude
   double amplitude_max = 0.0;   // bound of |offset|, 0..kMaxAmplitude
   double decay_ms = 10.0;       // time constant, kMinDecayMs..kMaxDecayMs
+  double rise_ms = 0.0;         // rise time constant, 0 or kMinDecayMs..0.95 decay_ms
   double vel_threshold = 0.01;  // half-width of the velocity band, units/s, >= 0
   double min_travel = 0.001;    // stroke before a direction change counts, >= 0
 };
@@ -56,7 +68,11 @@ enum Reject : std::uint32_t {
   kRejectMinTravel = 1u << 4,     // NaN, infinite or negative
   kRejectVelocity = 1u << 5,      // the velocity input is NaN or infinite
   kRejectPeriod = 1u << 6,        // period outside kMinPeriodS..kMaxPeriodS
+  kRejectRise = 1u << 7,          // NaN, negative, below kMinDecayMs or not below the decay
 };
+
+// The time (s) at which the pulse with these time constants (s) peaks; 0 without a rise.
+double pulse_peak_time_s(double decay_s, double rise_s) noexcept;
 
 // The reasons P (and the inputs) are not usable, as Reject bits.
 std::uint32_t check(const Params& p, double vel_cmd, double period_s) noexcept;
@@ -90,6 +106,8 @@ class Compensator {
   int pulse_direction_ = 0;
   double pulse_amplitude_ = 0.0;
   double pulse_tau_s_ = 0.0;
+  double pulse_rise_s_ = 0.0;  // 0: no rise
+  double pulse_scale_ = 1.0;   // 1 / the difference of exponentials at its peak
   double pulse_elapsed_s_ = 0.0;
   double offset_ = 0.0;
 };

@@ -45,6 +45,7 @@ struct Instance {
   hal_float_t* amplitude;
   hal_float_t* amplitude_max;
   hal_float_t* decay_ms;
+  hal_float_t* rise_ms;
   hal_float_t* vel_threshold;
   hal_float_t* min_travel;
   hal_float_t* pos_in;
@@ -66,6 +67,7 @@ void update(void* arg, long period) {
   p.amplitude = *inst->amplitude;
   p.amplitude_max = *inst->amplitude_max;
   p.decay_ms = *inst->decay_ms;
+  p.rise_ms = *inst->rise_ms;
   p.vel_threshold = *inst->vel_threshold;
   p.min_travel = *inst->min_travel;
   const double vel_cmd = *inst->vel_cmd;
@@ -91,6 +93,8 @@ int export_instance(Instance* inst, const char* name) {
                                d.amplitude_max);
   if (r == 0)
     r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->decay_ms, name, "decay-ms", d.decay_ms);
+  if (r == 0)
+    r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->rise_ms, name, "rise-ms", d.rise_ms);
   if (r == 0)
     r = hal_adapter::float_pin(comp_id, HAL_IN, &inst->vel_threshold, name, "vel-threshold",
                                d.vel_threshold);

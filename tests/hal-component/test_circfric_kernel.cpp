@@ -263,6 +263,56 @@ TEST(CircFricKernel, PulseShapeIsTheDecayingExponentialInTheNewDirection) {
   EXPECT_GT(flip.offset[111], 0.0);
 }
 
+// With a rise time the pulse starts at 0, peaks at exactly the amplitude at
+// t_peak = ln(decay / rise) decay rise / (decay - rise), and follows the difference of the two
+// exponentials; amplitude-max bounds it as it bounds the plain pulse.
+TEST(CircFricKernel, PulseWithARiseStartsAtZeroAndPeaksAtTheAmplitude) {
+  fric::Params p = tuned();
+  p.decay_ms = 40.0;
+  p.rise_ms = 10.0;
+  const double td = 0.040, tr = 0.010;
+  const double tp = std::log(td / tr) * td * tr / (td - tr);  // 18.48 ms
+  EXPECT_NEAR(fric::pulse_peak_time_s(td, tr), tp, 1e-15);
+  EXPECT_EQ(fric::pulse_peak_time_s(td, 0.0), 0.0);
+  const double peak = std::exp(-tp / td) - std::exp(-tp / tr);
+  std::mt19937 rng(9);
+  std::vector<double> v;
+  ramp(v, 1.0, 1.0, 100, 0.0, rng);
+  ramp(v, -1.0, -1.0, 900, 0.0, rng);
+  const Trace r = run(v, p);
+  ASSERT_EQ(r.reversal_at.size(), 1u);
+  const std::size_t k0 = r.reversal_at[0];
+  EXPECT_EQ(r.offset[k0], 0.0);
+  double highest = 0.0;
+  std::size_t at = 0;
+  for (std::size_t k = 0; k < 800; ++k) {
+    const double t_s = static_cast<double>(k) * kPeriodS;
+    const double want = -p.amplitude * (std::exp(-t_s / td) - std::exp(-t_s / tr)) / peak;
+    ASSERT_NEAR(r.offset[k0 + k], want, 1e-15) << k;
+    if (std::fabs(r.offset[k0 + k]) > highest) highest = std::fabs(r.offset[k0 + k]), at = k;
+  }
+  EXPECT_EQ(at, 18u);  // the sample nearest 18.48 ms
+  EXPECT_LE(highest, p.amplitude);
+  EXPECT_NEAR(highest, p.amplitude, 1e-3 * p.amplitude);
+  EXPECT_EQ(r.offset[k0 + 801], 0.0);  // ended after 20 decay time constants
+
+  // Bounded: amplitude-max below the amplitude flattens the top.
+  p.amplitude_max = 0.5 * p.amplitude;
+  const Trace b = run(v, p);
+  double top = 0.0;
+  for (const double o : b.offset) top = std::max(top, std::fabs(o));
+  EXPECT_LE(top, p.amplitude_max);
+  // The shortest rise still gives a finite pulse that peaks at the amplitude.
+  p = tuned();
+  p.rise_ms = 0.95 * p.decay_ms;
+  fric::Compensator c;
+  double most = 0.0;
+  for (int i = 0; i < 50; ++i) c.step(1.0, kPeriodS, p);
+  for (int i = 0; i < 400; ++i) most = std::max(most, std::fabs(c.step(-1.0, kPeriodS, p)));
+  EXPECT_EQ(c.rejected(), 0u);
+  EXPECT_NEAR(most, p.amplitude, 1e-3 * p.amplitude);
+}
+
 // The decay is in time, not in periods: a 4 kHz servo thread gives the same pulse.
 TEST(CircFricKernel, DecayIsInMillisecondsWhateverThePeriod) {
   const fric::Params p = tuned();
@@ -346,6 +396,14 @@ TEST(CircFricKernel, NonsenseParametersAreRejectedFlaggedAndGiveZero) {
        fric::kRejectThreshold},
       {"min-travel inf", [](fric::Params& p, double, double i) { p.min_travel = i; },
        fric::kRejectMinTravel},
+      {"rise -1", [](fric::Params& p, double, double) { p.rise_ms = -1.0; }, fric::kRejectRise},
+      {"rise NaN", [](fric::Params& p, double n, double) { p.rise_ms = n; }, fric::kRejectRise},
+      {"rise 5e-324", [](fric::Params& p, double, double) { p.rise_ms = 5e-324; },
+       fric::kRejectRise},
+      {"rise = decay", [](fric::Params& p, double, double) { p.rise_ms = p.decay_ms; },
+       fric::kRejectRise},
+      {"rise 0.96 decay", [](fric::Params& p, double, double) { p.rise_ms = 0.96 * p.decay_ms; },
+       fric::kRejectRise},
   };
   for (const Case& k : cases) {
     fric::Params p = tuned();
@@ -398,7 +456,7 @@ TEST(CircFricKernel, OutputNeverExceedsAmplitudeMaxForAnyParameters) {
   std::size_t pulsing = 0;
   for (int i = 0; i < 400000; ++i) {
     if (coin(rng) == 0) {  // a parameter changes now and then
-      switch (coin(rng) % 6) {
+      switch (coin(rng) % 7) {
         case 0:
           p.amplitude = pool[pick(rng)];
           break;
@@ -413,6 +471,9 @@ TEST(CircFricKernel, OutputNeverExceedsAmplitudeMaxForAnyParameters) {
           break;
         case 4:
           p.min_travel = pool[pick(rng)];
+          break;
+        case 5:
+          p.rise_ms = pool[pick(rng)];
           break;
         default:
           p.enable = coin(rng) < 8;

@@ -1,8 +1,9 @@
 """Checks circfric's outputs period by period on halsampler's rows of the fric-reversal test:
    vel-cmd enable offset0 active0 direction0 reversals0 offset1 reversals1 rejected1 pos-in0
-   pos-out0
+   pos-out0 offset2
 (instance 0: amplitude 0.5, bound 0.6, decay 20 ms, enable switched; instance 1: amplitude
-0.5, bound 0.2, decay 50 ms, always on; both vel-threshold 0.01, min-travel 0.001; 1 ms)."""
+0.5, bound 0.2, decay 50 ms, always on; instance 2: amplitude 0.3, decay 40 ms, rise 10 ms,
+always on; all vel-threshold 0.01, min-travel 0.001; 1 ms)."""
 import math
 import sys
 
@@ -18,7 +19,7 @@ for line in open(sys.argv[1]):
         continue
     f = line.split()
     rows.append((float(f[0]), int(f[1]), float(f[2]), int(f[3]), int(f[4]), int(f[5]),
-                 float(f[6]), int(f[7]), int(f[8]), float(f[9]), float(f[10])))
+                 float(f[6]), int(f[7]), int(f[8]), float(f[9]), float(f[10]), float(f[11])))
 n = len(rows)
 vel = [r[0] for r in rows]
 en = [r[1] for r in rows]
@@ -31,6 +32,7 @@ rev1 = [r[7] for r in rows]
 rej1 = [r[8] for r in rows]
 pos_in = [r[9] for r in rows]
 pos_out = [r[10] for r in rows]
+off2 = [r[11] for r in rows]
 
 
 def yes(ok):
@@ -116,3 +118,23 @@ print(f"pos-out = pos-in + offset in every period: "
       f"{yes(all(abs(pos_out[i] - pos_in[i] - off0[i]) <= TOL for i in range(n)))}")
 print(f"pos-out = pos-in exactly while no pulse runs: "
       f"{yes(all(pos_out[i] == pos_in[i] for i in range(n) if not act0[i]))}")
+
+# Instance 2: 0.3 (exp(-t / 40 ms) - exp(-t / 10 ms)) / peak, the peak (0.3) at
+# ln(4) 40 * 10 / 30 ms = 18.48 ms: 0 in the reversal's period, then up and down.
+TD, TR = 0.040, 0.010
+TP = math.log(TD / TR) * TD * TR / (TD - TR)
+PEAK = math.exp(-TP / TD) - math.exp(-TP / TR)
+rise_ok, highest = True, 0.0
+for k, i in enumerate(got):
+    end = got[k + 1] if k + 1 < len(got) else n
+    d = dir0[i]
+    for j in range(i, min(end, i + 800)):
+        t = (j - i) * PERIOD_S
+        want = d * 0.3 * (math.exp(-t / TD) - math.exp(-t / TR)) / PEAK
+        highest = max(highest, abs(off2[j]))
+        if abs(off2[j] - want) > TOL:
+            rise_ok = False
+            print(f"  instance 2 row {j}: offset {off2[j]}, want {want:.6f}")
+print(f"instance 2 = 0.3 (exp(-t / 40 ms) - exp(-t / 10 ms)) / peak from each reversal: {yes(rise_ok)}")
+print(f"instance 2 starts at 0: {yes(all(off2[i] == 0.0 for i in got))}")
+print(f"instance 2 highest |offset| {highest:.4f} (amplitude 0.3, peak at {TP * 1e3:.2f} ms)")

@@ -37,6 +37,8 @@ nonsense decay-ms 0 4
 nonsense decay-ms -20 4
 nonsense vel-threshold -1 8
 nonsense min-travel nan 16
+nonsense rise-ms -1 128
+nonsense rise-ms 48 128
 halcmd unlinkp circfric.1.vel-cmd
 halcmd setp circfric.1.vel-cmd nan
 wait_for_value circfric.1.rejected 32 || true
