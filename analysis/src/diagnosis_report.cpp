@@ -87,6 +87,7 @@ json to_json(const Diagnosis& d) {
   j[K::backlash_reversals_mm] = ends;
   j[K::reversal_spike_mm] = per_axis(d, d.spike_mm);
   j[K::reversal_spike_ms] = per_axis(d, d.spike_ms);
+  j[K::reversal_spike_peak_ms] = per_axis(d, d.spike_peak_ms);
   j[K::scale_ppm] = per_axis(d, d.scale_ppm);
   j[K::scale_mismatch_ppm] = opt(d.scale_mismatch_ppm.value);
   j[K::squareness_urad] = opt(d.squareness_urad.value);

@@ -164,6 +164,7 @@ DiagnosisInput parse_plane_document(const json& doc, const Reader& r) {
   const auto spike_se = se_axis(K::reversal_spike_mm);
   const auto spike_ms = r.per_axis(doc, K::reversal_spike_ms, d.axes);
   const auto spike_ms_se = se_axis(K::reversal_spike_ms);
+  const auto spike_peak_ms = r.per_axis(doc, K::reversal_spike_peak_ms, d.axes);
   const auto scale = r.per_axis(doc, K::scale_ppm, d.axes);
   const auto scale_se = se_axis(K::scale_ppm);
   for (int k = 0; k < 2; ++k) {
@@ -171,6 +172,7 @@ DiagnosisInput parse_plane_document(const json& doc, const Reader& r) {
     d.reversal_spike_mm[k] = {spike[k], spike_se[k]};
     d.reversal_spike_ms[k] = spike_ms[k];
     d.reversal_spike_se_ms[k] = spike_ms_se[k];
+    d.reversal_spike_peak_ms[k] = spike_peak_ms[k];
     d.scale_ppm[k] = {scale[k], scale_se[k]};
   }
   auto scalar = [&](const std::string& key) {

@@ -313,7 +313,7 @@ std::string lower(char c) {
 }
 
 std::string fric_hal_text(const std::vector<Splice>& splices, const std::string& thread,
-                          std::size_t position) {
+                          std::size_t position, const IniDocument& ini) {
   std::string t =
       "# Written by circcomp (circtest): friction compensation at reversals, circfric(9)\n"
       "# (docs/circfric.md) spliced between motion's position command and the pid or stepgen.\n"
@@ -346,6 +346,7 @@ std::string fric_hal_text(const std::vector<Splice>& splices, const std::string&
     t += fmt::format("setp {}.amplitude [{}]AMPLITUDE\n", n, sec);
     t += fmt::format("setp {}.amplitude-max [{}]AMPLITUDE_MAX\n", n, sec);
     t += fmt::format("setp {}.decay-ms [{}]DECAY_MS\n", n, sec);
+    if (ini.find(sec, "RISE_MS")) t += fmt::format("setp {}.rise-ms [{}]RISE_MS\n", n, sec);
   }
   return t;
 }
@@ -401,6 +402,12 @@ std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const 
   return v;
 }
 
+// Whether the axis follows its command within kFrictionMinLagMs (feed-forward, a stepgen).
+bool follows_closely(const DiagnosisInput& d, int k) {
+  const std::optional<double> lag_ms = d.axis_lag_ms[k].value;
+  return lag_ms && *lag_ms < kFrictionMinLagMs;
+}
+
 // The share of a command pulse A exp(-t / decay) that reaches the table through a position
 // loop following with the lag T = 1 / Kv (first order): the peak of the lagged pulse,
 // (decay / T)^(-T / (decay - T)), which is 1/e at decay = T and tends to 1 as T vanishes.
@@ -413,6 +420,70 @@ double loop_pass(double decay_s, std::optional<double> kv_per_s) {
   const double ratio = decay_s / lag_s;
   if (std::fabs(ratio - 1.0) < 1e-9) return std::exp(-1.0);
   return std::pow(ratio, -1.0 / (ratio - 1.0));
+}
+
+// When circfric's rising pulse (rise, decay in s) peaks: circfric(9), DESCRIPTION.
+double rising_pulse_peak_s(double decay_s, double rise_s) {
+  return std::log(decay_s / rise_s) * decay_s * rise_s / (decay_s - rise_s);
+}
+
+// The rise time (ms) that puts the rising pulse's peak at PEAK_MS with the decay DECAY_MS, at
+// most kFrictionMaxRiseShare of the decay (the latest peak circfric can make, about 0.97 of
+// the decay). The peak time grows with the rise, so a bisection finds it.
+double rise_for_peak_ms(double decay_ms, double peak_ms) {
+  double lo = 0.0, hi = kFrictionMaxRiseShare * decay_ms;
+  if (rising_pulse_peak_s(decay_ms, hi) <= peak_ms) return hi;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (rising_pulse_peak_s(decay_ms, mid) < peak_ms ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// A loop that follows within kFrictionMinLagMs passes a position pulse to the table at once;
+// a spike that peaks after the reversal there is the drive sticking, and circfric's rising
+// pulse, peaking at kFrictionRisePeakShare of the spike's peak time, pushes it free. The
+// amplitude is the spike's height: the table sees the pulse whole.
+struct PulseShape {
+  double amplitude_max, amplitude, rise_ms = 0;
+  std::string how;  // how the amplitude and the rise were found, for the plan's line
+};
+
+PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double decay_ms,
+                        double upm, const PlanOptions& o) {
+  const double peak_ms = *d.reversal_spike_peak_ms[k];
+  const double want_ms = kFrictionRisePeakShare * peak_ms;
+  const double rise =
+      parse_finite(number_text(std::max(rise_for_peak_ms(decay_ms, want_ms), kFricMinDecayMs)))
+          .value_or(kFricMinDecayMs);
+  const double at_ms = rising_pulse_peak_s(decay_ms, rise);
+  const double amplitude_max = 2.0 * parse_finite(number_text(spike_mm)).value_or(spike_mm) * upm;
+  return {amplitude_max, std::min(o.gain * spike_mm * upm, amplitude_max), rise,
+          fmt::format(", a rising pulse: the axis follows within {:.1f} ms and the spike peaks "
+                      "{:.0f} ms after the reversal (the drive sticks); RISE_MS {} puts the "
+                      "pulse's peak at {:.0f} ms{}",
+                      *d.axis_lag_ms[k].value, peak_ms, number_text(rise), at_ms,
+                      at_ms < 0.99 * want_ms
+                          ? fmt::format(" (the latest a decay of {} ms allows; {:.0f} ms wanted)",
+                                        number_text(decay_ms), want_ms)
+                          : fmt::format(", {:.0f} % of it", kFrictionRisePeakShare * 100.0))};
+}
+
+// A plain pulse at the reversal: through a loop with the lag 1 / Kv the table sees only the
+// share loop_pass of it, so the amplitude is raised by that share (within AMPLITUDE_MAX).
+PulseShape plain_pulse(const DiagnosisInput& d, double spike_mm, double decay_ms, double upm,
+                       const PlanOptions& o) {
+  const double pass = loop_pass(decay_ms * 1e-3, d.kv_per_s);
+  // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
+  const double spike_written = parse_finite(number_text(spike_mm)).value_or(spike_mm);
+  const double amplitude_max = 2.0 * spike_written * upm;
+  const double amplitude = std::min(o.gain * spike_mm * upm / pass, amplitude_max);
+  return {amplitude_max, amplitude, 0,
+          pass < 1.0 ? fmt::format(" / {:.2f}, the share of the pulse the {:.1f} ms lag (1 / Kv) "
+                                   "passes{}",
+                                   pass, 1e3 / *d.kv_per_s,
+                                   amplitude == amplitude_max ? ", bounded by AMPLITUDE_MAX" : "")
+                     : ""};
 }
 
 // Step 1 of one axis: the INI values from the measured spike and decay. Returns false when
@@ -438,11 +509,10 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
         kFricMinDecayMs, kFricMaxDecayMs));
     return false;
   }
-  const double pass = loop_pass(*decay * 1e-3, d.kv_per_s);
-  // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
-  const double spike_written = parse_finite(number_text(*spike)).value_or(*spike);
-  const double amplitude_max = 2.0 * spike_written * upm;
-  const double amplitude = std::min(o.gain * *spike * upm / pass, amplitude_max);
+  const bool rising = follows_closely(d, k) && d.reversal_spike_peak_ms[k];
+  const PulseShape pulse =
+      rising ? rising_pulse(d, k, *spike, *decay, upm, o) : plain_pulse(d, *spike, *decay, upm, o);
+  const double amplitude = pulse.amplitude, amplitude_max = pulse.amplitude_max;
   if (amplitude_max > kFricMaxUnits) {
     throw DataError(d.source, 0,
                     fmt::format("{} reversal spike {:.1f} um: twice it is beyond circfric's "
@@ -459,24 +529,20 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
   ini.set(sec, "AMPLITUDE", number_text(amplitude));
   ini.set(sec, "AMPLITUDE_MAX", number_text(amplitude_max));
   ini.set(sec, "DECAY_MS", number_text(*decay));
+  if (rising) ini.set(sec, "RISE_MS", number_text(pulse.rise_ms));
   ini.set(sec, "SPIKE_MM", number_text(*spike));
   ini.comment_before(sec, "AMPLITUDE",
                      fmt::format("circcomp: friction compensation of axis {} by circfric (set by "
                                  "{}): AMPLITUDE and AMPLITUDE_MAX in machine units, DECAY_MS "
-                                 "in ms; SPIKE_MM is the spike first measured, and AMPLITUDE_MAX "
-                                 "stays at most twice it",
-                                 axis, kFrictionHalFile));
-  const std::string through =
-      pass < 1.0
-          ? fmt::format(" / {:.2f}, the share of the pulse the {:.1f} ms lag (1 / Kv) passes{}",
-                        pass, 1e3 / *d.kv_per_s,
-                        amplitude == amplitude_max ? ", bounded by AMPLITUDE_MAX" : "")
-          : "";
-  plan.changes.push_back(fmt::format(
-      "[{}] step 1 (first tuning): AMPLITUDE {} (spike {:.2f} um{}), DECAY_MS {}, AMPLITUDE_MAX {} "
-      "(2 x spike); rerun the circle and plan again for step 2",
-      sec, number_text(amplitude), *spike * 1e3, through, number_text(*decay),
-      number_text(amplitude_max)));
+                                 "{}in ms; SPIKE_MM is the spike first measured, and "
+                                 "AMPLITUDE_MAX stays at most twice it",
+                                 axis, kFrictionHalFile, rising ? "and RISE_MS " : ""));
+  plan.changes.push_back(
+      fmt::format("[{}] step 1 (first tuning): AMPLITUDE {} (spike {:.2f} um{}), {}DECAY_MS {}, "
+                  "AMPLITUDE_MAX {} (2 x spike); rerun the circle and plan again for step 2",
+                  sec, number_text(amplitude), *spike * 1e3, pulse.how,
+                  rising ? "RISE_MS " + number_text(pulse.rise_ms) + ", " : "", number_text(*decay),
+                  number_text(amplitude_max)));
   return true;
 }
 
@@ -600,14 +666,15 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   }
   std::set<char> added;
   for (int k = 0; k < 2; ++k) {
-    const std::optional<double> lag_ms = d.axis_lag_ms[k].value;
-    if (lag_ms && *lag_ms < kFrictionMinLagMs && d.reversal_spike_mm[k].value &&
-        std::fabs(*d.reversal_spike_mm[k].value) >= kMinFrictionSpikeMm) {
+    if (follows_closely(d, k) && !d.reversal_spike_peak_ms[k] && d.reversal_spike_mm[k].value &&
+        std::fabs(*d.reversal_spike_mm[k].value) >= kMinFrictionSpikeMm &&
+        !wired.count(d.axes[k])) {
       plan.notes.push_back(fmt::format(
           "{} friction compensation not planned: the axis follows within {:.1f} ms (below "
-          "{:.0f} ms: feed-forward or a stepgen), and circfric's pulse at the reversal then "
-          "arrives before the table sticks; tune it by hand (docs/circfric.md, Halscope)",
-          d.axes[k], *lag_ms, kFrictionMinLagMs));
+          "{:.0f} ms: feed-forward or a stepgen) and its spike peaks at the reversal, not after "
+          "it: a pulse would arrive before the table sticks and no rise to give it was "
+          "measured; tune it by hand (docs/circfric.md, Halscope)",
+          d.axes[k], *d.axis_lag_ms[k].value, kFrictionMinLagMs));
       continue;
     }
     if (wired.count(d.axes[k])) {
@@ -641,7 +708,7 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   std::set<char> all = wired;
   all.insert(added.begin(), added.end());
   const auto splices = splices_of(all);
-  const std::string text = fric_hal_text(splices, thread, position);
+  const std::string text = fric_hal_text(splices, thread, position, ini);
   for (const auto& s : splices) {
     for (const char* suffix : {"-pos-out", "-vel-cmd", "-enable"}) {
       const auto it = hal.signals.find(s.instance + suffix);
@@ -658,7 +725,7 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
   bool existed = false;
   const std::string before = read_target(config, path.string(), existed);
   if (existed && before != text &&
-      !(loaded && before == fric_hal_text(splices_of(wired), thread, position))) {
+      !(loaded && before == fric_hal_text(splices_of(wired), thread, position, ini))) {
     throw WiringError(path.string(), 0,
                       loaded ? "changed since circcomp wrote it: revert, or move it away first"
                              : "exists but is not [HAL] HALFILE and not circcomp's: move it away "

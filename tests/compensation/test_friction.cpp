@@ -546,3 +546,47 @@ TEST(Friction, NoPulseWhereTheAxisFollowsWithinAFewMs) {
                        "X friction compensation not planned: the axis follows "
                        "within 0.7 ms"));
 }
+
+// An axis that follows within a few ms and whose spike peaks after the reversal (the drive
+// sticks) gets circfric's rising pulse: RISE_MS puts the pulse's peak at 0.4 of the spike's
+// peak time (checked with the pulse formula of circfric(9), not circcomp's), the amplitude is
+// the spike's height (the loop passes the pulse whole) and the HAL file sets rise-ms; the
+// lagging axis keeps the plain pulse and no rise line.
+TEST(Friction, RisingPulseWhereTheAxisFollowsAndTheSpikePeaksLate) {
+  Config c("servo-mill");
+  DiagnosisInput d = spikes(0.010, 0.008, 38.0, 22.0);
+  d.axis_lag_ms[0] = {0.7, 0.01};   // X: FF1 about 1
+  d.axis_lag_ms[1] = {33.0, 0.01};  // Y: FF1 0
+  d.reversal_spike_peak_ms[0] = 76.0;
+  d.reversal_spike_peak_ms[1] = 40.0;  // a lagging axis: the plain pulse whatever the peak
+  const Plan plan = make_plan(c.ini, d, friction_only());
+  const FileChange* ini = file_of(plan, "servo-mill.ini");
+  ASSERT_NE(ini, nullptr);
+  const IniDocument after = IniDocument::parse(ini->after);
+  const auto num = [&](const char* sec, const char* key) {
+    const auto v = after.get(sec, key);
+    EXPECT_TRUE(v) << sec << " " << key;
+    return v ? std::stod(*v) : NAN;
+  };
+  const double rise_s = num("FRICTION_X", "RISE_MS") * 1e-3, decay_s = 0.038;
+  const double peak_s = std::log(decay_s / rise_s) * decay_s * rise_s / (decay_s - rise_s);
+  EXPECT_NEAR(peak_s, 0.4 * 0.076, 1e-5);
+  EXPECT_NEAR(num("FRICTION_X", "AMPLITUDE"), 0.010, 1e-9);
+  EXPECT_NEAR(num("FRICTION_X", "AMPLITUDE_MAX"), 0.020, 1e-9);
+  EXPECT_NEAR(num("FRICTION_X", "DECAY_MS"), 38.0, 1e-9);
+  EXPECT_FALSE(after.get("FRICTION_Y", "RISE_MS"));
+  EXPECT_TRUE(after.get("FRICTION_Y", "AMPLITUDE"));
+  const FileChange* hal = file_of(plan, "circtest-fric.hal");
+  ASSERT_NE(hal, nullptr);
+  EXPECT_NE(hal->after.find("setp fric-x.rise-ms [FRICTION_X]RISE_MS\n"), std::string::npos)
+      << hal->after;
+  EXPECT_EQ(hal->after.find("fric-y.rise-ms"), std::string::npos) << hal->after;
+  EXPECT_TRUE(has_text(plan.changes, "a rising pulse: the axis follows within 0.7 ms"));
+
+  // A peak later than a rise below the decay can make: the latest peak, said so.
+  d.reversal_spike_peak_ms[0] = 200.0;
+  const Plan late = make_plan(c.ini, d, friction_only());
+  const IniDocument late_ini = IniDocument::parse(file_of(late, "servo-mill.ini")->after);
+  EXPECT_NEAR(std::stod(*late_ini.get("FRICTION_X", "RISE_MS")), 0.95 * 38.0, 1e-3);
+  EXPECT_TRUE(has_text(late.changes, "the latest a decay of 38 ms allows; 80 ms wanted"));
+}

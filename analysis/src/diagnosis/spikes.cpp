@@ -331,6 +331,7 @@ void measure_spikes(const DiagnosisState& ds, const std::vector<double>& resid,
         D.spike_mm[axs].value.value_or(0.0) * 1e3, D.spike_ms[axs].value.value_or(0.0)));
     D.spike_mm[axs] = {height, se};
     D.spike_ms[axs] = {fall->first * 1e3, fall->second * 1e3};
+    D.spike_peak_ms[axs] = {t_peak * 1e3, std::nullopt};
   }
 }
 

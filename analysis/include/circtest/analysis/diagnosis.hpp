@@ -100,6 +100,9 @@ struct Diagnosis {
   std::array<std::optional<std::array<double, 2>>, 2> backlash_reversals_mm;
   std::array<Estimate, 2> spike_mm;
   std::array<Estimate, 2> spike_ms;
+  // Time from the reversal to the spike's peak when the table sticks (the profile rises after
+  // the reversal); no value when the spike is the decaying step that peaks at it.
+  std::array<Estimate, 2> spike_peak_ms;
   std::array<Estimate, 2> scale_ppm;
   Estimate scale_mismatch_ppm;  // s_A - s_B
   Estimate squareness_urad;     // a_actual = a + alpha b

@@ -28,7 +28,9 @@ struct DiagnosisInput {
   std::array<char, 2> axes{'X', 'Y'};
   std::array<Measured, 2> backlash_mm;        // play: positive = lost motion
   std::array<Measured, 2> reversal_spike_mm;  // friction transient, never compensated as play
-  std::array<std::optional<double>, 2> reversal_spike_ms;     // the spike's decay time
+  std::array<std::optional<double>, 2> reversal_spike_ms;  // the spike's decay time
+  // From the reversal to the spike's peak when the table sticks; none: it peaks at the reversal.
+  std::array<std::optional<double>, 2> reversal_spike_peak_ms;
   std::array<std::optional<double>, 2> reversal_spike_se_ms;  // its standard error
   std::array<Measured, 2> scale_ppm;                          // actual = (1 + s) * commanded
   Measured scale_mismatch_ppm;

@@ -27,12 +27,21 @@ inline constexpr double kMinFrictionSpikeMm = 0.002;
 inline constexpr double kMaxFrictionSpikeMm = 0.1;
 // Step 2 runs when the residual spike exceeds this share of the first measured one.
 inline constexpr double kFrictionRefineShare = 0.3;
-// circfric's pulse starts at the reversal. Through a loop that lags (FF1 0: 1/Kv, about 33 ms)
-// it reaches the table when the table sticks; a loop that follows within a few ms (FF1 about
-// 1, a stepgen) passes it before the stick, which on the simulated servo machine peaks 60 ms
-// after the reversal: there step 1 left 98 % of X's spike and raised G (12.6 -> 15.3 um).
-// Below this measured lag (ms) circcomp plans no pulse and says so.
+// circfric's plain pulse starts at the reversal. Through a loop that lags (FF1 0: 1/Kv, about
+// 33 ms) it reaches the table when the table sticks; a loop that follows within a few ms (FF1
+// about 1, a stepgen) passes it before the stick, which on the simulated servo machine peaks
+// 60 ms after the reversal: there the plain pulse left 98 % of X's spike and raised G
+// (12.6 -> 15.3 um). Below this measured lag (ms) an axis whose spike peaks after the
+// reversal gets circfric's rising pulse (RISE_MS), and one whose spike peaks at the reversal
+// no pulse (a note says so).
 inline constexpr double kFrictionMinLagMs = 5.0;
+// The rising pulse peaks at this share of the time from the reversal to the spike's peak: it
+// must push the stuck drive before the spike has grown. On the drive model of sim-servo
+// (FF1 1, D100..D300, F500..F3000, X and Y friction) 0.4 left 16..29 % of the spike with the
+// amplitude at the spike's height; 0.3 and 0.25 left up to 47 % and 64 % at the higher feeds.
+inline constexpr double kFrictionRisePeakShare = 0.4;
+// circfric's bound of the rise time against the decay (kMaxRiseShareOfDecay of circfric(9)).
+inline constexpr double kFrictionMaxRiseShare = 0.95;
 
 // The configuration's HAL cannot take circfric where circcomp splices it (no pid or stepgen
 // reads the joint's position command, two do, no motion-controller in a thread, circfric

@@ -35,6 +35,8 @@ inline constexpr const char* positive_end = "positive_end";
 inline constexpr const char* negative_end = "negative_end";
 inline constexpr const char* reversal_spike_mm = "reversal_spike_mm";
 inline constexpr const char* reversal_spike_ms = "reversal_spike_ms";
+// The time from the reversal to the spike's peak where the table sticks (null: peaks at it).
+inline constexpr const char* reversal_spike_peak_ms = "reversal_spike_peak_ms";
 inline constexpr const char* scale_ppm = "scale_ppm";
 // Plane-wide numbers (or null).
 inline constexpr const char* scale_mismatch_ppm = "scale_mismatch_ppm";
