@@ -460,9 +460,8 @@ PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double 
   const double amplitude_max = 2.0 * parse_finite(number_text(spike_mm)).value_or(spike_mm) * upm;
   return {amplitude_max, std::min(o.gain * spike_mm * upm, amplitude_max), rise,
           fmt::format(", a rising pulse: the axis follows within {:.1f} ms and the spike peaks "
-                      "{:.0f} ms after the reversal (the drive sticks); RISE_MS {} puts the "
-                      "pulse's peak at {:.0f} ms{}",
-                      *d.axis_lag_ms[k].value, peak_ms, number_text(rise), at_ms,
+                      "{:.0f} ms after the reversal (the drive sticks), the pulse's at {:.0f} ms{}",
+                      *d.axis_lag_ms[k].value, peak_ms, at_ms,
                       at_ms < 0.99 * want_ms
                           ? fmt::format(" (the latest a decay of {} ms allows; {:.0f} ms wanted)",
                                         number_text(decay_ms), want_ms)
