@@ -140,6 +140,21 @@ fric_pins=$( (grep -o '"%s\.[a-z-]*"' "$fric_src"; grep -o 'name, "[a-z-]*"' "$f
 check_documented circfric.9 docs/circfric.md $fric_pins $(loadrt_params "$fric_src")
 echo "ok: circfric: $(wc -w <<<"$fric_pins") pins in circfric(9) and docs/circfric.md"
 
+# Every option the README names is one of a program's (the README shows a few, the man pages
+# all of them).
+all_known=$(
+  "$circgen" --help | long_options
+  "$recorder" --help | long_options
+  echo "$circana_known"
+  "$circcomp" --help | grep -o -- '--[a-z][a-z-]*'
+)
+n=0
+for opt in $(grep -oE -- '--[a-z][a-z0-9-]*' "$src/README.md" | sort -u); do
+  n=$((n + 1))
+  grep -qxF -- "$opt" <<<"$all_known" || fail "README.md names $opt, which no program's --help lists"
+done
+[ $n -gt 5 ] || fail "README.md names too few options ($n)"
+
 for page in "$src"/docs/man/*.[19]; do
   warnings=$(groff -man -Tutf8 -ww -z "$page" 2>&1)
   [ -z "$warnings" ] || fail "$(basename "$page"): groff warns: $warnings"
