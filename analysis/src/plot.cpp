@@ -155,38 +155,46 @@ double diagnosis_panel(std::string& s, const Diagnosis& d, double x0, double y0,
   return y - y0 + 10;
 }
 
-}  // namespace
+// The run colours, in the order of the runs over all layers.
+constexpr const char* kColours[] = {"#1f5fbf", "#c0392b", "#27ae60", "#8e44ad",
+                                    "#d35400", "#16a085", "#7f8c8d", "#2c3e50"};
+constexpr std::size_t kNColours = std::size(kColours);
 
-std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions& options) {
-  return svg_plot(std::vector<PlotLayer>{{&ev, &trace, ""}}, options);
+using Legend = std::vector<std::pair<std::string, std::string>>;  // text, colour
+
+// The polar frame: the reference circle's ring and the deviation band around it, in px.
+struct Frame {
+  double size = 0.0;
+  double c = 0.0;        // the centre (x and y)
+  double ring_px = 0.0;  // the reference circle
+  double band_px = 0.0;  // +-4 divisions of deviation
+  double div_mm = 0.0;   // one division
+  double px_per_mm = 0.0;
+  double magnification = 0.0;
+};
+
+Frame plot_frame(const std::vector<Layer>& layers, const PlotOptions& options, double dmax) {
+  Frame f;
+  f.size = options.size_px;
+  f.c = f.size / 2.0;
+  f.ring_px = 0.30 * f.size;
+  f.band_px = 0.15 * f.size;
+  f.div_mm = options.mm_per_division ? *options.mm_per_division : nice_at_least(dmax / 4.0);
+  f.px_per_mm = f.band_px / (4.0 * f.div_mm);
+  f.magnification = f.px_per_mm / (f.ring_px / layers.front().ref.radius_mm);
+  return f;
 }
 
-std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& options) {
-  double dmax = 1e-4;  // mm: a perfect path still gets a readable 0.1 um grid
-  std::vector<Layer> layers;
-  for (const PlotLayer& in : inputs) layers.push_back(polar_paths(in, options, dmax));
-  const Evaluation& first = *layers.front().ev;
-
-  const double size = options.size_px;
-  const double c = size / 2.0;
-  const double ring_px = 0.30 * size;  // the reference circle
-  const double band_px = 0.15 * size;  // +-4 divisions of deviation
-  const double div_mm =
-      options.mm_per_division ? *options.mm_per_division : nice_at_least(dmax / 4.0);
-  const double px_per_mm = band_px / (4.0 * div_mm);
-  const double magnification = px_per_mm / (ring_px / layers.front().ref.radius_mm);
-
-  // The legend, first: the height of the document follows from its length.
-  std::vector<std::pair<std::string, std::string>> legend;  // text, colour
-  static constexpr const char* kColours[] = {"#1f5fbf", "#c0392b", "#27ae60", "#8e44ad",
-                                             "#d35400", "#16a085", "#7f8c8d", "#2c3e50"};
-  constexpr std::size_t kNColours = std::size(kColours);
+// The legend's lines: the reference circle and scale, then per layer the channels, each H and
+// each run in its colour.
+Legend build_legend(const std::vector<Layer>& layers, const Frame& f, const PlotOptions& options) {
+  Legend legend;
   legend.emplace_back(fmt::format("Deviations from the least-squares circle of the runs "
                                   "(radius {:.4f} mm)",
                                   layers.front().ref.radius_mm),
                       "black");
-  legend.emplace_back(fmt::format("magnified x{:.0f}: 1 division = {:g} um{}", magnification,
-                                  div_mm * 1000.0, options.mm_per_division ? " (fixed)" : ""),
+  legend.emplace_back(fmt::format("magnified x{:.0f}: 1 division = {:g} um{}", f.magnification,
+                                  f.div_mm * 1000.0, options.mm_per_division ? " (fixed)" : ""),
                       "black");
   std::size_t colour = 0;
   for (std::size_t l = 0; l < layers.size(); ++l) {
@@ -204,23 +212,124 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
     }
     for (std::size_t p = 0; p < ev.runs.size(); ++p, ++colour) {
       const RunResult& r = ev.runs[p];
-      std::string f = r.f_max_mm ? fmt::format("F_max = {:+.1f} um, F_min = {:+.1f} um",
-                                               *r.f_max_mm * 1000.0, *r.f_min_mm * 1000.0)
-                                 : std::string("F: n/a");
+      std::string fm = r.f_max_mm ? fmt::format("F_max = {:+.1f} um, F_min = {:+.1f} um",
+                                                *r.f_max_mm * 1000.0, *r.f_min_mm * 1000.0)
+                                  : std::string("F: n/a");
       legend.emplace_back(
           fmt::format("{}run {} {} ({}) at {}: G = {:.1f} um ({}), {}", prefix, p + 1,
                       direction_name(r.run.direction), r.label, feed_text(r.feed_mm_per_min),
-                      r.g_mm(ev.g_method) * 1000.0, g_method_name(ev.g_method), f),
+                      r.g_mm(ev.g_method) * 1000.0, g_method_name(ev.g_method), fm),
           kColours[colour % kNColours]);
     }
   }
+  return legend;
+}
 
+// The grid: the reference circle and rings every division, spokes every 45 deg, the axes named.
+void draw_grid(std::string& s, const Frame& f, Plane plane) {
+  auto out = std::back_inserter(s);
+  const double c = f.c;
+  for (int j = -4; j <= 4; ++j) {
+    fmt::format_to(out,
+                   "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{:.2f}\" fill=\"none\" stroke=\"{}\" "
+                   "stroke-width=\"{}\"/>\n",
+                   c, c, f.ring_px + j * f.div_mm * f.px_per_mm, j == 0 ? "#555" : "#ddd",
+                   j == 0 ? 1.2 : 0.8);
+  }
+  for (int k = 0; k < 8; ++k) {
+    const double t = k * std::numbers::pi / 4;
+    const double r0 = f.ring_px - f.band_px, r1 = f.ring_px + f.band_px;
+    fmt::format_to(out,
+                   "<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"#ddd\" "
+                   "stroke-width=\"0.8\"/>\n",
+                   c + r0 * std::cos(t), c - r0 * std::sin(t), c + r1 * std::cos(t),
+                   c - r1 * std::sin(t));
+  }
+  const PlaneAxes axes = plane_axes(plane);
+  fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\">+{}</text>\n", c + f.ring_px + f.band_px + 6,
+                 c + 4, static_cast<char>(std::toupper(axes.first)));
+  fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\">+{}</text>\n", c - 6,
+                 c - f.ring_px - f.band_px - 8, static_cast<char>(std::toupper(axes.second)));
+}
+
+// A run's start point (a dot on the path) and its direction of motion (an arrow outside the
+// band, along the path from the start); COLOUR_INDEX staggers the arrows of the runs.
+void draw_start_and_direction(std::string& s, const Frame& f, const Polar& s0, Direction direction,
+                              const char* col, std::size_t colour_index) {
+  auto out = std::back_inserter(s);
+  const double c = f.c;
+  const double r0 = std::max(0.0, f.ring_px + s0.dev_mm * f.px_per_mm);
+  fmt::format_to(out, "<circle class=\"start\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"4\" fill=\"{}\"/>\n",
+                 c + r0 * std::cos(s0.theta), c - r0 * std::sin(s0.theta), col);
+  const double sign = direction == Direction::CCW ? 1.0 : -1.0;
+  const double ra = f.ring_px + f.band_px + 12.0 + 10.0 * static_cast<double>(colour_index % 4);
+  const double t0 = s0.theta, t1 = s0.theta + sign * 0.25;
+  std::string arc;
+  for (int k = 0; k <= 8; ++k) {
+    const double t = t0 + (t1 - t0) * k / 8.0;
+    svg_add_point(arc, c + ra * std::cos(t), c - ra * std::sin(t));
+  }
+  // Arrow head at t1, pointing along the tangent of the motion.
+  const double hx = c + ra * std::cos(t1), hy = c - ra * std::sin(t1);
+  const double tx = -std::sin(t1) * sign, ty = -std::cos(t1) * sign;  // screen tangent
+  const double nx = -ty, ny = tx;
+  fmt::format_to(out,
+                 "<polyline points=\"{}\" class=\"direction\" fill=\"none\" stroke=\"{}\" "
+                 "stroke-width=\"1.5\"/>\n<polygon points=\"{:.1f},{:.1f} {:.1f},{:.1f} "
+                 "{:.1f},{:.1f}\" fill=\"{}\"/>\n",
+                 arc, col, hx + 8 * tx, hy + 8 * ty, hx + 4 * nx, hy + 4 * ny, hx - 4 * nx,
+                 hy - 4 * ny, col);
+}
+
+// Every run of every layer as a path in its colour (later layers dashed), with its start and
+// direction marked.
+void draw_runs(std::string& s, const Frame& f, const std::vector<Layer>& layers) {
+  auto out = std::back_inserter(s);
+  const double c = f.c;
+  std::size_t colour = 0;
+  for (std::size_t l = 0; l < layers.size(); ++l) {
+    const Evaluation& ev = *layers[l].ev;
+    for (std::size_t p = 0; p < layers[l].paths.size(); ++p, ++colour) {
+      const auto& path = layers[l].paths[p];
+      const char* col = kColours[colour % kNColours];
+      std::string pts;
+      for (const Polar& q : path) {
+        // A fixed scale can put a large deviation past the centre: clamp, never fold over.
+        const double rr = std::max(0.0, f.ring_px + q.dev_mm * f.px_per_mm);
+        svg_add_point(pts, c + rr * std::cos(q.theta), c - rr * std::sin(q.theta));
+      }
+      fmt::format_to(out,
+                     "<polyline points=\"{}\" class=\"run\" fill=\"none\" stroke=\"{}\" "
+                     "stroke-width=\"1.2\"{}/>\n",
+                     pts, col, l > 0 ? " stroke-dasharray=\"5,3\"" : "");
+      if (path.empty()) continue;
+      draw_start_and_direction(s, f, path.front(), ev.runs[p].run.direction, col, colour);
+    }
+  }
+}
+
+}  // namespace
+
+std::string svg_plot(const Evaluation& ev, const Trace& trace, const PlotOptions& options) {
+  return svg_plot(std::vector<PlotLayer>{{&ev, &trace, ""}}, options);
+}
+
+std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& options) {
+  double dmax = 1e-4;  // mm: a perfect path still gets a readable 0.1 um grid
+  std::vector<Layer> layers;
+  for (const PlotLayer& in : inputs) layers.push_back(polar_paths(in, options, dmax));
+  const Evaluation& first = *layers.front().ev;
+  const Frame f = plot_frame(layers, options, dmax);
+
+  // The legend, first: the height of the document follows from its length.
+  Legend legend = build_legend(layers, f, options);
   std::string s;
   auto out = std::back_inserter(s);
   if (options.legend_out) {
     *options.legend_out = std::move(legend);
     legend.clear();
   }
+  const double size = f.size;
   double height = size + (legend.empty() ? 0.0 : 20.0 + 18.0 * static_cast<double>(legend.size()));
   // The diagnosis panel beside the plot: drawn first into its own string, as its height can
   // set the document's.
@@ -240,73 +349,8 @@ std::string svg_plot(const std::vector<PlotLayer>& inputs, const PlotOptions& op
   if (!options.legend_out) {
     fmt::format_to(out, "<text x=\"10\" y=\"34\">{}</text>\n", xml_escape(first.source));
   }
-  // Grid: the reference circle and rings every division, spokes every 45 deg.
-  for (int j = -4; j <= 4; ++j) {
-    fmt::format_to(out,
-                   "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{:.2f}\" fill=\"none\" stroke=\"{}\" "
-                   "stroke-width=\"{}\"/>\n",
-                   c, c, ring_px + j * div_mm * px_per_mm, j == 0 ? "#555" : "#ddd",
-                   j == 0 ? 1.2 : 0.8);
-  }
-  for (int k = 0; k < 8; ++k) {
-    const double t = k * std::numbers::pi / 4;
-    const double r0 = ring_px - band_px, r1 = ring_px + band_px;
-    fmt::format_to(out,
-                   "<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" stroke=\"#ddd\" "
-                   "stroke-width=\"0.8\"/>\n",
-                   c + r0 * std::cos(t), c - r0 * std::sin(t), c + r1 * std::cos(t),
-                   c - r1 * std::sin(t));
-  }
-  const PlaneAxes axes = plane_axes(first.plane);
-  fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\">+{}</text>\n", c + ring_px + band_px + 6,
-                 c + 4, static_cast<char>(std::toupper(axes.first)));
-  fmt::format_to(out, "<text x=\"{:.1f}\" y=\"{:.1f}\">+{}</text>\n", c - 6,
-                 c - ring_px - band_px - 8, static_cast<char>(std::toupper(axes.second)));
-
-  colour = 0;
-  for (std::size_t l = 0; l < layers.size(); ++l) {
-    const Evaluation& ev = *layers[l].ev;
-    for (std::size_t p = 0; p < layers[l].paths.size(); ++p, ++colour) {
-      const auto& path = layers[l].paths[p];
-      const char* col = kColours[colour % kNColours];
-      std::string pts;
-      for (const Polar& q : path) {
-        // A fixed scale can put a large deviation past the centre: clamp, never fold over.
-        const double rr = std::max(0.0, ring_px + q.dev_mm * px_per_mm);
-        svg_add_point(pts, c + rr * std::cos(q.theta), c - rr * std::sin(q.theta));
-      }
-      fmt::format_to(out,
-                     "<polyline points=\"{}\" class=\"run\" fill=\"none\" stroke=\"{}\" "
-                     "stroke-width=\"1.2\"{}/>\n",
-                     pts, col, l > 0 ? " stroke-dasharray=\"5,3\"" : "");
-      if (path.empty()) continue;
-      // Start point (a dot on the path) and the direction of motion (an arrow outside the
-      // band, along the path from the start).
-      const Polar& s0 = path.front();
-      const double r0 = std::max(0.0, ring_px + s0.dev_mm * px_per_mm);
-      fmt::format_to(out,
-                     "<circle class=\"start\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"4\" fill=\"{}\"/>\n",
-                     c + r0 * std::cos(s0.theta), c - r0 * std::sin(s0.theta), col);
-      const double sign = ev.runs[p].run.direction == Direction::CCW ? 1.0 : -1.0;
-      const double ra = ring_px + band_px + 12.0 + 10.0 * static_cast<double>(colour % 4);
-      const double t0 = s0.theta, t1 = s0.theta + sign * 0.25;
-      std::string arc;
-      for (int k = 0; k <= 8; ++k) {
-        const double t = t0 + (t1 - t0) * k / 8.0;
-        svg_add_point(arc, c + ra * std::cos(t), c - ra * std::sin(t));
-      }
-      // Arrow head at t1, pointing along the tangent of the motion.
-      const double hx = c + ra * std::cos(t1), hy = c - ra * std::sin(t1);
-      const double tx = -std::sin(t1) * sign, ty = -std::cos(t1) * sign;  // screen tangent
-      const double nx = -ty, ny = tx;
-      fmt::format_to(out,
-                     "<polyline points=\"{}\" class=\"direction\" fill=\"none\" stroke=\"{}\" "
-                     "stroke-width=\"1.5\"/>\n<polygon points=\"{:.1f},{:.1f} {:.1f},{:.1f} "
-                     "{:.1f},{:.1f}\" fill=\"{}\"/>\n",
-                     arc, col, hx + 8 * tx, hy + 8 * ty, hx + 4 * nx, hy + 4 * ny, hx - 4 * nx,
-                     hy - 4 * ny, col);
-    }
-  }
+  draw_grid(s, f, first.plane);
+  draw_runs(s, f, layers);
 
   double y = size + 10;
   for (const auto& [text, col] : legend) {

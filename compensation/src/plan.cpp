@@ -725,8 +725,10 @@ bool servo_step(PlanContext& c) {
       c.plan.notes = std::move(plan_tried.notes);
       return false;
     }
+  } catch (const MeasurementError&) {
+    throw;  // the diagnosis refused: as for every other step, whether asked for or not
   } catch (const DataError& e) {
-    if (c.o.servo_requested || e.file() == c.d.source) throw;
+    if (c.o.servo_requested) throw;
     c.plan.notes.push_back(fmt::format("servo gains not planned: {}", e.what()));
     return false;
   }

@@ -456,10 +456,11 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
         return false;
       }
       if (!(std::abs(*lag.value) <= kMaxLagMs)) {
-        throw DataError(d.source, 0,
-                        fmt::format("{} servo lag = {:g} ms is implausible (more than {:g} ms); "
-                                    "check the measurement",
-                                    d.axes[k], *lag.value, kMaxLagMs));
+        throw MeasurementError(
+            d.source, 0,
+            fmt::format("{} servo lag = {:g} ms is implausible (more than {:g} ms); "
+                        "check the measurement",
+                        d.axes[k], *lag.value, kMaxLagMs));
       }
       if (lag.standard_error && *lag.standard_error * 10.0 > std::abs(*lag.value)) {
         plan.notes.push_back(fmt::format(

@@ -192,6 +192,34 @@ TEST(Servo, HalKeyMissingInTheIniIsRefusedNamingTheHalLine) {
   EXPECT_TRUE(plan.files.empty());
 }
 
+// What decides between a refusal and a note is the kind of error, not the file it names: a
+// diagnosis whose source names the configuration's own HAL file (or INI) still has a
+// configuration the servo step cannot take skipped with a note, and an implausible lag is
+// refused whatever the diagnosis names.
+TEST(Servo, ConfigurationErrorIsANoteWhateverTheDiagnosisNames) {
+  Config c("pncconf-servo");
+  std::string ini = c.read("pncconf-servo.ini");
+  const std::size_t j1 = ini.find("[JOINT_1]");
+  ini.erase(ini.find("FF1 = 0.0\n", j1), 10);
+  c.write("pncconf-servo.ini", ini);
+  for (const std::string& source : {c.path("pncconf-servo.hal"), c.ini}) {
+    DiagnosisInput d = lags(kLagX, kLagY);
+    d.source = source;
+    const Plan plan = make_plan(c.ini, d, PlanOptions{});
+    EXPECT_TRUE(has_text(plan.notes, "servo gains not planned:")) << source << all(plan.notes);
+    EXPECT_TRUE(has_text(plan.notes, "the INI has no [JOINT_1] FF1")) << all(plan.notes);
+    EXPECT_TRUE(plan.files.empty());
+    EXPECT_ERROR(make_plan(c.ini, d, servo_only()), ExitCode::data,
+                 "setp pid.y.FF1 [JOINT_1]FF1: the INI has no [JOINT_1] FF1");
+  }
+  for (const std::string& source : {std::string(), c.path("pncconf-servo.hal")}) {
+    DiagnosisInput d = lags(2e4, kLagY);
+    d.source = source;
+    EXPECT_ERROR(make_plan(c.ini, d, PlanOptions{}), ExitCode::data,
+                 "X servo lag = 20000 ms is implausible (more than 10000 ms)");
+  }
+}
+
 TEST(Servo, GainNeitherNumberNorKeyIsRefused) {
   Config c("pncconf-servo");
   c.edit("pncconf-servo.hal", "setp   pid.x.FF1       [JOINT_0]FF1",
