@@ -459,7 +459,7 @@ PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double 
   const double at_ms = rising_pulse_peak_s(decay_ms, rise);
   const double amplitude_max = 2.0 * parse_finite(number_text(spike_mm)).value_or(spike_mm) * upm;
   return {amplitude_max, std::min(o.gain * spike_mm * upm, amplitude_max), rise,
-          fmt::format(", a rising pulse: the axis follows within {:.1f} ms and the spike peaks "
+          fmt::format(", a rising pulse: the axis follows within {:.2g} ms and the spike peaks "
                       "{:.0f} ms after the reversal (the drive sticks), the pulse's at {:.0f} ms{}",
                       *d.axis_lag_ms[k].value, peak_ms, at_ms,
                       at_ms < 0.99 * want_ms
