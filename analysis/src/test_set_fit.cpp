@@ -30,8 +30,8 @@ struct Part {
 // The shared unknowns a plane column's coefficient is made of; none for a column of the plane's
 // own (centre, radius, squareness, servo mismatch, cyclic terms). A backlash column of an axis
 // that does not reverse in the plane is a shift between the directions there, the plane's own.
-// The scale mismatch column is s_A - s_B when the set knows an absolute scale (some plane's
-// radius change gives the mean of its axes' scales), else the plane's own.
+// The scale mismatch column is s_A - s_B when the set knows an absolute scale (scale_shared),
+// else the plane's own.
 std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, bool scale_shared) {
   switch (k) {
     case Kind::backlash_a:
@@ -191,8 +191,12 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   }
   SetDiagnosis s = join_set_diagnoses(std::move(source), std::move(own));
   if (planes.size() < 2) return s;
-  const bool scale_shared =
-      std::any_of(planes.begin(), planes.end(), [](const auto& ds) { return ds->mean_scale; });
+  // The axes' scales are shared unknowns when a plane gives both the difference of its axes'
+  // scales (its scale mismatch column) and their mean (its radius change): any other plane
+  // shares an axis with it, so every scale is then known; else the mismatches are the planes'.
+  const bool scale_shared = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
+    return ds->mean_scale && find(ds->cols, Kind::scale_mismatch);
+  });
   const Layout L = lay_out(planes, scale_shared);
   // Weights 1 / sigma_p^2 from each plane's own fit; equal weights when a plane has no
   // residual left (noise-free data).
@@ -205,6 +209,15 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   for (int it = 0; it < 4; ++it) {
     sol = solve(stack(planes, L, weight));
     if (!take_backlash(planes, L, sol)) break;
+  }
+  // A joint system the planes do not determine (a shared unknown no plane's data pins down)
+  // has no honest solution: the planes' values stay joined as they are, and a note says so.
+  if (!sol.x.allFinite() || !sol.inv.diagonal().allFinite() ||
+      !(sol.inv.diagonal().minCoeff() > 0)) {
+    s.notes.push_back(
+        "the joint fit across the planes is singular: the joint values are the inverse-variance "
+        "means of the planes' own");
+    return s;
   }
   s.joint_fit = true;
   for (AxisJoint& a : s.axes) {
