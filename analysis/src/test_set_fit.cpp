@@ -1,8 +1,8 @@
 // A test set's diagnosis as one model across its planes (test_set.hpp, docs/diagnosis.md "Test
 // sets"): each plane is diagnosed on its own first (its nonlinear state: the play's take-up,
 // the spike decays, the cyclic pitches, the lag mismatch), then the planes' normal equations at
-// that state are stacked with each axis's backlash, spike height and scale as one unknown
-// shared by every plane the axis is in, and solved once.
+// that state are stacked with each axis's backlash, spike height, scale and following lag as
+// one unknown shared by every plane the axis is in, and solved once.
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -17,22 +17,30 @@ namespace {
 using namespace diagnosis_detail;
 
 // The per-axis unknowns the planes share.
-enum Shared { kBacklash = 0, kSpike = 1, kScale = 2, kSharedCount = 3 };
+enum Shared { kBacklash = 0, kSpike = 1, kScale = 2, kLag = 3, kSharedCount = 4 };
 
-// One part of a plane column's coefficient: sign times shared unknown `param` of the plane's
+// Which per-axis terms are shared beyond backlash and spike height (which always are): the
+// scales when a plane gives both the difference and the mean of its axes' scales, the
+// following lags when a plane gives both the lag mismatch and each axis's own lag.
+struct Sharing {
+  bool scale = false;
+  bool lag = false;
+};
+
+// One part of a plane column's coefficient: factor times shared unknown `param` of the plane's
 // axis `ax` (0 the plane's first axis, 1 its second).
 struct Part {
   int param;
   int ax;
-  double sign;
+  double factor;
 };
 
 // The shared unknowns a plane column's coefficient is made of; none for a column of the plane's
-// own (centre, radius, squareness, servo mismatch, cyclic terms). A backlash column of an axis
-// that does not reverse in the plane is a shift between the directions there, the plane's own.
-// The scale mismatch column is s_A - s_B when the set knows an absolute scale (scale_shared),
-// else the plane's own.
-std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, bool scale_shared) {
+// own (centre, radius, squareness, cyclic terms). A backlash column of an axis that does not
+// reverse in the plane is a shift between the directions there, the plane's own. The servo
+// mismatch column is lag_A - lag_B, the scale mismatch column s_A - s_B less the servo's
+// cos 2theta part w^2 lag (lag_A - lag_B); each the plane's own when not shared.
+std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, Sharing sh) {
   switch (k) {
     case Kind::backlash_a:
       if (ds.reversal_a) return {{kBacklash, 0, 1.0}};
@@ -45,7 +53,15 @@ std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, bool scale_shar
     case Kind::spike_b:
       return {{kSpike, 1, 1.0}};
     case Kind::scale_mismatch:
-      if (scale_shared) return {{kScale, 0, 1.0}, {kScale, 1, -1.0}};
+      if (sh.scale && sh.lag && ds.scale_servo_per_s != 0.0 && find(ds.cols, Kind::servo))
+        return {{kScale, 0, 1.0},
+                {kScale, 1, -1.0},
+                {kLag, 0, -ds.scale_servo_per_s},
+                {kLag, 1, ds.scale_servo_per_s}};
+      if (sh.scale) return {{kScale, 0, 1.0}, {kScale, 1, -1.0}};
+      break;
+    case Kind::servo:
+      if (sh.lag) return {{kLag, 0, 1.0}, {kLag, 1, -1.0}};
       break;
     default:
       break;
@@ -57,22 +73,39 @@ int axis_of(const DiagnosisState& ds, int ax) {
   return ds.D.axes[static_cast<std::size_t>(ax)] - 'X';
 }
 
+// An axis's own following lag as the joint model has it (s): measured against its command
+// (motor feedback or the instrument) with its standard error, and the half sample the
+// continuous loop lags more than the trace shows (as the plane's mean lag, servo.cpp).
+std::optional<std::pair<double, double>> own_lag_s(const DiagnosisState& ds, int ax) {
+  const AxisLag& al = ds.D.axis_lag[static_cast<std::size_t>(ax)];
+  if (al.source != "feedback" && al.source != "instrument") return std::nullopt;
+  if (!al.lag_ms.value || !al.lag_ms.standard_error || !(*al.lag_ms.standard_error > 0))
+    return std::nullopt;
+  return std::pair{*al.lag_ms.value * 1e-3 + ds.period / 2.0, *al.lag_ms.standard_error * 1e-3};
+}
+
 // The joint model's unknowns: shared ones per machine axis, then each plane's own columns. A
 // plane's coefficients are theta_p = T_p phi + o_p (o_p: the servo's part of the scale mismatch
-// column, known from the plane's lag).
+// column when the scales are shared and the lags are not, known from the plane's own fit).
 struct Layout {
+  Sharing sharing;
   std::array<std::array<int, kSharedCount>, 3> shared{};  // [X, Y, Z][param]: index or -1
   std::vector<Eigen::MatrixXd> T;
   std::vector<Eigen::VectorXd> o;
   Eigen::Index size = 0;
 };
 
-Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, bool scale_shared) {
+int shared_index(const Layout& L, const DiagnosisState& ds, int ax, int param) {
+  return L.shared[static_cast<std::size_t>(axis_of(ds, ax))][static_cast<std::size_t>(param)];
+}
+
+Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, Sharing sh) {
   Layout L;
+  L.sharing = sh;
   for (auto& a : L.shared) a.fill(-1);
   for (const auto& ds : planes) {
     for (const Column& c : ds->cols) {
-      for (const Part& p : shared_parts(*ds, c.kind, scale_shared)) {
+      for (const Part& p : shared_parts(*ds, c.kind, sh)) {
         int& g = L.shared[static_cast<std::size_t>(axis_of(*ds, p.ax))]
                          [static_cast<std::size_t>(p.param)];
         if (g < 0) g = static_cast<int>(L.size++);
@@ -83,7 +116,7 @@ Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, bool 
   for (const auto& ds : planes) {
     first_local.push_back(L.size);
     for (const Column& c : ds->cols) {
-      if (shared_parts(*ds, c.kind, scale_shared).empty()) ++L.size;
+      if (shared_parts(*ds, c.kind, sh).empty()) ++L.size;
     }
   }
   for (std::size_t q = 0; q < planes.size(); ++q) {
@@ -92,15 +125,16 @@ Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, bool 
     Eigen::MatrixXd T = Eigen::MatrixXd::Zero(p, L.size);
     Eigen::VectorXd o = Eigen::VectorXd::Zero(p);
     Eigen::Index local = first_local[q];
+    const auto servo = find(ds.cols, Kind::servo);
     for (Eigen::Index j = 0; j < p; ++j) {
       const Column& c = ds.cols[static_cast<std::size_t>(j)];
-      const std::vector<Part> parts = shared_parts(ds, c.kind, scale_shared);
+      const std::vector<Part> parts = shared_parts(ds, c.kind, sh);
       if (parts.empty()) T(j, local++) = 1.0;
-      for (const Part& part : parts) {
-        T(j, L.shared[static_cast<std::size_t>(axis_of(ds, part.ax))]
-                     [static_cast<std::size_t>(part.param)]) = part.sign;
-      }
-      if (c.kind == Kind::scale_mismatch && !parts.empty()) o[j] = -ds.scale_mismatch_servo;
+      for (const Part& part : parts) T(j, shared_index(L, ds, part.ax, part.param)) += part.factor;
+      const bool lag_in_parts = std::any_of(parts.begin(), parts.end(),
+                                            [](const Part& part) { return part.param == kLag; });
+      if (c.kind == Kind::scale_mismatch && !parts.empty() && !lag_in_parts && servo)
+        o[j] = -ds.scale_servo_per_s * ds.sol.x[static_cast<Eigen::Index>(*servo)];
     }
     L.T.push_back(std::move(T));
     L.o.push_back(std::move(o));
@@ -108,9 +142,19 @@ Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, bool 
   return L;
 }
 
+// One more observation of the shared unknowns: a . phi = y with standard error se.
+void observe(Normal& J, const Eigen::VectorXd& a, double y, double se) {
+  const double w = 1.0 / (std::max(se, 1e-15) * std::max(se, 1e-15));
+  J.M += w * a * a.transpose();
+  J.v += w * y * a;
+  J.yy += w * y * y;
+  J.n += 1;
+}
+
 // The stacked normal equations: each plane's rows weighted by its own residual variance (a
-// noisier plane counts less), and each plane's mean scale of its two axes from its radius
-// change as one more observation of (s_A + s_B) / 2 with its standard error.
+// noisier plane counts less), and as further observations with their standard errors each
+// plane's mean scale of its two axes from its radius change ((s_A + s_B) / 2) and each axis's
+// own following lag against its command.
 Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
              const std::vector<double>& weight) {
   Normal J;
@@ -126,17 +170,19 @@ Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const L
     J.v += weight[q] * T.transpose() * v;
     J.yy += weight[q] * (N.yy - 2.0 * o.dot(N.v) + o.dot(N.M * o));
     J.n += N.n;
-    const int sa = L.shared[static_cast<std::size_t>(axis_of(ds, 0))][kScale];
-    const int sb = L.shared[static_cast<std::size_t>(axis_of(ds, 1))][kScale];
+    const int sa = shared_index(L, ds, 0, kScale), sb = shared_index(L, ds, 1, kScale);
     if (ds.mean_scale && sa >= 0 && sb >= 0) {
-      const double se = std::max(ds.mean_scale_se.value_or(0.0), 1e-12);
       Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
       a[sa] = a[sb] = 0.5;
-      const double w = 1.0 / (se * se);
-      J.M += w * a * a.transpose();
-      J.v += w * *ds.mean_scale * a;
-      J.yy += w * *ds.mean_scale * *ds.mean_scale;
-      J.n += 1;
+      observe(J, a, *ds.mean_scale, ds.mean_scale_se.value_or(0.0));
+    }
+    for (int ax = 0; ax < 2; ++ax) {
+      const int g = shared_index(L, ds, ax, kLag);
+      const auto lag = own_lag_s(ds, ax);
+      if (g < 0 || !lag) continue;
+      Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
+      a[g] = 1.0;
+      observe(J, a, lag->first, lag->second);
     }
   }
   return J;
@@ -151,21 +197,28 @@ Estimate estimate_at(const Solution& sol, int g, double scale) {
   return e;
 }
 
-// The shared backlash into each plane's state (the play's take-up shape and its offset);
-// true when one moved.
-bool take_backlash(std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
-                   const Solution& sol) {
+// Moves v to the joint value b; true when that is a change.
+bool move_to(double& v, double b) {
+  const bool changed = std::abs(b - v) > 1e-4 * std::abs(b) + 1e-9;
+  v = b;
+  return changed;
+}
+
+// The shared backlash (the play's take-up shape and its offset) and lag mismatch (where the
+// reversals fall) into each plane's nonlinear state; true when one moved.
+bool take_state(std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
+                const Solution& sol) {
   bool changed = false;
   for (auto& ds : planes) {
     for (int ax = 0; ax < 2; ++ax) {
       const bool reverses = ax == 0 ? ds->reversal_a : ds->reversal_b;
-      const int g = L.shared[static_cast<std::size_t>(axis_of(*ds, ax))][kBacklash];
+      const int g = shared_index(L, *ds, ax, kBacklash);
       if (!reverses || g < 0) continue;
-      const double b = sol.x[g];
-      double& st = ax == 0 ? ds->st.backlash_a : ds->st.backlash_b;
-      changed = changed || std::abs(b - st) > 1e-4 * std::abs(b) + 1e-9;
-      st = b;
+      changed = move_to(ax == 0 ? ds->st.backlash_a : ds->st.backlash_b, sol.x[g]) || changed;
     }
+    const int la = shared_index(L, *ds, 0, kLag), lb = shared_index(L, *ds, 1, kLag);
+    if (L.sharing.lag && la >= 0 && lb >= 0 && find(ds->cols, Kind::servo))
+      changed = move_to(ds->st.servo_mismatch_s, sol.x[la] - sol.x[lb]) || changed;
   }
   return changed;
 }
@@ -192,12 +245,17 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   SetDiagnosis s = join_set_diagnoses(std::move(source), std::move(own));
   if (planes.size() < 2) return s;
   // The axes' scales are shared unknowns when a plane gives both the difference of its axes'
-  // scales (its scale mismatch column) and their mean (its radius change): any other plane
-  // shares an axis with it, so every scale is then known; else the mismatches are the planes'.
-  const bool scale_shared = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
+  // scales (its scale mismatch column) and their mean (its radius change), the lags when a
+  // plane gives both its lag mismatch (its servo column) and each axis's own lag: any other
+  // plane shares an axis with it, so every one is then known; else they are the planes' own.
+  Sharing sh;
+  sh.scale = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
     return ds->mean_scale && find(ds->cols, Kind::scale_mismatch);
   });
-  const Layout L = lay_out(planes, scale_shared);
+  sh.lag = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
+    return find(ds->cols, Kind::servo) && own_lag_s(*ds, 0) && own_lag_s(*ds, 1);
+  });
+  const Layout L = lay_out(planes, sh);
   // Weights 1 / sigma_p^2 from each plane's own fit; equal weights when a plane has no
   // residual left (noise-free data).
   std::vector<double> weight;
@@ -208,7 +266,7 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   Solution sol;
   for (int it = 0; it < 4; ++it) {
     sol = solve(stack(planes, L, weight));
-    if (!take_backlash(planes, L, sol)) break;
+    if (!take_state(planes, L, sol)) break;
   }
   // A joint system the planes do not determine (a shared unknown no plane's data pins down)
   // has no honest solution: the planes' values stay joined as they are, and a note says so.
@@ -225,6 +283,7 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
     take_joint(a.backlash_mm, estimate_at(sol, g[kBacklash], 1.0));
     take_joint(a.spike_mm, estimate_at(sol, g[kSpike], 1.0));
     take_joint(a.scale_ppm, estimate_at(sol, g[kScale], 1e6));
+    take_joint(a.lag_ms, estimate_at(sol, g[kLag], 1e3));
   }
   // Each plane's squareness: its own unknown in the joint model, reported where the plane
   // reports it (not confounded with the servo mismatch).
@@ -234,7 +293,7 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   Eigen::Index local = first;
   for (const auto& ds : planes) {
     for (const Column& c : ds->cols) {
-      if (!shared_parts(*ds, c.kind, scale_shared).empty()) continue;
+      if (!shared_parts(*ds, c.kind, sh).empty()) continue;
       auto& sq = s.squareness_urad[plane_index(ds->D.plane)];
       if (c.kind == Kind::squareness && sq && sq->value)
         sq = estimate_at(sol, static_cast<int>(local), 1e6);

@@ -66,10 +66,10 @@ struct DiagnosisState {
   double period = 0.0;
 
   // The mean scale of the two axes from the radius change, and its standard error
-  // (radius_loss.cpp); the part of the scale mismatch column that is the servo's cos 2theta
-  // term, not scale (servo.cpp; s_A - s_B = column + this).
+  // (radius_loss.cpp); the servo's cos 2theta part of the scale mismatch column per second of
+  // lag mismatch, w^2 lag (servo.cpp; s_A - s_B = column + this * (lag_A - lag_B)).
   std::optional<double> mean_scale, mean_scale_se;
-  double scale_mismatch_servo = 0.0;
+  double scale_servo_per_s = 0.0;
 };
 
 // diagnosis.cpp: every stage below in order; ds.D holds the diagnosis and ds the fitted model
