@@ -21,7 +21,7 @@ enum Shared { kBacklash = 0, kSpike = 1, kScale = 2, kLag = 3, kSharedCount = 4 
 
 // Which per-axis terms are shared beyond backlash and spike height (which always are): the
 // scales when a plane gives both the difference and the mean of its axes' scales, the
-// following lags when a plane gives both the lag mismatch and each axis's own lag.
+// following lags when a plane gives both its lag mismatch and its mean lag (commanded columns).
 struct Sharing {
   bool scale = false;
   bool lag = false;
@@ -73,16 +73,12 @@ int axis_of(const DiagnosisState& ds, int ax) {
   return ds.D.axes[static_cast<std::size_t>(ax)] - 'X';
 }
 
-// An axis's own following lag as the joint model has it (s): measured against its command
-// (motor feedback or the instrument) with its standard error, and the half sample the
-// continuous loop lags more than the trace shows (as the plane's mean lag, servo.cpp).
-std::optional<std::pair<double, double>> own_lag_s(const DiagnosisState& ds, int ax) {
-  const AxisLag& al = ds.D.axis_lag[static_cast<std::size_t>(ax)];
-  if (al.source != "feedback" && al.source != "instrument") return std::nullopt;
-  if (!al.lag_ms.value || !al.lag_ms.standard_error || !(*al.lag_ms.standard_error > 0))
-    return std::nullopt;
-  return std::pair{*al.lag_ms.value * 1e-3 + ds.period / 2.0, *al.lag_ms.standard_error * 1e-3};
-}
+// The standard error given to a plane's mean following lag as an observation of the mean of
+// its axes' lags. The mean lag has no standard error of its own; it sets only the level of
+// the lags (no column reads it: the servo and scale columns see differences of lags), so this
+// value changes neither the differences nor anything else in the fit, and the joint lag is
+// reported without a standard error.
+constexpr double kMeanLagSpreadS = 1e-3;
 
 // The joint model's unknowns: shared ones per machine axis, then each plane's own columns. A
 // plane's coefficients are theta_p = T_p phi + o_p (o_p: the servo's part of the scale mismatch
@@ -152,9 +148,9 @@ void observe(Normal& J, const Eigen::VectorXd& a, double y, double se) {
 }
 
 // The stacked normal equations: each plane's rows weighted by its own residual variance (a
-// noisier plane counts less), and as further observations with their standard errors each
-// plane's mean scale of its two axes from its radius change ((s_A + s_B) / 2) and each axis's
-// own following lag against its command.
+// noisier plane counts less), and as further observations each plane's mean scale of its two
+// axes from its radius change ((s_A + s_B) / 2, with its standard error) and its mean
+// following lag ((lag_A + lag_B) / 2).
 Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
              const std::vector<double>& weight) {
   Normal J;
@@ -176,13 +172,11 @@ Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const L
       a[sa] = a[sb] = 0.5;
       observe(J, a, *ds.mean_scale, ds.mean_scale_se.value_or(0.0));
     }
-    for (int ax = 0; ax < 2; ++ax) {
-      const int g = shared_index(L, ds, ax, kLag);
-      const auto lag = own_lag_s(ds, ax);
-      if (g < 0 || !lag) continue;
+    const int la = shared_index(L, ds, 0, kLag), lb = shared_index(L, ds, 1, kLag);
+    if (ds.lag_s && la >= 0 && lb >= 0) {
       Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
-      a[g] = 1.0;
-      observe(J, a, lag->first, lag->second);
+      a[la] = a[lb] = 0.5;
+      observe(J, a, *ds.lag_s, kMeanLagSpreadS);
     }
   }
   return J;
@@ -246,15 +240,14 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   if (planes.size() < 2) return s;
   // The axes' scales are shared unknowns when a plane gives both the difference of its axes'
   // scales (its scale mismatch column) and their mean (its radius change), the lags when a
-  // plane gives both its lag mismatch (its servo column) and each axis's own lag: any other
+  // plane gives both its lag mismatch (its servo column) and its mean lag: any other
   // plane shares an axis with it, so every one is then known; else they are the planes' own.
   Sharing sh;
   sh.scale = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
     return ds->mean_scale && find(ds->cols, Kind::scale_mismatch);
   });
-  sh.lag = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
-    return find(ds->cols, Kind::servo) && own_lag_s(*ds, 0) && own_lag_s(*ds, 1);
-  });
+  sh.lag = std::any_of(planes.begin(), planes.end(),
+                       [](const auto& ds) { return find(ds->cols, Kind::servo) && ds->lag_s; });
   const Layout L = lay_out(planes, sh);
   // Weights 1 / sigma_p^2 from each plane's own fit; equal weights when a plane has no
   // residual left (noise-free data).
@@ -283,7 +276,7 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
     take_joint(a.backlash_mm, estimate_at(sol, g[kBacklash], 1.0));
     take_joint(a.spike_mm, estimate_at(sol, g[kSpike], 1.0));
     take_joint(a.scale_ppm, estimate_at(sol, g[kScale], 1e6));
-    take_joint(a.lag_ms, estimate_at(sol, g[kLag], 1e3));
+    if (g[kLag] >= 0) take_joint(a.lag_ms, Estimate{sol.x[g[kLag]] * 1e3, std::nullopt});
   }
   // Each plane's squareness: its own unknown in the joint model, reported where the plane
   // reports it (not confounded with the servo mismatch).

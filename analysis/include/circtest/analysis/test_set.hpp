@@ -95,15 +95,17 @@ struct SetPlaneInput {
 // One model across the set (joint_fit true): each plane is diagnosed on its own (its own
 // values, the planes' agreement and the nonlinear state: the play's take-up, spike decays,
 // cyclic pitches, lag mismatch), then the planes' normal equations at that state are solved as
-// one least-squares problem in which each axis's backlash, reversal spike height and scale are
-// one unknown shared by every plane the axis is in, and everything else (centre, radius per
-// feed, squareness, servo mismatch, cyclic terms) is the plane's own. Each plane's rows are
-// weighted by its own residual variance; the standard errors are the joint covariance's times
-// the joint residual variance (widened by sqrt(chi2 / dof) where the planes disagree). The
-// axes' scales are shared when a plane's radius change gives the mean scale of its two axes
-// (an absolute instrument, two feeds or commanded columns): the mismatch columns give the
-// differences and those means the level. Spike decay and following lag are the planes' values
-// joined as join_set_diagnoses does. Throws what diagnose throws for a plane.
+// one least-squares problem in which each axis's backlash, reversal spike height, scale and
+// following lag are one unknown shared by every plane the axis is in, and everything else
+// (centre, radius per feed, squareness, cyclic terms) is the plane's own. Each plane's rows
+// are weighted by its own residual variance; the standard errors are the joint covariance's
+// times the joint residual variance (widened by sqrt(chi2 / dof) where the planes disagree).
+// The scales are shared when a plane's radius change gives the mean scale of its two axes
+// (the mismatch columns give the differences), the lags when a plane's mean lag against the
+// commanded columns is measured (the servo mismatch columns give the differences; the joint
+// lag has no standard error, as the mean lags have none); else those columns stay the planes'
+// own. The spike decay is the planes' values joined as join_set_diagnoses does. Throws what
+// diagnose throws for a plane.
 SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& planes);
 
 // diagnose_set for planes split from one trace, every plane with the same options.
