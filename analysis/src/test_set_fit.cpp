@@ -74,10 +74,9 @@ int axis_of(const DiagnosisState& ds, int ax) {
 }
 
 // The standard error given to a plane's mean following lag as an observation of the mean of
-// its axes' lags. The mean lag has no standard error of its own; it sets only the level of
-// the lags (no column reads it: the servo and scale columns see differences of lags), so this
-// value changes neither the differences nor anything else in the fit, and the joint lag is
-// reported without a standard error.
+// its axes' lags. The mean lag has no standard error of its own; this is far looser than the
+// servo mismatch columns (about 1e-6 s), so the lags' differences come from those columns and
+// the mean lags set their level; the joint lag is reported without a standard error.
 constexpr double kMeanLagSpreadS = 1e-3;
 
 // The joint model's unknowns: shared ones per machine axis, then each plane's own columns. A
