@@ -407,27 +407,41 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
 
 namespace {
 
-// The diagnosis of one evaluated plane, with the notes on what was evaluated leading.
-Diagnosis diagnose_plane(const DiagnoseRequest& request, const EvaluatedTrace& evaluated) {
+// The options a plane's diagnosis runs with: a ball bar's trace measures no absolute length
+// along an axis.
+DiagnosisOptions plane_options(const DiagnoseRequest& request, const EvaluatedTrace& evaluated) {
   DiagnosisOptions options = request.options;
-  // A ball bar's trace measures no absolute length along an axis.
   if (evaluated.radial) options.absolute_channels = false;
-  Diagnosis d = naming_file(
-      request.trace_path, [&] { return diagnose(evaluated.trace, evaluated.evaluation, options); });
-  // What was evaluated: the units and radial notes lead the evaluation's notes.
+  return options;
+}
+
+// What was evaluated: the units and radial notes lead the evaluation's notes.
+void lead_with_evaluation_notes(const EvaluatedTrace& evaluated, Diagnosis& d) {
   const auto& en = evaluated.evaluation.notes;
   const std::size_t lead =
       (evaluated.radial ? 1u : 0u) + (!en.empty() && en.front().starts_with("units: ") ? 1u : 0u);
   d.notes.insert(d.notes.begin(), en.begin(),
                  en.begin() + static_cast<std::ptrdiff_t>(std::min(lead, en.size())));
+}
+
+// The diagnosis of one evaluated plane, with the notes on what was evaluated leading.
+Diagnosis diagnose_plane(const DiagnoseRequest& request, const EvaluatedTrace& evaluated) {
+  const DiagnosisOptions options = plane_options(request, evaluated);
+  Diagnosis d = naming_file(
+      request.trace_path, [&] { return diagnose(evaluated.trace, evaluated.evaluation, options); });
+  lead_with_evaluation_notes(evaluated, d);
   return d;
 }
 
 int diagnose_set_command(const DiagnoseRequest& request, const std::vector<EvaluatedTrace>& planes,
                          std::optional<ProgressTicker>& progress, std::ostream& out) {
-  std::vector<Diagnosis> diagnoses;
-  for (const EvaluatedTrace& p : planes) diagnoses.push_back(diagnose_plane(request, p));
-  const SetDiagnosis set = join_set_diagnoses(request.trace_path, std::move(diagnoses));
+  std::vector<SetPlaneInput> inputs;
+  for (const EvaluatedTrace& p : planes)
+    inputs.push_back({&p.trace, &p.evaluation, plane_options(request, p)});
+  SetDiagnosis set =
+      naming_file(request.trace_path, [&] { return diagnose_set(request.trace_path, inputs); });
+  for (std::size_t k = 0; k < planes.size(); ++k)
+    lead_with_evaluation_notes(planes[k], set.plane_diagnoses[k]);
   if (!request.svg_path.empty()) {
     std::vector<std::pair<std::string, std::string>> plots;
     for (std::size_t k = 0; k < planes.size(); ++k) {

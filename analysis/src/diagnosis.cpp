@@ -12,8 +12,14 @@ Diagnosis diagnose(const Trace& trace, const DiagnosisOptions& options) {
 }
 
 Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOptions& options) {
-  using namespace diagnosis_detail;
-  DiagnosisState ds(trace, ev, options);
+  diagnosis_detail::DiagnosisState ds(trace, ev, options);
+  diagnosis_detail::run_stages(ds);
+  return std::move(ds.D);
+}
+
+namespace diagnosis_detail {
+
+void run_stages(DiagnosisState& ds) {
   describe_trace(ds);
   set_up_samples(ds);
   choose_terms(ds);
@@ -29,7 +35,8 @@ Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOpti
   measure_axis_lags(ds);
   residual_and_contributions(ds);
   check_finite(ds);
-  return std::move(ds.D);
 }
+
+}  // namespace diagnosis_detail
 
 }  // namespace circtest

@@ -386,12 +386,10 @@ SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> plane
 SetDiagnosis diagnose_set(const std::vector<PlaneTrace>& planes,
                           const std::vector<Evaluation>& evaluations,
                           const DiagnosisOptions& options) {
-  std::vector<Diagnosis> d;
-  for (std::size_t k = 0; k < planes.size(); ++k) {
-    d.push_back(diagnose(planes[k].trace, evaluations[k], options));
-  }
-  return join_set_diagnoses(planes.empty() ? std::string() : planes.front().trace.source,
-                            std::move(d));
+  std::vector<SetPlaneInput> in;
+  for (std::size_t k = 0; k < planes.size(); ++k)
+    in.push_back({&planes[k].trace, &evaluations[k], options});
+  return diagnose_set(planes.empty() ? std::string() : planes.front().trace.source, in);
 }
 
 namespace {
@@ -455,6 +453,7 @@ json to_json(const SetDiagnosis& s) {
   json planes = json::array();
   for (Plane p : s.planes) planes.push_back(std::string(plane_name(p)));
   set[K::planes] = planes;
+  set[K::method] = s.joint_fit ? "one model across the set" : "planes joined";
   json sq = json::object();
   for (Plane p : {Plane::XY, Plane::YZ, Plane::ZX}) {
     const auto& e = s.squareness_urad[plane_index(p)];
@@ -523,9 +522,11 @@ std::string text_report(const SetDiagnosis& s) {
     for (double f : s.feeds_mm_per_min) fmt::format_to(it, " {:.0f}", f);
     out += " mm/min";
   }
-  out +=
-      "\n(joint value from every plane the axis is in, each plane's own in brackets; +- one "
-      "standard error)\n\n";
+  out += s.joint_fit ? "\n(joint value: one least-squares model across the set, each axis from "
+                       "every plane it is in; each plane's own in brackets; +- one standard "
+                       "error)\n\n"
+                     : "\n(joint value from every plane the axis is in, each plane's own in "
+                       "brackets; +- one standard error)\n\n";
   for (const AxisJoint& a : s.axes) {
     fmt::format_to(it, "  {} axis\n", a.axis);
     joint_line(out, "backlash", a.backlash_mm, 1e3, "um");

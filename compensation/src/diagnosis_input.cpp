@@ -273,6 +273,21 @@ std::vector<DiagnosisInput> parse_set_document(const json& doc, const Reader& r,
       d.reversal_spike_se_ms[k] = spike_ms_se[k];
       d.scale_ppm[k] = {scale[k], scale_se[k]};
     }
+    // The plane's squareness from the set's joint fit (test_set.squareness_urad) where the
+    // document has it; a document without it keeps the plane's own.
+    const json& squareness = r.member(set, K::squareness_urad, K::test_set);
+    if (!squareness.is_null() && !squareness.is_object())
+      r.fail(std::string(K::test_set) + "." + K::squareness_urad, "expected an object or null");
+    if (squareness.is_object() && squareness.contains(d.plane)) {
+      const json& e = squareness[d.plane];
+      const std::string path = std::string(K::test_set) + "." + K::squareness_urad + "." + d.plane;
+      if (!e.is_object()) r.fail(path, "expected an object with value and standard_error");
+      const auto value = r.number(r.member(e, K::value, path), path + "." + K::value);
+      if (value) {
+        d.squareness_urad = {
+            value, r.number(r.member(e, K::standard_error, path), path + "." + K::standard_error)};
+      }
+    }
     out.push_back(std::move(d));
   }
   if (seen != planes) {

@@ -4,7 +4,9 @@
 // simulator's set program (tests/support/machine_sim).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "circtest/analysis/test_set.hpp"
@@ -249,4 +251,169 @@ TEST(TestSet, JointValueAndAgreement) {
                                      "standard errors): XY 10.000 um ZX 12.000 um"),
             std::string::npos)
       << apart.notes.front();
+}
+
+namespace {
+
+// The simulated machine of the joint-fit tests: per-axis backlash, reversal spike and scale,
+// the three squarenesses, and noise on the measured positions.
+sim::MachineModel set_machine() {
+  sim::MachineModel m;
+  m.x.backlash_mm = 0.010;
+  m.y.backlash_mm = 0.006;
+  m.z.backlash_mm = 0.008;
+  m.x.scale = 40e-6;
+  m.y.scale = -30e-6;
+  m.z.scale = 25e-6;
+  m.x.spike_mm = 0.004;
+  m.y.spike_mm = 0.003;
+  m.z.spike_mm = 0.005;
+  m.x.spike_ms = m.y.spike_ms = m.z.spike_ms = 15.0;
+  m.squareness_xy_rad = 100e-6;
+  m.squareness_yz_rad = -60e-6;
+  m.squareness_zx_rad = 45e-6;
+  m.noise_mm = 0.0005;
+  m.seed = 7;
+  return m;
+}
+
+SetDiagnosis diagnose_trace(const Trace& t) {
+  const std::vector<PlaneTrace> split = split_test_set(t, *test_set_planes(t));
+  std::vector<Evaluation> ev;
+  for (const PlaneTrace& p : split) ev.push_back(evaluate(p.trace, {}));
+  return diagnose_set(split, ev);
+}
+
+const AxisJoint& axis(const SetDiagnosis& s, char a) {
+  for (const AxisJoint& j : s.axes) {
+    if (j.axis == a) return j;
+  }
+  throw std::logic_error("no axis");
+}
+
+double plane_se(const JointEstimate& j, Plane p) {
+  for (const PlaneEstimate& e : j.planes) {
+    if (e.plane == p) return *e.estimate.standard_error;
+  }
+  throw std::logic_error("no plane");
+}
+
+// The set's trace without its commanded columns (no axis's own lag can be measured).
+Trace without_commanded(Trace t) {
+  for (const char* c : {"x_cmd", "y_cmd", "z_cmd"}) {
+    const auto k = t.column_index(c);
+    if (!k) continue;
+    t.columns.erase(t.columns.begin() + static_cast<std::ptrdiff_t>(*k));
+    t.values.erase(t.values.begin() + static_cast<std::ptrdiff_t>(*k));
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST(TestSetJointFit, OneModelRecoversEachAxisAndTheThreeSquarenesses) {
+  const sim::MachineModel m = set_machine();
+  const SetDiagnosis s = diagnose_trace(three_plane_trace(m));
+  EXPECT_TRUE(s.joint_fit);
+  const sim::AxisModel* truth[] = {&m.x, &m.y, &m.z};
+  for (const char a : {'X', 'Y', 'Z'}) {
+    SCOPED_TRACE(std::string(1, a));
+    const AxisJoint& j = axis(s, a);
+    const sim::AxisModel& t = *truth[a - 'X'];
+    ASSERT_TRUE(j.backlash_mm.joint.value && j.spike_mm.joint.value && j.scale_ppm.joint.value);
+    // Within 0.1 um and 4 standard errors (about 10 nm here).
+    EXPECT_NEAR(*j.backlash_mm.joint.value, t.backlash_mm, 1e-4);
+    EXPECT_NEAR(*j.backlash_mm.joint.value, t.backlash_mm,
+                4.0 * *j.backlash_mm.joint.standard_error);
+    EXPECT_NEAR(*j.spike_mm.joint.value, t.spike_mm, 0.05 * t.spike_mm);
+    EXPECT_NEAR(*j.scale_ppm.joint.value, t.scale * 1e6, 0.5);
+    EXPECT_NEAR(*j.scale_ppm.joint.value, t.scale * 1e6, 4.0 * *j.scale_ppm.joint.standard_error);
+    // Each axis is in two planes with the same noise: its joint standard error is about
+    // 1/sqrt(2) of each plane's own.
+    for (const JointEstimate* e : {&j.backlash_mm, &j.scale_ppm}) {
+      ASSERT_EQ(e->planes.size(), 2u);
+      for (const PlaneEstimate& p : e->planes) {
+        EXPECT_NEAR(*e->joint.standard_error / *p.estimate.standard_error, 1.0 / std::sqrt(2.0),
+                    0.03)
+            << plane_name(p.plane);
+      }
+      EXPECT_TRUE(e->consistent);
+    }
+    // The following lag (none on this machine: the half sample the loop lags more than the
+    // trace shows) shared too, from the planes' lag mismatches and mean lags; the mean lags
+    // have no standard error, so neither has the joint lag.
+    ASSERT_TRUE(j.lag_ms.joint.value);
+    EXPECT_NEAR(*j.lag_ms.joint.value, 0.5, 0.01);
+    EXPECT_FALSE(j.lag_ms.joint.standard_error);
+    EXPECT_LT(*j.spike_mm.joint.standard_error,
+              std::min(plane_se(j.spike_mm, j.spike_mm.planes[0].plane),
+                       plane_se(j.spike_mm, j.spike_mm.planes[1].plane)));
+  }
+  const double sq[] = {m.squareness_xy_rad, m.squareness_yz_rad, m.squareness_zx_rad};
+  for (std::size_t p = 0; p < 3; ++p) {
+    ASSERT_TRUE(s.squareness_urad[p] && s.squareness_urad[p]->value);
+    EXPECT_NEAR(*s.squareness_urad[p]->value, sq[p] * 1e6, 1.0) << p;
+  }
+  const auto j = to_json(s);
+  namespace K = diagnosis_json::key;
+  EXPECT_EQ(j[K::test_set][K::method], "one model across the set");
+  EXPECT_EQ(j[K::backlash_mm]["X"], *axis(s, 'X').backlash_mm.joint.value);
+  EXPECT_EQ(j[K::test_set][K::squareness_urad]["YZ"][K::value], *s.squareness_urad[1]->value);
+  EXPECT_NE(text_report(s).find("one least-squares model across the set"), std::string::npos);
+  EXPECT_EQ(to_json(join_set_diagnoses("t", s.plane_diagnoses))[K::test_set][K::method],
+            "planes joined");
+}
+
+TEST(TestSetJointFit, PlanesThatDisagreeAreFlagged) {
+  // X's backlash 10 um where XY runs and 16 um where ZX runs: the ZX plane's rows from a second
+  // simulation of the same program (same timing and noise) with the larger play.
+  sim::MachineModel m = set_machine();
+  Trace t = three_plane_trace(m);
+  m.x.backlash_mm = 0.016;
+  const Trace other = three_plane_trace(m);
+  const std::vector<double>& seg = *t.column(column_name::segment);
+  const auto zx = static_cast<std::size_t>(
+      std::find_if(seg.begin(), seg.end(), [](double v) { return v >= 9.0; }) - seg.begin());
+  for (std::size_t c = 0; c < t.values.size(); ++c)
+    std::copy(other.values[c].begin() + static_cast<std::ptrdiff_t>(zx), other.values[c].end(),
+              t.values[c].begin() + static_cast<std::ptrdiff_t>(zx));
+  const SetDiagnosis s = diagnose_trace(t);
+  const AxisJoint& x = axis(s, 'X');
+  EXPECT_FALSE(x.backlash_mm.consistent);
+  ASSERT_TRUE(x.backlash_mm.chi2);
+  EXPECT_GT(*x.backlash_mm.chi2, 100.0);
+  // The joint value lies between the planes', its standard error widened by sqrt(chi2 / dof):
+  // the planes' spread, not the fit's precision.
+  EXPECT_GT(*x.backlash_mm.joint.value, 0.0105);
+  EXPECT_LT(*x.backlash_mm.joint.value, 0.0155);
+  EXPECT_GT(*x.backlash_mm.joint.standard_error, 1e-3);
+  EXPECT_TRUE(axis(s, 'Y').backlash_mm.consistent);
+  EXPECT_TRUE(axis(s, 'Z').backlash_mm.consistent);
+  const std::string text = text_report(s);
+  EXPECT_NE(text.find("DISAGREE"), std::string::npos);
+  ASSERT_FALSE(s.notes.empty());
+  EXPECT_NE(s.notes.front().find("the planes disagree on X backlash beyond their standard "
+                                 "errors"),
+            std::string::npos)
+      << s.notes.front();
+}
+TEST(TestSetJointFit, WithoutCommandedColumnsTheLagMismatchesStayThePlanes) {
+  // No commanded columns: no plane's mean lag, so each plane's lag mismatch stays its own and
+  // the planes share backlash, spike and scale alone: two planes of equal noise, 1/sqrt(2);
+  // the per-axis scale then comes from the two feeds' radius change.
+  const SetDiagnosis s = diagnose_trace(without_commanded(three_plane_trace(set_machine())));
+  ASSERT_TRUE(s.joint_fit);
+  for (const AxisJoint& j : s.axes) {
+    SCOPED_TRACE(std::string(1, j.axis));
+    for (const JointEstimate* e : {&j.backlash_mm, &j.scale_ppm}) {
+      ASSERT_EQ(e->planes.size(), 2u);
+      for (const PlaneEstimate& p : e->planes) {
+        EXPECT_NEAR(*e->joint.standard_error / *p.estimate.standard_error, 1.0 / std::sqrt(2.0),
+                    0.03)
+            << plane_name(p.plane);
+      }
+    }
+    EXPECT_FALSE(j.lag_ms.joint.standard_error);
+  }
+  EXPECT_NEAR(*axis(s, 'X').backlash_mm.joint.value, 0.010, 1e-4);
 }

@@ -83,6 +83,27 @@ TEST(TestSetPlan, ReadsEachPlaneWithTheJointValuesEachAxisOnce) {
   EXPECT_EQ(*planes[2].squareness_urad.value, 45.0);
 }
 
+TEST(TestSetPlan, SquarenessFromTheSetsJointFit) {
+  json doc = set_doc();
+  // The joint fit's squareness of YZ beside the plane's own -60: the joint one is planned.
+  doc[K::test_set][K::squareness_urad] = {{"YZ", {{K::value, -59.7}, {K::standard_error, 0.17}}}};
+  const auto planes = parse_diagnosis_planes(doc.dump(), "set.json");
+  EXPECT_EQ(*planes[1].squareness_urad.value, -59.7);
+  EXPECT_EQ(*planes[1].squareness_urad.standard_error, 0.17);
+  // A plane the object does not name keeps its own.
+  EXPECT_EQ(*planes[0].squareness_urad.value, 100.0);
+  doc[K::test_set][K::squareness_urad]["YZ"] = 12.0;
+  EXPECT_ERROR(parse_diagnosis_planes(doc.dump(), "set.json"), ExitCode::parse,
+               "set.json: \"test_set.squareness_urad.YZ\": expected an object with value and "
+               "standard_error");
+  doc[K::test_set][K::squareness_urad] = "12";
+  EXPECT_ERROR(parse_diagnosis_planes(doc.dump(), "set.json"), ExitCode::parse,
+               "\"test_set.squareness_urad\": expected an object or null");
+  doc[K::test_set][K::squareness_urad] = {{"XY", {{K::value, "x"}}}};
+  EXPECT_ERROR(parse_diagnosis_planes(doc.dump(), "set.json"), ExitCode::parse,
+               "\"test_set.squareness_urad.XY.value\": expected a number or null");
+}
+
 TEST(TestSetPlan, RefusesWhatIsNotASet) {
   // One plane's reader: a set is refused by name.
   EXPECT_ERROR(parse_diagnosis(set_doc().dump(), "set.json"), ExitCode::parse,

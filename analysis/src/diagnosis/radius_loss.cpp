@@ -77,6 +77,10 @@ void split_radius_change(DiagnosisState& ds) {
     mean_scale.reset();
     D.notes.push_back("instrument is not absolute (ballbar): only the scale mismatch is reported");
   }
+  if (mean_scale) {
+    ds.mean_scale = mean_scale;
+    ds.mean_scale_se = mean_scale_se.value_or(0.0);
+  }
   if (mean_scale && mismatch_ppm) {
     const double se_ds = D.scale_mismatch_ppm.standard_error.value_or(0.0);
     const double m = *mean_scale * 1e6, mse = mean_scale_se.value_or(0.0) * 1e6;

@@ -121,7 +121,8 @@ void measure_following_lag(DiagnosisState& ds) {
       w2 += w * w;
     }
     w2 /= static_cast<double>(S.size());
-    *D.scale_mismatch_ppm.value += w2 * *lag_s * *D.servo_mismatch_ms.value * 1e-3 * 1e6;
+    ds.scale_servo_per_s = w2 * *lag_s;
+    *D.scale_mismatch_ppm.value += ds.scale_servo_per_s * *D.servo_mismatch_ms.value * 1e-3 * 1e6;
   } else if (D.servo_mismatch_ms.value && D.scale_mismatch_ppm.value) {
     D.notes.push_back(
         "no commanded columns: the scale mismatch includes the cos 2theta part of the servo "

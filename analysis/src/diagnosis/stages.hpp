@@ -64,7 +64,17 @@ struct DiagnosisState {
   // The mean following lag from the commanded columns and the sample period (servo.cpp).
   std::optional<double> lag_s;
   double period = 0.0;
+
+  // The mean scale of the two axes from the radius change, and its standard error
+  // (radius_loss.cpp); the servo's cos 2theta part of the scale mismatch column per second of
+  // lag mismatch, w^2 lag (servo.cpp; s_A - s_B = column + this * (lag_A - lag_B)).
+  std::optional<double> mean_scale, mean_scale_se;
+  double scale_servo_per_s = 0.0;
 };
+
+// diagnosis.cpp: every stage below in order; ds.D holds the diagnosis and ds the fitted model
+// (a test set's joint fit, test_set_fit.cpp, reads the planes' models from it).
+void run_stages(DiagnosisState& ds);
 
 // runs.cpp: the trace's plane, axes, instrument; refuses a trace without runs.
 void describe_trace(DiagnosisState& ds);

@@ -3,8 +3,9 @@
 // circlog-record write it (docs/diagnosis.md, "Test sets"). The trace's `plane` metadata lists
 // the planes in program order ("XY,YZ,ZX") and each `segments` entry names its plane
 // ("id:DIR:Ffeed:PLANE"). The set is split into one trace per plane, each evaluated and
-// diagnosed as a single-plane trace; the diagnoses are then joined: each axis's parameters from
-// every plane it appears in, the planes' agreement shown, and the three squarenesses.
+// diagnosed as a single-plane trace, then one model is fitted across the set (diagnose_set): each
+// axis's parameters from every plane it appears in, the planes' agreement shown, and the three
+// squarenesses.
 #include <array>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -43,8 +44,8 @@ struct PlaneEstimate {
   Estimate estimate;
 };
 
-// A parameter of one axis from every plane that fitted it: the joint value is the inverse-
-// variance weighted mean (the least-squares estimate of one value from independent planes);
+// A parameter of one axis from every plane that fitted it: the joint value is the joint fit's
+// (diagnose_set) or the inverse-variance weighted mean of the planes' (join_set_diagnoses);
 // chi2 over dof tells whether the planes agree within their standard errors. When they do
 // not (chi2 beyond the 99.9 % point), the joint standard error is scaled by sqrt(chi2 / dof)
 // and a note names the planes' values. Planes without standard errors give their plain mean,
@@ -76,12 +77,38 @@ struct SetDiagnosis {
   std::array<std::optional<Estimate>, 3> squareness_urad;  // XY, YZ, ZX: the planes in the set
   std::vector<double> feeds_mm_per_min;                    // every plane's feeds, each once
   std::vector<std::string> notes;
+  bool joint_fit = false;  // the joint values from one model across the set (diagnose_set)
 };
 
-// Joins the planes' diagnoses (in the set's order).
+// Joins the planes' diagnoses (in the set's order): each axis's joint values are the inverse-
+// variance means of the planes' own (joint_fit false).
 SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> planes);
 
-// Each plane's evaluation and diagnosis, then the join.
+// One plane of a set for diagnose_set: its trace, its evaluation and the options its diagnosis
+// runs with (a ball bar's plane has no absolute channels).
+struct SetPlaneInput {
+  const Trace* trace = nullptr;
+  const Evaluation* evaluation = nullptr;
+  DiagnosisOptions options;
+};
+
+// One model across the set (joint_fit true): each plane is diagnosed on its own (its own
+// values, the planes' agreement and the nonlinear state: the play's take-up, spike decays,
+// cyclic pitches, lag mismatch), then the planes' normal equations at that state are solved as
+// one least-squares problem in which each axis's backlash, reversal spike height, scale and
+// following lag are one unknown shared by every plane the axis is in, and everything else
+// (centre, radius per feed, squareness, cyclic terms) is the plane's own. Each plane's rows
+// are weighted by its own residual variance; the standard errors are the joint covariance's
+// times the joint residual variance (widened by sqrt(chi2 / dof) where the planes disagree).
+// The scales are shared when a plane's radius change gives the mean scale of its two axes
+// (the mismatch columns give the differences), the lags when a plane's mean lag against the
+// commanded columns is measured (the servo mismatch columns give the differences; the joint
+// lag has no standard error, as the mean lags have none); else those columns stay the planes'
+// own. The spike decay is the planes' values joined as join_set_diagnoses does. Throws what
+// diagnose throws for a plane.
+SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& planes);
+
+// diagnose_set for planes split from one trace, every plane with the same options.
 SetDiagnosis diagnose_set(const std::vector<PlaneTrace>& planes,
                           const std::vector<Evaluation>& evaluations,
                           const DiagnosisOptions& options = {});

@@ -93,6 +93,9 @@ inline constexpr const char* value = "value";
 inline constexpr const char* chi2 = "chi2";
 inline constexpr const char* dof = "dof";
 inline constexpr const char* consistent = "consistent";
+// How a test set's joint values were found: "one model across the set" (the planes' normal
+// equations solved as one) or "planes joined" (the inverse-variance mean of the planes' own).
+inline constexpr const char* method = "method";
 }  // namespace key
 
 // Checks a document's "version" (absent in documents written before it existed: 1.0). Throws

@@ -1,0 +1,298 @@
+// A test set's diagnosis as one model across its planes (test_set.hpp, docs/diagnosis.md "Test
+// sets"): each plane is diagnosed on its own first (its nonlinear state: the play's take-up,
+// the spike decays, the cyclic pitches, the lag mismatch), then the planes' normal equations at
+// that state are stacked with each axis's backlash, spike height, scale and following lag as
+// one unknown shared by every plane the axis is in, and solved once.
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "circtest/analysis/test_set.hpp"
+#include "diagnosis/stages.hpp"
+
+namespace circtest {
+
+namespace {
+
+using namespace diagnosis_detail;
+
+// The per-axis unknowns the planes share.
+enum Shared { kBacklash = 0, kSpike = 1, kScale = 2, kLag = 3, kSharedCount = 4 };
+
+// Which per-axis terms are shared beyond backlash and spike height (which always are): the
+// scales when a plane gives both the difference and the mean of its axes' scales, the
+// following lags when a plane gives both its lag mismatch and its mean lag (commanded columns).
+struct Sharing {
+  bool scale = false;
+  bool lag = false;
+};
+
+// One part of a plane column's coefficient: factor times shared unknown `param` of the plane's
+// axis `ax` (0 the plane's first axis, 1 its second).
+struct Part {
+  int param;
+  int ax;
+  double factor;
+};
+
+// The shared unknowns a plane column's coefficient is made of; none for a column of the plane's
+// own (centre, radius, squareness, cyclic terms). A backlash column of an axis that does not
+// reverse in the plane is a shift between the directions there, the plane's own. The servo
+// mismatch column is lag_A - lag_B, the scale mismatch column s_A - s_B less the servo's
+// cos 2theta part w^2 lag (lag_A - lag_B); each the plane's own when not shared.
+std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, Sharing sh) {
+  switch (k) {
+    case Kind::backlash_a:
+      if (ds.reversal_a) return {{kBacklash, 0, 1.0}};
+      break;
+    case Kind::backlash_b:
+      if (ds.reversal_b) return {{kBacklash, 1, 1.0}};
+      break;
+    case Kind::spike_a:
+      return {{kSpike, 0, 1.0}};
+    case Kind::spike_b:
+      return {{kSpike, 1, 1.0}};
+    case Kind::scale_mismatch:
+      if (sh.scale && sh.lag && ds.scale_servo_per_s != 0.0 && find(ds.cols, Kind::servo))
+        return {{kScale, 0, 1.0},
+                {kScale, 1, -1.0},
+                {kLag, 0, -ds.scale_servo_per_s},
+                {kLag, 1, ds.scale_servo_per_s}};
+      if (sh.scale) return {{kScale, 0, 1.0}, {kScale, 1, -1.0}};
+      break;
+    case Kind::servo:
+      if (sh.lag) return {{kLag, 0, 1.0}, {kLag, 1, -1.0}};
+      break;
+    default:
+      break;
+  }
+  return {};
+}
+
+int axis_of(const DiagnosisState& ds, int ax) {
+  return ds.D.axes[static_cast<std::size_t>(ax)] - 'X';
+}
+
+// The standard error given to a plane's mean following lag as an observation of the mean of
+// its axes' lags. The mean lag has no standard error of its own; this is far looser than the
+// servo mismatch columns (about 1e-6 s), so the lags' differences come from those columns and
+// the mean lags set their level; the joint lag is reported without a standard error.
+constexpr double kMeanLagSpreadS = 1e-3;
+
+// The joint model's unknowns: shared ones per machine axis, then each plane's own columns. A
+// plane's coefficients are theta_p = T_p phi + o_p (o_p: the servo's part of the scale mismatch
+// column when the scales are shared and the lags are not, known from the plane's own fit).
+struct Layout {
+  Sharing sharing;
+  std::array<std::array<int, kSharedCount>, 3> shared{};  // [X, Y, Z][param]: index or -1
+  std::vector<Eigen::MatrixXd> T;
+  std::vector<Eigen::VectorXd> o;
+  Eigen::Index size = 0;
+};
+
+int shared_index(const Layout& L, const DiagnosisState& ds, int ax, int param) {
+  return L.shared[static_cast<std::size_t>(axis_of(ds, ax))][static_cast<std::size_t>(param)];
+}
+
+Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, Sharing sh) {
+  Layout L;
+  L.sharing = sh;
+  for (auto& a : L.shared) a.fill(-1);
+  for (const auto& ds : planes) {
+    for (const Column& c : ds->cols) {
+      for (const Part& p : shared_parts(*ds, c.kind, sh)) {
+        int& g = L.shared[static_cast<std::size_t>(axis_of(*ds, p.ax))]
+                         [static_cast<std::size_t>(p.param)];
+        if (g < 0) g = static_cast<int>(L.size++);
+      }
+    }
+  }
+  std::vector<Eigen::Index> first_local;
+  for (const auto& ds : planes) {
+    first_local.push_back(L.size);
+    for (const Column& c : ds->cols) {
+      if (shared_parts(*ds, c.kind, sh).empty()) ++L.size;
+    }
+  }
+  for (std::size_t q = 0; q < planes.size(); ++q) {
+    const DiagnosisState& ds = *planes[q];
+    const auto p = static_cast<Eigen::Index>(ds.cols.size());
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(p, L.size);
+    Eigen::VectorXd o = Eigen::VectorXd::Zero(p);
+    Eigen::Index local = first_local[q];
+    const auto servo = find(ds.cols, Kind::servo);
+    for (Eigen::Index j = 0; j < p; ++j) {
+      const Column& c = ds.cols[static_cast<std::size_t>(j)];
+      const std::vector<Part> parts = shared_parts(ds, c.kind, sh);
+      if (parts.empty()) T(j, local++) = 1.0;
+      for (const Part& part : parts) T(j, shared_index(L, ds, part.ax, part.param)) += part.factor;
+      const bool lag_in_parts = std::any_of(parts.begin(), parts.end(),
+                                            [](const Part& part) { return part.param == kLag; });
+      if (c.kind == Kind::scale_mismatch && !parts.empty() && !lag_in_parts && servo)
+        o[j] = -ds.scale_servo_per_s * ds.sol.x[static_cast<Eigen::Index>(*servo)];
+    }
+    L.T.push_back(std::move(T));
+    L.o.push_back(std::move(o));
+  }
+  return L;
+}
+
+// One more observation of the shared unknowns: a . phi = y with standard error se.
+void observe(Normal& J, const Eigen::VectorXd& a, double y, double se) {
+  const double w = 1.0 / (std::max(se, 1e-15) * std::max(se, 1e-15));
+  J.M += w * a * a.transpose();
+  J.v += w * y * a;
+  J.yy += w * y * y;
+  J.n += 1;
+}
+
+// The stacked normal equations: each plane's rows weighted by its own residual variance (a
+// noisier plane counts less), and as further observations each plane's mean scale of its two
+// axes from its radius change ((s_A + s_B) / 2, with its standard error) and its mean
+// following lag ((lag_A + lag_B) / 2).
+Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
+             const std::vector<double>& weight) {
+  Normal J;
+  J.M = Eigen::MatrixXd::Zero(L.size, L.size);
+  J.v = Eigen::VectorXd::Zero(L.size);
+  for (std::size_t q = 0; q < planes.size(); ++q) {
+    DiagnosisState& ds = *planes[q];
+    const Normal N = accumulate(ds.S, ds.st, ds.cols, ds.stride, ds.memo);
+    const Eigen::MatrixXd& T = L.T[q];
+    const Eigen::VectorXd& o = L.o[q];
+    const Eigen::VectorXd v = N.v - N.M * o;
+    J.M += weight[q] * T.transpose() * N.M * T;
+    J.v += weight[q] * T.transpose() * v;
+    J.yy += weight[q] * (N.yy - 2.0 * o.dot(N.v) + o.dot(N.M * o));
+    J.n += N.n;
+    const int sa = shared_index(L, ds, 0, kScale), sb = shared_index(L, ds, 1, kScale);
+    if (ds.mean_scale && sa >= 0 && sb >= 0) {
+      Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
+      a[sa] = a[sb] = 0.5;
+      observe(J, a, *ds.mean_scale, ds.mean_scale_se.value_or(0.0));
+    }
+    const int la = shared_index(L, ds, 0, kLag), lb = shared_index(L, ds, 1, kLag);
+    if (ds.lag_s && la >= 0 && lb >= 0) {
+      Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
+      a[la] = a[lb] = 0.5;
+      observe(J, a, *ds.lag_s, kMeanLagSpreadS);
+    }
+  }
+  return J;
+}
+
+Estimate estimate_at(const Solution& sol, int g, double scale) {
+  Estimate e;
+  if (g < 0) return e;
+  const auto gi = static_cast<Eigen::Index>(g);
+  e.value = sol.x[gi] * scale;
+  e.standard_error = std::sqrt(std::max(0.0, sol.sigma2 * sol.inv(gi, gi))) * std::abs(scale);
+  return e;
+}
+
+// Moves v to the joint value b; true when that is a change.
+bool move_to(double& v, double b) {
+  const bool changed = std::abs(b - v) > 1e-4 * std::abs(b) + 1e-9;
+  v = b;
+  return changed;
+}
+
+// The shared backlash (the play's take-up shape and its offset) and lag mismatch (where the
+// reversals fall) into each plane's nonlinear state; true when one moved.
+bool take_state(std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
+                const Solution& sol) {
+  bool changed = false;
+  for (auto& ds : planes) {
+    for (int ax = 0; ax < 2; ++ax) {
+      const bool reverses = ax == 0 ? ds->reversal_a : ds->reversal_b;
+      const int g = shared_index(L, *ds, ax, kBacklash);
+      if (!reverses || g < 0) continue;
+      changed = move_to(ax == 0 ? ds->st.backlash_a : ds->st.backlash_b, sol.x[g]) || changed;
+    }
+    const int la = shared_index(L, *ds, 0, kLag), lb = shared_index(L, *ds, 1, kLag);
+    if (L.sharing.lag && la >= 0 && lb >= 0 && find(ds->cols, Kind::servo))
+      changed = move_to(ds->st.servo_mismatch_s, sol.x[la] - sol.x[lb]) || changed;
+  }
+  return changed;
+}
+
+// A value and standard error of the joint fit into an axis's joint estimate. Planes that
+// disagree beyond their standard errors widen it by sqrt(chi2 / dof), as the note says.
+void take_joint(JointEstimate& j, const Estimate& e) {
+  if (!e.value) return;
+  j.joint = e;
+  if (!j.consistent && j.chi2 && j.dof > 0 && j.joint.standard_error)
+    *j.joint.standard_error *= std::sqrt(*j.chi2 / j.dof);
+}
+
+}  // namespace
+
+SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& inputs) {
+  std::vector<std::unique_ptr<DiagnosisState>> planes;
+  std::vector<Diagnosis> own;
+  for (const SetPlaneInput& in : inputs) {
+    planes.push_back(std::make_unique<DiagnosisState>(*in.trace, *in.evaluation, in.options));
+    run_stages(*planes.back());
+    own.push_back(planes.back()->D);
+  }
+  SetDiagnosis s = join_set_diagnoses(std::move(source), std::move(own));
+  if (planes.size() < 2) return s;
+  // The axes' scales are shared unknowns when a plane gives both the difference of its axes'
+  // scales (its scale mismatch column) and their mean (its radius change), the lags when a
+  // plane gives both its lag mismatch (its servo column) and its mean lag: any other
+  // plane shares an axis with it, so every one is then known; else they are the planes' own.
+  Sharing sh;
+  sh.scale = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
+    return ds->mean_scale && find(ds->cols, Kind::scale_mismatch);
+  });
+  sh.lag = std::any_of(planes.begin(), planes.end(),
+                       [](const auto& ds) { return find(ds->cols, Kind::servo) && ds->lag_s; });
+  const Layout L = lay_out(planes, sh);
+  // Weights 1 / sigma_p^2 from each plane's own fit; equal weights when a plane has no
+  // residual left (noise-free data).
+  std::vector<double> weight;
+  for (const auto& ds : planes) weight.push_back(ds->sol.sigma2);
+  const bool weighted = std::all_of(weight.begin(), weight.end(), [](double v) { return v > 0; });
+  for (double& w : weight) w = weighted ? 1.0 / w : 1.0;
+  // The play's take-up depends on the play: a few Gauss-Newton steps, as the plane fit takes.
+  Solution sol;
+  for (int it = 0; it < 4; ++it) {
+    sol = solve(stack(planes, L, weight));
+    if (!take_state(planes, L, sol)) break;
+  }
+  // A joint system the planes do not determine (a shared unknown no plane's data pins down)
+  // has no honest solution: the planes' values stay joined as they are, and a note says so.
+  if (!sol.x.allFinite() || !sol.inv.diagonal().allFinite() ||
+      !(sol.inv.diagonal().minCoeff() > 0)) {
+    s.notes.push_back(
+        "the joint fit across the planes is singular: the joint values are the inverse-variance "
+        "means of the planes' own");
+    return s;
+  }
+  s.joint_fit = true;
+  for (AxisJoint& a : s.axes) {
+    const auto& g = L.shared[static_cast<std::size_t>(a.axis - 'X')];
+    take_joint(a.backlash_mm, estimate_at(sol, g[kBacklash], 1.0));
+    take_joint(a.spike_mm, estimate_at(sol, g[kSpike], 1.0));
+    take_joint(a.scale_ppm, estimate_at(sol, g[kScale], 1e6));
+    if (g[kLag] >= 0) take_joint(a.lag_ms, Estimate{sol.x[g[kLag]] * 1e3, std::nullopt});
+  }
+  // Each plane's squareness: its own unknown in the joint model, reported where the plane
+  // reports it (not confounded with the servo mismatch).
+  Eigen::Index first = 0;
+  for (const auto& a : L.shared)
+    for (int g : a) first += g >= 0 ? 1 : 0;
+  Eigen::Index local = first;
+  for (const auto& ds : planes) {
+    for (const Column& c : ds->cols) {
+      if (!shared_parts(*ds, c.kind, sh).empty()) continue;
+      auto& sq = s.squareness_urad[plane_index(ds->D.plane)];
+      if (c.kind == Kind::squareness && sq && sq->value)
+        sq = estimate_at(sol, static_cast<int>(local), 1e6);
+      ++local;
+    }
+  }
+  return s;
+}
+
+}  // namespace circtest
