@@ -427,6 +427,43 @@ std::string gain_where(const Gain& g, const std::string& pin, int joint, const H
                      pin.substr(pin.rfind('.') + 1), pin, anchor.file, anchor.line);
 }
 
+// Two joints whose pids read their gain from the same INI key (a gantry's second joint set
+// up with the first joint's section, a copied line) cannot take two different values: the
+// last write would win silently. The same value is written once; different ones are refused
+// naming both setp lines.
+void check_shared_keys(const std::vector<JointServo>& joints) {
+  struct Use {
+    const JointServo* joint;
+    const Gain* gain;
+    double value;
+    const char* pin;
+  };
+  std::vector<Use> uses;
+  for (const auto& js : joints) {
+    uses.push_back({&js, &js.ff1, js.ff1_new, "FF1"});
+    uses.push_back({&js, &js.p, js.p_new, "Pgain"});
+  }
+  for (std::size_t i = 0; i < uses.size(); ++i) {
+    for (std::size_t k = 0; k < i; ++k) {
+      const Use &a = uses[k], &b = uses[i];
+      if (a.gain->kind != Gain::Kind::ini_key || b.gain->kind != Gain::Kind::ini_key ||
+          a.gain->section != b.gain->section || a.gain->key != b.gain->key) {
+        continue;
+      }
+      if (std::abs(a.value - b.value) <= 1e-9 * std::max(std::abs(a.value), std::abs(b.value))) {
+        continue;
+      }
+      throw DataError(
+          b.gain->place.file, b.gain->place.line,
+          fmt::format("setp {}.{} reads [{}]{} as setp {}.{} does ({}:{}), but joint {} needs {} "
+                      "and joint {} needs {}: give each joint its own key",
+                      b.joint->pid, b.pin, b.gain->section, b.gain->key, a.joint->pid, a.pin,
+                      a.gain->place.file, a.gain->place.line, a.joint->joint, number_text(a.value),
+                      b.joint->joint, number_text(b.value)));
+    }
+  }
+}
+
 }  // namespace
 
 bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o, Plan& plan,
@@ -504,6 +541,7 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
     return true;
   }
   for (const auto& js : joints) check_ferror(ini, js);
+  check_shared_keys(joints);
   for (const auto& js : joints) {
     const double lag_after = (js.c - js.ff1_new) / js.p_new;
     if (std::abs(js.p_new - js.p.value) > 1e-9 * js.p.value) {

@@ -387,3 +387,23 @@ TEST(Servo, FrictionWaitsForTheRerunWhenTheGainsChange) {
                        "gains change"))
       << all(plan.notes);
 }
+
+// Y's pid reading X's key: the two joints need different FF1 (their lags differ), so one key
+// cannot hold both; refused naming Y's setp and X's, not written twice with the last winning.
+TEST(Servo, TwoJointsReadingOneKeyWithDifferentGainsAreRefused) {
+  Config c("pncconf-servo");
+  c.edit("pncconf-servo.hal", "setp   pid.y.FF1       [JOINT_1]FF1",
+         "setp   pid.y.FF1       [JOINT_0]FF1");
+  const std::string hal = c.read("pncconf-servo.hal");
+  EXPECT_ERROR(make_plan(c.ini, lags(kLagX, kLagY), servo_only()), ExitCode::data,
+               c.path("pncconf-servo.hal") + ":" + std::to_string(line_of(hal, "pid.y.FF1")) +
+                   ": setp pid.y.FF1 reads [JOINT_0]FF1 as setp pid.x.FF1 does (" +
+                   c.path("pncconf-servo.hal") + ":" + std::to_string(line_of(hal, "pid.x.FF1")) +
+                   "), but joint 0 needs ");
+  // Equal P and equal lags need equal FF1: one key serves both, written once.
+  std::string ini = c.read("pncconf-servo.ini");
+  ini.replace(ini.find("P = 31.0"), 8, "P = 30.0");
+  c.write("pncconf-servo.ini", ini);
+  const Plan same = make_plan(c.ini, lags(kLagX, kLagX), servo_only());
+  EXPECT_TRUE(has_text(same.changes, "Y servo (joint 1, pid.y): FF1")) << all(same.changes);
+}
