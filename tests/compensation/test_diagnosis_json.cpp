@@ -4,6 +4,7 @@
 // A key renamed on one side only, or a value written in another type, fails here.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "circtest/analysis/diagnosis.hpp"
@@ -14,6 +15,7 @@
 #include "machine_sim.hpp"
 
 using namespace circtest;
+using nlohmann::json;
 
 namespace {
 
@@ -94,6 +96,7 @@ TEST_P(DiagnosisJson, EveryFieldCirccompReadsComesBackAsCircanaWroteIt) {
     expect_same(d.spike_mm[k], in.reversal_spike_mm[k], "spike " + axis);
     expect_same(d.spike_ms[k].value, in.reversal_spike_ms[k], "spike time " + axis);
     expect_same(d.spike_ms[k].standard_error, in.reversal_spike_se_ms[k], "spike time se " + axis);
+    expect_same(d.spike_peak_ms[k].value, in.reversal_spike_peak_ms[k], "spike peak " + axis);
     expect_same(d.scale_ppm[k], in.scale_ppm[k], "scale " + axis);
     ASSERT_EQ(d.cyclic[k].has_value(), in.cyclic[k].has_value()) << "cyclic " << axis;
     if (d.cyclic[k]) {
@@ -113,6 +116,22 @@ TEST_P(DiagnosisJson, EveryFieldCirccompReadsComesBackAsCircanaWroteIt) {
 
 INSTANTIATE_TEST_SUITE_P(Planes, DiagnosisJson, ::testing::Values(Plane::XY, Plane::YZ, Plane::ZX));
 
+// The spike's peak time (circfric's rise is set from it): read as written, absent in a file
+// of an older circana, refused when it is not a number.
+TEST(DiagnosisJsonSpikePeak, ReadAsWrittenAbsentWhenOlderRefusedWhenNotANumber) {
+  Diagnosis d = round_trip(Plane::XY).written;
+  d.spike_peak_ms[0].value = 61.5;
+  json doc = to_json(d);
+  const auto in = compensation::parse_diagnosis(doc.dump(), "d.json");
+  EXPECT_EQ(in.reversal_spike_peak_ms[0], 61.5);
+  EXPECT_FALSE(in.reversal_spike_peak_ms[1]);
+  doc.erase("reversal_spike_peak_ms");
+  EXPECT_FALSE(compensation::parse_diagnosis(doc.dump(), "d.json").reversal_spike_peak_ms[0]);
+  doc["reversal_spike_peak_ms"] = {{"X", "61 ms"}, {"Y", nullptr}};
+  EXPECT_ERROR(compensation::parse_diagnosis(doc.dump(), "d.json"), ExitCode::parse,
+               "\"reversal_spike_peak_ms.X\": expected a number or null");
+}
+
 // A machine without errors: the values the trace cannot separate are written as null and read
 // back as absent, never as zeros.
 TEST(DiagnosisJsonNulls, WhatTheTraceCannotSeparateStaysAbsent) {
@@ -124,6 +143,7 @@ TEST(DiagnosisJsonNulls, WhatTheTraceCannotSeparateStaysAbsent) {
   for (std::size_t k = 0; k < 2; ++k) {
     expect_same(d.spike_mm[k], in.reversal_spike_mm[k], "spike");
     expect_same(d.spike_ms[k].value, in.reversal_spike_ms[k], "spike time");
+    EXPECT_FALSE(in.reversal_spike_peak_ms[k]);
     EXPECT_EQ(d.cyclic[k].has_value(), in.cyclic[k].has_value());
   }
   expect_same(d.kv_per_s.value, in.kv_per_s, "kv");
