@@ -45,6 +45,13 @@ class Demo : public ::testing::Test {
     return std::stod(r.out);
   }
   std::string ini() const { return (out_ / "machine" / "sim-servo.ini").string(); }
+  // [JOINT_n] KEY of the machine as it arrives (the repository's sim-servo.ini).
+  static double injected_joint(int joint, const std::string& key) {
+    const auto r = run_command(
+        {CIRCTEST_INI_PATH, "get", CIRCTEST_SERVO_INI, "JOINT_" + std::to_string(joint), key});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return std::stod(r.out);
+  }
   // The row LABEL of summary.json: its values, one per run, before first.
   static std::vector<double> row(const json& summary, const std::string& label) {
     for (const auto& r : summary["rows"]) {
@@ -57,6 +64,43 @@ class Demo : public ::testing::Test {
     ADD_FAILURE() << "summary.json has no row '" << label << "'";
     return {NAN, NAN};
   }
+
+  // Round 1 closes the servo loop: the lags circana measures before from the commanded and
+  // motor feedback columns are 1 / P, circcomp writes FF1 into [JOINT_n] FF1, and on the rerun
+  // the lag mismatch and the mismatch ellipse's part of G are gone.
+  void servo_loop_closed_in_round_1() {
+    const json before = json::parse(slurp_if_exists(out_ / "diagnosis.json"));
+    const json after = json::parse(slurp_if_exists(out_ / "after-diagnosis.json"));
+    const double lx = 1e3 / injected_joint(0, "P"), ly = 1e3 / injected_joint(1, "P");
+    ASSERT_EQ(before["axis_lag_source"]["X"], "feedback");
+    const double lag_x = num(before["axis_lag_ms"]["X"]), lag_y = num(before["axis_lag_ms"]["Y"]);
+    EXPECT_NEAR(lag_x, lx, 0.05 * lx) << "X lags 1 / P";
+    EXPECT_NEAR(lag_y, ly, 0.05 * ly) << "Y lags 1 / P";
+    const double mismatch_before = num(before["axis_lag_mismatch_ms"]);
+    EXPECT_NEAR(mismatch_before, lx - ly, 0.05 * (lx - ly));
+    ASSERT_EQ(before["servo_share"].size(), 1u);
+    ASSERT_EQ(after["servo_share"].size(), 1u);
+    const double share_before = num(before["servo_share"][0]["G_mm"]);
+    const double ellipse_before = num(before["servo_mismatch_ms"]);
+    const std::string plan = slurp_if_exists(out_ / "plan.diff");
+    EXPECT_NE(plan.find("X servo (joint 0, pid.x): FF1 0.0 -> "), std::string::npos) << plan;
+    const double mismatch_after = num(after["axis_lag_mismatch_ms"]);
+    const double share_after = num(after["servo_share"][0]["G_mm"]);
+    const double ellipse_after = num(after["servo_mismatch_ms"]);
+    std::printf(
+        "servo loop (round 1): lag X %.3f ms (1/P %.3f), Y %.3f ms (%.3f) -> X %.3f ms, Y %.3f "
+        "ms; mismatch %.4f -> %.4f ms (feedback), %.4f -> %.4f ms (instrument ellipse); the "
+        "ellipse's G %.2f -> %.2f um\n",
+        lag_x, lx, lag_y, ly, num(after["axis_lag_ms"]["X"]), num(after["axis_lag_ms"]["Y"]),
+        mismatch_before, mismatch_after, ellipse_before, ellipse_after, share_before * 1e3,
+        share_after * 1e3);
+    // FF1 takes the velocity part off both loops: the mismatch and its ellipse to a tenth.
+    EXPECT_LT(std::abs(mismatch_after), 0.1 * std::abs(mismatch_before));
+    EXPECT_LT(share_after, 0.1 * share_before);
+    EXPECT_LT(std::abs(ellipse_after), 0.2 * std::abs(ellipse_before));
+    EXPECT_LT(std::abs(num(after["axis_lag_ms"]["X"])), 0.1 * lx);
+  }
+  static double num(const json& v) { return v.is_null() ? NAN : v.get<double>(); }
 
   std::unique_ptr<circtest::testing::ScratchDir> scratch_;
   fs::path out_;
@@ -97,6 +141,7 @@ TEST_F(Demo, ClosesTheLoopOnTheServoMachineAndPrintsTheServoPerAxis) {
   EXPECT_NEAR(row(summary, "squareness").front(), squareness_urad, 5.0);
   const std::vector<double> mismatch = row(summary, "servo: mismatch");
   EXPECT_GT(mismatch.front(), 0.5) << "P 30/31 with FF1 = 0: X lags Y by about 1 ms";
+  servo_loop_closed_in_round_1();
   // ... and the last run is within the limits.
   EXPECT_LT(std::fabs(row(summary, "backlash X").back()), 1.5);
   EXPECT_LT(std::fabs(row(summary, "backlash Y").back()), 1.5);

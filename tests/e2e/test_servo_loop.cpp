@@ -1,9 +1,9 @@
-// The servo loop closed on the pid sim mill (configs/sim-servo, copied): run the circle in the
+// The servo step on the stepper variant (configs/sim-stepper, copied): run the circle in the
 // real LinuxCNC, circana diagnose measures each axis' lag from the commanded and motor
-// feedback columns (1 / P: X 33.3 ms, Y 32.3 ms), circcomp plans and applies FF1 into
-// [JOINT_n] FF1, the rerun shows the lag mismatch and the mismatch ellipse's part of G gone,
-// and revert gives the INI back byte-identical. On the stepper variant (configs/sim-stepper)
-// circcomp says the lag is no gain to tune and gives the stepgen checks, no FF1.
+// feedback columns, and circcomp says the lag is no gain to tune and gives the stepgen checks,
+// no FF1. The servo loop closed on the pid sim mill (lags 1 / P, FF1 written, the mismatch
+// and its ellipse gone on the rerun) is checked on the demo's runs (test_demo.cpp), which
+// close it as the first of their rounds.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -90,48 +90,6 @@ class ServoLoop : public ::testing::Test {
 };
 
 }  // namespace
-
-TEST_F(ServoLoop, FeedForwardMatchesTheAxesOnTheRerun) {
-  copy_machine(CIRCTEST_SERVO_INI);
-  const std::string ini_original = slurp_if_exists(ini_);
-  const json before = measure("before");
-  const double lx = 1e3 / kPx, ly = 1e3 / kPy;
-  ASSERT_EQ(before["axis_lag_source"]["X"], "feedback");
-  const double lag_x = num(before["axis_lag_ms"]["X"]), lag_y = num(before["axis_lag_ms"]["Y"]);
-  EXPECT_NEAR(lag_x, lx, 0.05 * lx) << "X lags 1 / P";
-  EXPECT_NEAR(lag_y, ly, 0.05 * ly) << "Y lags 1 / P";
-  const double mismatch_before = num(before["axis_lag_mismatch_ms"]);
-  EXPECT_NEAR(mismatch_before, lx - ly, 0.05 * (lx - ly));
-  ASSERT_EQ(before["servo_share"].size(), 1u);
-  const double share_before = num(before["servo_share"][0]["G_mm"]);
-  const double ellipse_before = num(before["servo_mismatch_ms"]);
-
-  std::string out;
-  ASSERT_EQ(circcomp("plan", "before", "--only servo", out), 0) << out;
-  EXPECT_NE(out.find("X servo (joint 0, pid.x): FF1 0.0 -> "), std::string::npos) << out;
-  ASSERT_EQ(circcomp("apply", "before", "--only servo", out), 0) << out;
-
-  const json after = measure("after");
-  const double mismatch_after = num(after["axis_lag_mismatch_ms"]);
-  const double share_after = num(after["servo_share"][0]["G_mm"]);
-  const double ellipse_after = num(after["servo_mismatch_ms"]);
-  std::printf(
-      "sim-servo loop: lag X %.3f ms (1/P %.3f), Y %.3f ms (%.3f) -> X %.3f ms, Y %.3f ms; "
-      "mismatch %.4f -> %.4f ms (feedback), %.4f -> %.4f ms (instrument ellipse); the "
-      "ellipse's G at F1000 %.2f -> %.2f um (%.0f %% -> %.0f %% of G)\n",
-      lag_x, lx, lag_y, ly, num(after["axis_lag_ms"]["X"]), num(after["axis_lag_ms"]["Y"]),
-      mismatch_before, mismatch_after, ellipse_before, ellipse_after, share_before * 1e3,
-      share_after * 1e3, num(before["servo_share"][0]["percent"]),
-      num(after["servo_share"][0]["percent"]));
-  // FF1 takes the velocity part off both loops: the mismatch and its ellipse to a tenth.
-  EXPECT_LT(std::abs(mismatch_after), 0.1 * std::abs(mismatch_before));
-  EXPECT_LT(share_after, 0.1 * share_before);
-  EXPECT_LT(std::abs(ellipse_after), 0.2 * std::abs(ellipse_before));
-  EXPECT_LT(std::abs(num(after["axis_lag_ms"]["X"])), 0.1 * lx);
-
-  ASSERT_EQ(run(std::string(CIRCCOMP_PATH) + " revert --ini " + ini_ + " >/dev/null"), 0);
-  EXPECT_EQ(slurp_if_exists(ini_), ini_original);
-}
 
 TEST_F(ServoLoop, StepperGetsTheStepgenChecksAndNoFf1) {
   copy_machine(CIRCTEST_STEPPER_INI);
