@@ -30,19 +30,19 @@ namespace {
 constexpr double kPx = 30.0, kPy = 31.0;  // 1/s
 constexpr double kBacklashX = 0.010;      // mm
 constexpr double kSquareness = 100e-6;    // rad
+
 struct Circle {
   double diameter_mm, feed_mm_per_min;
 };
-// The lag 1 / P, the mismatch, backlash and squareness do not depend on the circle: the run
-// without friction takes D100 F2000, a third of D150 F1000's minute. The friction's reversal
-// spike and the transient it leaves in the backlash fit grow with the acceleration v^2 / R at
-// the reversal (D100 F2000 has 6 times D150 F1000's: backlash X 11.6 um instead of 10.4, Y
-// -1.1 um, both outside their bounds): the run with friction keeps D150 F1000. The stepper
-// steps at its rate limit at F1000, and at D100 diagnose finds spikes of 4 and 14 um on X and
-// Y in its steps: it keeps D150 F1000 too.
+// The lag 1 / P, the mismatch, backlash and squareness do not depend on the circle: the runs
+// without friction take D100 (the stepper at F1000, its rate limit; the servo machine at
+// F2000, a third of D150 F1000's minute). The friction's reversal spike and the transient it
+// leaves in the backlash fit grow with the acceleration v^2 / R at the reversal (D100 F2000
+// has 6 times D150 F1000's: backlash X 11.6 um instead of 10.4, Y -1.1 um, both outside their
+// bounds): the run with friction keeps D150 F1000.
 constexpr Circle kFrictionCircle{150.0, 1000.0};
 constexpr Circle kFastCircle{100.0, 2000.0};
-constexpr Circle kStepperCircle{150.0, 1000.0};
+constexpr Circle kStepperCircle{100.0, 1000.0};
 
 struct Lag {
   double x_ms = NAN, y_ms = NAN;
