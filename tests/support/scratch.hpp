@@ -52,4 +52,7 @@ CommandResult run_command(const std::vector<std::string>& argv,
                           const std::vector<std::string>& env = {},
                           const std::string& stdout_to = {});
 
+// Runs a shell command line (redirections and all); its exit code, -1 when it did not exit.
+int run_shell(const std::string& command_line);
+
 }  // namespace circtest::testing
