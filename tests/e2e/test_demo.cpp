@@ -8,10 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "linuxcnc_test.hpp"
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
@@ -25,18 +25,12 @@ namespace {
 // build; the margin is a busy machine's evaluation time.
 constexpr double kBudgetS = 180.0 + 30.0;
 
-class Demo : public ::testing::Test {
+class Demo : public circtest::testing::LinuxcncTest {
  protected:
+  Demo() : LinuxcncTest("demo", {}) {}
   void SetUp() override {
     if (geteuid() != 0) GTEST_SKIP() << "needs root (the demo runs LinuxCNC in private namespaces)";
-    scratch_ = std::make_unique<circtest::testing::ScratchDir>("circtest-e2e-demo");
-    out_ = scratch_->dir();
-    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
-    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                              fs::perms::others_read | fs::perms::others_exec);
-  }
-  void TearDown() override {
-    if (HasFailure() && scratch_) scratch_->keep();
+    LinuxcncTest::SetUp();
   }
   // [SIM] KEY of the demo's machine (circcomp never writes that section).
   double injected(const std::string& key) const {
@@ -101,9 +95,6 @@ class Demo : public ::testing::Test {
     EXPECT_LT(std::abs(num(after["axis_lag_ms"]["X"])), 0.1 * lx);
   }
   static double num(const json& v) { return v.is_null() ? NAN : v.get<double>(); }
-
-  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
-  fs::path out_;
 };
 
 }  // namespace
@@ -155,7 +146,9 @@ TEST_F(Demo, ClosesTheLoopOnTheServoMachineAndPrintsTheServoPerAxis) {
   for (const char* axis : {"X", "Y"}) {
     const std::vector<double> spike = row(summary, std::string("reversal spike ") + axis);
     ASSERT_GE(spike.size(), 3u);
-    if (spike[1] >= 2.0) EXPECT_LE(spike.back(), 0.5 * spike[1]) << axis;
+    if (spike[1] >= 2.0) {
+      EXPECT_LE(spike.back(), 0.5 * spike[1]) << axis;
+    }
   }
   EXPECT_NE(demo.out.find("a rising pulse"), std::string::npos) << demo.out;
   const std::vector<double> geometric = row(summary, "  without servo and friction");

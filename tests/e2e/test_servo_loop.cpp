@@ -5,17 +5,14 @@
 // and its ellipse gone on the rerun) is checked on the demo's runs (test_demo.cpp), which
 // close it as the first of their rounds.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "linuxcnc_test.hpp"
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
@@ -24,51 +21,29 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double kPx = 30.0, kPy = 31.0;  // sim-servo.ini's [JOINT_0] P, [JOINT_1] P
+using circtest::testing::run_shell;
 
-int run(const std::string& cmd) {
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-class ServoLoop : public ::testing::Test {
+class ServoLoop : public circtest::testing::LinuxcncTest {
  protected:
-  void SetUp() override {
-    if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circdrive.so")) {
-      GTEST_SKIP() << "needs root (private namespaces) or circlog and circdrive installed";
-    }
-    scratch_ = std::make_unique<circtest::testing::ScratchDir>(
-        std::string("circtest-e2e-servo-loop-") +
-        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    out_ = scratch_->dir();
-    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
-    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                              fs::perms::others_read | fs::perms::others_exec);
-  }
-  void TearDown() override {
-    if (HasFailure() && scratch_) scratch_->keep();
-  }
+  ServoLoop() : LinuxcncTest("servo-loop", {"circlog.so", "circdrive.so"}) {}
   // The configuration of INI's folder copied into the scratch folder, and circgen's D150 F1000.
   void copy_machine(const char* ini) {
     fs::copy(fs::path(ini).parent_path(), out_ / "machine");
     ini_ = (out_ / "machine" / fs::path(ini).filename()).string();
-    ASSERT_EQ(run(std::string(CIRCGEN_PATH) + " --d 150 --f 1000 --ini " + ini_ + " -o " +
-                  (out_ / "test.ngc").string()),
+    ASSERT_EQ(run_shell(std::string(CIRCGEN_PATH) + " --d 150 --f 1000 --ini " + ini_ + " -o " +
+                        (out_ / "test.ngc").string()),
               0);
   }
   // Runs the program on the configuration as it is now; returns circana diagnose's JSON (kept
   // as NAME.json).
   json measure(const std::string& name) {
     const fs::path dir = out_ / name;
-    const std::string cmd = std::string("CIRCTEST_BIN=") + CIRCTEST_BINARY_DIR + " " +
-                            CIRCTEST_RUN_PATH + " --ini " + ini_ + " --program " +
-                            (out_ / "test.ngc").string() + " --out " + dir.string() +
-                            " --timeout 300 >" + (out_ / (name + ".log")).string() + " 2>&1";
-    EXPECT_EQ(run(cmd), 0) << slurp_if_exists(out_ / (name + ".log"))
-                           << slurp_if_exists(dir / "linuxcnc.log");
+    const auto r = circtest::testing::run_linuxcnc(CIRCTEST_RUN_PATH, CIRCTEST_BINARY_DIR,
+                                                   {ini_, out_ / "test.ngc", dir});
+    EXPECT_EQ(r.command.exit_code, 0) << r.log;
     const fs::path js = out_ / (name + ".json");
-    EXPECT_EQ(run(std::string(CIRCANA_PATH) + " diagnose " + (dir / "trace.csv").string() +
-                  " --json >" + js.string()),
+    EXPECT_EQ(run_shell(std::string(CIRCANA_PATH) + " diagnose " + (dir / "trace.csv").string() +
+                        " --json >" + js.string()),
               0);
     return json::parse(slurp_if_exists(js));
   }
@@ -77,15 +52,13 @@ class ServoLoop : public ::testing::Test {
                std::string& out) {
     const fs::path o = out_ / (name + "-" + command + ".out");
     const int code =
-        run(std::string(CIRCCOMP_PATH) + " " + command + " --ini " + ini_ + " " +
-            (out_ / (name + ".json")).string() + " " + args + " >" + o.string() + " 2>&1");
+        run_shell(std::string(CIRCCOMP_PATH) + " " + command + " --ini " + ini_ + " " +
+                  (out_ / (name + ".json")).string() + " " + args + " >" + o.string() + " 2>&1");
     out = slurp_if_exists(o);
     return code;
   }
   static double num(const json& v) { return v.is_null() ? NAN : v.get<double>(); }
 
-  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
-  fs::path out_;
   std::string ini_;
 };
 

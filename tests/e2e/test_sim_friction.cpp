@@ -5,18 +5,17 @@
 // the circle again, step 2 when more than 30 % of a spike is left, and the circle again. Then
 // a slow jog over a reversal with the compensator on, circfric's pins logged beside the table.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "circtest/core/trace.hpp"
+#include "linuxcnc_test.hpp"
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
@@ -50,18 +49,12 @@ double worst_g(const json& analysis) {
   return g;
 }
 
-class SimFriction : public ::testing::Test {
+class SimFriction : public circtest::testing::LinuxcncTest {
  protected:
+  SimFriction() : LinuxcncTest("friction", {"circlog.so", "circdrive.so", "circfric.so"}) {}
   void SetUp() override {
-    if (geteuid() != 0 && !fs::exists("/usr/lib/linuxcnc/modules/circfric.so")) {
-      GTEST_SKIP()
-          << "needs root (private namespaces) or circlog, circdrive and circfric installed";
-    }
-    scratch_ = std::make_unique<circtest::testing::ScratchDir>("circtest-e2e-friction");
-    out_ = scratch_->dir();
-    // rtapi_app runs as nobody and binds its socket below this folder: mkdtemp's 0700 refuses it.
-    fs::permissions(out_, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec |
-                              fs::perms::others_read | fs::perms::others_exec);
+    LinuxcncTest::SetUp();
+    if (IsSkipped()) return;
     // The machine as circcomp meets it: a folder of its own (links followed, as circtest-run
     // copies it), edited only by circcomp and the INI tool.
     fs::create_directories(out_ / "machine");
@@ -69,9 +62,6 @@ class SimFriction : public ::testing::Test {
       fs::copy_file(fs::canonical(e.path()), out_ / "machine" / e.path().filename());
     }
     ini_ = (out_ / "machine" / "sim-servo.ini").string();
-  }
-  void TearDown() override {
-    if (HasFailure() && scratch_) scratch_->keep();
   }
 
   void set(const std::string& section, const std::string& key, const std::string& value) {
@@ -81,10 +71,9 @@ class SimFriction : public ::testing::Test {
 
   // Runs PROGRAM on the configuration as it is now into out_/NAME.
   void run(const std::string& name, const fs::path& program) {
-    const auto r = run_command({CIRCTEST_RUN_PATH, "--ini", ini_, "--program", program.string(),
-                                "--out", (out_ / name).string(), "--timeout", "300"},
-                               {std::string("CIRCTEST_BIN=") + CIRCTEST_BINARY_DIR});
-    ASSERT_EQ(r.exit_code, 0) << r.out << r.err << slurp_if_exists(out_ / name / "linuxcnc.log");
+    const auto r = circtest::testing::run_linuxcnc(CIRCTEST_RUN_PATH, CIRCTEST_BINARY_DIR,
+                                                   {ini_, program, out_ / name});
+    ASSERT_EQ(r.command.exit_code, 0) << r.log;
   }
 
   json circana(const std::string& command, const std::string& name) {
@@ -126,8 +115,6 @@ class SimFriction : public ::testing::Test {
     return m;
   }
 
-  std::unique_ptr<circtest::testing::ScratchDir> scratch_;
-  fs::path out_;
   std::string ini_;
 };
 
