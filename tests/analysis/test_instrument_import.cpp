@@ -108,7 +108,9 @@ TEST_F(Import, ALoggedTraceExportedAndImportedEvaluatesTheSameAndApplyNeedsNoFor
     const std::string diagnosis = dir_.write("diagnosis.json", r.out);
     const CommandResult apply = run_command({CIRCCOMP_PATH, "apply", "--ini", ini, diagnosis}, env);
     EXPECT_EQ(apply.exit_code, code) << trace << "\n" << apply.err << apply.out;
-    if (code != 0) EXPECT_NE(apply.err.find("has no ini_sha256"), std::string::npos) << apply.err;
+    if (code != 0) {
+      EXPECT_NE(apply.err.find("has no ini_sha256"), std::string::npos) << apply.err;
+    }
   }
   EXPECT_NE(slurp(ini).find("BACKLASH"), std::string::npos);
 #endif

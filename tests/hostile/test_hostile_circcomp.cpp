@@ -253,7 +253,8 @@ TEST_F(Hostile, NoLinkIsFollowedOutOfTheConfiguration) {
 TEST_F(Hostile, FilesOutsideTheConfigurationAreReadNeverWritten) {
   // A COMP_FILE named outside (../) and one by an absolute path.
   spit(top() / "victim.comp", "-300 0 0\n300 0 0\n");
-  for (const std::string name : {std::string("../victim.comp"), (top() / "victim.comp").string()}) {
+  for (const std::string& name :
+       {std::string("../victim.comp"), (top() / "victim.comp").string()}) {
     std::string text = kMachineIni;
     text.replace(text.find("BACKLASH = 0.008\n"), 17,
                  "COMP_FILE = " + name + "\nCOMP_FILE_TYPE = 1\n");
