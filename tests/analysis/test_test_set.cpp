@@ -309,6 +309,15 @@ Trace without_commanded(Trace t) {
   return t;
 }
 
+// An axis in two planes of equal noise: its joint standard error is 1/sqrt(2) of each plane's.
+void expect_root_two_gain(const JointEstimate& e) {
+  ASSERT_EQ(e.planes.size(), 2u);
+  for (const PlaneEstimate& p : e.planes) {
+    EXPECT_NEAR(*e.joint.standard_error / *p.estimate.standard_error, 1.0 / std::sqrt(2.0), 0.03)
+        << plane_name(p.plane);
+  }
+}
+
 }  // namespace
 
 TEST(TestSetJointFit, OneModelRecoversEachAxisAndTheThreeSquarenesses) {
@@ -331,12 +340,7 @@ TEST(TestSetJointFit, OneModelRecoversEachAxisAndTheThreeSquarenesses) {
     // Each axis is in two planes with the same noise: its joint standard error is about
     // 1/sqrt(2) of each plane's own.
     for (const JointEstimate* e : {&j.backlash_mm, &j.scale_ppm}) {
-      ASSERT_EQ(e->planes.size(), 2u);
-      for (const PlaneEstimate& p : e->planes) {
-        EXPECT_NEAR(*e->joint.standard_error / *p.estimate.standard_error, 1.0 / std::sqrt(2.0),
-                    0.03)
-            << plane_name(p.plane);
-      }
+      expect_root_two_gain(*e);
       EXPECT_TRUE(e->consistent);
     }
     // The following lag (none on this machine: the half sample the loop lags more than the
@@ -406,12 +410,7 @@ TEST(TestSetJointFit, WithoutCommandedColumnsTheLagMismatchesStayThePlanes) {
   for (const AxisJoint& j : s.axes) {
     SCOPED_TRACE(std::string(1, j.axis));
     for (const JointEstimate* e : {&j.backlash_mm, &j.scale_ppm}) {
-      ASSERT_EQ(e->planes.size(), 2u);
-      for (const PlaneEstimate& p : e->planes) {
-        EXPECT_NEAR(*e->joint.standard_error / *p.estimate.standard_error, 1.0 / std::sqrt(2.0),
-                    0.03)
-            << plane_name(p.plane);
-      }
+      expect_root_two_gain(*e);
     }
     EXPECT_FALSE(j.lag_ms.joint.standard_error);
   }
