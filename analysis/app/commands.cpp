@@ -433,6 +433,24 @@ Diagnosis diagnose_plane(const DiagnoseRequest& request, const EvaluatedTrace& e
   return d;
 }
 
+// Stores each plane's result when asked (its summary after a text report), ends the progress
+// line and writes the report.
+int finish_diagnose(const DiagnoseRequest& request, std::string text,
+                    const std::vector<std::pair<const Evaluation*, const Diagnosis*>>& results,
+                    std::optional<ProgressTicker>& progress, std::ostream& out) {
+  if (request.store) {
+    for (const auto& [evaluation, diagnosis] : results) {
+      const std::string stored = store_result(*evaluation, diagnosis, request.trace_path,
+                                              request.db_url, request.trace_path);
+      if (!request.json) text += "\n" + stored;
+    }
+  }
+  progress.reset();
+  out << text;
+  out.flush();
+  return 0;
+}
+
 int diagnose_set_command(const DiagnoseRequest& request, const std::vector<EvaluatedTrace>& planes,
                          std::optional<ProgressTicker>& progress, std::ostream& out) {
   std::vector<SetPlaneInput> inputs;
@@ -452,19 +470,12 @@ int diagnose_set_command(const DiagnoseRequest& request, const std::vector<Evalu
     }
     write_plane_plots(plots);
   }
-  std::string text = request.json ? json_text(to_json(set), 2) + "\n" : text_report(set);
-  if (request.store) {
-    for (std::size_t k = 0; k < planes.size(); ++k) {
-      const std::string stored =
-          store_result(planes[k].evaluation, &set.plane_diagnoses[k], request.trace_path,
-                       request.db_url, request.trace_path);
-      if (!request.json) text += "\n" + stored;
-    }
-  }
-  progress.reset();
-  out << text;
-  out.flush();
-  return 0;
+  std::vector<std::pair<const Evaluation*, const Diagnosis*>> results;
+  for (std::size_t k = 0; k < planes.size(); ++k)
+    results.emplace_back(&planes[k].evaluation, &set.plane_diagnoses[k]);
+  return finish_diagnose(request,
+                         request.json ? json_text(to_json(set), 2) + "\n" : text_report(set),
+                         results, progress, out);
 }
 
 }  // namespace
@@ -483,16 +494,8 @@ int run_diagnose(const DiagnoseRequest& request, std::ostream& out) {
     plot.diagnosis = &d;
     write_file_atomic(request.svg_path, svg_plot(evaluated.evaluation, evaluated.trace, plot));
   }
-  std::string text = request.json ? json_text(to_json(d), 2) + "\n" : text_report(d);
-  if (request.store) {
-    const std::string stored = store_result(evaluated.evaluation, &d, request.trace_path,
-                                            request.db_url, request.trace_path);
-    if (!request.json) text += "\n" + stored;
-  }
-  progress.reset();
-  out << text;
-  out.flush();
-  return 0;
+  return finish_diagnose(request, request.json ? json_text(to_json(d), 2) + "\n" : text_report(d),
+                         {{&evaluated.evaluation, &d}}, progress, out);
 }
 
 namespace {

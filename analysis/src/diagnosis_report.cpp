@@ -7,6 +7,7 @@
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
+#include "diagnosis_document.hpp"
 
 namespace circtest {
 
@@ -69,13 +70,8 @@ void servo_axis_lines(const Diagnosis& d, std::string& s) {
 }  // namespace
 
 json to_json(const Diagnosis& d) {
-  json j;
-  j[K::units] = "mm";
-  j[K::schema] = diagnosis_json::kSchema;
-  j[K::version] = diagnosis_json::kVersion;
-  j[K::plane] = std::string(plane_name(d.plane));
-  j[K::axes] = {std::string(1, d.axes[0]), std::string(1, d.axes[1])};
-  j[K::feeds_mm_per_min] = d.feeds_mm_per_min;
+  json j = detail::diagnosis_document_head(std::string(plane_name(d.plane)), {d.axes[0], d.axes[1]},
+                                           d.feeds_mm_per_min);
   j[K::backlash_mm] = per_axis(d, d.backlash_mm);
   // The step at each end of the axis' travel on its own (added in circtest.diagnosis/1).
   json ends = json::object();

@@ -13,6 +13,7 @@
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
+#include "diagnosis_document.hpp"
 
 namespace circtest {
 
@@ -427,15 +428,9 @@ constexpr std::pair<const char*, Member> kAxisKeys[] = {
 }  // namespace
 
 json to_json(const SetDiagnosis& s) {
-  json j;
-  j[K::units] = "mm";
-  j[K::schema] = diagnosis_json::kSchema;
-  j[K::version] = diagnosis_json::kVersion;
-  j[K::plane] = plane_list(s.planes);
-  json axes = json::array();
-  for (const AxisJoint& a : s.axes) axes.push_back(std::string(1, a.axis));
-  j[K::axes] = axes;
-  j[K::feeds_mm_per_min] = s.feeds_mm_per_min;
+  std::vector<char> axes;
+  for (const AxisJoint& a : s.axes) axes.push_back(a.axis);
+  json j = detail::diagnosis_document_head(plane_list(s.planes), axes, s.feeds_mm_per_min);
   json se = json::object();
   for (const auto& [key, member] : kAxisKeys) {
     json v = json::object(), e = json::object();

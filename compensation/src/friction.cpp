@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "circtest/core/circfric_limits.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "plan_internal.hpp"
@@ -19,12 +20,6 @@ namespace fs = std::filesystem;
 using namespace detail;
 
 namespace {
-
-// circfric's own bounds (circfric(9)): amplitude and amplitude-max 0..1 machine unit, decay
-// 0.001..1000 ms.
-constexpr double kFricMaxUnits = 1.0;
-constexpr double kFricMinDecayMs = 0.001;
-constexpr double kFricMaxDecayMs = 1000.0;
 
 bool is_arrow(const std::string& w) {
   return w == "=>" || w == "<=" || w == "<=>";
@@ -422,20 +417,15 @@ double loop_pass(double decay_s, std::optional<double> kv_per_s) {
   return std::pow(ratio, -1.0 / (ratio - 1.0));
 }
 
-// When circfric's rising pulse (rise, decay in s) peaks: circfric(9), DESCRIPTION.
-double rising_pulse_peak_s(double decay_s, double rise_s) {
-  return std::log(decay_s / rise_s) * decay_s * rise_s / (decay_s - rise_s);
-}
-
 // The rise time (ms) that puts the rising pulse's peak at PEAK_MS with the decay DECAY_MS, at
-// most kFrictionMaxRiseShare of the decay (the latest peak circfric can make, about 0.97 of
+// most fric::kMaxRiseShareOfDecay of the decay (the latest peak circfric can make, about 0.97 of
 // the decay). The peak time grows with the rise, so a bisection finds it.
 double rise_for_peak_ms(double decay_ms, double peak_ms) {
-  double lo = 0.0, hi = kFrictionMaxRiseShare * decay_ms;
-  if (rising_pulse_peak_s(decay_ms, hi) <= peak_ms) return hi;
+  double lo = 0.0, hi = fric::kMaxRiseShareOfDecay * decay_ms;
+  if (fric::pulse_peak_time(decay_ms, hi) <= peak_ms) return hi;
   for (int i = 0; i < 100; ++i) {
     const double mid = 0.5 * (lo + hi);
-    (rising_pulse_peak_s(decay_ms, mid) < peak_ms ? lo : hi) = mid;
+    (fric::pulse_peak_time(decay_ms, mid) < peak_ms ? lo : hi) = mid;
   }
   return 0.5 * (lo + hi);
 }
@@ -445,20 +435,19 @@ double rise_for_peak_ms(double decay_ms, double peak_ms) {
 // pulse, peaking at kFrictionRisePeakShare of the spike's peak time, pushes it free. The
 // amplitude is the spike's height: the table sees the pulse whole.
 struct PulseShape {
-  double amplitude_max, amplitude, rise_ms = 0;
+  double amplitude, rise_ms = 0;
   std::string how;  // how the amplitude and the rise were found, for the plan's line
 };
 
 PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double decay_ms,
-                        double upm, const PlanOptions& o) {
+                        double upm, double amplitude_max, const PlanOptions& o) {
   const double peak_ms = *d.reversal_spike_peak_ms[k];
   const double want_ms = kFrictionRisePeakShare * peak_ms;
   const double rise =
-      parse_finite(number_text(std::max(rise_for_peak_ms(decay_ms, want_ms), kFricMinDecayMs)))
-          .value_or(kFricMinDecayMs);
-  const double at_ms = rising_pulse_peak_s(decay_ms, rise);
-  const double amplitude_max = 2.0 * parse_finite(number_text(spike_mm)).value_or(spike_mm) * upm;
-  return {amplitude_max, std::min(o.gain * spike_mm * upm, amplitude_max), rise,
+      parse_finite(number_text(std::max(rise_for_peak_ms(decay_ms, want_ms), fric::kMinDecayMs)))
+          .value_or(fric::kMinDecayMs);
+  const double at_ms = fric::pulse_peak_time(decay_ms, rise);
+  return {std::min(o.gain * spike_mm * upm, amplitude_max), rise,
           fmt::format(", a rising pulse: the axis follows within {:.2g} ms and the spike peaks "
                       "{:.0f} ms after the reversal (the drive sticks), the pulse's at {:.0f} ms{}",
                       *d.axis_lag_ms[k].value, peak_ms, at_ms,
@@ -471,13 +460,10 @@ PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double 
 // A plain pulse at the reversal: through a loop with the lag 1 / Kv the table sees only the
 // share loop_pass of it, so the amplitude is raised by that share (within AMPLITUDE_MAX).
 PulseShape plain_pulse(const DiagnosisInput& d, double spike_mm, double decay_ms, double upm,
-                       const PlanOptions& o) {
+                       double amplitude_max, const PlanOptions& o) {
   const double pass = loop_pass(decay_ms * 1e-3, d.kv_per_s);
-  // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
-  const double spike_written = parse_finite(number_text(spike_mm)).value_or(spike_mm);
-  const double amplitude_max = 2.0 * spike_written * upm;
   const double amplitude = std::min(o.gain * spike_mm * upm / pass, amplitude_max);
-  return {amplitude_max, amplitude, 0,
+  return {amplitude, 0,
           pass < 1.0 ? fmt::format(" / {:.2f}, the share of the pulse the {:.1f} ms lag (1 / Kv) "
                                    "passes{}",
                                    pass, 1e3 / *d.kv_per_s,
@@ -500,19 +486,21 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
     return false;
   }
   const auto decay = d.reversal_spike_ms[k];
-  if (!decay || !(*decay >= kFricMinDecayMs && *decay <= kFricMaxDecayMs)) {
+  if (!decay || !(*decay >= fric::kMinDecayMs && *decay <= fric::kMaxDecayMs)) {
     plan.notes.push_back(fmt::format(
         "{} reversal spike of {:.2f} um: its decay {} is not within circfric's {} to {} ms, "
         "not compensated",
         axis, *spike * 1e3, decay ? fmt::format("{} ms", number_text(*decay)) : "was not measured",
-        kFricMinDecayMs, kFricMaxDecayMs));
+        fric::kMinDecayMs, fric::kMaxDecayMs));
     return false;
   }
+  // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
+  const double amplitude_max = 2.0 * parse_finite(number_text(*spike)).value_or(*spike) * upm;
   const bool rising = follows_closely(d, k) && d.reversal_spike_peak_ms[k];
-  const PulseShape pulse =
-      rising ? rising_pulse(d, k, *spike, *decay, upm, o) : plain_pulse(d, *spike, *decay, upm, o);
-  const double amplitude = pulse.amplitude, amplitude_max = pulse.amplitude_max;
-  if (amplitude_max > kFricMaxUnits) {
+  const PulseShape pulse = rising ? rising_pulse(d, k, *spike, *decay, upm, amplitude_max, o)
+                                  : plain_pulse(d, *spike, *decay, upm, amplitude_max, o);
+  const double amplitude = pulse.amplitude;
+  if (amplitude_max > fric::kMaxAmplitude) {
     throw DataError(d.source, 0,
                     fmt::format("{} reversal spike {:.1f} um: twice it is beyond circfric's "
                                 "bound of 1 machine unit",
@@ -591,13 +579,13 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
   // the decay lengthens, at most to twice its value in one step.
   if (wanted > limit && next > 0) {
     const double decay = friction_value(ini, sec, "DECAY_MS", "a time in ms");
-    if (!(decay >= kFricMinDecayMs && decay <= kFricMaxDecayMs)) {
+    if (!(decay >= fric::kMinDecayMs && decay <= fric::kMaxDecayMs)) {
       const auto e = ini.find(sec, "DECAY_MS");
       throw DataError(e->file, e->line,
                       fmt::format("[{}] DECAY_MS = {}: expected {} to {} ms (circfric's range)",
-                                  sec, e->value, kFricMinDecayMs, kFricMaxDecayMs));
+                                  sec, e->value, fric::kMinDecayMs, fric::kMaxDecayMs));
     }
-    const double longer = std::min({decay * wanted / next, 2.0 * decay, kFricMaxDecayMs});
+    const double longer = std::min({decay * wanted / next, 2.0 * decay, fric::kMaxDecayMs});
     ini.set(sec, "DECAY_MS", number_text(longer));
     plan.changes.push_back(fmt::format(
         "[{}] step 2 (refinement): DECAY_MS {} -> {} (AMPLITUDE bounded by AMPLITUDE_MAX: the "

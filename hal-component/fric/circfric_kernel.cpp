@@ -24,11 +24,6 @@ bool rise_ok(double rise_ms, double decay_ms) {
 
 }  // namespace
 
-double pulse_peak_time_s(double decay_s, double rise_s) noexcept {
-  if (!(rise_s > 0.0) || !(decay_s > rise_s)) return 0.0;
-  return std::log(decay_s / rise_s) * decay_s * rise_s / (decay_s - rise_s);
-}
-
 std::uint32_t check(const Params& p, double vel_cmd, double period_s) noexcept {
   std::uint32_t r = kRejectNone;
   if (!amplitude_ok(p.amplitude)) r |= kRejectAmplitude;
@@ -99,7 +94,7 @@ double Compensator::step(double vel_cmd, double period_s, const Params& p) noexc
       pulse_scale_ = 1.0;
       if (pulse_rise_s_ > 0.0) {
         // check() keeps rise at most 0.95 decay, where the peak is still 0.019 of the scale.
-        const double tp = pulse_peak_time_s(pulse_tau_s_, pulse_rise_s_);
+        const double tp = pulse_peak_time(pulse_tau_s_, pulse_rise_s_);
         pulse_scale_ = 1.0 / (std::exp(-tp / pulse_tau_s_) - std::exp(-tp / pulse_rise_s_));
       }
       pulse_elapsed_s_ = 0.0;

@@ -28,19 +28,11 @@
 // on as a velocity kick). rise_ms = 0 keeps the plain decaying pulse.
 #include <cstdint>
 
+#include "circtest/core/circfric_limits.hpp"
+
 namespace circtest::fric {
 
 inline constexpr int kMaxInstances = 8;
-// Friction spikes are micrometres high; an amplitude beyond one machine unit (1 mm or 1 in)
-// is a typing error, not a tuning.
-inline constexpr double kMaxAmplitude = 1.0;
-// Time constants below a microsecond are shorter than any servo period (and 0 would divide
-// by zero); beyond a second they are a slow position shift, not friction compensation.
-inline constexpr double kMinDecayMs = 1e-3;
-inline constexpr double kMaxDecayMs = 1000.0;
-// A rise time is 0 (none) or at least kMinDecayMs and below the decay: at rise = decay the
-// difference of exponentials vanishes, and near it the peak scale divides two small numbers.
-inline constexpr double kMaxRiseShareOfDecay = 0.95;
 // exp(-20) = 2e-9: below any machine's resolution, so the pulse is ended there.
 inline constexpr double kPulseEndTimeConstants = 20.0;
 // Servo periods the kernel accepts (LinuxCNC's servo thread runs at 0.1..10 ms).
@@ -70,9 +62,6 @@ enum Reject : std::uint32_t {
   kRejectPeriod = 1u << 6,        // period outside kMinPeriodS..kMaxPeriodS
   kRejectRise = 1u << 7,          // NaN, negative, below kMinDecayMs or not below the decay
 };
-
-// The time (s) at which the pulse with these time constants (s) peaks; 0 without a rise.
-double pulse_peak_time_s(double decay_s, double rise_s) noexcept;
 
 // The reasons P (and the inputs) are not usable, as Reject bits.
 std::uint32_t check(const Params& p, double vel_cmd, double period_s) noexcept;

@@ -59,9 +59,10 @@ class Demo : public circtest::testing::LinuxcncTest {
     return {NAN, NAN};
   }
 
-  // Round 1 closes the servo loop: the lags circana measures before from the commanded and
-  // motor feedback columns are 1 / P, circcomp writes FF1 into [JOINT_n] FF1, and on the rerun
-  // the lag mismatch and the mismatch ellipse's part of G are gone.
+  // The servo loop the demo's first apply closes: the lags circana measures on the first run
+  // from the commanded and motor feedback columns are 1 / P, circcomp writes FF1 into
+  // [JOINT_n] FF1, and on the rerun the lag mismatch and the mismatch ellipse's part of G are
+  // gone.
   void servo_loop_closed_in_round_1() {
     const json before = json::parse(slurp_if_exists(out_ / "diagnosis.json"));
     const json after = json::parse(slurp_if_exists(out_ / "after-diagnosis.json"));
@@ -82,7 +83,7 @@ class Demo : public circtest::testing::LinuxcncTest {
     const double share_after = num(after["servo_share"][0]["G_mm"]);
     const double ellipse_after = num(after["servo_mismatch_ms"]);
     std::printf(
-        "servo loop (round 1): lag X %.3f ms (1/P %.3f), Y %.3f ms (%.3f) -> X %.3f ms, Y %.3f "
+        "servo loop (first apply): lag X %.3f ms (1/P %.3f), Y %.3f ms (%.3f) -> X %.3f ms, Y %.3f "
         "ms; mismatch %.4f -> %.4f ms (feedback), %.4f -> %.4f ms (instrument ellipse); the "
         "ellipse's G %.2f -> %.2f um\n",
         lag_x, lx, lag_y, ly, num(after["axis_lag_ms"]["X"]), num(after["axis_lag_ms"]["Y"]),
@@ -137,9 +138,10 @@ TEST_F(Demo, ClosesTheLoopOnTheServoMachineAndPrintsTheServoPerAxis) {
   EXPECT_LT(std::fabs(row(summary, "backlash X").back()), 1.5);
   EXPECT_LT(std::fabs(row(summary, "backlash Y").back()), 1.5);
   EXPECT_LT(std::fabs(row(summary, "squareness").back()), 10.0);
-  // Round 1 closes geometry and servo (FF1); round 2, on the rerun's diagnosis, plans circfric's
-  // rising pulse for the spikes feed-forward leaves. After it H and G are at most 30 % of
-  // before, and each spike of at least 2 um after round 1 has fallen by at least half.
+  // The first apply closes geometry and servo (FF1); the second, planned from the rerun's
+  // diagnosis, adds circfric's rising pulse for the spikes feed-forward leaves. The last run's
+  // H and G are at most 30 % of the first's, and each spike of at least 2 um on the second
+  // run is at least halved on the last.
   ASSERT_GE(summary["runs"].size(), 3u) << "the friction round did not run\n" << demo.out;
   EXPECT_LE(row(summary, "H").back(), 0.3 * row(summary, "H").front());
   EXPECT_LE(row(summary, "G worst").back(), 0.3 * row(summary, "G worst").front());

@@ -40,8 +40,6 @@ inline constexpr double kFrictionMinLagMs = 5.0;
 // (FF1 1, D100..D300, F500..F3000, X and Y friction) 0.4 left 16..29 % of the spike with the
 // amplitude at the spike's height; 0.3 and 0.25 left up to 47 % and 64 % at the higher feeds.
 inline constexpr double kFrictionRisePeakShare = 0.4;
-// circfric's bound of the rise time against the decay (kMaxRiseShareOfDecay of circfric(9)).
-inline constexpr double kFrictionMaxRiseShare = 0.95;
 
 // The configuration's HAL cannot take circfric where circcomp splices it (no pid or stepgen
 // reads the joint's position command, two do, no motion-controller in a thread, circfric
