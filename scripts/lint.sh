@@ -57,10 +57,26 @@ else
   mapfile -t changed < <(git ls-files '*.cpp' '*.cc')
   what="all (no parent commit)"
 fi
+# The libraries compile a batch of sources at a time (CIRCTEST_UNITY_BUILD): their compile
+# commands name the batch file (.../Unity/unity_N_cxx.cxx, a list of #include "source.cpp").
+# clang-tidy gets one command per source, the batch's command with the source in its place.
+db_dir=$(mktemp -d)
+trap 'rm -rf "$db_dir"' EXIT
+python3 - "$build/compile_commands.json" "$db_dir/compile_commands.json" <<'PY'
+import json, re, sys
+entries = []
+for e in json.load(open(sys.argv[1])):
+    if re.search(r"/Unity/unity_[0-9]+_cxx\.cxx$", e["file"]):
+        for source in re.findall(r'^#include "(.+)"$', open(e["file"]).read(), re.M):
+            entries.append(dict(e, file=source, command=e["command"].replace(e["file"], source)))
+    else:
+        entries.append(e)
+json.dump(entries, open(sys.argv[2], "w"), indent=1)
+PY
 # Only files the build compiles (a source of a part switched off has no compile command).
 files=()
 for f in "${changed[@]}"; do
-  grep -qF "\"file\": \"$root/$f\"" "$build/compile_commands.json" && files+=("$f")
+  grep -qF "\"file\": \"$root/$f\"" "$db_dir/compile_commands.json" && files+=("$f")
 done
 if [ ${#files[@]} = 0 ]; then
   echo "lint: clang-tidy: no C++ source $what"
@@ -69,6 +85,6 @@ fi
 echo "lint: clang-tidy on ${#files[@]} file(s) $what"
 headers="^$root/(core|analysis|gcode-gen|hal-component|compensation|configs|tests|bench)/"
 printf '%s\n' "${files[@]}" |
-  xargs -P "$(nproc)" -n 1 "$tidy" -p "$build" --quiet --header-filter="$headers" 2>/dev/null ||
+  xargs -P "$(nproc)" -n 1 "$tidy" -p "$db_dir" --quiet --header-filter="$headers" 2>/dev/null ||
   { echo "lint: clang-tidy found problems (above)" >&2; exit 1; }
 echo "lint: clang-tidy ok"

@@ -1,26 +1,39 @@
 #!/usr/bin/env bash
 # Installs what circtest needs on Debian 12 (idempotent: apt only runs when a package is
 # missing) and builds it in ./build. Run as root, or as a user with sudo.
+#   scripts/setup.sh [install|build]    (default: both; scripts/test.sh runs them apart)
+# CIRCTEST_UNIT_TESTS=OFF builds no unit-test programs (scripts/test.sh's full run, whose
+# sanitizer build has them).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+step=all
+case "${1:-}" in
+  install | build) step=$1 ;;
+  "") ;;
+  *) echo "setup.sh: expected install or build, got '$1'" >&2; exit 2 ;;
+esac
 
 SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 
-mapfile -t packages < <(sed -e 's/#.*//' -e 's/[[:space:]]*$//' -e '/^[[:space:]]*$/d' scripts/debian-packages.txt)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "setup: installing ${missing[*]}"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+install_packages() {
+  mapfile -t packages < <(sed -e 's/#.*//' -e 's/[[:space:]]*$//' -e '/^[[:space:]]*$/d' scripts/debian-packages.txt)
+  missing=()
+  for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -gt 0 ]; then
+    echo "setup: installing ${missing[*]}"
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+  fi
+}
+[ $step = build ] || install_packages
+[ $step != install ] || exit 0
 
 BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
-# The programs and libraries Release (-O3); the test programs' own sources -O1: they compile
-# 40 % faster and the CPU goes to the programs under test (tests/CMakeLists.txt).
+# The programs and libraries Release (-O3); the test programs' own sources -O0: they compile
+# in a fraction of the time and the CPU goes to the programs under test (tests/CMakeLists.txt).
 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DCMAKE_EXPORT_COMPILE_COMMANDS=ON \
-  -DCIRCTEST_TEST_COMPILE_OPTIONS=-O1
+  -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS="${CIRCTEST_UNIT_TESTS:-ON}"
 cmake --build "$BUILD_DIR" -j"$(nproc)"

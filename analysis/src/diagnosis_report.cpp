@@ -7,6 +7,7 @@
 
 #include "circtest/analysis/diagnosis.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
+#include "circtest/core/json_text.hpp"
 #include "diagnosis_document.hpp"
 
 namespace circtest {
@@ -16,14 +17,10 @@ namespace {
 using json = nlohmann::ordered_json;
 namespace K = diagnosis_json::key;
 
-json opt(const std::optional<double>& v) {
-  return v ? json(*v) : json(nullptr);
-}
-
 json per_axis(const Diagnosis& d, const std::array<Estimate, 2>& e, bool se = false) {
   json j = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
-    j[std::string(1, d.axes[k])] = opt(se ? e[k].standard_error : e[k].value);
+    j[std::string(1, d.axes[k])] = json_number_or_null(se ? e[k].standard_error : e[k].value);
   }
   return j;
 }
@@ -85,15 +82,16 @@ json to_json(const Diagnosis& d) {
   j[K::reversal_spike_ms] = per_axis(d, d.spike_ms);
   j[K::reversal_spike_peak_ms] = per_axis(d, d.spike_peak_ms);
   j[K::scale_ppm] = per_axis(d, d.scale_ppm);
-  j[K::scale_mismatch_ppm] = opt(d.scale_mismatch_ppm.value);
-  j[K::squareness_urad] = opt(d.squareness_urad.value);
-  j[K::servo_mismatch_ms] = opt(d.servo_mismatch_ms.value);
+  j[K::scale_mismatch_ppm] = json_number_or_null(d.scale_mismatch_ppm.value);
+  j[K::squareness_urad] = json_number_or_null(d.squareness_urad.value);
+  j[K::servo_mismatch_ms] = json_number_or_null(d.servo_mismatch_ms.value);
   json rc = json::array();
   for (const auto& fr : d.radius_change) {
-    rc.push_back({{K::feed_mm_per_min, fr.feed_mm_per_min}, {K::dr, opt(fr.dr_mm.value)}});
+    rc.push_back(
+        {{K::feed_mm_per_min, fr.feed_mm_per_min}, {K::dr, json_number_or_null(fr.dr_mm.value)}});
   }
   j[K::radius_change_mm] = rc;
-  j[K::kv_per_s] = opt(d.kv_per_s.value);
+  j[K::kv_per_s] = json_number_or_null(d.kv_per_s.value);
   json cyc = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     const auto& c = d.cyclic[k];
@@ -102,11 +100,12 @@ json to_json(const Diagnosis& d) {
                  {K::pitch_mm, c->pitch_mm},
                  {K::phase_rad, c->phase_rad},
                  {K::pitch_source, c->pitch_source},
-                 {K::peak_to_median_power, opt(c->peak_to_median_power)}}
+                 {K::peak_to_median_power, json_number_or_null(c->peak_to_median_power)}}
           : json(nullptr);
   }
   j[K::cyclic] = cyc;
-  j[K::centre_offset_mm] = {opt(d.centre_offset_mm[0].value), opt(d.centre_offset_mm[1].value)};
+  j[K::centre_offset_mm] = {json_number_or_null(d.centre_offset_mm[0].value),
+                            json_number_or_null(d.centre_offset_mm[1].value)};
   json con = json::array();
   for (const auto& c : d.contributions) {
     con.push_back({{K::source, c.source},
@@ -122,48 +121,49 @@ json to_json(const Diagnosis& d) {
   se[K::reversal_spike_mm] = per_axis(d, d.spike_mm, true);
   se[K::reversal_spike_ms] = per_axis(d, d.spike_ms, true);
   se[K::scale_ppm] = per_axis(d, d.scale_ppm, true);
-  se[K::scale_mismatch_ppm] = opt(d.scale_mismatch_ppm.standard_error);
-  se[K::squareness_urad] = opt(d.squareness_urad.standard_error);
-  se[K::servo_mismatch_ms] = opt(d.servo_mismatch_ms.standard_error);
+  se[K::scale_mismatch_ppm] = json_number_or_null(d.scale_mismatch_ppm.standard_error);
+  se[K::squareness_urad] = json_number_or_null(d.squareness_urad.standard_error);
+  se[K::servo_mismatch_ms] = json_number_or_null(d.servo_mismatch_ms.standard_error);
   json rcs = json::array();
   for (const auto& fr : d.radius_change) {
-    rcs.push_back(
-        {{K::feed_mm_per_min, fr.feed_mm_per_min}, {K::dr, opt(fr.dr_mm.standard_error)}});
+    rcs.push_back({{K::feed_mm_per_min, fr.feed_mm_per_min},
+                   {K::dr, json_number_or_null(fr.dr_mm.standard_error)}});
   }
   se[K::radius_change_mm] = rcs;
-  se[K::kv_per_s] = opt(d.kv_per_s.standard_error);
+  se[K::kv_per_s] = json_number_or_null(d.kv_per_s.standard_error);
   json cse = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     cse[std::string(1, d.axes[k])] =
         d.cyclic[k] ? json{{K::amplitude_mm, d.cyclic[k]->amplitude_se_mm}} : json(nullptr);
   }
   se[K::cyclic] = cse;
-  se[K::centre_offset_mm] = {opt(d.centre_offset_mm[0].standard_error),
-                             opt(d.centre_offset_mm[1].standard_error)};
+  se[K::centre_offset_mm] = {json_number_or_null(d.centre_offset_mm[0].standard_error),
+                             json_number_or_null(d.centre_offset_mm[1].standard_error)};
   j[K::standard_error] = se;
   j[K::kv_source] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
-  j[K::lag_ms] = opt(d.lag_ms.value);
+  j[K::lag_ms] = json_number_or_null(d.lag_ms.value);
   json lag = json::object(), kv = json::object(), src = json::object(), lag_se = json::object();
   for (std::size_t k = 0; k < 2; ++k) {
     const std::string a(1, d.axes[k]);
     const AxisLag& al = d.axis_lag[k];
-    lag[a] = opt(al.lag_ms.value);
-    lag_se[a] = opt(al.lag_ms.standard_error);
-    kv[a] = opt(al.kv_per_s);
+    lag[a] = json_number_or_null(al.lag_ms.value);
+    lag_se[a] = json_number_or_null(al.lag_ms.standard_error);
+    kv[a] = json_number_or_null(al.kv_per_s);
     src[a] = al.source.empty() ? json(nullptr) : json(al.source);
   }
   j[K::axis_lag_ms] = lag;
   j[K::axis_kv_per_s] = kv;
   j[K::axis_lag_source] = src;
-  j[K::axis_lag_mismatch_ms] = opt(d.axis_lag_mismatch_ms.value);
+  j[K::axis_lag_mismatch_ms] = json_number_or_null(d.axis_lag_mismatch_ms.value);
   j[K::standard_error][K::axis_lag_ms] = lag_se;
-  j[K::standard_error][K::axis_lag_mismatch_ms] = opt(d.axis_lag_mismatch_ms.standard_error);
+  j[K::standard_error][K::axis_lag_mismatch_ms] =
+      json_number_or_null(d.axis_lag_mismatch_ms.standard_error);
   json shares = json::array();
   for (const ServoShare& sh : d.servo_share) {
     shares.push_back({{K::feed_mm_per_min, sh.feed_mm_per_min},
                       {K::g_mm, sh.g_mm},
-                      {K::measured_g_mm, opt(sh.measured_g_mm)},
-                      {K::percent, opt(sh.percent)}});
+                      {K::measured_g_mm, json_number_or_null(sh.measured_g_mm)},
+                      {K::percent, json_number_or_null(sh.percent)}});
   }
   j[K::servo_share] = shares;
   j[K::nominal_radius_mm] = d.radius_mm;

@@ -12,10 +12,6 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-json opt(const std::optional<double>& v) {
-  return v ? json(*v) : json(nullptr);
-}
-
 // Reading a document back: every key where to_json puts it, else a ParseError naming the
 // key, so a document of another shape is refused instead of read as zeros; a number beyond
 // what an evaluation can report is a DataError naming the key.
@@ -60,13 +56,13 @@ json to_json(const Evaluation& ev) {
   j["channels"] = json::array({ev.channel_a, ev.channel_b});
   j["segmentation"] = segmentation_method_name(ev.segmentation);
   j["g_method"] = g_method_name(ev.g_method);
-  j["nominal_radius"] = opt(ev.nominal_radius_mm);
+  j["nominal_radius"] = json_number_or_null(ev.nominal_radius_mm);
   j["nominal_radius_source"] = value_source_name(ev.nominal_radius_source);
   j["nominal_centre"] = ev.centre ? json::array({ev.centre->a_mm, ev.centre->b_mm}) : json(nullptr);
   j["nominal_centre_source"] = value_source_name(ev.centre_source);
   j["temperature"] = {{"corrected", ev.temperatures.available()},
-                      {"machine_C", opt(ev.temperatures.machine_C)},
-                      {"instrument_C", opt(ev.temperatures.instrument_C)},
+                      {"machine_C", json_number_or_null(ev.temperatures.machine_C)},
+                      {"instrument_C", json_number_or_null(ev.temperatures.instrument_C)},
                       {"machine_expansion_per_K", ev.temperatures.machine_expansion_per_K},
                       {"instrument_expansion_per_K", ev.temperatures.instrument_expansion_per_K},
                       {"radius_factor", ev.temperature_factor}};
@@ -90,8 +86,8 @@ json to_json(const Evaluation& ev) {
         {"segment", r.run.segment_id},
         {"G", r.g_mzc_mm},
         {"G_lsc", r.g_lsc_mm},
-        {"F_max", opt(r.f_max_mm)},
-        {"F_min", opt(r.f_min_mm)},
+        {"F_max", json_number_or_null(r.f_max_mm)},
+        {"F_min", json_number_or_null(r.f_min_mm)},
         {"F_centre", f_centre_method_name(r.f_centre_method)},
         {"F_centre_point", {r.f_centre.a_mm, r.f_centre.b_mm}},
         {"centre", {r.lsc.centre_a_mm, r.lsc.centre_b_mm}},
@@ -100,7 +96,7 @@ json to_json(const Evaluation& ev) {
         {"arc_deg", r.run.sweep_deg},
         {"start_deg", r.run.start_deg},
         {"lines", {r.first_line, r.last_line}},
-        {"feed_mm_per_min", opt(r.feed_mm_per_min)},
+        {"feed_mm_per_min", json_number_or_null(r.feed_mm_per_min)},
         {"mzc",
          {{"centre", {r.mzc.centre_a_mm, r.mzc.centre_b_mm}},
           {"inner_radius", r.mzc.inner_radius_mm},

@@ -10,6 +10,7 @@
 
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -395,23 +396,23 @@ SetDiagnosis diagnose_set(const std::vector<PlaneTrace>& planes,
 
 namespace {
 
-json opt(const std::optional<double>& v) {
-  return v ? json(*v) : json(nullptr);
-}
-
 std::string plane_list(const std::vector<Plane>& planes) {
   std::string s;
-  for (Plane p : planes) s += (s.empty() ? "" : ",") + std::string(plane_name(p));
+  for (Plane p : planes) {
+    if (!s.empty()) s += ',';
+    s += plane_name(p);
+  }
   return s;
 }
 
 json agreement_json(const JointEstimate& j) {
   json o = json::object();
   for (const PlaneEstimate& p : j.planes) {
-    o[std::string(plane_name(p.plane))] = {{K::value, opt(p.estimate.value)},
-                                           {K::standard_error, opt(p.estimate.standard_error)}};
+    o[std::string(plane_name(p.plane))] = {
+        {K::value, json_number_or_null(p.estimate.value)},
+        {K::standard_error, json_number_or_null(p.estimate.standard_error)}};
   }
-  o[K::chi2] = opt(j.chi2);
+  o[K::chi2] = json_number_or_null(j.chi2);
   o[K::dof] = j.dof;
   o[K::consistent] = j.consistent;
   return o;
@@ -435,8 +436,8 @@ json to_json(const SetDiagnosis& s) {
   for (const auto& [key, member] : kAxisKeys) {
     json v = json::object(), e = json::object();
     for (const AxisJoint& a : s.axes) {
-      v[std::string(1, a.axis)] = opt((a.*member).joint.value);
-      e[std::string(1, a.axis)] = opt((a.*member).joint.standard_error);
+      v[std::string(1, a.axis)] = json_number_or_null((a.*member).joint.value);
+      e[std::string(1, a.axis)] = json_number_or_null((a.*member).joint.standard_error);
     }
     j[key] = v;
     se[key] = e;
@@ -453,8 +454,9 @@ json to_json(const SetDiagnosis& s) {
   for (Plane p : {Plane::XY, Plane::YZ, Plane::ZX}) {
     const auto& e = s.squareness_urad[plane_index(p)];
     if (e)
-      sq[std::string(plane_name(p))] = {{K::value, opt(e->value)},
-                                        {K::standard_error, opt(e->standard_error)}};
+      sq[std::string(plane_name(p))] = {
+          {K::value, json_number_or_null(e->value)},
+          {K::standard_error, json_number_or_null(e->standard_error)}};
   }
   set[K::squareness_urad] = sq;
   json agreement = json::object();
@@ -540,7 +542,10 @@ std::string text_report(const SetDiagnosis& s) {
                    static_cast<char>(ax.second));
   }
   for (const std::string& n : s.notes) fmt::format_to(it, "Note: {}\n", n);
-  for (const Diagnosis& d : s.plane_diagnoses) out += "\n" + text_report(d);
+  for (const Diagnosis& d : s.plane_diagnoses) {
+    out += '\n';
+    out += text_report(d);
+  }
   return out;
 }
 

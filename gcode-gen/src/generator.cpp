@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
+#include "circtest/core/angles.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -22,10 +22,6 @@ constexpr double kAngleEpsilonDeg = 1e-9;
 constexpr int kMaxOutputIndex = 63;
 // "Short dwell at most" between the directions: clause 5 wants the runs back to back.
 constexpr double kMaxDwellS = 2.0;
-
-double deg_to_rad(double deg) {
-  return deg * std::numbers::pi / 180.0;
-}
 
 int axis_index(char axis) {
   return axis - 'x';
@@ -188,7 +184,7 @@ class ProgramWriter {
     if (end[a] != position_[a] || end[b] != position_[b]) {
       const double from = std::atan2(position_[b] - centre_[b], position_[a] - centre_[a]);
       const double to = std::atan2(end[b] - centre_[b], end[a] - centre_[a]);
-      const double ccw_deg = (to - from) * 180.0 / std::numbers::pi;
+      const double ccw_deg = rad_to_deg(to - from);
       turn_deg = std::fmod((direction == Direction::CCW ? ccw_deg : -ccw_deg) + 720.0, 360.0);
       if (turn_deg == 0.0) turn_deg = 360.0;
     }

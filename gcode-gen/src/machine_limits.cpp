@@ -8,9 +8,9 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <numbers>
 #include <sstream>
 
+#include "circtest/core/angles.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
@@ -93,10 +93,6 @@ std::string coordinate_letters(const IniDocument& ini) {
     if (std::isalpha(static_cast<unsigned char>(c))) out += static_cast<char>(std::toupper(c));
   }
   return out;
-}
-
-double deg_to_rad(double deg) {
-  return deg * std::numbers::pi / 180.0;
 }
 
 }  // namespace
@@ -464,7 +460,7 @@ bool check_acceleration(const CircleTestSpec& spec, const MachineLimits& limits,
   const double run_up_mm = v_mm_per_s * v_mm_per_s / (2.0 * tangential);
   const double lead_mm = spec.radius_mm * deg_to_rad(spec.lead_deg);
   if (run_up_mm > lead_mm) {
-    const double needed_deg = run_up_mm / spec.radius_mm * 180.0 / std::numbers::pi;
+    const double needed_deg = rad_to_deg(run_up_mm / spec.radius_mm);
     throw LimitError(fmt::format(
         "{}: the {} deg lead-in [{:.3f} mm] is shorter than the {:.3f} mm needed to reach "
         "F{} with {} = {}; use {} {:.0f} or more",

@@ -37,6 +37,11 @@ nlohmann::ordered_json read_ordered_json_file(const std::string& path,
 std::string json_text(const nlohmann::json& document, int indent = -1);
 std::string json_text(const nlohmann::ordered_json& document, int indent = -1);
 
+// An optional number as JSON: the number, or null when there is none.
+inline nlohmann::json json_number_or_null(const std::optional<double>& v) {
+  return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+}
+
 // Reads the keys of a parsed document: a missing key or one of the wrong type is a ParseError
 // "<file>: <document> '<key path>': expected <what>", a number beyond its magnitude a
 // DataError naming the key, so a document of another shape is refused instead of read as
