@@ -3,8 +3,9 @@
 # float-cast-overflow) and CIRCTEST_FUZZ, in its own build dir; runs the unit tests once
 # under the sanitizers and each fuzz harness for CIRCTEST_FUZZ_SECONDS (default 10: the gate
 # replays its fixed seed from the corpus; exploration is the longer hand run of docs/fuzzing.md).
-# The HAL part and the benchmarks are left out: they are not unit-tested code paths and would
-# double the build.
+# Only the unit-test programs (CIRCTEST_UNIT_TESTS=ONLY, their own sources at -O0 and without
+# ASan's instrumentation: cmake/Sanitize.cmake), the HAL kernels without the realtime modules
+# (a sanitized module cannot go into rtapi_app), no benchmarks (docs/fuzzing.md).
 #   scripts/sanitize.sh [all|build|test] [CTEST ARGS...]   (default all: build, then test)
 set -euo pipefail
 cd "$(dirname "$0")/.."
