@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The second build of scripts/test.sh: clang with CIRCTEST_SANITIZE (ASan + UBSan with
 # float-cast-overflow) and CIRCTEST_FUZZ, in its own build dir; runs the unit tests once
-# under the sanitizers and each fuzz harness for CIRCTEST_FUZZ_SECONDS (default 10: the gate
+# under the sanitizers and each fuzz harness for CIRCTEST_FUZZ_SECONDS (default 5: the gate
 # replays its fixed seed from the corpus; exploration is the longer hand run of docs/fuzzing.md).
 # Only the unit-test programs (CIRCTEST_UNIT_TESTS=ONLY, their own sources at -O0 and without
 # ASan's instrumentation: cmake/Sanitize.cmake), the HAL kernels without the realtime modules
@@ -26,7 +26,7 @@ if [ "$phase" != test ]; then
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 $debug -DNDEBUG" \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 $debug -DNDEBUG" \
     -DCIRCTEST_HAL_MODULES=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
-    -DCIRCTEST_FUZZ_SECONDS="${CIRCTEST_FUZZ_SECONDS:-10}" -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS=ONLY \
+    -DCIRCTEST_FUZZ_SECONDS="${CIRCTEST_FUZZ_SECONDS:-5}" -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS=ONLY \
     "${launcher[@]}"
   cmake --build "$SAN_DIR" -j"$(nproc)"
 fi
