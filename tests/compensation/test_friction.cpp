@@ -6,9 +6,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -399,10 +399,10 @@ TEST(Friction, HostileHalTextParsesInLinearTime) {
   std::string relink = "net s";
   for (int i = 0; i < 100000; ++i) relink += " p" + std::to_string(i) + ".x";
   relink += "\n";
-  const auto start = std::chrono::steady_clock::now();
+  // The parse's CPU time: the tests running beside it on the machine do not count.
+  const std::clock_t start = std::clock();
   const HalWiring w = parse_hal_text(word + relink + relink, "big.hal", ini);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds = static_cast<double>(std::clock() - start) / CLOCKS_PER_SEC;
   EXPECT_EQ(w.signals.at("s").pins.size(), 100000u);
   EXPECT_LT(seconds, 5.0);
 }
