@@ -61,19 +61,10 @@ export CIRCTEST_RUN_SLOTS=${CIRCTEST_RUN_SLOTS:-2}
 slots_file=$(cd "$BUILD_DIR" && pwd)/linuxcnc-slots.json
 printf '{"version": {"major": 1, "minor": 0},\n "local": [{"linuxcnc": [{"id": "0", "slots": %d}]}]}\n' \
   "$CIRCTEST_RUN_SLOTS" >"$slots_file"
-# The stepper runs (e2e tests named Stepper*) go last, alone, after the sanitizer pass: their
-# 50 us base thread missed periods beside it even at SCHED_FIFO in the fresh-Debian runs.
-alone='^e2e_test_[a-z_]+\.[A-Za-z]+\.Stepper'
 suite_rc=0
-if [ $full_run = 1 ]; then
-  ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" \
-    --resource-spec-file "$slots_file" "$@" -E "$alone" || suite_rc=$?
-  phase "test suite without the stepper runs"
-else
-  ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" \
-    --resource-spec-file "$slots_file" "$@" || suite_rc=$?
-  phase "test suite"
-fi
+ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" \
+  --resource-spec-file "$slots_file" "$@" || suite_rc=$?
+phase "test suite"
 san_rc=0
 if [ $sanitize = 1 ]; then
   wait "$san_pass" || true
@@ -86,11 +77,6 @@ if [ $sanitize = 1 ]; then
   echo "test.sh: sanitizer build done after $(sed -n 1p "$san_mark") s"
   read -r san_end san_rc <"$san_test_mark" || { san_end="?"; san_rc=1; }
   echo "test.sh: sanitizer pass (unit tests, fuzz harnesses) done after $san_end s"
-fi
-if [ $full_run = 1 ]; then
-  ctest --test-dir "$BUILD_DIR" --output-on-failure --resource-spec-file "$slots_file" "$@" \
-    -R "$alone" || suite_rc=$?
-  phase "stepper runs"
 fi
 if [ "$san_rc" != 0 ]; then
   echo "test.sh: the sanitizer pass failed (exit $san_rc; whole log: $san_test_log)" >&2
