@@ -42,23 +42,14 @@ std::string tested_at(const TraceMetadata& conditions, const std::string& source
 // Every number the history keeps, finite and of a size a circular test can have, or a
 // DataError naming it: "inf" never reaches the trend.
 void require_usable_numbers(const history::TestRecord& r, const std::string& source) {
-  auto check = [&source](const std::optional<double>& v, const std::string& what) {
+  history::for_each_number(r, [&source](const std::optional<double>& v, const std::string& what) {
     if (v && !(std::abs(*v) <= kMaxReportedMagnitude)) {
       throw DataError(source, 0,
                       fmt::format("{} = {:g} is not a usable number (finite, at most {:g} in "
                                   "size): not stored",
                                   what, *v, kMaxReportedMagnitude));
     }
-  };
-  check(r.h_mm, "H");
-  check(r.g_mm, "G");
-  check(r.f_mm, "F");
-  check(r.backlash_mm, "backlash");
-  check(r.squareness_urad, "squareness_urad");
-  for (const auto& m : r.measures) {
-    check(m.value_mm, m.kind + " of run " + m.label + " " + m.direction);
-    check(m.feed_mm_per_min, "feed of run " + m.label + " " + m.direction);
-  }
+  });
 }
 }  // namespace
 

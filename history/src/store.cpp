@@ -59,12 +59,6 @@ void check_record(const TestRecord& r) {
                               bad + 1, utf8_replacing_invalid(value)));
     }
   };
-  auto finite = [](const std::optional<double>& v, const std::string& field) {
-    if (v && !std::isfinite(*v)) {
-      throw Error(ExitCode::data,
-                  fmt::format("history record: {} = {} is not a finite number", field, *v));
-    }
-  };
   text(r.machine, "machine");
   text(r.tested_at, "tested_at");
   text(r.plane, "plane");
@@ -75,18 +69,17 @@ void check_record(const TestRecord& r) {
                                             "date or date-time",
                                             utf8_replacing_invalid(r.tested_at)));
   }
-  finite(r.h_mm, "H");
-  finite(r.g_mm, "G");
-  finite(r.f_mm, "F");
-  finite(r.backlash_mm, "backlash");
-  finite(r.squareness_urad, "squareness_urad");
   for (const Measure& m : r.measures) {
     text(m.kind, "a measure's kind");
     text(m.label, "a measure's label");
     text(m.direction, "a measure's direction");
-    finite(m.value_mm, m.kind);
-    finite(m.feed_mm_per_min, m.kind + " feed");
   }
+  for_each_number(r, [](const std::optional<double>& v, const std::string& field) {
+    if (v && !std::isfinite(*v)) {
+      throw Error(ExitCode::data,
+                  fmt::format("history record: {} = {} is not a finite number", field, *v));
+    }
+  });
 }
 
 // Rolls back unless committed: a store is all or nothing, whatever throws.

@@ -48,6 +48,22 @@ struct TestRecord {
   nlohmann::json diagnosis = nullptr;  // the diagnosis document, or null
 };
 
+// Calls VISIT(value, name) for each number of TEST, named as a message about it names it
+// ("H", "G of run XY CW", "feed of run XY CW"): the one list the checks before storing use.
+template <typename Visit>
+void for_each_number(const TestRecord& test, Visit&& visit) {
+  visit(test.h_mm, std::string("H"));
+  visit(test.g_mm, std::string("G"));
+  visit(test.f_mm, std::string("F"));
+  visit(test.backlash_mm, std::string("backlash"));
+  visit(test.squareness_urad, std::string("squareness_urad"));
+  for (const Measure& m : test.measures) {
+    const std::string run = " of run " + m.label + " " + m.direction;
+    visit(std::optional<double>(m.value_mm), m.kind + run);
+    visit(m.feed_mm_per_min, "feed" + run);
+  }
+}
+
 // The storage interface. Every call throws DatabaseError (exit code 11) with the database
 // named when the database cannot be used.
 class Store {
