@@ -46,9 +46,9 @@ class CompensationLoop : public circtest::testing::LinuxcncTest {
     ini_ = (out_ / "machine" / "sim-mill.ini").string();
   }
   void set(const std::string& key, const std::string& value) {
-    ASSERT_EQ(
-        run_shell(std::string(CIRCTEST_INI_PATH) + " set " + ini_ + " SIM " + key + " " + value),
-        0);
+    const auto r =
+        circtest::testing::run_command({CIRCTEST_INI_PATH, "set", ini_, "SIM", key, value});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   // Runs the program on the configuration as it is now; returns circana's JSON.
   json measure(const std::string& name) {
@@ -56,19 +56,13 @@ class CompensationLoop : public circtest::testing::LinuxcncTest {
     const auto r = circtest::testing::run_linuxcnc(CIRCTEST_RUN_PATH, CIRCTEST_BINARY_DIR,
                                                    {ini_, out_ / "test.ngc", dir});
     EXPECT_EQ(r.command.exit_code, 0) << r.log;
-    const fs::path js = out_ / (name + ".json");
-    EXPECT_EQ(run_shell(std::string(CIRCANA_PATH) + " analyze " + (dir / "trace.csv").string() +
-                        " --json >" + js.string()),
-              0);
-    return json::parse(slurp(js));
+    return circtest::testing::circana_json(CIRCANA_PATH, "analyze", dir / "trace.csv",
+                                           out_ / (name + ".json"));
   }
   // circana diagnose --json of a measured run, kept as NAME-diagnosis.json.
   json diagnose(const std::string& name) {
-    const fs::path js = out_ / (name + "-diagnosis.json");
-    EXPECT_EQ(run_shell(std::string(CIRCANA_PATH) + " diagnose " +
-                        (out_ / name / "trace.csv").string() + " --json >" + js.string()),
-              0);
-    return json::parse(slurp(js));
+    return circtest::testing::circana_json(CIRCANA_PATH, "diagnose", out_ / name / "trace.csv",
+                                           out_ / (name + "-diagnosis.json"));
   }
   // The modelled G without its servo terms: the shares of the contributions (which add up to
   // the modelled G) less those of servo mismatch and the radius change per feed.

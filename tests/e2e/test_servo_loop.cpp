@@ -41,11 +41,8 @@ class ServoLoop : public circtest::testing::LinuxcncTest {
     const auto r = circtest::testing::run_linuxcnc(CIRCTEST_RUN_PATH, CIRCTEST_BINARY_DIR,
                                                    {ini_, out_ / "test.ngc", dir});
     EXPECT_EQ(r.command.exit_code, 0) << r.log;
-    const fs::path js = out_ / (name + ".json");
-    EXPECT_EQ(run_shell(std::string(CIRCANA_PATH) + " diagnose " + (dir / "trace.csv").string() +
-                        " --json >" + js.string()),
-              0);
-    return json::parse(slurp_if_exists(js));
+    return circtest::testing::circana_json(CIRCANA_PATH, "diagnose", dir / "trace.csv",
+                                           out_ / (name + ".json"));
   }
   // circcomp COMMAND (plan, apply) of NAME.json with ARGS; its output in NAME-COMMAND.out.
   int circcomp(const std::string& command, const std::string& name, const std::string& args,

@@ -77,11 +77,8 @@ class SimFriction : public circtest::testing::LinuxcncTest {
   }
 
   json circana(const std::string& command, const std::string& name) {
-    const auto r =
-        run_command({CIRCANA_PATH, command, (out_ / name / "trace.csv").string(), "--json"});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    circtest::testing::spit(out_ / (name + "-" + command + ".json"), r.out);
-    return json::parse(r.out);
+    return circtest::testing::circana_json(CIRCANA_PATH, command, out_ / name / "trace.csv",
+                                           out_ / (name + "-" + command + ".json"));
   }
 
   // circcomp apply of the friction correction alone from NAME's diagnosis.

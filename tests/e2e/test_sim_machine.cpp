@@ -94,22 +94,14 @@ class SimMachine : public circtest::testing::LinuxcncTest {
     EXPECT_NE(log.find(fmt_pauses(expected_pauses_)), std::string::npos) << log;
   }
 
-  json diagnose(const std::string& extra = "") {
-    const fs::path js = out_ / "diagnosis.json";
-    const int rc = run_shell(std::string(CIRCANA_PATH) + " diagnose " +
-                             (out_ / "run" / "trace.csv").string() + " --json " + extra + " >" +
-                             js.string() + " 2>" + (out_ / "circana.err").string());
-    EXPECT_EQ(rc, 0) << slurp_if_exists(out_ / "circana.err");
-    return json::parse(slurp_if_exists(js));
+  json diagnose(const std::vector<std::string>& args = {}) {
+    return circtest::testing::circana_json(CIRCANA_PATH, "diagnose", out_ / "run" / "trace.csv",
+                                           out_ / "diagnosis.json", args);
   }
 
-  json analyse(const std::string& extra = "") {
-    const fs::path js = out_ / "result.json";
-    const int rc = run_shell(std::string(CIRCANA_PATH) + " analyze " +
-                             (out_ / "run" / "trace.csv").string() + " --json " + extra + " >" +
-                             js.string() + " 2>" + (out_ / "circana.err").string());
-    EXPECT_EQ(rc, 0) << slurp_if_exists(out_ / "circana.err");
-    return json::parse(slurp_if_exists(js));
+  json analyse(const std::vector<std::string>& args = {}) {
+    return circtest::testing::circana_json(CIRCANA_PATH, "analyze", out_ / "run" / "trace.csv",
+                                           out_ / "result.json", args);
   }
 
   static std::string fmt_pauses(int n) {
@@ -138,13 +130,13 @@ TEST_F(SimMachine, BacklashShowsAsHysteresisOnTheTableOnly) {
   }
   const double h = table["H"].get<double>();
   std::printf("backlash 20 um: H table %.2f um, H motor %.2f um, G %.2f/%.2f um\n", h * 1e3,
-              analyse("--columns x_fb,y_fb")["H"].get<double>() * 1e3,
+              analyse({"--columns", "x_fb,y_fb"})["H"].get<double>() * 1e3,
               table["runs"][0]["G"].get<double>() * 1e3, table["runs"][1]["G"].get<double>() * 1e3);
   EXPECT_NEAR(h, 0.020, 0.001) << "H of 20 um play";
   const double at = table["pairs"][0]["angle_deg"].get<double>();
   EXPECT_LT(std::min({at, std::abs(at - 180.0), 360.0 - at}), 10.0) << "step at an X reversal";
 
-  const json motor = analyse("--columns x_fb,y_fb");
+  const json motor = analyse({"--columns", "x_fb,y_fb"});
   EXPECT_LT(motor["H"].get<double>(), 0.0005) << "the motor encoder cannot see screw backlash";
 }
 
@@ -183,7 +175,7 @@ TEST_F(SimMachine, SquarenessGivesGAndTheLoopShrinksTheRadius) {
 
   const double v = kFeed / 60.0;
   const double loss = -v * v * (1.0 - kv * kServoPeriod) / (2.0 * kRadius * kv * kv);
-  const json motor = analyse("--columns x_fb,y_fb --f-centre nominal");
+  const json motor = analyse({"--columns", "x_fb,y_fb", "--f-centre", "nominal"});
   for (const auto& r : motor["runs"]) {
     std::printf("Kv 30, F%.0f: motor F_max %.3f F_min %.3f um (model %.3f)\n", kFeed,
                 r["F_max"].get<double>() * 1e3, r["F_min"].get<double>() * 1e3, loss * 1e3);
@@ -191,7 +183,7 @@ TEST_F(SimMachine, SquarenessGivesGAndTheLoopShrinksTheRadius) {
     EXPECT_NEAR(r["F_min"].get<double>(), loss, 0.03 * std::abs(loss)) << r["label"];
     EXPECT_LT(r["G"].get<double>(), 0.1 * std::abs(loss)) << "equal gains: a round path";
   }
-  const json command = analyse("--columns x_cmd,y_cmd --f-centre nominal");
+  const json command = analyse({"--columns", "x_cmd,y_cmd", "--f-centre", "nominal"});
   for (const auto& r : command["runs"]) {
     EXPECT_NEAR(r["F_max"].get<double>(), 0.0, 0.0002);
     EXPECT_NEAR(r["F_min"].get<double>(), 0.0, 0.0002);
@@ -244,7 +236,7 @@ TEST_F(SimMachine, DiagnoseRecoversTheInjectedSources) {
                {"SQUARENESS_XY", "100e-6"},
                {"CYCLIC_Y", "0.002"},
                {"CYCLIC_PITCH_Y", "5"}});
-  const json d = diagnose("--pitch Y=5");
+  const json d = diagnose({"--pitch", "Y=5"});
   EXPECT_EQ(d["schema"], "circtest.diagnosis/1");
   ASSERT_EQ(d["runs"].get<int>(), 2);
   const auto num = [](const json& v) { return v.is_null() ? std::nan("") : v.get<double>(); };

@@ -97,12 +97,11 @@ class SimServo : public circtest::testing::LinuxcncTest {
 
   // circana diagnose on the table (instrument) columns, or with "x_fb,y_fb" on the encoders.
   json diagnose(const std::string& columns = "") {
-    std::vector<std::string> argv = {CIRCANA_PATH, "diagnose",
-                                     (out_ / "run" / "trace.csv").string(), "--json"};
-    if (!columns.empty()) argv.insert(argv.end(), {"--columns", columns});
-    const auto r = run_command(argv);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return json::parse(r.out);
+    std::vector<std::string> args;
+    if (!columns.empty()) args = {"--columns", columns};
+    return circtest::testing::circana_json(
+        CIRCANA_PATH, "diagnose", out_ / "run" / "trace.csv",
+        out_ / (columns.empty() ? "diagnosis.json" : "diagnosis-" + columns + ".json"), args);
   }
 
   static double num(const json& v) { return v.is_null() ? NAN : v.get<double>(); }

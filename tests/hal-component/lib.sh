@@ -47,3 +47,17 @@ dump_sampler() {
 }
 
 check() { /usr/bin/python3 "$CIRCLOG_TESTS/check_trace.py" "$@"; }
+
+# The end of an overrun test, once the recorder has stopped: the sampler's count of enabled
+# periods and the overrun pin read before HAL stops, then check_trace.py's overrun checks and
+# whether stderr names the gaps and the loss.
+finish_overrun_test() {
+  local enabled pin
+  enabled=$(halcmd getp sampler.0.curr-depth)
+  pin=$(halcmd getp circlog.0.overruns)
+  hal_stop
+  cat recorder.err >&2
+  check overruns trace.csv "$pin" "$recorder_rc" "$enabled"
+  echo "stderr names the gaps: $(grep -q 'gap: [0-9]* record(s) lost before period' recorder.err && echo yes || echo NO)"
+  echo "stderr reports the loss: $(grep -q 'error: [0-9]* sample(s) lost' recorder.err && echo yes || echo NO)"
+}

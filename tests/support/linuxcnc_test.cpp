@@ -34,6 +34,17 @@ LinuxcncResult run_linuxcnc(const std::string& run_script, const std::string& bi
   return r;
 }
 
+nlohmann::json circana_json(const std::string& circana_path, const std::string& command,
+                            const fs::path& trace, const fs::path& keep_as,
+                            const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {circana_path, command, trace.string(), "--json"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const auto r = run_command(argv);
+  EXPECT_EQ(r.exit_code, 0) << "circana " << command << ": " << r.err;
+  spit(keep_as, r.out);
+  return nlohmann::json::parse(r.out);
+}
+
 LinuxcncTest::LinuxcncTest(std::string prefix, std::vector<std::string> modules)
     : prefix_(std::move(prefix)), modules_(std::move(modules)) {}
 

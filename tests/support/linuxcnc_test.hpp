@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
@@ -41,6 +42,14 @@ struct LinuxcncResult {
 // Runs circtest-run (RUN_SCRIPT) with the build tree BINARY_DIR's programs and modules.
 LinuxcncResult run_linuxcnc(const std::string& run_script, const std::string& binary_dir,
                             const LinuxcncRun& run);
+
+// circana (CIRCANA_PATH) COMMAND TRACE --json ARGS...: the document it prints, also kept as
+// KEEP_AS (the folder a failed test leaves holds it); a failed circana fails the test with
+// its stderr.
+nlohmann::json circana_json(const std::string& circana_path, const std::string& command,
+                            const std::filesystem::path& trace,
+                            const std::filesystem::path& keep_as,
+                            const std::vector<std::string>& args = {});
 
 // The fixture of the LinuxCNC tests. A test is skipped without root (circtest-run's private
 // namespaces) unless the HAL modules it needs are installed; each test gets a scratch folder

@@ -8,10 +8,4 @@ halcmd sets enable 1
 sleep 1
 halcmd sets enable 0
 wait_recorder
-enabled=$(halcmd getp sampler.0.curr-depth)
-pin=$(halcmd getp circlog.0.overruns)
-hal_stop
-cat recorder.err >&2
-check overruns trace.csv "$pin" "$recorder_rc" "$enabled"
-echo "stderr names the gaps: $(grep -q 'gap: [0-9]* record(s) lost before period' recorder.err && echo yes || echo NO)"
-echo "stderr reports the loss: $(grep -q 'error: [0-9]* sample(s) lost' recorder.err && echo yes || echo NO)"
+finish_overrun_test
