@@ -20,7 +20,6 @@
 
 namespace fs = std::filesystem;
 using circtest::testing::run_command;
-using circtest::testing::slurp_if_exists;
 using nlohmann::json;
 
 namespace {
