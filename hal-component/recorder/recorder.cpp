@@ -6,7 +6,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <boost/program_options.hpp>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -15,9 +14,6 @@
 #include <set>
 #include <sstream>
 
-#include "circtest/core/cli.hpp"
-#include "circtest/core/cli_options.hpp"
-#include "circtest/core/conditions.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/progress.hpp"
@@ -25,11 +21,17 @@
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace.hpp"
 #include "circtest/core/trace_keys.hpp"
-#include "circtest/core/version.hpp"
 
 namespace circtest::circlog_record {
 
-namespace po = boost::program_options;
+std::vector<std::string> split_on(const std::string& text, char separator) {
+  std::vector<std::string> out;
+  std::string item;
+  std::istringstream in(text);
+  while (std::getline(in, item, separator)) out.push_back(item);
+  if (!text.empty() && text.back() == separator) out.emplace_back();
+  return out;
+}
 
 namespace {
 
@@ -45,8 +47,6 @@ constexpr double kReleaseSettle_s = 0.5;
 // The trailer's account of the runs the program announced (--program).
 constexpr const char* kRunsAnnouncedKey = "runs_announced";
 constexpr const char* kRunsMissingKey = "runs_missing";
-// The longest --duration: a week of servo time.
-constexpr double kMaxDuration_s = 7.0 * 86400.0;
 
 // Keys the recorder writes itself; a program header may not override them.
 const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_period_s,
@@ -70,29 +70,6 @@ const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_perio
                                                           kRunsAnnouncedKey,
                                                           kRunsMissingKey};
 
-const std::set<std::string, std::less<>> kFixedColumns = {
-    column_name::t, column_name::period, column_name::marker, column_name::segment};
-
-std::vector<std::string> split_on(const std::string& text, char separator) {
-  std::vector<std::string> out;
-  std::string item;
-  std::istringstream in(text);
-  while (std::getline(in, item, separator)) out.push_back(item);
-  if (!text.empty() && text.back() == separator) out.emplace_back();
-  return out;
-}
-
-std::vector<std::string> split_commas(const std::string& text) {
-  return split_on(text, ',');
-}
-
-bool valid_name(const std::string& name) {
-  if (name.empty()) return false;
-  return std::all_of(name.begin(), name.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
-  });
-}
-
 // circgen's header keys: lowercase snake case. Prose comments such as "(Note: ...)" or
 // "(Mode: G17)" are left out.
 bool valid_header_key(const std::string& key) {
@@ -106,130 +83,6 @@ bool valid_header_key(const std::string& key) {
 std::string format_seconds(double s) {
   return fmt::format("{:.9g}", s);
 }
-
-}  // namespace
-
-std::optional<Options> parse_options(int argc, const char* const* argv, std::FILE* out) {
-  Options o;
-  std::string columns;
-  std::vector<std::string> describe;
-  double duration = 0.0;
-  double idle = 0.0;
-  po::options_description desc(
-      "circlog-record: writes what the circlog HAL component logs to a trace file.\n"
-      "Usage: circlog-record -o FILE [options]\nOptions");
-  desc.add_options()("help,h", "print this help")("version", "print the version")(
-      "output,o", po::value(&o.output)->value_name("FILE"), "trace file to write (required)")(
-      "columns", po::value(&columns)->value_name("NAME,..."),
-      "one name per circlog channel, in pin order (default in-00,in-01,...); axis "
-      "positions are x,y,z, commanded positions x_cmd,y_cmd,z_cmd")(
-      "describe", po::value(&describe)->value_name("NAME=TEXT")->composing(),
-      "a description of a channel, written as metadata channel.NAME (repeatable)")(
-      "duration", po::value(&duration)->value_name("S"), "stop after S seconds of servo time")(
-      "until-idle", po::value(&idle)->value_name("S"),
-      "stop once a run was recorded and enable has then stayed false for S seconds (the "
-      "program has finished); with --program, only once every run the program announces "
-      "(circgen's segments header) was recorded")(
-      "run-wait", po::value<double>()->value_name("S"),
-      "with --until-idle and runs still missing: stop after S seconds with enable false and "
-      "report them (default: twice the program's longest pause between two runs, plus 10 s)")(
-      "ini", po::value(&o.ini)->value_name("FILE.ini"),
-      "the machine's LinuxCNC INI: its path and SHA-256 go into the metadata (ini, ini_sha256), "
-      "so circcomp can tell whether a correction was measured on the configuration it edits")(
-      "program", po::value(&o.program)->value_name("FILE.ngc"),
-      "copy the (key: value) header comments of this G-code program into the metadata")(
-      "decimals", po::value(&o.decimals)->value_name("N"),
-      "decimals of the channel values (default 6: 1 nm in mm)")(
-      "poll", po::value(&o.poll_s)->value_name("S"),
-      "sleep between polls of an empty ring (default 0.005)")(
-      "progress-to", po::value(&o.progress_to)->value_name("TTY"),
-      "show the status line on this terminal (default: stderr when it is a terminal)");
-  // The test conditions of clauses 4.4 and 6, written as metadata (docs/trace-format.md).
-  std::vector<std::string> condition_values(condition_options().size());
-  for (std::size_t i = 0; i < condition_options().size(); ++i) {
-    const auto& c = condition_options()[i];
-    desc.add_options()(c.option, po::value(&condition_values[i])->value_name(c.value_name), c.help);
-  }
-  po::variables_map vm;
-  try {
-    refuse_option_placeholders(argc, argv);
-    po::store(po::command_line_parser(argc, argv).options(desc).run(), vm);
-    po::notify(vm);
-  } catch (const po::error& e) {
-    throw option_usage_error(e, desc);
-  }
-  if (vm.count("help")) {
-    std::ostringstream text;
-    text << desc;
-    std::fputs(text.str().c_str(), out);
-    return std::nullopt;
-  }
-  if (vm.count("version")) {
-    std::fprintf(out, "%s\n", circtest::version_line("circlog-record").c_str());
-    return std::nullopt;
-  }
-  if (o.output.empty()) throw UsageError("-o FILE is required");
-  if (vm.count("duration")) {
-    if (!(duration > 0.0 && duration <= kMaxDuration_s)) {
-      throw UsageError(fmt::format("--duration must be a number of seconds in (0, {:.0f}] (a week)",
-                                   kMaxDuration_s));
-    }
-    o.duration_s = duration;
-  }
-  if (vm.count("until-idle")) {
-    if (!(idle >= 0.0 && idle <= kMaxWait_s)) {
-      throw UsageError(
-          fmt::format("--until-idle must be a number of seconds in 0..{:.0f} (a day)", kMaxWait_s));
-    }
-    o.idle_s = idle;
-  }
-  if (vm.count("run-wait")) {
-    const double wait = vm["run-wait"].as<double>();
-    if (!o.idle_s) throw UsageError("--run-wait is only used with --until-idle");
-    if (!(wait > 0.0 && wait <= kMaxWait_s)) {
-      throw UsageError(
-          fmt::format("--run-wait must be a number of seconds in (0, {:.0f}] (a day)", kMaxWait_s));
-    }
-    o.run_wait_s = wait;
-  }
-  if (o.decimals < 0 || o.decimals > 12) throw UsageError("--decimals must be in 0..12");
-  if (!(o.poll_s > 0.0) || o.poll_s > 1.0) throw UsageError("--poll must be in (0, 1] s");
-  if (vm.count("columns")) {
-    o.columns = split_commas(columns);
-    std::set<std::string> seen;
-    for (const auto& name : o.columns) {
-      if (!valid_name(name)) {
-        throw UsageError(fmt::format(
-            "--columns: '{}' is not a column name (letters, digits, '_', '-', '.')", name));
-      }
-      if (kFixedColumns.count(name)) {
-        throw UsageError(
-            fmt::format("--columns: '{}' is a column circlog-record writes itself", name));
-      }
-      if (!seen.insert(name).second) {
-        throw UsageError(fmt::format("--columns: '{}' is given twice", name));
-      }
-    }
-  }
-  for (std::size_t i = 0; i < condition_options().size(); ++i) {
-    const auto& c = condition_options()[i];
-    if (vm.count(c.option))
-      o.conditions.emplace_back(c.key, condition_value(c, condition_values[i]));
-  }
-  for (const auto& d : describe) {
-    const auto eq = d.find('=');
-    if (eq == std::string::npos || eq == 0) {
-      throw UsageError(fmt::format("--describe '{}': expected NAME=TEXT", d));
-    }
-    o.descriptions.emplace_back(d.substr(0, eq), d.substr(eq + 1));
-  }
-  // Before any HAL work: a program that cannot be read, or announces runs that cannot be
-  // told apart, is refused before the recording starts.
-  if (!o.program.empty()) o.program_plan = read_program_plan(o.program);
-  return o;
-}
-
-namespace {
 
 struct HeaderLine {
   std::string key;
@@ -305,7 +158,7 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
   std::set<int> ids;
   // An empty value announces nothing, which a program that writes the key never means.
   const std::vector<std::string> items =
-      line.value.empty() ? std::vector<std::string>{""} : split_commas(line.value);
+      line.value.empty() ? std::vector<std::string>{""} : split_on(line.value, ',');
   for (const std::string& item : items) {
     const std::vector<std::string> parts = split_on(std::string(trim(item)), ':');
     int id = 0;
@@ -414,7 +267,7 @@ ProgramPlan read_program_plan(const std::string& path) {
   return plan;
 }
 
-double run_wait_s(const Options& options) {
+double run_wait_s(const RecordRequest& options) {
   if (options.run_wait_s) return *options.run_wait_s;
   if (options.program_plan.longest_pause_s) {
     return 2.0 * *options.program_plan.longest_pause_s + 10.0;
@@ -426,7 +279,7 @@ bool operator_pause_before(const ProgramPlan& plan, std::size_t k) {
   return k > 0 && k < plan.runs.size() && plan.runs[k].plane != plan.runs[k - 1].plane;
 }
 
-double run_wait_s(const Options& options, std::size_t k) {
+double run_wait_s(const RecordRequest& options, std::size_t k) {
   if (!operator_pause_before(options.program_plan, k)) return run_wait_s(options);
   return options.run_wait_s.value_or(kMaxWait_s);
 }
@@ -435,7 +288,7 @@ namespace {
 
 class Loop {
  public:
-  Loop(circlog::Consumer& ring, const Options& options, Environment& env, std::FILE* log,
+  Loop(circlog::Consumer& ring, const RecordRequest& options, Environment& env, std::FILE* log,
        std::FILE* progress)
       : ring_(ring),
         h_(ring.header()),
@@ -465,7 +318,7 @@ class Loop {
 
   circlog::Consumer& ring_;
   const circlog::SharedHeader& h_;
-  const Options& options_;
+  const RecordRequest& options_;
   Environment& env_;
   std::FILE* log_;
 
@@ -815,8 +668,8 @@ std::FILE* open_progress_terminal(const std::string& path) {
   return stream;
 }
 
-Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log, std::FILE* progress) {
+Summary record(circlog::Consumer& ring, std::int32_t pid, const RecordRequest& options,
+               Environment& env, std::FILE* log, std::FILE* progress) {
   Loop loop(ring, options, env, log, progress);
   return loop.run(pid);
 }

@@ -1,7 +1,8 @@
 #pragma once
-// circlog-record without HAL: option parsing, the G-code header, and the loop that drains a
-// circlog ring into a trace. The executable supplies the ring (shared memory of the loaded
-// module) and the clock; the unit tests supply a ring in heap memory and a fake clock.
+// circlog-record without HAL: the G-code header, and the loop that drains a circlog ring into
+// a trace, run from a RecordRequest (app/options.cpp turns the command line into one). The
+// executable supplies the ring (shared memory of the loaded module, hal_recording.cpp) and the
+// clock; the unit tests supply a ring in heap memory and a fake clock.
 #include <cstdint>
 #include <cstdio>
 #include <optional>
@@ -45,7 +46,8 @@ inline constexpr double kDefaultRunWait_s = 120.0;
 // The largest wait the recorder accepts (--until-idle, --run-wait): a day.
 inline constexpr double kMaxWait_s = 86400.0;
 
-struct Options {
+// What to record and how: circlog-record's command line (app/options.cpp) parsed and checked.
+struct RecordRequest {
   std::string output;
   std::vector<std::string> columns;                               // empty: in-00, in-01, ...
   std::vector<std::pair<std::string, std::string>> descriptions;  // channel name, text
@@ -66,9 +68,8 @@ struct Options {
   std::string progress_to;
 };
 
-// Parses the command line; nullopt when --help or --version was given (printed to `out`).
-// Throws UsageError.
-std::optional<Options> parse_options(int argc, const char* const* argv, std::FILE* out);
+// TEXT cut at each SEPARATOR, empty items kept ("a,,b," gives a, "", b, "").
+std::vector<std::string> split_on(const std::string& text, char separator);
 
 // The `(key: value)` comments at the top of a G-code program (before its first line of
 // code), in file order. Throws IoError.
@@ -80,11 +81,11 @@ std::vector<std::pair<std::string, std::string>> read_program_header(const std::
 ProgramPlan read_program_plan(const std::string& path);
 
 // How long --until-idle waits, enable false, for a run that is still missing.
-double run_wait_s(const Options& options);
+double run_wait_s(const RecordRequest& options);
 // The same for announced run K: before a test set's plane (operator_pause_before) the
 // operator's pause has no planned length, so the wait is --run-wait when given, else
 // kMaxWait_s (end it with Ctrl-C).
-double run_wait_s(const Options& options, std::size_t k);
+double run_wait_s(const RecordRequest& options, std::size_t k);
 
 // What the loop needs from the world outside the ring.
 class Environment {
@@ -113,13 +114,19 @@ struct Summary {
 // anything; UsageError when it is not a terminal.
 std::FILE* open_progress_terminal(const std::string& path);
 
-// Claims the ring, writes options.output (an unnamed temporary that appears there when complete)
+// Claims the ring, writes request.output (an unnamed temporary that appears there when complete)
 // and returns what happened. Lost records are reported on `log` and in the trailer metadata; the
 // caller decides the exit code. Throws HalError when the ring cannot be used (no servo thread,
 // another reader), IoError for the file.
 // While it records, a status line (elapsed, samples, runs, the run it waits for) goes to
 // PROGRESS, else to `log` when that is a terminal.
-Summary record(circlog::Consumer& ring, std::int32_t pid, const Options& options, Environment& env,
-               std::FILE* log, std::FILE* progress = nullptr);
+Summary record(circlog::Consumer& ring, std::int32_t pid, const RecordRequest& request,
+               Environment& env, std::FILE* log, std::FILE* progress = nullptr);
+
+// Records REQUEST from the circlog module loaded in the running HAL (hal_recording.cpp, linked
+// only into circlog-record): the ring, the signals, the summary line on stderr. Throws HalError
+// when HAL or circlog is not there, and an Error with ExitCode::data_loss when samples or
+// announced runs are missing (the trace is then complete up to where it stopped).
+void record_from_hal(const RecordRequest& request);
 
 }  // namespace circtest::circlog_record

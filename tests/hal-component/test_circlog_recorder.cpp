@@ -17,6 +17,7 @@
 #include "circlog_kernel.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
+#include "options.hpp"
 #include "pty_capture.hpp"
 #include "recorder.hpp"
 #include "scratch.hpp"
@@ -107,14 +108,14 @@ class Recorder : public ::testing::Test {
   std::FILE* log_ = nullptr;
 };
 
-rec::Options options_for(const std::string& output) {
-  rec::Options o;
+rec::RecordRequest options_for(const std::string& output) {
+  rec::RecordRequest o;
   o.output = output;
   o.poll_s = 0.005;
   return o;
 }
 
-std::optional<rec::Options> parse(std::vector<const char*> args) {
+std::optional<rec::RecordRequest> parse(std::vector<const char*> args) {
   args.insert(args.begin(), "circlog-record");
   std::FILE* out = std::tmpfile();
   auto o = rec::parse_options(static_cast<int>(args.size()), args.data(), out);
@@ -195,7 +196,7 @@ TEST_F(Recorder, RecordsARunAndStopsWhenIdle) {
   FakeServo servo(2, 1024);
   servo.enable = [](std::uint64_t p) { return p >= 200 && p < 500; };
   servo.segment = [](std::uint64_t) { return 4.0; };
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.columns = {"x", "y"};
   o.descriptions = {{"x", "grid encoder"}};
   o.idle_s = 0.1;
@@ -239,7 +240,7 @@ TEST_F(Recorder, RecordsARunAndStopsWhenIdle) {
 TEST_F(Recorder, ATinyRingLosesRecordsAndSaysSoEverywhere) {
   FakeServo servo(1, 4);
   servo.enable = [](std::uint64_t p) { return p >= 100 && p < 400; };
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.poll_s = 0.02;  // 20 periods between polls into a ring of 4
   o.idle_s = 0.05;
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
@@ -264,7 +265,7 @@ TEST_F(Recorder, BackToBackRunsAndSegments) {
   // Run 1 (segment 1) 100-199, run 2 (segment 1) 250-349, segment 2 from 300 on.
   servo.enable = [](std::uint64_t p) { return (p >= 100 && p < 200) || (p >= 250 && p < 400); };
   servo.segment = [](std::uint64_t p) { return p < 300 ? 1.0 : 2.0; };
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.idle_s = 0.2;  // longer than the 50-period pause between the runs
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.runs, 2u);
@@ -280,7 +281,7 @@ TEST_F(Recorder, BackToBackRunsAndSegments) {
 TEST_F(Recorder, StopsAfterTheDurationInServoTime) {
   FakeServo servo(1, 4096);
   servo.enable = [](std::uint64_t) { return true; };
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.duration_s = 0.5;
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.stop_reason, "duration");
@@ -345,7 +346,7 @@ TEST_F(Recorder, RefusesASecondReaderButTakesOverFromADeadOne) {
             circtest::circlog::AttachResult::ok);
   ASSERT_EQ(other.claim(7), 0);
   servo.alive = {7};
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.duration_s = 0.05;
   try {
     rec::record(servo.consumer, 42, o, servo, log_);
@@ -360,7 +361,7 @@ TEST_F(Recorder, RefusesASecondReaderButTakesOverFromADeadOne) {
 
 TEST_F(Recorder, ColumnsMustMatchTheModulesChannels) {
   FakeServo servo(3, 16);
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.columns = {"x", "y"};
   EXPECT_THROW(rec::record(servo.consumer, 42, o, servo, log_), circtest::UsageError);
   o.columns = {"x", "y", "z"};
@@ -399,9 +400,9 @@ void script(FakeServo& servo, std::vector<ScriptedRun> runs) {
 }
 
 // Recording into t.csv with a ballbar program (p.ngc) that announces `segments`.
-rec::Options with_program(const fs::path& dir, const std::string& segments) {
+rec::RecordRequest with_program(const fs::path& dir, const std::string& segments) {
   std::ofstream(dir / "p.ngc") << ballbar_header(segments);
-  rec::Options o = options_for((dir / "t.csv").string());
+  rec::RecordRequest o = options_for((dir / "t.csv").string());
   o.program = (dir / "p.ngc").string();
   o.program_plan = rec::read_program_plan(o.program);
   return o;
@@ -411,7 +412,7 @@ TEST_F(Recorder, WaitsForEveryAnnouncedRunThroughAPauseLongerThanTheIdleTime) {
   FakeServo servo(1, 1 << 14);
   // CCW 100..1100, a 4 s pause (the ballbar's feed-out and feed-in), CW 5100..6100.
   script(servo, {{100, 1100, 1.0}, {5100, 6100, 2.0}});
-  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+  rec::RecordRequest o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
   o.idle_s = 2.0;  // as the README shows it
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.runs, 2u);
@@ -429,7 +430,7 @@ TEST_F(Recorder, AProgramThatEndsWithoutARunSaysWhichIsMissing) {
   FakeServo servo(1, 1 << 14);
   // Runs 1 and 2 of three; run 3 never comes.
   script(servo, {{100, 1100, 1.0}, {3000, 4000, 2.0}});
-  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000,3:CCW:F2000");
+  rec::RecordRequest o = with_program(dir_, "1:CCW:F1000,2:CW:F1000,3:CCW:F2000");
   o.idle_s = 2.0;
   const double wait_s = rec::run_wait_s(o);
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
@@ -451,7 +452,7 @@ TEST_F(Recorder, ARunWhoseStartWasNotRecordedIsIncomplete) {
   FakeServo servo(1, 1 << 14);
   // Run 1 is already under way when the recorder attaches.
   script(servo, {{0, 1000, 1.0}, {2000, 3000, 2.0}});
-  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+  rec::RecordRequest o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
   o.idle_s = 0.5;
   o.run_wait_s = 1.0;
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
@@ -463,7 +464,7 @@ TEST_F(Recorder, ASignalBeforeTheLastRunListsIt) {
   FakeServo servo(1, 1 << 14);
   script(servo, {{100, 1100, 1.0}, {50000, 51000, 2.0}});
   servo.stop_after_sleeps = 400;  // 2 s of 5 ms polls
-  rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+  rec::RecordRequest o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
   EXPECT_EQ(s.stop_reason, "signal");
   EXPECT_EQ(s.missing_runs, (std::vector<std::string>{"2 (CW F1000) not recorded"}));
@@ -472,7 +473,7 @@ TEST_F(Recorder, ASignalBeforeTheLastRunListsIt) {
 // The wait for a missing run: twice the longest planned pause between two runs plus 10 s.
 TEST_F(Recorder, TheWaitForAMissingRunComesFromTheProgramsPauses) {
   std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000,2:CW:F1000");
-  rec::Options o;
+  rec::RecordRequest o;
   o.program_plan = rec::read_program_plan(path("p.ngc"));
   // Two 20 deg overshoots of R50 at F1000 (17.45 mm each, 1.047 s) and the 1.5 mm feed-out
   // and feed-in at F200 (0.45 s each).
@@ -489,7 +490,7 @@ TEST_F(Recorder, TheWaitForAMissingRunComesFromTheProgramsPauses) {
   EXPECT_EQ(rec::run_wait_s(o), 7.0);
   // Without the numbers it takes, a fixed wait.
   std::ofstream(path("r.ngc")) << "(segments: 1:CCW:F500,2:CW:F500)\nG0 X0\n";
-  rec::Options r;
+  rec::RecordRequest r;
   r.program_plan = rec::read_program_plan(path("r.ngc"));
   EXPECT_EQ(r.program_plan.runs.size(), 2u);
   EXPECT_EQ(rec::run_wait_s(r), rec::kDefaultRunWait_s);
@@ -530,7 +531,8 @@ TEST_F(Recorder, ATestSetWaitsThroughTheOperatorsPauseBeforeEachPlane) {
   FakeServo servo(1, 1 << 14);
   // XY's runs, 60 s of the operator re-mounting the ball bar, YZ's runs.
   script(servo, {{100, 1100, 1.0}, {1200, 2200, 2.0}, {62200, 63200, 3.0}, {63300, 64300, 4.0}});
-  rec::Options o = with_program(dir_, "1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:YZ,4:CW:F1000:YZ");
+  rec::RecordRequest o =
+      with_program(dir_, "1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:YZ,4:CW:F1000:YZ");
   o.idle_s = 2.0;
   ASSERT_LT(rec::run_wait_s(o), 60.0);  // the wait between two runs of one plane
   const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
@@ -544,7 +546,7 @@ TEST_F(Recorder, ATestSetWaitsThroughTheOperatorsPauseBeforeEachPlane) {
 
 TEST_F(Recorder, ATestSetsRunsNameTheirPlanesAndItsPausesAreThePlanes) {
   std::ofstream(path("p.ngc")) << ballbar_header("1:CCW:F1000:XY,2:CW:F1000:XY,3:CCW:F1000:ZX");
-  rec::Options o;
+  rec::RecordRequest o;
   o.program_plan = rec::read_program_plan(path("p.ngc"));
   ASSERT_EQ(o.program_plan.runs.size(), 3u);
   EXPECT_EQ(o.program_plan.runs[2].plane, circtest::Plane::ZX);
@@ -606,7 +608,7 @@ TEST_F(Recorder, ShowsWhatItHasSeenOnATerminalOnly) {
     circtest::testing::PtyCapture pty;
     FakeServo servo(1, 1 << 14);
     script(servo, {{1500, 2500, 1.0}, {4000, 5000, 2.0}});
-    rec::Options o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
+    rec::RecordRequest o = with_program(dir_, "1:CCW:F1000,2:CW:F1000");
     o.idle_s = 1.0;
     const rec::Summary s =
         rec::record(servo.consumer, 42, o, servo, terminal ? pty.terminal() : log_);
@@ -642,7 +644,7 @@ TEST_F(Recorder, ShowsTheStatusOnTheTerminalItIsGiven) {
   std::FILE* terminal = rec::open_progress_terminal(parsed->progress_to);
   FakeServo servo(1, 1 << 14);
   script(servo, {{1500, 2500, 1.0}});
-  rec::Options o = options_for(path("t.csv"));
+  rec::RecordRequest o = options_for(path("t.csv"));
   o.idle_s = 0.5;
   EXPECT_EQ(rec::record(servo.consumer, 42, o, servo, log_, terminal).runs, 1u);
   std::fclose(terminal);

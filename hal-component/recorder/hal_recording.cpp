@@ -1,5 +1,5 @@
-// circlog-record: the HAL side of the recorder (a userspace HAL component that maps the
-// ring circlog created) around the HAL-free loop in recorder.cpp.
+// circlog-record's HAL side (record_from_hal): a userspace HAL component that maps the ring
+// circlog created, around the HAL-free loop in recorder.cpp. Linked only into circlog-record.
 extern "C" {
 #include "hal.h"
 }
@@ -18,7 +18,6 @@ extern "C" {
 #include <vector>
 
 #include "circlog_kernel.hpp"
-#include "circtest/core/cli.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/utc_time.hpp"
@@ -134,22 +133,23 @@ class HalRing {
   circtest::circlog::Consumer ring_;
 };
 
-int run(int argc, char** argv) {
-  using namespace circtest::circlog_record;
-  const auto options = parse_options(argc, argv, stdout);
-  if (!options) return 0;
+}  // namespace
+
+namespace circtest::circlog_record {
+
+void record_from_hal(const RecordRequest& request) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> progress(
-      options->progress_to.empty() ? nullptr : open_progress_terminal(options->progress_to),
+      request.progress_to.empty() ? nullptr : open_progress_terminal(request.progress_to),
       &std::fclose);
   install_signal_handlers();
   HalRing hal;
   SystemEnvironment env;
-  const Summary s = record(hal.ring(), static_cast<std::int32_t>(getpid()), *options, env, stderr,
-                           progress.get());
+  const Summary s =
+      record(hal.ring(), static_cast<std::int32_t>(getpid()), request, env, stderr, progress.get());
   std::fprintf(stderr,
                "circlog-record: %s: %zu rows, %llu run(s), %llu overrun(s), %llu gap(s), "
                "%llu lost sample(s); stopped by %s\n",
-               options->output.c_str(), s.rows, static_cast<unsigned long long>(s.runs),
+               request.output.c_str(), s.rows, static_cast<unsigned long long>(s.runs),
                static_cast<unsigned long long>(s.overruns), static_cast<unsigned long long>(s.gaps),
                static_cast<unsigned long long>(s.lost), s.stop_reason.c_str());
   std::vector<std::string> problems;
@@ -158,20 +158,14 @@ int run(int argc, char** argv) {
         fmt::format("{} sample(s) lost ({} overrun(s), {} gap(s))", s.lost, s.overruns, s.gaps));
   }
   if (!s.missing_runs.empty()) {
-    problems.push_back(fmt::format("run(s) announced by {} missing: {}", options->program,
-                                   circtest::join(s.missing_runs, "; ")));
+    problems.push_back(fmt::format("run(s) announced by {} missing: {}", request.program,
+                                   join(s.missing_runs, "; ")));
   }
   if (!problems.empty()) {
-    throw circtest::Error(
-        circtest::ExitCode::data_loss,
-        fmt::format("{}; {} is complete up to where it stopped ({})",
-                    circtest::join(problems, "; "), options->output, s.stop_reason));
+    throw Error(ExitCode::data_loss,
+                fmt::format("{}; {} is complete up to where it stopped ({})", join(problems, "; "),
+                            request.output, s.stop_reason));
   }
-  return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  return circtest::run_cli("circlog-record", [&] { return run(argc, argv); });
-}
+}  // namespace circtest::circlog_record
