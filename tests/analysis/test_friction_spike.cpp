@@ -1,6 +1,6 @@
 // The reversal spike friction makes on a servo, measured by the diagnosis: a circle whose
 // table positions come from the commanded ones through a P position loop driving circdrive's
-// velocity-mode drive model (hal-component/drive: motor lag, integral action, Coulomb friction
+// velocity-mode drive model (hal-component/circdrive: motor lag, integral action, Coulomb friction
 // and stiction), the model configs/sim-servo runs in LinuxCNC. The table sticks at each
 // reversal, the deviation grows until the drive breaks free and then falls: a spike that rises
 // after the reversal, not the decaying step the fit's term describes. The truth is the same

@@ -101,8 +101,8 @@ check_documented_options circcomp "$("$circcomp" --help | grep -o -- '--[a-z][a-
   circcomp.1
 echo "ok: circcomp: $n options in docs/man/circcomp.1 and docs/compensation.md"
 
-pins=$(grep -o '"circlog\.0\.[a-z-]*' "$src/hal-component/src/circlog_hal.cpp" | tr -d '"' | sort -u)
-[ -n "$pins" ] || fail "no pin names found in hal-component/src/circlog_hal.cpp"
+pins=$(grep -o '"circlog\.0\.[a-z-]*' "$src/hal-component/circlog/circlog_hal.cpp" | tr -d '"' | sort -u)
+[ -n "$pins" ] || fail "no pin names found in hal-component/circlog/circlog_hal.cpp"
 for pin in $pins; do
   name=${pin%-}  # "circlog.0.in-%02d" -> circlog.0.in
   plain "$src/docs/man/circlog.9" | grep -qF "$name" || fail "circlog(9) does not name $name"
@@ -125,7 +125,7 @@ check_documented() {
 # The loadrt parameters (RTAPI_MP_*) of a module's adapter, as NAME=.
 loadrt_params() { grep -o 'RTAPI_MP_[A-Z_]*([a-z_]*' "$1" | sed -e 's/.*(//' -e 's/$/=/'; }
 
-kins_src=$src/hal-component/src/circtest_kins_hal.cpp
+kins_src=$src/hal-component/circtest_kins/circtest_kins_hal.cpp
 kins_pins=$(grep -o '"circtest-kins\.[a-z-]*"' "$kins_src" | tr -d '"' | sort -u)
 [ -n "$kins_pins" ] || fail "no pin names found in $kins_src"
 check_documented circtest_kins.9 docs/kinematics.md $kins_pins
@@ -133,7 +133,7 @@ check_documented circtest_kins.9 - $(loadrt_params "$kins_src")
 echo "ok: circtest_kins: $(wc -w <<<"$kins_pins") pins in circtest_kins(9) and docs/kinematics.md"
 
 # circfric's pins are "%s.SUFFIX" (the instance name first): each as circfric.N.SUFFIX.
-fric_src=$src/hal-component/src/circfric_hal.cpp
+fric_src=$src/hal-component/circfric/circfric_hal.cpp
 fric_pins=$( (grep -o '"%s\.[a-z-]*"' "$fric_src"; grep -o 'name, "[a-z-]*"' "$fric_src") |
   sed -e 's/.*"%s\./circfric.N./' -e 's/name, "/circfric.N./' -e 's/"$//' | sort -u)
 [ "$(wc -w <<<"$fric_pins")" -ge 10 ] || fail "too few pin names found in $fric_src: $fric_pins"
