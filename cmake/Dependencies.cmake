@@ -1,9 +1,11 @@
-# Keeps a library free of dependencies it must not pull in:
-#   circtest_forbid_links(<target> REASON "<why>" PATTERNS <regex>...)
+# What a library may link, checked at configure time:
+#   circtest_forbid_links(<target> REASON "<why>" [PATTERNS <regex>...] [ONLY <regex>...])
 # walks the target's LINK_LIBRARIES and INTERFACE_LINK_LIBRARIES, and those of every target it
 # links, transitively (through $<LINK_ONLY:...> and aliases), and fails the configure step
-# when an item's name or the imported library's file matches one of the regexes. Called once
-# every target exists (the end of the top-level CMakeLists.txt).
+# when an item's name or the imported library's file matches one of the PATTERNS, or, with
+# ONLY, when an item other than the target itself matches none of the ONLY regexes (a
+# realtime kernel: circtest::options and nothing else). Called once every target exists (the
+# end of the top-level CMakeLists.txt).
 
 # The items of a link list with generator expressions reduced to their content.
 function(_circtest_link_items out)
@@ -20,7 +22,10 @@ function(_circtest_link_items out)
 endfunction()
 
 function(circtest_forbid_links target)
-  cmake_parse_arguments(ARG "" "REASON" "PATTERNS" ${ARGN})
+  cmake_parse_arguments(ARG "" "REASON" "PATTERNS;ONLY" ${ARGN})
+  if(NOT ARG_PATTERNS AND NOT ARG_ONLY)
+    message(FATAL_ERROR "circtest_forbid_links(${target}): neither PATTERNS nor ONLY")
+  endif()
   set(queue ${target})
   set(seen)
   while(queue)
@@ -67,5 +72,21 @@ function(circtest_forbid_links target)
         endif()
       endforeach()
     endforeach()
+    # The target itself (the first item, with its alias) is not one of its links.
+    if(ARG_ONLY AND NOT seen STREQUAL target)
+      list(GET names 0 name)
+      set(allowed FALSE)
+      foreach(pattern IN LISTS ARG_ONLY)
+        foreach(candidate IN LISTS names)
+          if(candidate MATCHES "${pattern}")
+            set(allowed TRUE)
+          endif()
+        endforeach()
+      endforeach()
+      if(NOT allowed)
+        list(JOIN ARG_ONLY "', '" only)
+        message(FATAL_ERROR "${target} links ${name} (only '${only}' allowed): ${ARG_REASON}")
+      endif()
+    endif()
   endwhile()
 endfunction()

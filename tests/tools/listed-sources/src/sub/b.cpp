@@ -1,0 +1,1 @@
+int listed_sources_b() { return 2; }
