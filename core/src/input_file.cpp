@@ -33,39 +33,52 @@ const char* file_kind_name(unsigned int st_mode) noexcept {
   return "not a regular file";
 }
 
+namespace {
+
+[[noreturn]] void refuse_kind(const std::string& path, mode_t mode) {
+  throw IoError(path, std::string("is ") + file_kind_name(mode) + ", not a regular file");
+}
+
+}  // namespace
+
 InputFile::InputFile(const std::string& path) : path_(path) {
-  if (path == "-") {
-    fd_ = STDIN_FILENO;
-  } else {
-    // A FIFO is opened blocking, waiting for its writer as any reader of a pipe does;
-    // anything else with O_NONBLOCK, so that opening a device that is refused below does not
-    // wait (a serial line waits for carrier); the flag is cleared again below.
-    struct stat pre {};
-    const bool fifo = ::stat(path.c_str(), &pre) == 0 && S_ISFIFO(pre.st_mode);
-    fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | (fifo ? 0 : O_NONBLOCK));
-    if (fd_ < 0) throw IoError(path, std::string("cannot open: ") + std::strerror(errno));
-    owned_ = true;
-  }
   struct stat st {};
-  if (::fstat(fd_, &st) != 0) {
-    const int err = errno;
-    if (owned_) ::close(fd_);
-    throw IoError(path, std::string("cannot stat: ") + std::strerror(err));
-  }
-  bool ok = S_ISREG(st.st_mode) || S_ISFIFO(st.st_mode);
-  if (!ok && path == "-") ok = true;  // whatever the shell connected
-  if (!ok && S_ISCHR(st.st_mode)) {
+  if (path == "-") {
+    fd_ = STDIN_FILENO;  // whatever the shell connected: a file, a pipe, a terminal
+    if (::fstat(fd_, &st) != 0)
+      throw IoError(path, std::string("cannot stat: ") + std::strerror(errno));
+  } else {
+    // Only a regular file is opened. A FIFO is refused before it is opened (opening it for
+    // reading waits for a writer that may never come, and reading it waits for data), and a
+    // device, folder or socket is no input either; standard input by another name
+    // (/dev/stdin) is read as "-" is.
+    struct stat pre {};
+    if (::stat(path.c_str(), &pre) != 0) {
+      throw IoError(path, std::string("cannot open: ") + std::strerror(errno));
+    }
     struct stat in {};
-    ok = ::fstat(STDIN_FILENO, &in) == 0 && same_file(st, in);  // /dev/stdin on a terminal
-  }
-  if (!ok) {
-    if (owned_) ::close(fd_);
-    throw IoError(path, std::string("is ") + file_kind_name(st.st_mode) +
-                            ": expected a regular file or a pipe");
-  }
-  if (owned_) {
-    const int flags = ::fcntl(fd_, F_GETFL);
-    if (flags >= 0) ::fcntl(fd_, F_SETFL, flags & ~O_NONBLOCK);
+    if (!S_ISREG(pre.st_mode) && ::fstat(STDIN_FILENO, &in) == 0 && same_file(pre, in)) {
+      fd_ = STDIN_FILENO;
+      st = in;
+    } else {
+      if (!S_ISREG(pre.st_mode)) refuse_kind(path, pre.st_mode);
+      // O_NONBLOCK: should the path have become a FIFO or a device since the stat, the open
+      // does not wait either; the fstat below refuses it. The flag is cleared again after.
+      fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
+      if (fd_ < 0) throw IoError(path, std::string("cannot open: ") + std::strerror(errno));
+      owned_ = true;
+      if (::fstat(fd_, &st) != 0) {
+        const int err = errno;
+        ::close(fd_);
+        throw IoError(path, std::string("cannot stat: ") + std::strerror(err));
+      }
+      if (!S_ISREG(st.st_mode)) {
+        ::close(fd_);
+        refuse_kind(path, st.st_mode);
+      }
+      const int flags = ::fcntl(fd_, F_GETFL);
+      if (flags >= 0) ::fcntl(fd_, F_SETFL, flags & ~O_NONBLOCK);
+    }
   }
   regular_ = S_ISREG(st.st_mode);
   size_ = regular_ ? static_cast<std::uint64_t>(st.st_size) : 0;

@@ -6,15 +6,18 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <fstream>
+#include <cstring>
 #include <memory>
 #include <numbers>
 #include <set>
 #include <sstream>
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/input_file.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/progress.hpp"
 #include "circtest/core/sha256.hpp"
@@ -96,10 +99,37 @@ struct HeaderLine {
 constexpr std::size_t kMaxLineBytes = 4096;
 constexpr std::size_t kMaxHeaderLines = 10000;
 
+// The bytes of a program opened through core (a regular file only: a FIFO would wait for a
+// writer), one at a time from a buffer.
+class ProgramBytes {
+ public:
+  explicit ProgramBytes(const std::string& path) : in_(path) {}
+  // The next byte, or EOF at the end of the file.
+  int get() {
+    if (next_ == end_) {
+      ssize_t n = 0;
+      do {
+        n = ::read(in_.fd(), buffer_.data(), buffer_.size());
+      } while (n < 0 && errno == EINTR);
+      if (n < 0) throw IoError(in_.path(), std::string("read failed: ") + std::strerror(errno));
+      if (n == 0) return EOF;
+      next_ = 0;
+      end_ = static_cast<std::size_t>(n);
+    }
+    return static_cast<unsigned char>(buffer_[next_++]);
+  }
+
+ private:
+  InputFile in_;
+  std::array<char, 1 << 16> buffer_{};
+  std::size_t next_ = 0;
+  std::size_t end_ = 0;
+};
+
 // One line without its '\n'; false at the end of the input.
-bool read_line(std::istream& in, std::string& line, const std::string& path, std::size_t line_no) {
+bool read_line(ProgramBytes& in, std::string& line, const std::string& path, std::size_t line_no) {
   line.clear();
-  for (int c = in.get(); c != std::char_traits<char>::eof(); c = in.get()) {
+  for (int c = in.get(); c != EOF; c = in.get()) {
     if (c == '\n') return true;
     if (line.size() == kMaxLineBytes) {
       throw ParseError(
@@ -112,8 +142,7 @@ bool read_line(std::istream& in, std::string& line, const std::string& path, std
 }
 
 std::vector<HeaderLine> read_header_lines(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path, "cannot open the G-code program");
+  ProgramBytes in(path);
   std::vector<HeaderLine> out;
   std::string line;
   std::size_t line_no = 0;
@@ -142,7 +171,6 @@ std::vector<HeaderLine> read_header_lines(const std::string& path) {
     if (!valid_header_key(key)) continue;
     out.push_back({std::move(key), std::move(value), line_no});
   }
-  if (in.bad()) throw IoError(path, "read failed");
   return out;
 }
 
@@ -164,7 +192,7 @@ std::vector<AnnouncedRun> parse_segments(const std::string& path, const HeaderLi
     int id = 0;
     const std::string id_text = parts.empty() ? std::string() : parts[0];
     const auto [end, ec] = std::from_chars(id_text.data(), id_text.data() + id_text.size(), id);
-    // circgen writes the plane as a 4th field (id:DIR:Ffeed:PLANE); older programs have 3.
+    // Three fields (id:DIR:Ffeed), or four with the plane (id:DIR:Ffeed:PLANE), as circgen writes.
     const bool fields = parts.size() == 3 || (parts.size() == 4 && parse_plane(parts[3]));
     const auto direction = fields ? parse_direction(parts[1]) : std::nullopt;
     const double feed = fields && parts[2].size() > 1 && parts[2][0] == 'F'

@@ -437,10 +437,9 @@ TEST_F(CircanaCli, TestConditionsFromTheCommandLine) {
 }
 
 TEST_F(CircanaCli, HostileInputs) {
-  expect_error("analyze /dev/zero", 3,
-               "/dev/zero: is a character device: expected a regular file or a pipe");
+  expect_error("analyze /dev/zero", 3, "/dev/zero: is a character device, not a regular file");
   expect_error("analyze " + dir_.string(), 3,
-               dir_.string() + ": is a directory: expected a regular file or a pipe");
+               dir_.string() + ": is a directory, not a regular file");
   const std::string longline = write("long.csv", "t,x,y\n" + std::string(2 << 20, '1') + "\n");
   expect_error(
       "analyze " + longline, 4,

@@ -1,5 +1,6 @@
-// Inputs read whole have a limit and never hang on a device: /dev/zero as a diagnosis JSON
-// once filled all memory. The digest of a file streams, so a trace of any length is hashed.
+// Inputs read whole have a limit and never hang on a device or a FIFO: a named input is read
+// only when it is a regular file, standard input whatever it is. The digest of a file streams, so a
+// trace of any length is hashed.
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -7,20 +8,26 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <functional>
+#include <future>
 #include <string>
-#include <thread>
+#include <string_view>
+#include <vector>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/sha256.hpp"
 #include "scratch.hpp"
+#include "stdin_pipe.hpp"
 
 namespace {
 
 using namespace circtest;
 using circtest::testing::ScratchDir;
 using circtest::testing::spit;
+using circtest::testing::StdinPipe;
 
 std::string io_error_of(const std::function<void()>& read) {
   try {
@@ -60,21 +67,51 @@ TEST(InputFile, AFileOverTheLimitIsRefusedNamingTheLimit) {
 }
 
 TEST(InputFile, APipeOverTheLimitIsRefusedWhileReading) {
+  StdinPipe in(std::string(64 * 4096, 'x'));
+  const std::string what = io_error_of([&] { (void)read_input_bytes("-", 100000); });
+  EXPECT_EQ(what, "-: larger than the limit of 100000 bytes for this input");
+}
+
+TEST(InputFile, StandardInputIsReadByEitherName) {
+  {
+    StdinPipe in("a pipe from another program\n");
+    EXPECT_EQ(read_input_text("-"), "a pipe from another program\n");
+  }
+  StdinPipe in("the same pipe by its name\n");
+  EXPECT_EQ(read_input_text("/dev/stdin"), "the same pipe by its name\n");
+}
+
+// READ run in another thread; its IoError's text. A read still blocked after 5 s (on a
+// FIFO without a writer) is released by opening the FIFO for writing and reported.
+std::string io_error_within_5_s(const std::string& fifo,
+                                const std::function<void(const std::string&)>& read) {
+  auto result = std::async(std::launch::async, [&] { return io_error_of([&] { read(fifo); }); });
+  if (result.wait_for(std::chrono::seconds(5)) == std::future_status::ready) return result.get();
+  const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+  if (fd >= 0) ::close(fd);
+  return "(still waiting after 5 s) " + result.get();
+}
+
+// A FIFO named as an input would wait for a writer (circgen's --parameter-file once hung on
+// one): every reader refuses it before opening it, whether or not a writer ever comes.
+TEST(InputFile, AFifoIsRefusedBeforeItIsOpened) {
   ScratchDir dir;
-  ::signal(SIGPIPE, SIG_IGN);  // the writer outlives the reader that gave up
   const std::string fifo = dir.file("fifo");
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  std::thread writer([&] {
-    const int fd = ::open(fifo.c_str(), O_WRONLY);
-    const std::string block(4096, 'x');
-    for (int i = 0; i < 64; ++i) {
-      if (::write(fd, block.data(), block.size()) < 0) break;  // the reader gave up
-    }
-    ::close(fd);
-  });
-  const std::string what = io_error_of([&] { (void)read_input_bytes(fifo, 100000); });
-  writer.join();
-  EXPECT_NE(what.find("larger than the limit of 100000 bytes"), std::string::npos) << what;
+  const std::string refusal = fifo + ": is a FIFO, not a regular file";
+  const std::vector<std::function<void(const std::string&)>> readers = {
+      [](const std::string& p) { (void)read_file(p); },
+      [](const std::string& p) { (void)read_input_text(p); },
+      [](const std::string& p) { (void)sha256_of_file(p); },
+      [](const std::string& p) { InputFile in(p); },
+      [](const std::string& p) { for_each_input_block(p, [](std::string_view) {}); }};
+  for (std::size_t i = 0; i < readers.size(); ++i) {
+    EXPECT_EQ(io_error_within_5_s(fifo, readers[i]), refusal) << "reader " << i;
+  }
+  // A symbolic link to the FIFO: the same.
+  const std::string link = dir.file("link");
+  ASSERT_EQ(::symlink(fifo.c_str(), link.c_str()), 0);
+  EXPECT_EQ(io_error_within_5_s(link, readers[0]), link + ": is a FIFO, not a regular file");
 }
 
 TEST(InputFile, TheStreamedDigestIsTheDigestOfTheBytes) {

@@ -17,6 +17,7 @@
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/trace.hpp"
 #include "scratch.hpp"
+#include "stdin_pipe.hpp"
 
 using namespace circtest;
 
@@ -624,7 +625,7 @@ TEST(TraceFile, DevicesAndDirectoriesAreRefusedBeforeReading) {
     read_trace("/dev/zero");
     FAIL() << "read /dev/zero";
   } catch (const IoError& e) {
-    EXPECT_STREQ(e.what(), "/dev/zero: is a character device: expected a regular file or a pipe");
+    EXPECT_STREQ(e.what(), "/dev/zero: is a character device, not a regular file");
   }
   const circtest::testing::ScratchDir scratch("circtest-core");
   const auto dir = scratch.dir();
@@ -632,48 +633,43 @@ TEST(TraceFile, DevicesAndDirectoriesAreRefusedBeforeReading) {
     read_trace(dir.string());
     FAIL();
   } catch (const IoError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              dir.string() + ": is a directory: expected a regular file or a pipe");
+    EXPECT_EQ(std::string(e.what()), dir.string() + ": is a directory, not a regular file");
   }
   EXPECT_THROW(read_input_text(dir.string()), IoError);
   std::filesystem::remove_all(dir);
 }
 
-TEST(TraceFile, PipesAreReadAndTheirLinesCapped) {
-  const circtest::testing::ScratchDir scratch("circtest-core");
-  const auto dir = scratch.dir();
-  const std::string fifo = (dir / "trace.fifo").string();
-  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  std::signal(SIGPIPE, SIG_IGN);  // the writer of the endless line sees EPIPE instead
-  auto feed = [&](std::string text) {
-    return std::thread([fifo, text] {
-      const int fd = ::open(fifo.c_str(), O_WRONLY);
-      std::size_t done = 0;
-      while (fd >= 0 && done < text.size()) {
-        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-        if (n <= 0) break;
-        done += static_cast<std::size_t>(n);
-      }
-      if (fd >= 0) ::close(fd);
-    });
-  };
-  std::thread w = feed("# plane: XY\nt,x\n0,1\n0.5,2\n");
-  const Trace t = read_trace(fifo);
-  w.join();
-  EXPECT_EQ(t.rows(), 2u);
-  EXPECT_EQ(t.line_of_row[1], 4u);
+TEST(TraceFile, StandardInputIsReadAndItsLinesCapped) {
+  {
+    circtest::testing::StdinPipe in("# plane: XY\nt,x\n0,1\n0.5,2\n");
+    const Trace t = read_trace("-");
+    EXPECT_EQ(t.rows(), 2u);
+    EXPECT_EQ(t.line_of_row[1], 4u);
+  }
   // An endless line (what /dev/zero through a pipe would be): refused at the cap, while only
   // a few MiB have been read.
-  w = feed("t,x\n0,1\n" + std::string(3 * kMaxInputLineBytes, '0'));
+  circtest::testing::StdinPipe in("t,x\n0,1\n" + std::string(3 * kMaxInputLineBytes, '0'));
   try {
-    read_trace(fifo);
+    read_trace("-");
     FAIL();
   } catch (const ParseError& e) {
     EXPECT_EQ(std::string(e.what()),
-              fifo + ":3: line longer than 1048576 bytes (1 MiB): expected one record per line");
+              "-:3: line longer than 1048576 bytes (1 MiB): expected one record per line");
   }
-  w.join();  // the writer ends with EPIPE once the reader has gone
-  std::filesystem::remove_all(dir);
+}
+
+// A FIFO named as a trace is refused unopened (it would wait for a writer).
+TEST(TraceFile, AFifoIsRefusedUnopened) {
+  const circtest::testing::ScratchDir scratch("circtest-core");
+  const std::string fifo = (scratch.dir() / "trace.fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    read_trace(fifo);
+    FAIL();
+  } catch (const IoError& e) {
+    EXPECT_EQ(std::string(e.what()), fifo + ": is a FIFO, not a regular file");
+    EXPECT_EQ(e.code(), ExitCode::io);
+  }
 }
 
 namespace {

@@ -1,6 +1,7 @@
 // circlog-record's loop without HAL: a producer in heap memory runs the servo periods that
 // pass while the recorder sleeps, on a fake clock, so every scenario is deterministic.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -179,6 +180,20 @@ TEST_F(Recorder, ProgramHeaderStopsAtTheFirstLineOfCode) {
   EXPECT_EQ(h[1], (std::pair<std::string, std::string>{"radius_mm", "50"}));
   EXPECT_EQ(h[2].first, "feed_mm_per_min");
   EXPECT_THROW(rec::read_program_header(path("missing.ngc")), circtest::IoError);
+}
+
+// --program names a FIFO: refused unopened (opening it would wait for a writer), before any
+// HAL work, with exit code io; --ini the same when the recording starts.
+TEST_F(Recorder, AFifoAsTheProgramIsRefusedUnopened) {
+  const std::string fifo = path("p.ngc");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    (void)parse({"-o", "a.csv", "--program", fifo.c_str()});
+    FAIL() << "a FIFO was read as the program";
+  } catch (const circtest::IoError& e) {
+    EXPECT_EQ(std::string(e.what()), fifo + ": is a FIFO, not a regular file");
+    EXPECT_EQ(e.code(), circtest::ExitCode::io);
+  }
 }
 
 // circgen marks its header lines with a "circtest:" prefix; the key follows it.

@@ -244,15 +244,22 @@ TEST(HostileCirclogRecord, AnnouncedRunsAndWaitsAreCheckedBeforeRecording) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
-// A "program" that never ends its first line, or never reaches code, is not read without end.
+// A "program" that never ends its first line, or never reaches code, is not read without end;
+// a device (/dev/zero) is not opened at all.
 TEST(HostileCirclogRecord, AProgramWithoutEndIsRefused) {
   ScratchDir dir;
   spit(dir.file("blank.ngc"), std::string(20000, '\n'));
+  spit(dir.file("long.ngc"), std::string(5000, '('));
   const std::string out = dir.file("t.csv");
   expect_refusal(CIRCLOG_RECORD_PATH, "circlog-record",
                  {{"-o", out, "--program", "/dev/zero"},
-                  4,
-                  "/dev/zero:1: a line longer than 4096 bytes: not a G-code program"});
+                  3,
+                  "/dev/zero: is a character device, not a regular file"});
+  expect_refusal(
+      CIRCLOG_RECORD_PATH, "circlog-record",
+      {{"-o", out, "--program", dir.file("long.ngc")},
+       4,
+       dir.file("long.ngc") + ":1: a line longer than 4096 bytes: not a G-code program"});
   expect_refusal(CIRCLOG_RECORD_PATH, "circlog-record",
                  {{"-o", out, "--program", dir.file("blank.ngc")},
                   4,

@@ -1,7 +1,10 @@
 #pragma once
-// Opening an input file the same way everywhere: a regular file or a pipe is read, anything
-// that would never end or is not data (a device such as /dev/zero, a directory, a socket) is
-// refused with an IoError before a byte is read. Trace and INI readers both use it.
+// Opening an input file the same way everywhere: a named input is read only when it is a
+// regular file; anything else (a FIFO, whose open and read wait for a writer; a device such as
+// /dev/zero; a directory; a socket) is refused with an IoError "FILE: is a FIFO, not a regular
+// file" (exit code io) before it is opened. Standard input ("-", or /dev/stdin) is read
+// whatever it is (a pipe from another program). Every reader of core (traces, INI files, JSON
+// documents, digests) opens its input here.
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -19,8 +22,8 @@ const char* file_kind_name(unsigned int st_mode) noexcept;
 
 class InputFile {
  public:
-  // "-" is standard input. A character device is accepted only when it is standard input
-  // (a terminal); a FIFO always is. Throws IoError (exit code io) naming the path.
+  // "-" is standard input, as is a path naming the file standard input is (/dev/stdin); any
+  // other path must be a regular file. Throws IoError (exit code io) naming the path.
   explicit InputFile(const std::string& path);
   ~InputFile();
   InputFile(const InputFile&) = delete;
