@@ -1,1 +1,3 @@
-int listed_sources_a() { return 1; }
+int listed_sources_a() {
+  return 1;
+}

@@ -1,1 +1,3 @@
-int listed_sources_b() { return 2; }
+int listed_sources_b() {
+  return 2;
+}
