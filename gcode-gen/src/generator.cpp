@@ -412,15 +412,43 @@ void check_ballbar_length(const CircleTestSpec& spec, SpecWords words) {
       words(SpecSetting::ballbar_lengths)));
 }
 
-// Above an XY circle the clearance is a height: one at or below the circle would lower the
-// tool at rapid onto the set-up.
+// A length in the program's units for a message, to the program's digits: "50" or "1.9685",
+// and with its unit.
+std::string units_number(const CircleTestSpec& spec, double mm) {
+  const double value = spec.units == LengthUnit::inch ? mm / kMmPerInch : mm;
+  const double digits = spec.units == LengthUnit::inch ? 1e5 : 1e4;  // as the program writes
+  return header_number(std::abs(value) < 1e9 ? std::round(value * digits) / digits : value);
+}
+std::string length_text(const CircleTestSpec& spec, double mm) {
+  return units_number(spec, mm) + (spec.units == LengthUnit::inch ? " in" : " mm");
+}
+
+// Two positions the program would write as one number (4 decimals in mm, 5 in inch).
+bool written_equal(const CircleTestSpec& spec, double a_mm, double b_mm) {
+  const double per_unit = spec.units == LengthUnit::inch ? 1e5 / kMmPerInch : 1e4;
+  return std::round(a_mm * per_unit) == std::round(b_mm * per_unit);
+}
+
+// The clearance keeps the tool out of the circle's plane, where the instrument is: above an
+// XY circle it is a height (one at or below the circle would lower the tool at rapid onto the
+// set-up); beside a YZ or ZX circle, a position off its plane on either side (one in the
+// plane would move the tool at rapid through the circle).
 void check_clearance_and_floor(const CircleTestSpec& spec, SpecWords words) {
   auto w = [words](SpecSetting setting) { return words(setting); };
-  if (spec.safe_mm && spec.plane == Plane::XY && !(*spec.safe_mm > spec.centre_mm[2])) {
+  const char normal = plane_axes(spec.plane).normal;
+  const double centre = spec.centre_mm[axis_index(normal)];
+  if (spec.safe_mm && spec.plane == Plane::XY &&
+      (!(*spec.safe_mm > centre) || written_equal(spec, *spec.safe_mm, centre))) {
     throw UsageError(fmt::format(
-        "{}: Z {} mm is not above the circle's height Z {} mm: the clearance in XY must be above "
-        "it",
-        w(SpecSetting::safe), header_number(*spec.safe_mm), header_number(spec.centre_mm[2])));
+        "{}: Z {} is not above the circle's height Z {}: the clearance in XY must be above it",
+        w(SpecSetting::safe), length_text(spec, *spec.safe_mm), length_text(spec, centre)));
+  }
+  if (spec.safe_mm && spec.plane != Plane::XY && written_equal(spec, *spec.safe_mm, centre)) {
+    throw UsageError(fmt::format(
+        "{}: {} {} is the {} circle's own plane ({} {}): the clearance in {} must be beside it, "
+        "on either side",
+        w(SpecSetting::safe), upper(normal), length_text(spec, *spec.safe_mm),
+        plane_name(spec.plane), upper(normal), length_text(spec, centre), plane_name(spec.plane)));
   }
   if (spec.floor_mm && !std::isfinite(*spec.floor_mm))
     throw UsageError(fmt::format("{}: not a finite height", w(SpecSetting::floor)));
@@ -627,6 +655,60 @@ double ballbar_default_clearance_mm(const CircleTestSpec& spec) {
   return spec.centre_mm[axis_index(plane_axes(spec.plane).normal)] + kBallbarDefaultClearanceMm;
 }
 
+namespace {
+// Where a plane's part of the program leaves the tool: at the last lead-out's end (outside
+// the circle after a ballbar's feed-out), raised to the clearance on the normal axis.
+std::array<double, 3> end_position_mm(const CircleTestSpec& spec) {
+  const PlaneAxes axes = plane_axes(spec.plane);
+  const bool ccw = spec.directions.back() == Direction::CCW;
+  const double end_deg =
+      ccw ? spec.start_deg + spec.arc_deg + spec.lead_deg : spec.start_deg - spec.lead_deg;
+  const double reach_mm =
+      spec.radius_mm + (spec.instrument == Instrument::ballbar ? spec.feed_in_mm : 0.0);
+  std::array<double, 3> p = spec.centre_mm;
+  p[axis_index(axes.first)] += reach_mm * std::cos(deg_to_rad(end_deg));
+  p[axis_index(axes.second)] += reach_mm * std::sin(deg_to_rad(end_deg));
+  if (spec.safe_mm) p[axis_index(axes.normal)] = *spec.safe_mm;
+  return p;
+}
+
+// Between two planes the next one's instrument is set up at its pause, and its first move is
+// a rapid of its normal axis alone, from where the plane before left the tool to its own
+// clearance. That rapid must not pass through the new plane where the set-up is (nor start
+// in the plane there).
+void check_move_between(const CircleTestSpec& from, const CircleTestSpec& to, SpecWords words) {
+  const std::string_view safe = words(SpecSetting::safe);
+  if (!to.safe_mm) {
+    throw UsageError(
+        fmt::format("{}: a test set moves from plane to plane between its pauses; give {} for {}",
+                    words(SpecSetting::planes), safe, plane_name(to.plane)));
+  }
+  const PlaneAxes axes = plane_axes(to.plane);
+  const int n = axis_index(axes.normal), a = axis_index(axes.first), b = axis_index(axes.second);
+  const std::array<double, 3> p = end_position_mm(from);
+  const double before = p[n] - to.centre_mm[n];
+  const double after = *to.safe_mm - to.centre_mm[n];
+  const bool in_plane = written_equal(to, p[n], to.centre_mm[n]);
+  if (!in_plane && (before > 0.0) == (after > 0.0)) return;  // stays on one side
+  const double distance_mm = std::hypot(p[a] - to.centre_mm[a], p[b] - to.centre_mm[b]);
+  // What is set up in the plane by then: a grid plate over the circle (and whatever an encoder
+  // test leaves there); for a ballbar, whose bar is mounted after the approach, its pivot and
+  // base at the centre, kept as far clear as the default clearance keeps them.
+  const bool ballbar = to.instrument == Instrument::ballbar;
+  const double keep_out_mm = ballbar ? kBallbarDefaultClearanceMm : to.radius_mm;
+  if (distance_mm > keep_out_mm) return;
+  throw UsageError(fmt::format(
+      "{}: {} leaves the tool at X{} Y{} Z{}; the rapid on {} from there to the {} clearance "
+      "{} {} {} the {} circle's plane {} from its centre, {} {}: give clearances "
+      "that keep the tool on one side of the {} circle, or another plane order",
+      safe, plane_name(from.plane), units_number(to, p[0]), units_number(to, p[1]),
+      length_text(to, p[2]), upper(axes.normal), plane_name(to.plane), upper(axes.normal),
+      length_text(to, *to.safe_mm), in_plane ? "starts in" : "passes through", plane_name(to.plane),
+      length_text(to, distance_mm), ballbar ? "within the ballbar pivot's" : "inside its radius",
+      length_text(to, keep_out_mm), plane_name(to.plane)));
+}
+}  // namespace
+
 void validate_set(const std::vector<CircleTestSpec>& planes, SpecWords words) {
   const std::string_view what = words(SpecSetting::planes);
   if (planes.empty()) throw UsageError(fmt::format("{}: no plane", what));
@@ -663,6 +745,8 @@ void validate_set(const std::vector<CircleTestSpec>& planes, SpecWords words) {
           what, differs, plane_name(b.plane)));
     }
   }
+  for (std::size_t k = 1; k < planes.size(); ++k)
+    check_move_between(planes[k - 1], planes[k], words);
 }
 
 namespace {
