@@ -91,7 +91,8 @@ std::pair<std::array<double, 3>, std::string> work_offset_origin(
   const std::optional<WorkOffsets> file =
       limits.parameter_file.empty()
           ? std::nullopt
-          : read_work_offsets(limits.parameter_file, limits.mm_per_machine_unit);
+          : read_work_offsets(limits.parameter_file, limits.mm_per_machine_unit,
+                              limits.g92_persistence);
   const int index = spec.work_offset_code ? work_offset_index(*spec.work_offset_code)
                                           : (file ? file->selected : 0);
   std::optional<std::array<double, 3>> from_file;

@@ -10,10 +10,13 @@
 #include <limits>
 #include <sstream>
 
+#include <sys/stat.h>
+
 #include "circtest/core/angles.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
+#include "circtest/core/input_file.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 
@@ -95,6 +98,28 @@ std::string coordinate_letters(const IniDocument& ini) {
   return out;
 }
 
+// [RS274NGC] DISABLE_G92_PERSISTENCE: LinuxCNC 2.9 reads it with boost::lexical_cast<bool>,
+// which takes 0 and 1 only and leaves any other value at false (G92 kept); later versions
+// take yes/true/on as true. A value other than 0 or 1 means different things to them.
+G92Persistence g92_persistence(const IniDocument& ini) {
+  const auto entry = ini.find("RS274NGC", "DISABLE_G92_PERSISTENCE");
+  if (!entry || entry->value == "0") return G92Persistence::kept;
+  if (entry->value == "1") return G92Persistence::cleared;
+  throw ParseError(entry->file, entry->line,
+                   fmt::format("[RS274NGC] DISABLE_G92_PERSISTENCE = {}: expected 0 or 1 (LinuxCNC "
+                               "2.9 takes any other value as 0, later versions yes/true/on as 1)",
+                               entry->value));
+}
+
+// An input file that exists must be a regular one: a FIFO would be waited on for ever.
+void require_regular(const std::string& path, std::string_view what) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    throw IoError(path,
+                  fmt::format("is {}, expected a regular {}", file_kind_name(st.st_mode), what));
+  }
+}
+
 }  // namespace
 
 MachineLimits machine_limits_from(const IniDocument& ini) {
@@ -134,6 +159,7 @@ MachineLimits machine_limits_from(const IniDocument& ini) {
     if (!axis.max_acceleration_mm_per_s2) axis.max_acceleration_mm_per_s2 = unit * 1.0;
   }
   for (const auto& entry : ini.get_all("HAL", "HALFILE")) limits.hal_files.push_back(entry.value);
+  limits.g92_persistence = g92_persistence(ini);
   for (const std::string& section : ini.sections()) {
     for (const auto& entry : ini.entries(section)) {
       limits.values.emplace(upper(section) + "/" + upper(entry.key), entry.value);
@@ -215,6 +241,7 @@ MachineLimits parse_machine_limits(const std::string& text, const std::string& s
 }
 
 MachineLimits read_machine_limits(const std::string& path) {
+  require_regular(path, "INI file");
   MachineLimits limits = machine_limits_from(IniDocument::load(path));
   {
     const auto it = limits.values.find("RS274NGC/PARAMETER_FILE");
@@ -235,73 +262,14 @@ MachineLimits read_machine_limits(const std::string& path) {
     } else {
       file = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : dir / name;
     }
-    if (file.extension() != ".hal" || !std::filesystem::is_regular_file(file)) continue;
+    if (file.extension() != ".hal" || !std::filesystem::exists(file)) continue;
+    require_regular(file.string(), "HAL file");
     if (auto outputs = find_motion_outputs(read_file(file.string()), file.string(), limits)) {
       limits.motion_outputs = std::move(outputs);
       break;
     }
   }
   return limits;
-}
-
-int work_offset_index(std::string_view code) {
-  static constexpr std::string_view kCodes[] = {"G54", "G55",   "G56",   "G57",  "G58",
-                                                "G59", "G59.1", "G59.2", "G59.3"};
-  for (int i = 0; i < 9; ++i)
-    if (code == kCodes[i]) return i + 1;
-  return 0;
-}
-
-WorkOffsets parse_work_offsets(const std::string& text, const std::string& path,
-                               double mm_per_unit) {
-  WorkOffsets w;
-  w.path = path;
-  std::map<long, double> values;
-  long previous = 0;
-  std::size_t line_no = 0;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) {
-    ++line_no;
-    std::istringstream words(line);
-    std::string number_text, value_text;
-    words >> number_text >> value_text;
-    long number = 0;
-    const auto [end, ec] =
-        std::from_chars(number_text.data(), number_text.data() + number_text.size(), number);
-    // As LinuxCNC's sscanf("%d %lf"): a line without a number and a value is not one.
-    if (ec != std::errc() || end == number_text.data() || value_text.empty()) continue;
-    const auto value = parse_finite(value_text);
-    if (!value) {
-      throw ParseError(path, line_no,
-                       fmt::format("#{}: '{}' is not a finite number", number, value_text));
-    }
-    if (number <= previous) {
-      throw ParseError(path, line_no,
-                       fmt::format("#{} after #{}: LinuxCNC refuses a parameter file whose "
-                                   "numbers are not increasing",
-                                   number, previous));
-    }
-    previous = number;
-    values[number] = *value;
-  }
-  auto at = [&values](long n) {
-    const auto it = values.find(n);
-    return it == values.end() ? 0.0 : it->second;
-  };
-  for (int n = 1; n <= 9; ++n) {
-    for (int i = 0; i < 3; ++i) w.origin_mm[n][i] = at(5201 + 20 * n + i) * mm_per_unit;
-    w.rotation_deg[n] = at(5210 + 20 * n);
-  }
-  w.selected = static_cast<int>(std::lround(at(5220)));
-  if (w.selected < 1 || w.selected > 9) w.selected = 1;
-  w.g92_applied = at(5210) != 0.0;
-  for (int i = 0; i < 3; ++i) w.g92_mm[i] = at(5211 + i) * mm_per_unit;
-  return w;
-}
-
-std::optional<WorkOffsets> read_work_offsets(const std::string& path, double mm_per_unit) {
-  if (!std::filesystem::exists(path)) return std::nullopt;
-  return parse_work_offsets(read_file(path), path, mm_per_unit);
 }
 
 namespace {
