@@ -263,7 +263,6 @@ std::array<double, 3> set_path(CircleTestSpec& spec, const po::variables_map& vm
   if (vm.count("offset")) {
     const auto o = parse_option_list("--offset", text("offset"), 3);
     for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
-    for (double v : offset) check_plausible(plausible::offset, v, circgen_option_words);
     spec.work_offset_mm = offset;
   }
   return offset;

@@ -52,6 +52,43 @@ std::string header_list(const std::vector<double>& values) {
   return join(texts);
 }
 
+// A length in the program's units for a message, to the program's digits: "50" or "1.9685",
+// and with its unit.
+std::string units_number(const CircleTestSpec& spec, double mm) {
+  const double value = spec.units == LengthUnit::inch ? mm / kMmPerInch : mm;
+  const double digits = spec.units == LengthUnit::inch ? 1e5 : 1e4;  // as the program writes
+  return header_number(std::abs(value) < 1e9 ? std::round(value * digits) / digits : value);
+}
+std::string length_text(const CircleTestSpec& spec, double mm) {
+  return units_number(spec, mm) + (spec.units == LengthUnit::inch ? " in" : " mm");
+}
+
+// A length or a feed in the program's units for a message, all its digits: "-51.816051714
+// mm", "2.04 in", "20 in/min".
+std::string units_value(const CircleTestSpec& spec, double mm) {
+  return header_number(spec.units == LengthUnit::inch ? mm / kMmPerInch : mm);
+}
+std::string exact_length_text(const CircleTestSpec& spec, double mm) {
+  return units_value(spec, mm) + (spec.units == LengthUnit::inch ? " in" : " mm");
+}
+// A range fixed in mm, and in inch too for an inch program: "0.5..3 mm [0.019685..0.11811 in]".
+std::string mm_range_text(const CircleTestSpec& spec, double low_mm, double high_mm) {
+  std::string text = fmt::format("{}..{} mm", header_number(low_mm), header_number(high_mm));
+  if (spec.units == LengthUnit::inch) {
+    text += fmt::format(" [{:.5g}..{:.5g} in]", low_mm / kMmPerInch, high_mm / kMmPerInch);
+  }
+  return text;
+}
+std::string feed_text(const CircleTestSpec& spec, double mm_per_min) {
+  return exact_length_text(spec, mm_per_min) + "/min";
+}
+
+// Two positions the program would write as one number (4 decimals in mm, 5 in inch).
+bool written_equal(const CircleTestSpec& spec, double a_mm, double b_mm) {
+  const double per_unit = spec.units == LengthUnit::inch ? 1e5 / kMmPerInch : 1e4;
+  return std::round(a_mm * per_unit) == std::round(b_mm * per_unit);
+}
+
 double normalize_deg(double deg) {
   double r = std::fmod(deg, 360.0);
   if (r < 0.0) r += 360.0;
@@ -406,27 +443,10 @@ void check_ballbar_length(const CircleTestSpec& spec, SpecWords words) {
   std::vector<double> lengths = spec.ballbar_lengths_mm;
   std::sort(lengths.begin(), lengths.end());
   throw UsageError(fmt::format(
-      "{}: radius {} mm is not a length of the ballbar profile ({} mm); test at one of them, or "
+      "{}: radius {} is not a length of the ballbar profile ({} mm); test at one of them, or "
       "give the bar's lengths with {}",
-      words(SpecSetting::ballbar), header_number(spec.radius_mm), header_list(lengths),
+      words(SpecSetting::ballbar), exact_length_text(spec, spec.radius_mm), header_list(lengths),
       words(SpecSetting::ballbar_lengths)));
-}
-
-// A length in the program's units for a message, to the program's digits: "50" or "1.9685",
-// and with its unit.
-std::string units_number(const CircleTestSpec& spec, double mm) {
-  const double value = spec.units == LengthUnit::inch ? mm / kMmPerInch : mm;
-  const double digits = spec.units == LengthUnit::inch ? 1e5 : 1e4;  // as the program writes
-  return header_number(std::abs(value) < 1e9 ? std::round(value * digits) / digits : value);
-}
-std::string length_text(const CircleTestSpec& spec, double mm) {
-  return units_number(spec, mm) + (spec.units == LengthUnit::inch ? " in" : " mm");
-}
-
-// Two positions the program would write as one number (4 decimals in mm, 5 in inch).
-bool written_equal(const CircleTestSpec& spec, double a_mm, double b_mm) {
-  const double per_unit = spec.units == LengthUnit::inch ? 1e5 / kMmPerInch : 1e4;
-  return std::round(a_mm * per_unit) == std::round(b_mm * per_unit);
 }
 
 // The clearance keeps the tool out of the circle's plane, where the instrument is: above an
@@ -467,7 +487,7 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   for (double f : spec.feeds_mm_per_min) {
     if (!finite(f) || f <= 0.0) {
       throw UsageError(fmt::format("{}: a feed must be positive, got {}", w(SpecSetting::feeds),
-                                   header_number(f)));
+                                   units_value(spec, f)));
     }
   }
   if (spec.directions.empty())
@@ -530,12 +550,12 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
         *std::min_element(spec.feeds_mm_per_min.begin(), spec.feeds_mm_per_min.end());
     if (!finite(a) || a <= 0.0) {
       throw UsageError(fmt::format("{}: must be positive, got {}", w(SpecSetting::approach_feed),
-                                   header_number(a)));
+                                   units_value(spec, a)));
     }
     if (a > lowest) {
       throw UsageError(fmt::format("{}: {} is above the test feed {}; the approach must be slower",
-                                   w(SpecSetting::approach_feed), header_number(a),
-                                   header_number(lowest)));
+                                   w(SpecSetting::approach_feed), feed_text(spec, a),
+                                   feed_text(spec, lowest)));
     }
   }
   if (spec.work_offset_code) {
@@ -554,25 +574,25 @@ void validate(const CircleTestSpec& spec, SpecWords words) {
   if (spec.instrument == Instrument::ballbar) {
     if (!finite(spec.feed_in_mm) || spec.feed_in_mm < kBallbarMinFeedInMm ||
         spec.feed_in_mm > kBallbarMaxFeedInMm) {
-      throw UsageError(fmt::format("{}: the ballbar feed-in must be {}..{} mm, got {}",
-                                   w(SpecSetting::feed_in), header_number(kBallbarMinFeedInMm),
-                                   header_number(kBallbarMaxFeedInMm),
-                                   header_number(spec.feed_in_mm)));
+      throw UsageError(
+          fmt::format("{}: the ballbar feed-in must be {}, got {}", w(SpecSetting::feed_in),
+                      mm_range_text(spec, kBallbarMinFeedInMm, kBallbarMaxFeedInMm),
+                      spec.units == LengthUnit::inch ? exact_length_text(spec, spec.feed_in_mm)
+                                                     : header_number(spec.feed_in_mm)));
     }
     if (spec.radius_mm < kBallbarMinRadiusMm || spec.radius_mm > kBallbarMaxRadiusMm) {
       throw UsageError(
-          fmt::format("{}: radius {} mm is outside the {}..{} mm a telescoping ball bar "
+          fmt::format("{}: radius {} is outside the {} a telescoping ball bar "
                       "with its extensions spans",
-                      w(SpecSetting::ballbar), header_number(spec.radius_mm),
-                      header_number(kBallbarMinRadiusMm), header_number(kBallbarMaxRadiusMm)));
+                      w(SpecSetting::ballbar), exact_length_text(spec, spec.radius_mm),
+                      mm_range_text(spec, kBallbarMinRadiusMm, kBallbarMaxRadiusMm)));
     }
     check_ballbar_length(spec, words);
     for (double f : spec.feeds_mm_per_min) {
       if (f > kBallbarMaxFeedMmPerMin) {
         throw UsageError(fmt::format(
-            "{}: feed {} mm/min is above the {} mm/min circgen allows a ball "
-            "bar [see docs/circgen.md]",
-            w(SpecSetting::ballbar), header_number(f), header_number(kBallbarMaxFeedMmPerMin)));
+            "{}: feed {} is above the {} circgen allows a ball bar [see docs/circgen.md]",
+            w(SpecSetting::ballbar), feed_text(spec, f), feed_text(spec, kBallbarMaxFeedMmPerMin)));
       }
     }
   }
@@ -645,10 +665,10 @@ void check_floor(const CircleTestSpec& spec, SpecWords words) {
   // A micrometre of slack: a path that touches the floor exactly is not refused.
   if (low >= *spec.floor_mm - 1e-6) return;
   throw LimitError(fmt::format(
-      "{} {}: the path in {} reaches Z {} mm (work offset), {} mm below that floor; raise the "
+      "{} {}: the path in {} reaches Z {} (work offset), {} below that floor; raise the "
       "centre, travel a shorter arc over the top or test a smaller circle",
-      words(SpecSetting::floor), header_number(*spec.floor_mm), plane_name(spec.plane),
-      header_number(low), header_number(*spec.floor_mm - low)));
+      words(SpecSetting::floor), units_value(spec, *spec.floor_mm), plane_name(spec.plane),
+      exact_length_text(spec, low), exact_length_text(spec, *spec.floor_mm - low)));
 }
 
 double ballbar_default_clearance_mm(const CircleTestSpec& spec) {

@@ -274,6 +274,20 @@ MachineLimits read_machine_limits(const std::string& path) {
 
 namespace {
 
+// A feed and a radius as the user gave them: in the program's units.
+std::string user_feed(const CircleTestSpec& spec, double mm_per_min) {
+  const bool inch = spec.units == LengthUnit::inch;
+  return fmt::format("{:.10g} {}/min", inch ? mm_per_min / kMmPerInch : mm_per_min,
+                     inch ? "in" : "mm");
+}
+// "F1200 on R0.5 mm", "F20 on R2 in".
+std::string user_arc(const CircleTestSpec& spec, double feed_mm_per_min) {
+  const bool inch = spec.units == LengthUnit::inch;
+  const double per = inch ? kMmPerInch : 1.0;
+  return fmt::format("F{:.10g} on R{:.10g} {}", feed_mm_per_min / per, spec.radius_mm / per,
+                     inch ? "in" : "mm");
+}
+
 std::string axis_section(char axis) {
   return fmt::format("[AXIS_{}]", static_cast<char>(std::toupper(axis)));
 }
@@ -340,13 +354,13 @@ void check_soft_limits(const CircleTestSpec& spec, const MachineLimits& limits,
     constexpr double kSlackMm = 1e-6;
     if (axis.min_limit_mm && machine_low < *axis.min_limit_mm - kSlackMm) {
       throw LimitError(fmt::format(
-          "{}: the test reaches {} = {} {} in machine coordinates, below {} MIN_LIMIT = {}",
+          "{}: the test reaches {} = {:.10g} {} in machine coordinates, below {} MIN_LIMIT = {}",
           limits.source, letter, machine_low / unit, unit_name, axis_section(axis.axis),
           *axis.min_limit_mm / unit));
     }
     if (axis.max_limit_mm && machine_high > *axis.max_limit_mm + kSlackMm) {
       throw LimitError(fmt::format(
-          "{}: the test reaches {} = {} {} in machine coordinates, above {} MAX_LIMIT = {}",
+          "{}: the test reaches {} = {:.10g} {} in machine coordinates, above {} MAX_LIMIT = {}",
           limits.source, letter, machine_high / unit, unit_name, axis_section(axis.axis),
           *axis.max_limit_mm / unit));
     }
@@ -365,15 +379,16 @@ void check_velocity(const CircleTestSpec& spec, const MachineLimits& limits) {
   for (char a : {axes.first, axes.second}) {
     const AxisLimits& axis = limits.axes[a - 'x'];
     if (axis.max_velocity_mm_per_s && v_mm_per_s > *axis.max_velocity_mm_per_s) {
-      throw LimitError(fmt::format("{}: feed {} mm/min = {:.4g} {}/s exceeds {} MAX_VELOCITY = {}",
-                                   limits.source, max_feed, v_mm_per_s / unit, unit_name,
-                                   axis_section(a), *axis.max_velocity_mm_per_s / unit));
+      throw LimitError(fmt::format("{}: feed {} = {:.4g} {}/s exceeds {} MAX_VELOCITY = {}",
+                                   limits.source, user_feed(spec, max_feed), v_mm_per_s / unit,
+                                   unit_name, axis_section(a), *axis.max_velocity_mm_per_s / unit));
     }
   }
   if (limits.max_linear_velocity_mm_per_s && v_mm_per_s > *limits.max_linear_velocity_mm_per_s) {
-    throw LimitError(fmt::format(
-        "{}: feed {} mm/min = {:.4g} {}/s exceeds [TRAJ] MAX_LINEAR_VELOCITY = {}", limits.source,
-        max_feed, v_mm_per_s / unit, unit_name, *limits.max_linear_velocity_mm_per_s / unit));
+    throw LimitError(
+        fmt::format("{}: feed {} = {:.4g} {}/s exceeds [TRAJ] MAX_LINEAR_VELOCITY = {}",
+                    limits.source, user_feed(spec, max_feed), v_mm_per_s / unit, unit_name,
+                    *limits.max_linear_velocity_mm_per_s / unit));
   }
 }
 
@@ -409,16 +424,15 @@ bool check_acceleration(const CircleTestSpec& spec, const MachineLimits& limits,
   if (!std::isfinite(a_max)) return false;
   if (centripetal > a_max) {
     throw LimitError(fmt::format(
-        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm exceeds {} = {}",
-        limits.source, centripetal / unit, unit_name, max_feed, spec.radius_mm, a_name,
-        a_max / unit));
+        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at {} exceeds {} = {}", limits.source,
+        centripetal / unit, unit_name, user_arc(spec, max_feed), a_name, a_max / unit));
   }
   if (centripetal > normal_share * a_max) {
     throw LimitError(fmt::format(
-        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm is above the "
+        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at {} is above the "
         "{:.4g} {}/s^2 [0.866 * {} = {}] that LinuxCNC's planner allows on an arc; it would "
         "slow the arc below the feed",
-        limits.source, centripetal / unit, unit_name, max_feed, spec.radius_mm,
+        limits.source, centripetal / unit, unit_name, user_arc(spec, max_feed),
         normal_share * a_max / unit, unit_name, a_name, a_max / unit));
   }
   // The run-up from rest on the lead-in arc, with the tangential acceleration the planner
@@ -427,13 +441,18 @@ bool check_acceleration(const CircleTestSpec& spec, const MachineLimits& limits,
       a_max * std::max(tangential_share, std::sqrt(1.0 - std::pow(centripetal / a_max, 2)));
   const double run_up_mm = v_mm_per_s * v_mm_per_s / (2.0 * tangential);
   const double lead_mm = spec.radius_mm * deg_to_rad(spec.lead_deg);
+  const bool inch = spec.units == LengthUnit::inch;
+  const double user_unit = inch ? kMmPerInch : 1.0;
+  const char* user_unit_name = inch ? "in" : "mm";
+  const int digits = inch ? 4 : 3;
   if (run_up_mm > lead_mm) {
     const double needed_deg = rad_to_deg(run_up_mm / spec.radius_mm);
     throw LimitError(fmt::format(
-        "{}: the {} deg lead-in [{:.3f} mm] is shorter than the {:.3f} mm needed to reach "
-        "F{} with {} = {}; use {} {:.0f} or more",
-        limits.source, spec.lead_deg, lead_mm, run_up_mm, max_feed, a_name, a_max / unit,
-        words(SpecSetting::lead), std::ceil(needed_deg)));
+        "{}: the {} deg lead-in [{:.{}f} {}] is shorter than the {:.{}f} {} needed to reach "
+        "{} with {} = {}; use {} {:.0f} or more",
+        limits.source, spec.lead_deg, lead_mm / user_unit, digits, user_unit_name,
+        run_up_mm / user_unit, digits, user_unit_name, user_feed(spec, max_feed), a_name,
+        a_max / unit, words(SpecSetting::lead), std::ceil(needed_deg)));
   }
   return true;
 }
