@@ -45,7 +45,7 @@ AnnexCNote annex_c_note(double test_diameter, double reference_diameter, double 
   const double scaled_mm = note.scaled_feed * mm;
   if (!(scaled_mm >= plausible::feed.min && scaled_mm <= plausible::feed.max)) {
     throw UsageError(fmt::format(
-        "{}: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is {} the plausible {:.4g}..{:.4g} "
+        "{}: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is {} the plausible {:.6g}..{:.6g} "
         "{}/min",
         words(SpecSetting::reference_feed), reference_feed, test_diameter, reference_diameter,
         note.scaled_feed_exact, units == LengthUnit::inch ? "in" : "mm",
