@@ -1,5 +1,5 @@
 // circgen: writes the ISO 230-4 circular test program for LinuxCNC. Only option parsing
-// lives here; the command (circtest/gcode/commands.hpp) writes the program.
+// lives here; the command (circtest/circgen/commands.hpp) writes the program.
 #include <fmt/format.h>
 #include <boost/program_options.hpp>
 
@@ -14,13 +14,13 @@
 #include <utility>
 #include <vector>
 
+#include "circtest/circgen/commands.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/cli_options.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/utc_time.hpp"
 #include "circtest/gcode/annex_c.hpp"
-#include "circtest/gcode/commands.hpp"
 #include "circtest/gcode/generator.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
 

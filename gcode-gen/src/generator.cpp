@@ -11,7 +11,7 @@
 // hold the rest of generator.hpp.
 namespace circtest {
 
-using namespace gcode_text;
+using namespace gcode_detail;
 
 const char* instrument_name(Instrument instrument) noexcept {
   switch (instrument) {

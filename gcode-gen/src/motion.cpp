@@ -11,7 +11,7 @@
 // The program's body: modes, each plane's pause, approach, runs and retract.
 namespace circtest {
 
-using namespace gcode_text;
+using namespace gcode_detail;
 
 namespace {
 

@@ -7,7 +7,7 @@
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 
-namespace circtest::gcode_text {
+namespace circtest::gcode_detail {
 
 namespace {
 
@@ -174,4 +174,4 @@ std::vector<std::pair<std::string, std::string>> program_header(
   return h;
 }
 
-}  // namespace circtest::gcode_text
+}  // namespace circtest::gcode_detail

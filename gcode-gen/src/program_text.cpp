@@ -6,7 +6,7 @@
 
 #include "circtest/core/strings.hpp"
 
-namespace circtest::gcode_text {
+namespace circtest::gcode_detail {
 
 std::string header_number(double value) {
   // Beyond 1e9 there is no float noise below 1e-9 to drop (and value * 1e9 could overflow).
@@ -71,4 +71,4 @@ double lead_in_start_deg(const CircleTestSpec& spec, Direction direction) {
                                      : spec.start_deg + spec.arc_deg + spec.lead_deg;
 }
 
-}  // namespace circtest::gcode_text
+}  // namespace circtest::gcode_detail

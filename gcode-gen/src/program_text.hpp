@@ -7,7 +7,7 @@
 #include "circtest/core/plane.hpp"
 #include "circtest/gcode/generator.hpp"
 
-namespace circtest::gcode_text {
+namespace circtest::gcode_detail {
 
 inline constexpr double kAngleEpsilonDeg = 1e-9;
 
@@ -51,4 +51,4 @@ std::optional<double> top_deg(Plane plane);
 // Where a run in `direction` starts its lead-in.
 double lead_in_start_deg(const CircleTestSpec& spec, Direction direction);
 
-}  // namespace circtest::gcode_text
+}  // namespace circtest::gcode_detail

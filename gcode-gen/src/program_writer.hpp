@@ -13,7 +13,7 @@
 #include "circtest/gcode/plausible_ranges.hpp"
 #include "program_text.hpp"
 
-namespace circtest::gcode_text {
+namespace circtest::gcode_detail {
 
 // Arc centre offset words, by axis: I for X, J for Y, K for Z.
 inline char offset_word(char axis) {
@@ -172,4 +172,4 @@ class ProgramWriter {
   std::string text_;
 };
 
-}  // namespace circtest::gcode_text
+}  // namespace circtest::gcode_detail

@@ -13,7 +13,7 @@
 // What a test specification must be before circgen writes a program for it.
 namespace circtest {
 
-using namespace gcode_text;
+using namespace gcode_detail;
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "circtest/gcode/commands.hpp"
+#include "circtest/circgen/commands.hpp"
 
 #include <fmt/format.h>
 
