@@ -24,7 +24,7 @@ namespace circtest {
 
 namespace {
 
-std::string upper(std::string text) {
+std::string upper_text(std::string text) {
   for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return text;
 }
@@ -72,7 +72,7 @@ double mm_per_unit(const IniDocument& ini) {
     }
     return 1.0 / *units_per_mm;
   }
-  const std::string v = upper(entry->value);
+  const std::string v = upper_text(entry->value);
   if (v == "MM" || v == "METRIC") return 1.0;
   if (v == "INCH" || v == "IMPERIAL" || v == "IN") return kMmPerInch;
   throw ParseError(entry->file, entry->line,
@@ -162,7 +162,7 @@ MachineLimits machine_limits_from(const IniDocument& ini) {
   limits.g92_persistence = g92_persistence(ini);
   for (const std::string& section : ini.sections()) {
     for (const auto& entry : ini.entries(section)) {
-      limits.values.emplace(upper(section) + "/" + upper(entry.key), entry.value);
+      limits.values.emplace(upper_text(section) + "/" + upper_text(entry.key), entry.value);
     }
   }
   return limits;
@@ -177,7 +177,7 @@ std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
     const auto close = word.find(']');
     if (close == std::string::npos) return word;
     const auto it =
-        ini.values.find(upper(word.substr(1, close - 1)) + "/" + word.substr(close + 1));
+        ini.values.find(upper_text(word.substr(1, close - 1)) + "/" + word.substr(close + 1));
     return it == ini.values.end() ? word : it->second;
   };
   const auto emcmot = ini.values.find("EMCMOT/EMCMOT");
