@@ -37,7 +37,7 @@ struct Parameter {
 // What LinuxCNC reads from a line: sscanf("%d %lf") in the C locale, as FORCE_LC_NUMERIC_C
 // makes it.
 std::optional<Parameter> linuxcnc_reading(const std::string& line) {
-  static const locale_t c_locale = ::newlocale(LC_ALL_MASK, "C", static_cast<locale_t>(0));
+  static const locale_t c_locale = ::newlocale(LC_ALL_MASK, "C", nullptr);
   const locale_t previous = ::uselocale(c_locale);
   int number = 0;
   double value = 0.0;
