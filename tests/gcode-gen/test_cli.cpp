@@ -250,31 +250,6 @@ std::vector<BadCase> set_and_instrument_cases() {
        2,
        "--clearance: Z 10 mm is not above the circle's height Z 10 mm: the clearance in XY must "
        "be above it"},
-      // Beside a YZ or ZX circle the clearance must be off its plane: the probe's case.
-      {"clearance_in_a_yz_plane",
-       {"--d", "100", "--f", "500", "--plane", "XY,YZ,ZX", "--centre", "50,50,0", "--clearance",
-        "50", "--instrument", "grid"},
-       2,
-       "--clearance: X 50 mm is the YZ circle's own plane (X 50 mm): the clearance in YZ must be "
-       "beside it, on either side"},
-      {"clearance_in_a_zx_plane",
-       {"--d", "100", "--f", "500", "--plane", "ZX", "--centre", "0,-20,0", "--clearance", "-20"},
-       2,
-       "--clearance: Y -20 mm is the ZX circle's own plane (Y -20 mm)"},
-      {"clearance_in_a_plane_inch",
-       {"--inch", "--d", "4", "--f", "20", "--plane", "YZ", "--centre", "1,0,0", "--clearance",
-        "1"},
-       2,
-       "--clearance: X 1 in is the YZ circle's own plane (X 1 in)"},
-      // The rapid from the plane before to the next clearance would cross the next circle.
-      {"clearance_between_planes",
-       {"--d", "100", "--f", "500", "--plane", "XY,YZ", "--centre", "50,50,0", "--clearance",
-        "10,-50"},
-       2,
-       "--clearance: XY leaves the tool at X99.2404 Y41.3176 Z10 mm; the rapid on X from there to "
-       "the YZ clearance X -50 mm passes through the YZ circle's plane 13.2433 mm from its centre, "
-       "inside its radius 50 mm: give clearances that keep the tool on one side of the YZ circle, "
-       "or another plane order"},
       {"floor_above_the_path",
        {"--d", "300", "--f", "500", "--plane", "YZ", "--instrument", "ballbar", "--floor", "-40"},
        6,

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <optional>
 #include <string>
@@ -170,6 +171,7 @@ TEST(Rs274Clearance, EveryRapidOfEverySetOrderKeepsOutOfTheCircleSetUp) {
       }
     }
   }
+  std::printf("sets accepted %d, refused %d\n", tally.accepted, tally.refused);
   // Both outcomes occur often: the check is neither always on nor always off.
   EXPECT_GT(tally.accepted, 50);
   EXPECT_GT(tally.refused, 50);
@@ -206,6 +208,15 @@ TEST(Rs274Clearance, AClearanceInTheCirclesOwnPlaneIsRefusedInEveryPlane) {
   EXPECT_NE(inch.err.find("--clearance: Y 1 in is the ZX circle's own plane (Y 1 in)"),
             std::string::npos)
       << inch.err;
+  // Between the planes: the rapid from where XY leaves the tool to the YZ clearance.
+  const CommandResult between = run_circgen({"--d", "100", "--f", "500", "--plane", "XY,YZ",
+                                             "--centre", "50,50,0", "--clearance", "10,-50"});
+  EXPECT_EQ(between.exit_code, 2);
+  EXPECT_EQ(between.err,
+            "circgen: error: --clearance: XY leaves the tool at X99.2404 Y41.3176 Z10 mm; the "
+            "rapid on X from there to the YZ clearance X -50 mm passes through the YZ circle's "
+            "plane 13.2433 mm from its centre, inside its radius 50 mm: give clearances that keep "
+            "the tool on one side of the YZ circle, or another plane order\n");
   // Off the plane by one written digit is beside it.
   EXPECT_EQ(run_circgen({"--plane", "YZ", "--centre", "1,2,3", "--clearance", "1.0001", "--d",
                          "100", "--f", "500"})
