@@ -116,6 +116,18 @@ TEST(CircgenInputs, MessagesSayTheUsersUnits) {
   }
 }
 
+// --offset against the parameter file, in the user's inch (the file's 25.4 mm is 1 in).
+TEST(CircgenInputs, OffsetDisagreementInTheUsersUnits) {
+  ScratchDir dir;
+  spit(dir.file("m.ini"), std::string(kIni) + "[RS274NGC]\nPARAMETER_FILE = p.var\n");
+  spit(dir.file("p.var"), "5220 1\n5221 25.4\n");
+  expect_refused(run_bounded({"--inch", "--d", "4", "--f", "20", "--work-offset", "G54", "--offset",
+                              "2,0,0", "--ini", dir.file("m.ini")}),
+                 2,
+                 "--offset 2,0,0 in disagrees with G54 #5221..#5223 in " + dir.file("p.var") +
+                     " = 1,0,0 in: give the origin that is right, or drop --offset");
+}
+
 // An INI in inch states its limits in inch; the feed and circle are the user's.
 TEST(CircgenInputs, MachineLimitMessagesInTheIniAndTheUsersUnits) {
   ScratchDir dir;
