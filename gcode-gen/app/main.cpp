@@ -1,5 +1,5 @@
 // circgen: writes the ISO 230-4 circular test program for LinuxCNC. Only option parsing
-// lives here; the command (circtest/gcode/commands.hpp) writes the program.
+// lives here; the command (circtest/circgen/commands.hpp) writes the program.
 #include <fmt/format.h>
 #include <boost/program_options.hpp>
 
@@ -14,13 +14,13 @@
 #include <utility>
 #include <vector>
 
+#include "circtest/circgen/commands.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/cli_options.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/utc_time.hpp"
 #include "circtest/gcode/annex_c.hpp"
-#include "circtest/gcode/commands.hpp"
 #include "circtest/gcode/generator.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
 
@@ -263,7 +263,6 @@ std::array<double, 3> set_path(CircleTestSpec& spec, const po::variables_map& vm
   if (vm.count("offset")) {
     const auto o = parse_option_list("--offset", text("offset"), 3);
     for (int i = 0; i < 3; ++i) offset[i] = o[i] * mm;
-    for (double v : offset) check_plausible(plausible::offset, v, circgen_option_words);
     spec.work_offset_mm = offset;
   }
   return offset;

@@ -35,8 +35,8 @@ AnnexCNote annex_c_note(double test_diameter, double reference_diameter, double 
   note.reference_diameter = reference_diameter;
   note.reference_feed = reference_feed;
   note.scaled_feed_exact = annex_c_feed(test_diameter, reference_diameter, reference_feed, words);
-  check_plausible(plausible::reference_diameter, reference_diameter * mm, words);
-  check_plausible(plausible::reference_feed, reference_feed * mm, words);
+  check_plausible(plausible::reference_diameter, reference_diameter * mm, units, words);
+  check_plausible(plausible::reference_feed, reference_feed * mm, units, words);
   // The standard's own example rounds 559.02 mm/min to 559; inch feeds are small numbers
   // where a whole unit would be a coarse step.
   const double step = units == LengthUnit::mm ? 1.0 : 0.1;
@@ -45,11 +45,12 @@ AnnexCNote annex_c_note(double test_diameter, double reference_diameter, double 
   const double scaled_mm = note.scaled_feed * mm;
   if (!(scaled_mm >= plausible::feed.min && scaled_mm <= plausible::feed.max)) {
     throw UsageError(fmt::format(
-        "{}: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is {} the plausible {}..{} mm/min",
+        "{}: the Annex C feed {} * sqrt[{}/{}] = {} {}/min is {} the plausible {:.6g}..{:.6g} "
+        "{}/min",
         words(SpecSetting::reference_feed), reference_feed, test_diameter, reference_diameter,
         note.scaled_feed_exact, units == LengthUnit::inch ? "in" : "mm",
-        scaled_mm > plausible::feed.max ? "above" : "below", plausible::feed.min,
-        plausible::feed.max));
+        scaled_mm > plausible::feed.max ? "above" : "below", plausible::feed.min / mm,
+        plausible::feed.max / mm, units == LengthUnit::inch ? "in" : "mm"));
   }
   return note;
 }

@@ -10,10 +10,13 @@
 #include <limits>
 #include <sstream>
 
+#include <sys/stat.h>
+
 #include "circtest/core/angles.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
+#include "circtest/core/input_file.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 
@@ -21,7 +24,7 @@ namespace circtest {
 
 namespace {
 
-std::string upper(std::string text) {
+std::string upper_text(std::string text) {
   for (char& c : text) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return text;
 }
@@ -69,7 +72,7 @@ double mm_per_unit(const IniDocument& ini) {
     }
     return 1.0 / *units_per_mm;
   }
-  const std::string v = upper(entry->value);
+  const std::string v = upper_text(entry->value);
   if (v == "MM" || v == "METRIC") return 1.0;
   if (v == "INCH" || v == "IMPERIAL" || v == "IN") return kMmPerInch;
   throw ParseError(entry->file, entry->line,
@@ -93,6 +96,28 @@ std::string coordinate_letters(const IniDocument& ini) {
     if (std::isalpha(static_cast<unsigned char>(c))) out += static_cast<char>(std::toupper(c));
   }
   return out;
+}
+
+// [RS274NGC] DISABLE_G92_PERSISTENCE: LinuxCNC 2.9 reads it with boost::lexical_cast<bool>,
+// which takes 0 and 1 only and leaves any other value at false (G92 kept); later versions
+// take yes/true/on as true. A value other than 0 or 1 means different things to them.
+G92Persistence g92_persistence(const IniDocument& ini) {
+  const auto entry = ini.find("RS274NGC", "DISABLE_G92_PERSISTENCE");
+  if (!entry || entry->value == "0") return G92Persistence::kept;
+  if (entry->value == "1") return G92Persistence::cleared;
+  throw ParseError(entry->file, entry->line,
+                   fmt::format("[RS274NGC] DISABLE_G92_PERSISTENCE = {}: expected 0 or 1 (LinuxCNC "
+                               "2.9 takes any other value as 0, later versions yes/true/on as 1)",
+                               entry->value));
+}
+
+// An input file that exists must be a regular one: a FIFO would be waited on for ever.
+void require_regular(const std::string& path, std::string_view what) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    throw IoError(path,
+                  fmt::format("is {}, expected a regular {}", file_kind_name(st.st_mode), what));
+  }
 }
 
 }  // namespace
@@ -134,9 +159,10 @@ MachineLimits machine_limits_from(const IniDocument& ini) {
     if (!axis.max_acceleration_mm_per_s2) axis.max_acceleration_mm_per_s2 = unit * 1.0;
   }
   for (const auto& entry : ini.get_all("HAL", "HALFILE")) limits.hal_files.push_back(entry.value);
+  limits.g92_persistence = g92_persistence(ini);
   for (const std::string& section : ini.sections()) {
     for (const auto& entry : ini.entries(section)) {
-      limits.values.emplace(upper(section) + "/" + upper(entry.key), entry.value);
+      limits.values.emplace(upper_text(section) + "/" + upper_text(entry.key), entry.value);
     }
   }
   return limits;
@@ -151,7 +177,7 @@ std::optional<MotionOutputs> find_motion_outputs(const std::string& hal_text,
     const auto close = word.find(']');
     if (close == std::string::npos) return word;
     const auto it =
-        ini.values.find(upper(word.substr(1, close - 1)) + "/" + word.substr(close + 1));
+        ini.values.find(upper_text(word.substr(1, close - 1)) + "/" + word.substr(close + 1));
     return it == ini.values.end() ? word : it->second;
   };
   const auto emcmot = ini.values.find("EMCMOT/EMCMOT");
@@ -215,6 +241,7 @@ MachineLimits parse_machine_limits(const std::string& text, const std::string& s
 }
 
 MachineLimits read_machine_limits(const std::string& path) {
+  require_regular(path, "INI file");
   MachineLimits limits = machine_limits_from(IniDocument::load(path));
   {
     const auto it = limits.values.find("RS274NGC/PARAMETER_FILE");
@@ -235,7 +262,8 @@ MachineLimits read_machine_limits(const std::string& path) {
     } else {
       file = std::filesystem::path(name).is_absolute() ? std::filesystem::path(name) : dir / name;
     }
-    if (file.extension() != ".hal" || !std::filesystem::is_regular_file(file)) continue;
+    if (file.extension() != ".hal" || !std::filesystem::exists(file)) continue;
+    require_regular(file.string(), "HAL file");
     if (auto outputs = find_motion_outputs(read_file(file.string()), file.string(), limits)) {
       limits.motion_outputs = std::move(outputs);
       break;
@@ -244,67 +272,21 @@ MachineLimits read_machine_limits(const std::string& path) {
   return limits;
 }
 
-int work_offset_index(std::string_view code) {
-  static constexpr std::string_view kCodes[] = {"G54", "G55",   "G56",   "G57",  "G58",
-                                                "G59", "G59.1", "G59.2", "G59.3"};
-  for (int i = 0; i < 9; ++i)
-    if (code == kCodes[i]) return i + 1;
-  return 0;
-}
-
-WorkOffsets parse_work_offsets(const std::string& text, const std::string& path,
-                               double mm_per_unit) {
-  WorkOffsets w;
-  w.path = path;
-  std::map<long, double> values;
-  long previous = 0;
-  std::size_t line_no = 0;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) {
-    ++line_no;
-    std::istringstream words(line);
-    std::string number_text, value_text;
-    words >> number_text >> value_text;
-    long number = 0;
-    const auto [end, ec] =
-        std::from_chars(number_text.data(), number_text.data() + number_text.size(), number);
-    // As LinuxCNC's sscanf("%d %lf"): a line without a number and a value is not one.
-    if (ec != std::errc() || end == number_text.data() || value_text.empty()) continue;
-    const auto value = parse_finite(value_text);
-    if (!value) {
-      throw ParseError(path, line_no,
-                       fmt::format("#{}: '{}' is not a finite number", number, value_text));
-    }
-    if (number <= previous) {
-      throw ParseError(path, line_no,
-                       fmt::format("#{} after #{}: LinuxCNC refuses a parameter file whose "
-                                   "numbers are not increasing",
-                                   number, previous));
-    }
-    previous = number;
-    values[number] = *value;
-  }
-  auto at = [&values](long n) {
-    const auto it = values.find(n);
-    return it == values.end() ? 0.0 : it->second;
-  };
-  for (int n = 1; n <= 9; ++n) {
-    for (int i = 0; i < 3; ++i) w.origin_mm[n][i] = at(5201 + 20 * n + i) * mm_per_unit;
-    w.rotation_deg[n] = at(5210 + 20 * n);
-  }
-  w.selected = static_cast<int>(std::lround(at(5220)));
-  if (w.selected < 1 || w.selected > 9) w.selected = 1;
-  w.g92_applied = at(5210) != 0.0;
-  for (int i = 0; i < 3; ++i) w.g92_mm[i] = at(5211 + i) * mm_per_unit;
-  return w;
-}
-
-std::optional<WorkOffsets> read_work_offsets(const std::string& path, double mm_per_unit) {
-  if (!std::filesystem::exists(path)) return std::nullopt;
-  return parse_work_offsets(read_file(path), path, mm_per_unit);
-}
-
 namespace {
+
+// A feed and a radius as the user gave them: in the program's units.
+std::string user_feed(const CircleTestSpec& spec, double mm_per_min) {
+  const bool inch = spec.units == LengthUnit::inch;
+  return fmt::format("{:.10g} {}/min", inch ? mm_per_min / kMmPerInch : mm_per_min,
+                     inch ? "in" : "mm");
+}
+// "F1200 on R0.5 mm", "F20 on R2 in".
+std::string user_arc(const CircleTestSpec& spec, double feed_mm_per_min) {
+  const bool inch = spec.units == LengthUnit::inch;
+  const double per = inch ? kMmPerInch : 1.0;
+  return fmt::format("F{:.10g} on R{:.10g} {}", feed_mm_per_min / per, spec.radius_mm / per,
+                     inch ? "in" : "mm");
+}
 
 std::string axis_section(char axis) {
   return fmt::format("[AXIS_{}]", static_cast<char>(std::toupper(axis)));
@@ -372,13 +354,13 @@ void check_soft_limits(const CircleTestSpec& spec, const MachineLimits& limits,
     constexpr double kSlackMm = 1e-6;
     if (axis.min_limit_mm && machine_low < *axis.min_limit_mm - kSlackMm) {
       throw LimitError(fmt::format(
-          "{}: the test reaches {} = {} {} in machine coordinates, below {} MIN_LIMIT = {}",
+          "{}: the test reaches {} = {:.10g} {} in machine coordinates, below {} MIN_LIMIT = {}",
           limits.source, letter, machine_low / unit, unit_name, axis_section(axis.axis),
           *axis.min_limit_mm / unit));
     }
     if (axis.max_limit_mm && machine_high > *axis.max_limit_mm + kSlackMm) {
       throw LimitError(fmt::format(
-          "{}: the test reaches {} = {} {} in machine coordinates, above {} MAX_LIMIT = {}",
+          "{}: the test reaches {} = {:.10g} {} in machine coordinates, above {} MAX_LIMIT = {}",
           limits.source, letter, machine_high / unit, unit_name, axis_section(axis.axis),
           *axis.max_limit_mm / unit));
     }
@@ -397,15 +379,16 @@ void check_velocity(const CircleTestSpec& spec, const MachineLimits& limits) {
   for (char a : {axes.first, axes.second}) {
     const AxisLimits& axis = limits.axes[a - 'x'];
     if (axis.max_velocity_mm_per_s && v_mm_per_s > *axis.max_velocity_mm_per_s) {
-      throw LimitError(fmt::format("{}: feed {} mm/min = {:.4g} {}/s exceeds {} MAX_VELOCITY = {}",
-                                   limits.source, max_feed, v_mm_per_s / unit, unit_name,
-                                   axis_section(a), *axis.max_velocity_mm_per_s / unit));
+      throw LimitError(fmt::format("{}: feed {} = {:.4g} {}/s exceeds {} MAX_VELOCITY = {}",
+                                   limits.source, user_feed(spec, max_feed), v_mm_per_s / unit,
+                                   unit_name, axis_section(a), *axis.max_velocity_mm_per_s / unit));
     }
   }
   if (limits.max_linear_velocity_mm_per_s && v_mm_per_s > *limits.max_linear_velocity_mm_per_s) {
-    throw LimitError(fmt::format(
-        "{}: feed {} mm/min = {:.4g} {}/s exceeds [TRAJ] MAX_LINEAR_VELOCITY = {}", limits.source,
-        max_feed, v_mm_per_s / unit, unit_name, *limits.max_linear_velocity_mm_per_s / unit));
+    throw LimitError(
+        fmt::format("{}: feed {} = {:.4g} {}/s exceeds [TRAJ] MAX_LINEAR_VELOCITY = {}",
+                    limits.source, user_feed(spec, max_feed), v_mm_per_s / unit, unit_name,
+                    *limits.max_linear_velocity_mm_per_s / unit));
   }
 }
 
@@ -441,16 +424,15 @@ bool check_acceleration(const CircleTestSpec& spec, const MachineLimits& limits,
   if (!std::isfinite(a_max)) return false;
   if (centripetal > a_max) {
     throw LimitError(fmt::format(
-        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm exceeds {} = {}",
-        limits.source, centripetal / unit, unit_name, max_feed, spec.radius_mm, a_name,
-        a_max / unit));
+        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at {} exceeds {} = {}", limits.source,
+        centripetal / unit, unit_name, user_arc(spec, max_feed), a_name, a_max / unit));
   }
   if (centripetal > normal_share * a_max) {
     throw LimitError(fmt::format(
-        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at F{} on R{} mm is above the "
+        "{}: centripetal acceleration V^2/R = {:.4g} {}/s^2 at {} is above the "
         "{:.4g} {}/s^2 [0.866 * {} = {}] that LinuxCNC's planner allows on an arc; it would "
         "slow the arc below the feed",
-        limits.source, centripetal / unit, unit_name, max_feed, spec.radius_mm,
+        limits.source, centripetal / unit, unit_name, user_arc(spec, max_feed),
         normal_share * a_max / unit, unit_name, a_name, a_max / unit));
   }
   // The run-up from rest on the lead-in arc, with the tangential acceleration the planner
@@ -459,13 +441,18 @@ bool check_acceleration(const CircleTestSpec& spec, const MachineLimits& limits,
       a_max * std::max(tangential_share, std::sqrt(1.0 - std::pow(centripetal / a_max, 2)));
   const double run_up_mm = v_mm_per_s * v_mm_per_s / (2.0 * tangential);
   const double lead_mm = spec.radius_mm * deg_to_rad(spec.lead_deg);
+  const bool inch = spec.units == LengthUnit::inch;
+  const double user_unit = inch ? kMmPerInch : 1.0;
+  const char* user_unit_name = inch ? "in" : "mm";
+  const int digits = inch ? 4 : 3;
   if (run_up_mm > lead_mm) {
     const double needed_deg = rad_to_deg(run_up_mm / spec.radius_mm);
     throw LimitError(fmt::format(
-        "{}: the {} deg lead-in [{:.3f} mm] is shorter than the {:.3f} mm needed to reach "
-        "F{} with {} = {}; use {} {:.0f} or more",
-        limits.source, spec.lead_deg, lead_mm, run_up_mm, max_feed, a_name, a_max / unit,
-        words(SpecSetting::lead), std::ceil(needed_deg)));
+        "{}: the {} deg lead-in [{:.{}f} {}] is shorter than the {:.{}f} {} needed to reach "
+        "{} with {} = {}; use {} {:.0f} or more",
+        limits.source, spec.lead_deg, lead_mm / user_unit, digits, user_unit_name,
+        run_up_mm / user_unit, digits, user_unit_name, user_feed(spec, max_feed), a_name,
+        a_max / unit, words(SpecSetting::lead), std::ceil(needed_deg)));
   }
   return true;
 }

@@ -17,10 +17,8 @@ void check_plausible(const PlausibleRange& range, double value, SpecWords words)
       words(range.setting), range.what, value, range.unit, range.min, range.max, range.unit));
 }
 
-namespace {
-// Lengths and feeds in the units the user gave them in (the table is in mm).
-void check_in_units(const PlausibleRange& range, double value_mm, LengthUnit units,
-                    SpecWords words) {
+void check_plausible(const PlausibleRange& range, double value_mm, LengthUnit units,
+                     SpecWords words) {
   if (units == LengthUnit::mm || std::isnan(value_mm) ||
       (value_mm >= range.min && value_mm <= range.max)) {
     return check_plausible(range, value_mm, words);
@@ -31,26 +29,26 @@ void check_in_units(const PlausibleRange& range, double value_mm, LengthUnit uni
       words(range.setting), range.what, value_mm / kMmPerInch, unit, range.min / kMmPerInch,
       range.max / kMmPerInch, unit));
 }
-}  // namespace
 
 void check_plausible(const CircleTestSpec& spec, SpecWords words) {
   const LengthUnit u = spec.units;
-  check_in_units(plausible::diameter, 2.0 * spec.radius_mm, u, words);
+  check_plausible(plausible::diameter, 2.0 * spec.radius_mm, u, words);
   if (spec.feeds_mm_per_min.size() > plausible::kMaxFeeds) {
     throw UsageError(fmt::format("{}: {} feeds, at most {} (one run pair each)",
                                  words(SpecSetting::feeds), spec.feeds_mm_per_min.size(),
                                  plausible::kMaxFeeds));
   }
   // The smallest feed, 1 mm/min, is F0.039 in inch (three decimals): no feed word is F0.
-  for (double f : spec.feeds_mm_per_min) check_in_units(plausible::feed, f, u, words);
+  for (double f : spec.feeds_mm_per_min) check_plausible(plausible::feed, f, u, words);
   if (spec.approach_feed_mm_per_min) {
-    check_in_units(plausible::approach_feed, *spec.approach_feed_mm_per_min, u, words);
+    check_plausible(plausible::approach_feed, *spec.approach_feed_mm_per_min, u, words);
   }
-  for (double c : spec.centre_mm) check_in_units(plausible::position, c, u, words);
+  for (double c : spec.centre_mm) check_plausible(plausible::position, c, u, words);
   if (spec.work_offset_mm) {
-    for (double c : *spec.work_offset_mm) check_in_units(plausible::offset, c, u, words);
+    for (double c : *spec.work_offset_mm) check_plausible(plausible::offset, c, u, words);
   }
-  if (spec.safe_mm) check_in_units(plausible::safe, *spec.safe_mm, u, words);
+  if (spec.safe_mm) check_plausible(plausible::safe, *spec.safe_mm, u, words);
+  if (spec.floor_mm) check_plausible(plausible::floor, *spec.floor_mm, u, words);
   check_plausible(plausible::start, spec.start_deg, words);
   check_plausible(plausible::arc, spec.arc_deg, words);
   check_plausible(plausible::lead, spec.lead_deg, words);

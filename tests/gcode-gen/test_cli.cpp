@@ -126,7 +126,7 @@ std::vector<BadCase> option_cases() {
       {"approach_faster_than_test",
        {"--d", "150", "--f", "300", "--approach-feed", "400"},
        2,
-       "--approach-feed: 400 is above the test feed 300"},
+       "--approach-feed: 400 mm/min is above the test feed 300 mm/min"},
       {"approach_zero",
        {"--d", "150", "--f", "300", "--approach-feed", "0"},
        2,
@@ -545,7 +545,7 @@ TEST_F(CircgenCliIni, InchMachineLimitsAreConverted) {
   text.replace(text.find("MAX_LIMIT = 200"), 15, "MAX_LIMIT = 5");
   spit(ini(), text);
   expect_refused(run({"--d", "300", "--f", "300"}), 6,
-                 "X = 5.905511811023622 inch in machine coordinates, above [AXIS_X] MAX_LIMIT = 5");
+                 "X = 5.905511811 inch in machine coordinates, above [AXIS_X] MAX_LIMIT = 5");
 }
 
 TEST_F(CircgenCliIni, BallbarFeedInStartCountsForTheSoftLimits) {

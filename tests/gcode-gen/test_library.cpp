@@ -7,7 +7,7 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/gcode/annex_c.hpp"
-#include "circtest/gcode/commands.hpp"
+#include "circtest/circgen/commands.hpp"
 #include "circtest/gcode/generator.hpp"
 #include "circtest/gcode/machine_limits.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"

@@ -4,6 +4,8 @@
 // work. Run on the real executables.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -209,6 +211,52 @@ TEST(HostileCircgen, MachineNumbersThatCannotBeLimits) {
     expect_refusal(CIRCGEN_PATH, "circgen",
                    {{"--d", "100", "--f", "500", "--ini", ini}, 4, ini + e.message});
   }
+}
+
+// The parameter file as LinuxCNC reads it: a line it would read otherwise than it reads is
+// refused at its line; a FIFO where a file is read is refused at once, never waited on; a
+// clearance in a vertical circle's plane is refused naming the plane.
+TEST(HostileCircgen, ParameterFilesFifosAndClearancesThatAreNotWhatTheySeem) {
+  ScratchDir dir;
+  const std::string ini = dir.file("m.ini");
+  spit(ini,
+       "[TRAJ]\nLINEAR_UNITS = mm\n[AXIS_X]\nMIN_LIMIT = -200\nMAX_LIMIT = 200\n"
+       "[RS274NGC]\nPARAMETER_FILE = p.var\n");
+  const std::string var = dir.file("p.var");
+  struct Line {
+    std::string text, message;
+  };
+  const std::vector<Line> lines{
+      {"5221.0 180",
+       ":2: '5221.0 180' is #5221 = 0 to LinuxCNC (it reads \"%d %lf\": a whole number, then a "
+       "number, and ignores the rest); write the line as NUMBER VALUE"},
+      {"5221 0x10", ":2: '5221 0x10' is #5221 = 16 to LinuxCNC"},
+      {"5221-3", ":2: '5221-3' is #5221 = -3 to LinuxCNC"},
+      {"5221 2e999", ":2: #5221: '2e999' is not a finite number"},
+      {"-5 1", ":2: #-5: LinuxCNC refuses a parameter number outside 1..5601"},
+      {std::string("5221 1\0 junk", 12), ":2: a NUL byte, where LinuxCNC's line ends"},
+  };
+  for (const Line& l : lines) {
+    spit(var, "5220 1\n" + l.text + "\n");
+    const CommandResult c = run_command({CIRCGEN_PATH, "--d", "100", "--f", "500", "--ini", ini},
+                                        {"SOURCE_DATE_EPOCH=1700000000"});
+    EXPECT_EQ(c.exit_code, 4) << c.err;
+    EXPECT_TRUE(c.err.starts_with("circgen: error: " + var + l.message)) << c.err;
+  }
+  std::filesystem::remove(var);
+  ASSERT_EQ(::mkfifo(var.c_str(), 0600), 0);
+  const CommandResult fifo = run_command(
+      {"/usr/bin/timeout", "20", CIRCGEN_PATH, "--d", "100", "--f", "500", "--ini", ini},
+      {"SOURCE_DATE_EPOCH=1700000000"});
+  EXPECT_EQ(fifo.exit_code, 3);
+  EXPECT_EQ(fifo.err,
+            "circgen: error: " + var + ": is a FIFO, expected a regular parameter file\n");
+  expect_refusal(CIRCGEN_PATH, "circgen",
+                 {{"--plane", "XY,YZ,ZX", "--centre", "50,50,0", "--clearance", "50",
+                   "--instrument", "grid", "--d", "100", "--f", "500"},
+                  2,
+                  "--clearance: X 50 mm is the YZ circle's own plane (X 50 mm): the clearance in "
+                  "YZ must be beside it, on either side"});
 }
 
 // circlog-record reads the program's announced runs before it looks for HAL: a header it

@@ -116,7 +116,7 @@ struct TestProgram {
 
 // The spec setting a refusal or warning is about. The library names it by its field of
 // CircleTestSpec ("lead_deg"); a front end words it as its own (circgen: its options, in
-// gcode-gen/src/commands.cpp), so library text names no command-line option.
+// gcode-gen/app/commands.cpp), so library text names no command-line option.
 enum class SpecSetting {
   radius,
   any_feed,  // no feed at all: what could give one

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "circtest/gcode/generator.hpp"
+#include "circtest/gcode/parameter_file.hpp"
 
 namespace circtest {
 
@@ -42,34 +43,15 @@ struct MachineLimits {
   // [RS274NGC] PARAMETER_FILE beside the INI (LinuxCNC runs in the INI's folder), else
   // LinuxCNC's default rs274ngc.var there; empty for an INI parsed from text.
   std::string parameter_file;
+  // [RS274NGC] DISABLE_G92_PERSISTENCE as LinuxCNC 2.9 reads it: 1 clears G92 at start-up,
+  // 0 or no key keeps it; any other value is refused (ParseError): LinuxCNC 2.9 ignores it,
+  // later versions read yes/true/on as 1.
+  G92Persistence g92_persistence = G92Persistence::kept;
 };
-
-// The work offsets of a LinuxCNC parameter (var) file, in mm. LinuxCNC (rs274ngc_pre.cc
-// restore_parameters, interp_array.cc required_parameters) reads "number value" lines in
-// increasing order and sets every number not given to 0: G54..G59.3 (index 1..9) have their
-// origin at #5201+20n, #5202+20n, #5203+20n and an XY rotation at #5210+20n; #5220 is the
-// system selected when the file was saved; #5210 says G92 applies, #5211..#5213 its offset.
-struct WorkOffsets {
-  std::string path;
-  std::array<std::array<double, 3>, 10> origin_mm{};  // [1..9]
-  std::array<double, 10> rotation_deg{};              // [1..9]
-  int selected = 1;                                   // #5220
-  bool g92_applied = false;                           // #5210
-  std::array<double, 3> g92_mm{};                     // #5211..#5213
-};
-
-// nullopt when the file does not exist (LinuxCNC then starts with every offset 0, until it
-// writes one). ParseError (file:line) for numbers out of order, as LinuxCNC refuses them, or
-// a value that is no finite number.
-std::optional<WorkOffsets> read_work_offsets(const std::string& path, double mm_per_unit);
-WorkOffsets parse_work_offsets(const std::string& text, const std::string& path,
-                               double mm_per_unit);
-
-// "G54" -> 1 ... "G59.3" -> 9; 0 for anything else.
-int work_offset_index(std::string_view code);
 
 // Reads the keys circgen needs as LinuxCNC 2.9 reads them (core IniDocument: #INCLUDE,
-// continuation lines, first occurrence wins). Throws IoError, or ParseError naming file:line
+// continuation lines, first occurrence wins). Throws IoError (also for an INI or HAL file that
+// is not a regular file: a FIFO would never end), or ParseError naming file:line
 // for a limit that is no number or a LINEAR_UNITS LinuxCNC would not accept.
 MachineLimits read_machine_limits(const std::string& path);
 MachineLimits machine_limits_from(const IniDocument& ini);

@@ -34,6 +34,8 @@ inline constexpr PlausibleRange position{SpecSetting::centre, "position", -100'0
                                          "mm"};
 inline constexpr PlausibleRange safe{SpecSetting::safe, "clearance position", -100'000.0, 100'000.0,
                                      "mm"};
+inline constexpr PlausibleRange floor{SpecSetting::floor, "floor height", -100'000.0, 100'000.0,
+                                      "mm"};
 inline constexpr PlausibleRange offset{SpecSetting::work_offset_values, "work offset", -100'000.0,
                                        100'000.0, "mm"};
 inline constexpr PlausibleRange start{SpecSetting::start, "start angle", -360.0, 360.0, "deg"};
@@ -52,6 +54,11 @@ inline constexpr std::size_t kMaxFeeds = 100;
 // Throws UsageError "SETTING: WHAT of VALUE UNIT is outside the plausible range MIN..MAX UNIT"
 // (SETTING in `words`) unless min <= value <= max (a NaN or an infinity is never inside).
 void check_plausible(const PlausibleRange& range, double value,
+                     SpecWords words = library_spec_words);
+
+// A length (mm) or feed (mm/min) given in `units`: the message says it, and the range, in
+// inch for an inch program.
+void check_plausible(const PlausibleRange& range, double value_mm, LengthUnit units,
                      SpecWords words = library_spec_words);
 
 // Every number of the spec against the table (validate() calls it).

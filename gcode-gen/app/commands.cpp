@@ -1,4 +1,4 @@
-#include "circtest/gcode/commands.hpp"
+#include "circtest/circgen/commands.hpp"
 
 #include <fmt/format.h>
 
@@ -75,8 +75,11 @@ std::string_view circgen_option_words(SpecSetting setting) noexcept {
 
 namespace {
 
-std::string mm_list(const std::array<double, 3>& v) {
-  return fmt::format("{:g},{:g},{:g}", v[0], v[1], v[2]);
+// "5,0,0 mm", or in inch for an inch program.
+std::string position_list(const std::array<double, 3>& mm, LengthUnit units) {
+  const double per = units == LengthUnit::inch ? kMmPerInch : 1.0;
+  return fmt::format("{:g},{:g},{:g} {}", mm[0] / per, mm[1] / per, mm[2] / per,
+                     units == LengthUnit::inch ? "in" : "mm");
 }
 
 // The origin of the work offset the program runs in, in machine coordinates, and what it
@@ -91,7 +94,8 @@ std::pair<std::array<double, 3>, std::string> work_offset_origin(
   const std::optional<WorkOffsets> file =
       limits.parameter_file.empty()
           ? std::nullopt
-          : read_work_offsets(limits.parameter_file, limits.mm_per_machine_unit);
+          : read_work_offsets(limits.parameter_file, limits.mm_per_machine_unit,
+                              limits.g92_persistence);
   const int index = spec.work_offset_code ? work_offset_index(*spec.work_offset_code)
                                           : (file ? file->selected : 0);
   std::optional<std::array<double, 3>> from_file;
@@ -125,9 +129,10 @@ std::pair<std::array<double, 3>, std::string> work_offset_origin(
     for (int i = 0; i < 3 && from_file; ++i) {
       if (std::abs((*from_file)[i] - (*spec.work_offset_mm)[i]) > kAgreeMm) {
         throw UsageError(fmt::format(
-            "--offset {} mm disagrees with {} = {} mm: give the origin that is right, or drop "
+            "--offset {} disagrees with {} = {}: give the origin that is right, or drop "
             "--offset",
-            mm_list(*spec.work_offset_mm), file_source, mm_list(*from_file)));
+            position_list(*spec.work_offset_mm, spec.units), file_source,
+            position_list(*from_file, spec.units)));
       }
     }
     return {*spec.work_offset_mm, from_file ? "--offset, as " + file_source : "--offset"};
