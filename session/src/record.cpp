@@ -1,0 +1,87 @@
+#include <signal.h>
+
+#include <fmt/format.h>
+#include <ostream>
+
+#include "circtest/core/strings.hpp"
+#include "circtest/session/process.hpp"
+#include "circtest/session/session_steps.hpp"
+
+namespace circtest::session {
+
+namespace {
+
+// What the LinuxCNC link's event line means for the operator; sets END to the end event.
+void show_event(const std::string& line, const RunRequest& request, std::ostream& out,
+                std::string& end, bool& override_changed) {
+  const auto space = line.find(' ');
+  const std::string kind = line.substr(0, space);
+  const std::string rest = space == std::string::npos ? "" : line.substr(space + 1);
+  if (kind == "end") {
+    end = rest;
+  } else if (kind == "waiting") {
+    out << "circtest: the program is open in LinuxCNC: press cycle start on the machine\n";
+  } else if (kind == "started") {
+    out << "circtest: cycle start: the program runs\n";
+  } else if (kind == "paused") {
+    out << "circtest: operator pause (line " << rest << ")"
+        << (request.start ? ": resumed\n" : ": read the message, press cycle start\n");
+  } else if (kind == "message") {
+    out << "circtest: LinuxCNC: " << rest << "\n";
+  } else if (kind == "override") {
+    if (rest != "100") {
+      override_changed = true;
+      out << "circtest: feed override at " << rest
+          << " %: the runs are not at their feed; this test will not be analysed\n";
+    }
+  }
+  out.flush();
+}
+
+}  // namespace
+
+RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
+                            const std::string& program, const std::string& trace,
+                            const Console& console) {
+  std::ostream& out = console.print();
+  Child recorder({tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","),
+                  "--program", program, "--ini", setup.ini_path, "--until-idle", "2"},
+                 "-");
+  if (const int rc = recorder.wait_for(0.5); rc >= 0) {
+    out << "circtest: circlog-record stopped at once (exit " << rc << "): nothing was run\n";
+    return {rc == 0 ? 7 : rc};
+  }
+  std::vector<std::string> link = {tool_path("circtest-linuxcnc"), "run", program, "--timeout",
+                                   fmt::format("{}", request.timeout_s)};
+  if (request.start) link.push_back("--start");
+  Child linuxcnc(link, "");
+  std::string line, end;
+  bool override_changed = false;
+  while (linuxcnc.read_line(line)) show_event(line, request, out, end, override_changed);
+  const int link_rc = linuxcnc.wait();
+  if (end == "finished" && !override_changed) {
+    // The recorder ends by itself once every announced run is in and the marker stays off.
+    int rc = recorder.wait_for(30);
+    if (rc < 0) {
+      recorder.signal(SIGINT);
+      rc = recorder.wait();
+    }
+    if (rc == 8) {
+      out << "circtest: the recorder lost samples (see above): " << trace
+          << " is kept; nothing analysed or applied\n";
+    } else if (rc != 0) {
+      out << "circtest: the recorder failed (exit " << rc << "); nothing analysed or applied\n";
+    } else {
+      out << "circtest: recorded " << trace << "\n";
+    }
+    return {rc};
+  }
+  recorder.signal(SIGINT);
+  recorder.wait();
+  const std::string why = end.empty() ? "the LinuxCNC link stopped" : end;
+  out << "circtest: the test is incomplete (" << (override_changed ? "feed override not 100 %" : why)
+      << "): " << trace << " keeps what was recorded; nothing analysed or applied\n";
+  return {link_rc == 7 ? 7 : 5};
+}
+
+}  // namespace circtest::session

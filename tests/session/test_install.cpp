@@ -1,0 +1,121 @@
+// circtest install's reading of a configuration: the channels it finds, the notes and the
+// refusals, on configurations written the way pncconf and stepconf write them (the halcmd
+// test, install-halcmd.sh, loads the result in LinuxCNC's HAL).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "circtest/core/error.hpp"
+#include "circtest/core/ini.hpp"
+#include "circtest/session/hal_config.hpp"
+#include "circtest/session/install.hpp"
+#include "scratch.hpp"
+
+namespace fs = std::filesystem;
+using namespace circtest;
+using namespace circtest::session;
+using circtest::testing::ScratchDir;
+
+namespace {
+
+const fs::path kConfigs = fs::path(CIRCTEST_SOURCE_DIR) / "tests/session/configs";
+
+// A copy of the configuration FOLDER in SCRATCH; its INI's path.
+std::string copy_config(const ScratchDir& scratch, const std::string& folder,
+                        const std::string& ini) {
+  const fs::path to = scratch.dir() / folder;
+  fs::copy(kConfigs / folder, to, fs::copy_options::recursive);
+  return (to / ini).string();
+}
+
+const InstallChannel* channel(const InstallPlan& plan, const std::string& column) {
+  for (const auto& c : plan.channels) {
+    if (c.column == column) return &c;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+TEST(HalWiring, NetArrowsNameTheWriterAndLinesJoinOneSignal) {
+  const IniDocument ini = IniDocument::parse("[JOINT_0]\nSCALE = 5\n");
+  HalWiring w;
+  read_hal_text(
+      "net x-fb => pid.x.feedback\nnet x-fb <= hm2_5i25.0.encoder.00.position\n"
+      "setp a.b [JOINT_0]SCALE\nnet y-fb stepgen.1.position-fb => joint.1.motor-pos-fb # c\n"
+      "loadrt motmod num_dio=[JOINT_0]SCALE\n",
+      "m.hal", ini, w);
+  EXPECT_EQ(w.source_of("x-fb").value_or(""), "hm2_5i25.0.encoder.00.position");
+  EXPECT_EQ(w.source_of("y-fb").value_or(""), "stepgen.1.position-fb");
+  EXPECT_EQ(w.signal_of_pin.at("joint.1.motor-pos-fb"), "y-fb");
+  ASSERT_EQ(w.load_args.at("motmod").size(), 1u);
+  EXPECT_EQ(w.load_args.at("motmod")[0], "num_dio=5");
+}
+
+TEST(Install, PncconfServoJoinsItsSignalsAndTakesAFreeMarkerOutput) {
+  ScratchDir scratch("session-install");
+  const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
+  const InstallPlan plan = plan_install({ini});
+  ASSERT_EQ(plan.channels.size(), 6u);
+  EXPECT_EQ(channel(plan, "x_cmd")->signal, "x-pos-cmd");
+  EXPECT_EQ(channel(plan, "z_fb")->signal, "z-pos-fb");
+  EXPECT_NE(channel(plan, "y_fb")->what.find("encoder (encoder.1.position)"), std::string::npos);
+  // custom.hal has the coolant relay on motion.digital-out-00.
+  EXPECT_EQ(plan.marker_output, 1);
+  EXPECT_EQ(plan.segment_output, 0);
+  EXPECT_TRUE(plan.notes.empty());
+  ASSERT_EQ(plan.plan.files.size(), 2u);
+  EXPECT_NE(plan.plan.files[0].after.find("HALFILE = custom.hal\nHALFILE = circtest.hal\n"),
+            std::string::npos);
+  EXPECT_NE(plan.plan.files[0].after.find(
+                "COLUMNS = x_cmd,y_cmd,z_cmd,x_fb,y_fb,z_fb\nMARKER_OUTPUT = 1\n"),
+            std::string::npos);
+  EXPECT_NE(plan.plan.files[1].after.find("net circtest-marker motion.digital-out-01 => "),
+            std::string::npos);
+}
+
+TEST(Install, StepperSaysFeedbackIsTheStepCount) {
+  ScratchDir scratch("session-install");
+  const std::string ini = copy_config(scratch, "stepconf-stepper", "stepper.ini");
+  const InstallPlan plan = plan_install({ini});
+  ASSERT_EQ(plan.notes.size(), 3u);
+  EXPECT_NE(plan.notes[0].find("joint 0: a stepper: its feedback (stepgen.0.position-fb) is the "
+                               "step count"),
+            std::string::npos);
+}
+
+TEST(Install, MissingFeedbackIsRefusedNamingTheSetting) {
+  ScratchDir scratch("session-install");
+  const std::string ini = copy_config(scratch, "stepconf-stepper", "stepper.ini");
+  const std::string hal = (fs::path(ini).parent_path() / "stepper.hal").string();
+  std::string text = circtest::testing::slurp(hal);
+  text.replace(text.find("net ypos-fb"), 11, "# net ypos-fb");
+  circtest::testing::spit(hal, text);
+  try {
+    plan_install({ini});
+    FAIL() << "expected a refusal";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("joint 1 (Y): joint.1.motor-pos-fb is on no signal in "
+                                         "stepper.hal; name the pin that measures it: the "
+                                         "feedback pin setting for joint 1"),
+              std::string::npos)
+        << e.what();
+  }
+  InstallRequest given{ini};
+  given.feedback_pins[1] = "stepgen.1.position-fb";
+  const InstallPlan plan = plan_install(given);
+  EXPECT_EQ(channel(plan, "y_fb")->signal, "circtest-y-fb");
+  EXPECT_EQ(channel(plan, "y_fb")->pin, "stepgen.1.position-fb");
+}
+
+TEST(Install, AConfigurationWithCirclogIsRefused) {
+  const std::string ini = CIRCTEST_SOURCE_DIR "/configs/sim-servo/sim-servo.ini";
+  try {
+    plan_install({ini});
+    FAIL() << "expected a refusal";
+  } catch (const DataError& e) {
+    EXPECT_EQ(e.file(), "circlog.hal");
+    EXPECT_EQ(e.line(), 4u);
+  }
+}
