@@ -1,6 +1,7 @@
 #include <signal.h>
 
 #include <fmt/format.h>
+#include <fstream>
 #include <ostream>
 
 #include "circtest/core/strings.hpp"
@@ -38,6 +39,17 @@ void show_event(const std::string& line, const RunRequest& request, std::ostream
   out.flush();
 }
 
+// The last value of a `# KEY: value` metadata line of the trace ("" when absent).
+std::string trace_trailer(const std::string& trace, const std::string& key) {
+  std::ifstream in(trace);
+  std::string line, value;
+  const std::string prefix = "# " + key + ": ";
+  while (std::getline(in, line)) {
+    if (line.rfind(prefix, 0) == 0) value = line.substr(prefix.size());
+  }
+  return value;
+}
+
 }  // namespace
 
 RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
@@ -59,12 +71,18 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   bool override_changed = false;
   while (linuxcnc.read_line(line)) show_event(line, request, out, end, override_changed);
   const int link_rc = linuxcnc.wait();
-  if (end == "finished" && !override_changed) {
+  if (end == "idle" && !override_changed) {
     // The recorder ends by itself once every announced run is in and the marker stays off.
-    int rc = recorder.wait_for(30);
+    int rc = recorder.wait_for(10);
     if (rc < 0) {
       recorder.signal(SIGINT);
       rc = recorder.wait();
+    }
+    const std::string missing = trace_trailer(trace, "runs_missing");
+    if (!missing.empty() && missing != "none") {
+      out << "circtest: the program ended before every run was recorded (aborted?): runs "
+          << missing << "; " << trace << " keeps what was recorded; nothing analysed or applied\n";
+      return {5};
     }
     if (rc == 8) {
       out << "circtest: the recorder lost samples (see above): " << trace

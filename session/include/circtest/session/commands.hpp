@@ -5,6 +5,7 @@
 
 #include "circtest/session/console.hpp"
 #include "circtest/session/install.hpp"
+#include "circtest/session/run.hpp"
 
 namespace circtest::session {
 

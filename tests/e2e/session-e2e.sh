@@ -1,0 +1,147 @@
+#!/bin/bash
+# circtest on a running LinuxCNC, as a user runs it: configs/sim-servo (with demo.sh's errors:
+# scale X 50 ppm, cyclic Y 2 um) started with `linuxcnc` and a display that does nothing
+# (configs/idle-display), then
+#   circtest install --yes            circlog wired into the configuration (table channels named)
+#   restart LinuxCNC
+#   circtest run (not homed)          refused, exit 7, nothing run
+#   circtest run --start --yes        measured, diagnosed, corrections applied
+#   restart LinuxCNC
+#   circtest verify --start           the same program again: before/after
+# Checked against the injected errors (the diagnosis's backlash, squareness, scale of X) and
+# the corrections' effect (G after well below G before).
+#   session-e2e.sh BUILD_DIR [WORK_DIR]
+# Runs as root inside scripts/hal-sandbox (the build's modules beside the system's).
+set -euo pipefail
+build=$(readlink -f "$1")
+here=$(cd "$(dirname "$0")" && pwd)
+top=$(cd "$here/../.." && pwd)
+
+if [ "${SESSION_E2E_INSIDE:-}" != 1 ]; then
+  [ "$(id -u)" = 0 ] || { echo "SKIP: needs root (hal-sandbox)"; exit 77; }
+  work=${2:-$(mktemp -d /tmp/circtest-session-e2e.XXXXXX)}
+  mkdir -p "$work"
+  chmod 755 "$work"
+  hc=$build/hal-component
+  rc=0
+  SESSION_E2E_INSIDE=1 SESSION_WORK=$work "$top/scripts/hal-sandbox" --work "$work" --net \
+    --module "$hc/circlog.so" --module "$hc/circdrive.so" --module "$hc/circtest_kins.so" \
+    --module "$hc/circfric.so" -- "$0" "$@" || rc=$?
+  [ "$rc" != 0 ] || [ -n "${2:-}" ] || rm -rf "$work"
+  [ "$rc" = 0 ] || echo "(work files kept in $work)" >&2
+  exit "$rc"
+fi
+
+work=$SESSION_WORK
+export HOME=$work/home CIRCTEST_BIN=$build
+mkdir -p "$HOME"
+# circcomp apply checks that the modules a plan loads are where this LinuxCNC loads them.
+export CIRCTEST_KINS_MODULE=$build/hal-component/circtest_kins.so
+export CIRCTEST_FRIC_MODULE=$build/hal-component/circfric.so
+circtest=$build/session/circtest ini_tool=$build/core/circtest-ini
+machine=$work/machine ini=$work/machine/sim-servo.ini
+rm -rf "$machine"
+cp -rL "$top/configs/sim-servo" "$machine"
+sed -i -e '/^HALFILE *= *circlog.hal/d' -e '/^\[CIRCTEST\]/,/^\[/{/^COLUMNS/d}' "$ini"
+rm -f "$machine/circlog.hal" "$machine/ui.py"
+"$ini_tool" set "$ini" SIM SCALE_X 50e-6
+"$ini_tool" set "$ini" SIM CYCLIC_Y 0.002
+"$ini_tool" set "$ini" DISPLAY DISPLAY "$top/configs/idle-display"
+
+fail() { echo "FAIL: $*"; tail -n 20 "$work/linuxcnc.log" 2>/dev/null; exit 1; }
+export CIRCTEST_DISPLAY_PID=$work/display.pid
+start_linuxcnc() {
+  rm -f "$CIRCTEST_DISPLAY_PID"
+  (cd "$machine" && exec linuxcnc sim-servo.ini) >>"$work/linuxcnc.log" 2>&1 &
+  lcnc_pid=$!
+  for _ in $(seq 300); do
+    [ -f "$CIRCTEST_DISPLAY_PID" ] && "$build/session/circtest-linuxcnc" status >/dev/null 2>&1 &&
+      return 0
+    kill -0 $lcnc_pid 2>/dev/null || fail "LinuxCNC did not start"
+    sleep 0.2
+  done
+  fail "LinuxCNC did not come up in 60 s"
+}
+stop_linuxcnc() {
+  kill "$(cat "$CIRCTEST_DISPLAY_PID")"
+  wait $lcnc_pid || true
+}
+# The operator: E-stop released, machine on, and (with `home`) homed, through LinuxCNC's
+# Python interface.
+operator() {
+  python3 - "$1" <<'PY'
+import sys, time, linuxcnc
+c, s = linuxcnc.command(), linuxcnc.stat()
+def wait(p, what):
+    end = time.time() + 20
+    while time.time() < end:
+        s.poll()
+        if p(): return
+        time.sleep(0.05)
+    sys.exit("timed out: " + what)
+c.state(linuxcnc.STATE_ESTOP_RESET); wait(lambda: s.task_state == linuxcnc.STATE_ESTOP_RESET, "estop reset")
+c.state(linuxcnc.STATE_ON); wait(lambda: s.task_state == linuxcnc.STATE_ON, "on")
+if sys.argv[1] == "home":
+    c.mode(linuxcnc.MODE_MANUAL); c.wait_complete()
+    c.home(-1); wait(lambda: all(s.homed[i] for i in range(s.joints)), "homing")
+    c.teleop_enable(1); c.wait_complete()
+PY
+}
+
+t0=$SECONDS
+"$circtest" install --ini "$ini" --yes --instrument x=simx-tab.out --instrument y=simy-tab.out \
+  --instrument z=simz-tab.out >"$work/install.out" || fail "install (exit $?)"
+start_linuxcnc
+operator on
+set +e
+"$circtest" run --ini "$ini" --start --yes >"$work/not-homed.out" 2>"$work/not-homed.err"
+rc=$?
+set -e
+cat "$work/not-homed.err"
+[ $rc = 7 ] || fail "run on a machine not homed: exit $rc, expected 7"
+grep -q "not homed" "$work/not-homed.err" || fail "the refusal does not say 'not homed'"
+[ ! -d "$machine/circtest-sessions" ] || fail "a refused run left a session folder"
+operator home
+"$circtest" run --ini "$ini" --start --yes --d 100 --f 1000 >"$work/run.out" ||
+  { cat "$work/run.out"; fail "circtest run (exit $?)"; }
+cat "$work/run.out"
+session=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
+for f in program.ngc trace.csv results.json diagnosis.json plan.diff apply.txt report.html; do
+  [ -s "$session/$f" ] || fail "the session folder has no $f"
+done
+stop_linuxcnc
+start_linuxcnc
+operator home
+"$circtest" verify --ini "$ini" --start >"$work/verify.out" ||
+  { cat "$work/verify.out"; fail "circtest verify (exit $?)"; }
+cat "$work/verify.out"
+stop_linuxcnc
+echo "session e2e: $((SECONDS - t0)) s"
+
+python3 - "$session" "$ini" <<'PY'
+import json, sys
+session = sys.argv[1]
+def ini_value(sec, key):
+    cur = None
+    for line in open(sys.argv[2]):
+        line = line.strip()
+        if line.startswith("["): cur = line.strip("[]")
+        elif cur == sec and "=" in line and line.split("=")[0].strip() == key:
+            return float(line.split("=", 1)[1])
+d = json.load(open(session + "/diagnosis.json"))
+before = json.load(open(session + "/results.json"))
+after = json.load(open(session + "/verify-results.json"))
+g = lambda r: max(run["G"] for run in r["runs"])
+print("H %.1f -> %.1f um, G %.1f -> %.1f um" % (before["H"] * 1e3, after["H"] * 1e3,
+      g(before) * 1e3, g(after) * 1e3))
+bx, sq, sx = d["backlash_mm"]["X"], d["squareness_urad"], d["scale_ppm"]["X"]
+print("diagnosis: backlash X %.1f um, squareness %.1f urad, scale X %.1f ppm" % (bx * 1e3, sq, sx))
+errors = []
+if abs(bx * 1e3 - ini_value("SIM", "BACKLASH_X") * 1e3) > 1.0: errors.append("backlash X")
+if abs(sq - ini_value("SIM", "SQUARENESS_XY") * 1e6) > 5.0: errors.append("squareness")
+if abs(sx - 50.0) > 5.0: errors.append("scale X")
+if not g(after) < 0.5 * g(before): errors.append("G did not halve after the corrections")
+if errors:
+    sys.exit("FAIL: " + ", ".join(errors))
+print("PASS")
+PY
