@@ -92,8 +92,7 @@ int run(int argc, char** argv) {
     std::cout << version_line("circtest") << "\n";
     return 0;
   }
-  if (command != "install" && command != "uninstall" && command != "run" &&
-      command != "verify") {
+  if (command != "install" && command != "uninstall" && command != "run" && command != "verify") {
     throw UsageError("unknown command '" + command +
                      "' (expected install, uninstall, run or verify)");
   }
@@ -106,10 +105,10 @@ int run(int argc, char** argv) {
       "feedback", po::value(&feedback))("command", po::value(&commanded))(
       "instrument", po::value(&instruments))("d", po::value(&d_text))("f", po::value(&f_text))(
       "feeds", po::value(&run_request.program.feeds_mm_per_min))(
-      "plane", po::value(&run_request.program.planes))(
-      "centre", po::value(&run_request.program.centre_mm))(
-      "clearance", po::value(&run_request.program.clearance_mm))(
-      "start", po::bool_switch(&start))("timeout", po::value(&timeout_text))("help,h", "");
+      "plane", po::value(&run_request.program.planes))("centre",
+                                                       po::value(&run_request.program.centre_mm))(
+      "clearance", po::value(&run_request.program.clearance_mm))("start", po::bool_switch(&start))(
+      "timeout", po::value(&timeout_text))("help,h", "");
   po::variables_map vm;
   try {
     refuse_option_placeholders(argc, argv);
@@ -133,13 +132,15 @@ int run(int argc, char** argv) {
     run_request.start = start;
     if (!d_text.empty()) run_request.program.diameter_mm = parse_option_number("--d", d_text);
     if (!f_text.empty()) run_request.program.feed_mm_per_min = parse_option_number("--f", f_text);
-    if (!timeout_text.empty()) run_request.timeout_s = parse_option_number("--timeout", timeout_text);
+    if (!timeout_text.empty())
+      run_request.timeout_s = parse_option_number("--timeout", timeout_text);
     return run_or_verify(command, run_request, console);
   }
   if (!d_text.empty() || !f_text.empty() || start || !timeout_text.empty() ||
       !run_request.program.feeds_mm_per_min.empty() || !run_request.program.planes.empty()) {
-    throw UsageError("the program's options (--d, --f, --feeds, --plane, --start, --timeout) are "
-                     "run's and verify's");
+    throw UsageError(
+        "the program's options (--d, --f, --feeds, --plane, --start, --timeout) are "
+        "run's and verify's");
   }
   if (command == "uninstall") {
     if (!feedback.empty() || !commanded.empty() || !instruments.empty()) {

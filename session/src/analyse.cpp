@@ -1,13 +1,13 @@
+#include <fmt/format.h>
 #include <algorithm>
 #include <filesystem>
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <ostream>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/session/process.hpp"
-#include "circtest/session/session_steps.hpp"
+#include "session_steps.hpp"
 
 namespace circtest::session {
 
@@ -51,9 +51,9 @@ int analyse_and_apply(const SessionSetup& setup, const RunRequest& request,
   const std::string circana = tool_path("circana");
   const std::string circcomp = tool_path("circcomp");
   out << "\ncirctest: the evaluation (ISO 230-4)\n";
-  if (const int rc = step(with({circana, "analyze", trace, "--svg", (dir / "plot.svg").string()},
-                               columns),
-                          dir / "analysis.txt", out, true);
+  if (const int rc =
+          step(with({circana, "analyze", trace, "--svg", (dir / "plot.svg").string()}, columns),
+               dir / "analysis.txt", out, true);
       rc != 0) {
     return rc;
   }
@@ -63,22 +63,22 @@ int analyse_and_apply(const SessionSetup& setup, const RunRequest& request,
     return rc;
   }
   out << "\ncirctest: the diagnosis\n";
-  if (const int rc = step(with({circana, "diagnose", trace}, columns), dir / "diagnosis.txt", out,
-                          true);
+  if (const int rc =
+          step(with({circana, "diagnose", trace}, columns), dir / "diagnosis.txt", out, true);
       rc != 0) {
     return rc;
   }
   const std::string diagnosis = (dir / "diagnosis.json").string();
-  if (const int rc = step(with({circana, "diagnose", trace, "--json"}, columns), diagnosis, out,
-                          false);
+  if (const int rc =
+          step(with({circana, "diagnose", trace, "--json"}, columns), diagnosis, out, false);
       rc != 0) {
     return rc;
   }
   step(with({circana, "report", trace, "-o", (dir / "report.html").string()}, columns),
        dir / "report.txt", out, false);
   out << "\ncirctest: the corrections circcomp would write\n";
-  if (const int rc = step({circcomp, "plan", "--ini", setup.ini_path, diagnosis},
-                          dir / "plan.diff", out, true);
+  if (const int rc = step({circcomp, "plan", "--ini", setup.ini_path, diagnosis}, dir / "plan.diff",
+                          out, true);
       rc != 0) {
     return rc;
   }

@@ -108,9 +108,9 @@ void read_hal_text(const std::string& text, const std::string& source, const Ini
 HalWiring read_hal_wiring(const IniDocument& ini, const std::string& config_dir) {
   HalWiring wiring;
   for (const auto& entry : ini.get_all("HAL", "HALFILE")) {
-    const std::string name = entry.value;
-    const std::filesystem::path path =
-        std::filesystem::path(name).is_absolute() ? name : std::filesystem::path(config_dir) / name;
+    // "FILE ARG..." : the file is the first word (the linuxcnc script passes the rest on).
+    const std::string name = words_of(entry.value).empty() ? "" : words_of(entry.value)[0];
+    const std::filesystem::path path = std::filesystem::path(config_dir) / name;
     const bool tcl = name.size() > 4 && name.substr(name.size() - 4) == ".tcl";
     std::error_code ec;
     if (tcl || name.rfind("LIB:", 0) == 0 || !std::filesystem::is_regular_file(path, ec)) {

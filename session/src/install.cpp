@@ -1,9 +1,9 @@
 #include "circtest/session/install.hpp"
 
+#include <fmt/format.h>
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
-#include <fmt/format.h>
 #include <optional>
 #include <set>
 
@@ -38,11 +38,10 @@ std::string feedback_kind(const std::string& source, const std::string& signal,
                           const HalWiring& wiring, int joint, std::vector<std::string>& notes) {
   const std::string cmd_pin = fmt::format("joint.{}.motor-pos-cmd", joint);
   const auto it = wiring.signals.find(signal);
-  const bool looped = source == cmd_pin || (it != wiring.signals.end() &&
-                                            std::any_of(it->second.begin(), it->second.end(),
-                                                        [&](const HalPinOnSignal& p) {
-                                                          return p.pin == cmd_pin;
-                                                        }));
+  const bool looped =
+      source == cmd_pin || (it != wiring.signals.end() &&
+                            std::any_of(it->second.begin(), it->second.end(),
+                                        [&](const HalPinOnSignal& p) { return p.pin == cmd_pin; }));
   if (looped) {
     notes.push_back(fmt::format(
         "joint {}: its feedback is its command looped back (no encoder): the feedback channel "
@@ -104,8 +103,8 @@ std::vector<JointAxis> linear_joints(const MachineAxes& axes, std::vector<std::s
   for (const JointAxis& j : axes.joints) {
     if (j.axis != 'X' && j.axis != 'Y' && j.axis != 'Z') continue;
     if (!seen.insert(j.axis).second) {
-      notes.push_back(fmt::format("joint {}: a second joint of axis {} is not logged", j.joint,
-                                  j.axis));
+      notes.push_back(
+          fmt::format("joint {}: a second joint of axis {} is not logged", j.joint, j.axis));
       continue;
     }
     out.push_back(j);
@@ -116,8 +115,8 @@ std::vector<JointAxis> linear_joints(const MachineAxes& axes, std::vector<std::s
 void add_instruments(const InstallRequest& request, const HalWiring& wiring, InstallPlan& plan) {
   for (const auto& [name, pin] : request.instrument_pins) {
     if (name.empty() || pin.empty()) {
-      throw UsageError(fmt::format("{}: expected NAME=PIN",
-                                   request.words(InstallSetting::instrument_pin)));
+      throw UsageError(
+          fmt::format("{}: expected NAME=PIN", request.words(InstallSetting::instrument_pin)));
     }
     for (const InstallChannel& c : plan.channels) {
       if (c.column == name) {
@@ -150,7 +149,8 @@ std::string session_hal_text(const InstallPlan& plan, const std::string& thread)
       text += fmt::format("net {} {} => circlog.0.in-{:02d}\n", c.signal, c.pin, i);
     }
   }
-  text += "\n# The program's markers (circgen: M62/M63 P, M67 E): record while on, the run number.\n";
+  text +=
+      "\n# The program's markers (circgen: M62/M63 P, M67 E): record while on, the run number.\n";
   text += fmt::format("net circtest-marker motion.digital-out-{:02d} => circlog.0.enable\n",
                       plan.marker_output);
   text += fmt::format("net circtest-segment motion.analog-out-{:02d} => circlog.0.segment\n",
@@ -172,8 +172,8 @@ InstallPlan plan_install(const InstallRequest& request) {
   const int num_dio = motion_io_count(wiring, "num_dio");
   const int num_aio = motion_io_count(wiring, "num_aio");
   const std::vector<JointAxis> joints = linear_joints(axes, plan.notes);
-  const std::string files = wiring.files_read.empty() ? "no HAL file"
-                                                      : join(wiring.files_read, ", ");
+  const std::string files =
+      wiring.files_read.empty() ? "no HAL file" : join(wiring.files_read, ", ");
   std::vector<InstallChannel> fb;
   for (const JointAxis& j : joints) {
     const std::string col(1, static_cast<char>(std::tolower(j.axis)));
@@ -245,11 +245,11 @@ InstallPlan plan_install(const InstallRequest& request) {
     if (!edited.file_modified(i)) continue;
     const auto name = dir.name_of(edited.file_path(i));
     if (!name) {
-      throw UnsafePathError(edited.file_path(i), "outside the configuration folder " +
-                                                     dir.root() + ": circtest changes nothing there");
+      throw UnsafePathError(edited.file_path(i), "outside the configuration folder " + dir.root() +
+                                                     ": circtest changes nothing there");
     }
-    plan.plan.files.push_back({edited.file_path(i), *name, true,
-                               dir.read(*name).value_or(""), edited.render_file(i)});
+    plan.plan.files.push_back(
+        {edited.file_path(i), *name, true, dir.read(*name).value_or(""), edited.render_file(i)});
   }
   plan.plan.files.push_back({(fs::path(request.ini_path).parent_path() / hal_name).string(),
                              hal_name, false, "", session_hal_text(plan, thread_name)});

@@ -1,7 +1,7 @@
 #include "circtest/session/linuxcnc.hpp"
 
-#include <filesystem>
 #include <fmt/format.h>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -26,7 +26,8 @@ MachineState machine_state() {
     s.interp_state = j.at("interp_state").get<std::string>();
     s.feed_override = j.at("feed_override").get<double>();
     const auto origin = j.at("work_origin_machine").get<std::vector<double>>();
-    for (std::size_t i = 0; i < 3 && i < origin.size(); ++i) s.work_origin_machine_mm[i] = origin[i];
+    for (std::size_t i = 0; i < 3 && i < origin.size(); ++i)
+      s.work_origin_machine_mm[i] = origin[i];
     s.ini_filename = j.at("ini_filename").get<std::string>();
   } catch (const nlohmann::json::exception& e) {
     throw HalError(std::string("the LinuxCNC link answered what it should not: ") + e.what());
@@ -39,9 +40,10 @@ void require_ready(const MachineState& s, const std::string& ini_path) {
   const fs::path ours = fs::weakly_canonical(ini_path, ec);
   const fs::path theirs = fs::weakly_canonical(s.ini_filename, ec);
   if (ours != theirs) {
-    throw HalError(fmt::format("LinuxCNC runs {}, not {}: start this machine, or name the INI "
-                               "it runs",
-                               s.ini_filename, ini_path));
+    throw HalError(
+        fmt::format("LinuxCNC runs {}, not {}: start this machine, or name the INI "
+                    "it runs",
+                    s.ini_filename, ini_path));
   }
   if (s.estop || s.task_state == "estop" || s.task_state == "estop-reset") {
     throw HalError("LinuxCNC is in E-stop: release it and switch the machine on");
@@ -59,9 +61,10 @@ void require_ready(const MachineState& s, const std::string& ini_path) {
     throw HalError("a program is running (" + s.interp_state + "): wait for it or stop it");
   }
   if (s.feed_override < 0.9995 || s.feed_override > 1.0005) {
-    throw HalError(fmt::format("feed override at {:.0f} %: set it to 100 % (the test runs at "
-                               "the feeds it states)",
-                               s.feed_override * 100));
+    throw HalError(
+        fmt::format("feed override at {:.0f} %: set it to 100 % (the test runs at "
+                    "the feeds it states)",
+                    s.feed_override * 100));
   }
 }
 
@@ -69,14 +72,16 @@ void require_circlog(std::size_t channels) {
   int code = 0;
   const std::string out = program_output({"halcmd", "-s", "getp", "circlog.0.channels"}, code);
   if (code != 0) {
-    throw HalError("circlog is not loaded in the running LinuxCNC: circtest install, then "
-                   "restart LinuxCNC");
+    throw HalError(
+        "circlog is not loaded in the running LinuxCNC: circtest install, then "
+        "restart LinuxCNC");
   }
   const std::string n(trim(out));
   if (n != std::to_string(channels)) {
-    throw HalError(fmt::format("circlog has {} channels, the INI's [CIRCTEST] COLUMNS {}: "
-                               "restart LinuxCNC after install",
-                               n, channels));
+    throw HalError(
+        fmt::format("circlog has {} channels, the INI's [CIRCTEST] COLUMNS {}: "
+                    "restart LinuxCNC after install",
+                    n, channels));
   }
   const std::string threads = program_output({"halcmd", "-s", "show", "thread"}, code);
   if (code != 0 || threads.find("circlog.0") == std::string::npos) {

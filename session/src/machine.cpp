@@ -1,7 +1,7 @@
 #include "circtest/session/machine.hpp"
 
-#include <cctype>
 #include <fmt/format.h>
+#include <cctype>
 #include <sstream>
 
 #include "circtest/core/error.hpp"

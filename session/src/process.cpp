@@ -126,9 +126,11 @@ std::string program_output(const std::vector<std::string>& argv, int& exit_code)
 }
 
 std::string tool_path(const std::string& name) {
-  static const std::map<std::string, std::string> parts = {
-      {"circgen", "gcode-gen"}, {"circana", "analysis"}, {"circcomp", "compensation"},
-      {"circlog-record", "hal-component"}, {"circtest-linuxcnc", "session"}};
+  static const std::map<std::string, std::string> parts = {{"circgen", "gcode-gen"},
+                                                           {"circana", "analysis"},
+                                                           {"circcomp", "compensation"},
+                                                           {"circlog-record", "hal-component"},
+                                                           {"circtest-linuxcnc", "session"}};
   if (const char* bin = std::getenv("CIRCTEST_BIN"); bin != nullptr && *bin != '\0') {
     const auto part = parts.find(name);
     if (part != parts.end()) {

@@ -6,7 +6,7 @@
 
 #include "circtest/core/strings.hpp"
 #include "circtest/session/process.hpp"
-#include "circtest/session/session_steps.hpp"
+#include "session_steps.hpp"
 
 namespace circtest::session {
 
@@ -97,8 +97,9 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   recorder.signal(SIGINT);
   recorder.wait();
   const std::string why = end.empty() ? "the LinuxCNC link stopped" : end;
-  out << "circtest: the test is incomplete (" << (override_changed ? "feed override not 100 %" : why)
-      << "): " << trace << " keeps what was recorded; nothing analysed or applied\n";
+  out << "circtest: the test is incomplete ("
+      << (override_changed ? "feed override not 100 %" : why) << "): " << trace
+      << " keeps what was recorded; nothing analysed or applied\n";
   return {link_rc == 7 ? 7 : 5};
 }
 

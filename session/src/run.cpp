@@ -2,10 +2,11 @@
 
 #include <signal.h>
 
+#include <fmt/format.h>
+#include <algorithm>
 #include <cctype>
 #include <ctime>
 #include <filesystem>
-#include <fmt/format.h>
 #include <ostream>
 #include <sstream>
 
@@ -15,7 +16,7 @@
 #include "circtest/core/strings.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
-#include "circtest/session/session_steps.hpp"
+#include "session_steps.hpp"
 
 namespace circtest::session {
 
@@ -51,7 +52,8 @@ std::string safe_name(const std::string& text) {
 // circgen's command line for the program.
 std::vector<std::string> circgen_args(const RunRequest& r, const MachineState& state,
                                       const SessionSetup& setup, const std::string& program) {
-  std::vector<std::string> a = {tool_path("circgen"), "--d", fmt::format("{}", r.program.diameter_mm)};
+  std::vector<std::string> a = {tool_path("circgen"), "--d",
+                                fmt::format("{}", r.program.diameter_mm)};
   if (r.program.feeds_mm_per_min.empty()) {
     a.insert(a.end(), {"--f", fmt::format("{}", r.program.feed_mm_per_min)});
   } else {
@@ -77,8 +79,9 @@ SessionSetup read_setup(const std::string& ini_path) {
   const auto columns = ini.get("CIRCTEST", "COLUMNS");
   const bool installed = ini.get("CIRCTEST", "MARKER_OUTPUT").has_value();
   if (!columns || !installed) {
-    throw HalError(ini_path + ": circlog is not installed in this configuration ([CIRCTEST] "
-                              "COLUMNS and MARKER_OUTPUT missing): circtest install first");
+    throw HalError(ini_path +
+                   ": circlog is not installed in this configuration ([CIRCTEST] "
+                   "COLUMNS and MARKER_OUTPUT missing): circtest install first");
   }
   s.columns = split(*columns);
   s.marker_output = std::stoi(ini.get("CIRCTEST", "MARKER_OUTPUT").value_or("0"));
@@ -109,8 +112,8 @@ RunOutcome run_session(const RunRequest& request, const Console& console) {
       << ": on, homed, idle, feed override 100 %, circlog fed\n";
 
   RunOutcome outcome;
-  const fs::path dir = fs::path(setup.config_dir) / "circtest-sessions" /
-                       (setup.machine + "-" + utc_stamp());
+  const fs::path dir =
+      fs::path(setup.config_dir) / "circtest-sessions" / (setup.machine + "-" + utc_stamp());
   fs::create_directories(dir);
   outcome.session_dir = dir.string();
   out << "circtest: session folder " << dir.string() << "\n";
@@ -124,8 +127,8 @@ RunOutcome run_session(const RunRequest& request, const Console& console) {
                                 state.work_origin_machine_mm[1], state.work_origin_machine_mm[2]));
   out << "circtest: program " << program << " (checked against the soft limits from the work "
       << "offset in use)\n";
-  const RecordResult rec = record_program(setup, request, program, (dir / "trace.csv").string(),
-                                          console);
+  const RecordResult rec =
+      record_program(setup, request, program, (dir / "trace.csv").string(), console);
   if (rec.exit_code != 0) {
     outcome.exit_code = rec.exit_code;
     return outcome;

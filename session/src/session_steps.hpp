@@ -37,8 +37,8 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
                             const Console& console);
 
 // circana analyze and diagnose, circcomp plan; asks, applies. APPLIED: corrections written.
-int analyse_and_apply(const SessionSetup& setup, const RunRequest& request,
-                      const std::string& dir, const Console& console, bool& applied);
+int analyse_and_apply(const SessionSetup& setup, const RunRequest& request, const std::string& dir,
+                      const Console& console, bool& applied);
 
 // The G (largest of the runs, mm) and H (mm, or negative when none) of a circana result JSON.
 struct Figures {

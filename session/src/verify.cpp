@@ -1,5 +1,5 @@
-#include <filesystem>
 #include <fmt/format.h>
+#include <filesystem>
 #include <ostream>
 #include <sstream>
 
@@ -7,7 +7,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
-#include "circtest/session/session_steps.hpp"
+#include "session_steps.hpp"
 
 namespace circtest::session {
 
@@ -38,9 +38,10 @@ void require_same_origin(const fs::path& dir, const MachineState& state) {
     double v = 0;
     in >> v;
     if (std::abs(v - state.work_origin_machine_mm[i]) > 1e-6) {
-      throw HalError(fmt::format("the work offset moved since the session's run ({} of axis {} "
-                                 "was {:.4f} mm, is {:.4f} mm): set it back",
-                                 "origin", "XYZ"[i], v, state.work_origin_machine_mm[i]));
+      throw HalError(
+          fmt::format("the work offset moved since the session's run ({} of axis {} "
+                      "was {:.4f} mm, is {:.4f} mm): set it back",
+                      "origin", "XYZ"[i], v, state.work_origin_machine_mm[i]));
     }
   }
 }
@@ -77,8 +78,8 @@ RunOutcome verify_session(const RunRequest& request, const Console& console) {
     outcome.exit_code = rc;
     return outcome;
   }
-  std::vector<std::string> report = {circana, "report", after, (dir / "trace.csv").string(), "-o",
-                                     (dir / "report.html").string()};
+  std::vector<std::string> report = {
+      circana, "report", after, (dir / "trace.csv").string(), "-o", (dir / "report.html").string()};
   report.insert(report.end(), columns.begin(), columns.end());
   if (const int rc = run_program(report, (dir / "report.txt").string()); rc != 0) {
     outcome.exit_code = rc;

@@ -47,6 +47,12 @@ halrun -U >/dev/null 2>&1 || true
 halrun -I -f /dev/null </dev/null >/dev/null 2>&1 &
 for _ in $(seq 100); do halcmd show comp >/dev/null 2>&1 && break; sleep 0.1; done
 cd "$machine"
+# As the linuxcnc script: the NML server, the trajectory planner and homing modules, io, then
+# the HALFILEs.
+linuxcncsvr -ini "$ini" >/dev/null 2>&1 &
+sleep 0.5
+halcmd loadrt tpmod && halcmd loadrt homemod
+halcmd loadusr -Wn iocontrol io -ini "$ini" || { echo "FAIL: io did not start"; halrun -U; exit 1; }
 while read -r f; do
   halcmd -i "$ini" -f "$f" || { echo "FAIL: halcmd -f $f"; halrun -U; exit 1; }
 done < <(sed -n 's/^HALFILE *= *//p' "$ini")

@@ -29,6 +29,12 @@ std::string copy_config(const ScratchDir& scratch, const std::string& folder,
   return (to / ini).string();
 }
 
+InstallRequest request_for(const std::string& ini) {
+  InstallRequest r;
+  r.ini_path = ini;
+  return r;
+}
+
 const InstallChannel* channel(const InstallPlan& plan, const std::string& column) {
   for (const auto& c : plan.channels) {
     if (c.column == column) return &c;
@@ -56,7 +62,7 @@ TEST(HalWiring, NetArrowsNameTheWriterAndLinesJoinOneSignal) {
 TEST(Install, PncconfServoJoinsItsSignalsAndTakesAFreeMarkerOutput) {
   ScratchDir scratch("session-install");
   const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
-  const InstallPlan plan = plan_install({ini});
+  const InstallPlan plan = plan_install(request_for(ini));
   ASSERT_EQ(plan.channels.size(), 6u);
   EXPECT_EQ(channel(plan, "x_cmd")->signal, "x-pos-cmd");
   EXPECT_EQ(channel(plan, "z_fb")->signal, "z-pos-fb");
@@ -78,7 +84,7 @@ TEST(Install, PncconfServoJoinsItsSignalsAndTakesAFreeMarkerOutput) {
 TEST(Install, StepperSaysFeedbackIsTheStepCount) {
   ScratchDir scratch("session-install");
   const std::string ini = copy_config(scratch, "stepconf-stepper", "stepper.ini");
-  const InstallPlan plan = plan_install({ini});
+  const InstallPlan plan = plan_install(request_for(ini));
   ASSERT_EQ(plan.notes.size(), 3u);
   EXPECT_NE(plan.notes[0].find("joint 0: a stepper: its feedback (stepgen.0.position-fb) is the "
                                "step count"),
@@ -93,7 +99,7 @@ TEST(Install, MissingFeedbackIsRefusedNamingTheSetting) {
   text.replace(text.find("net ypos-fb"), 11, "# net ypos-fb");
   circtest::testing::spit(hal, text);
   try {
-    plan_install({ini});
+    plan_install(request_for(ini));
     FAIL() << "expected a refusal";
   } catch (const DataError& e) {
     EXPECT_NE(std::string(e.what()).find("joint 1 (Y): joint.1.motor-pos-fb is on no signal in "
@@ -102,7 +108,7 @@ TEST(Install, MissingFeedbackIsRefusedNamingTheSetting) {
               std::string::npos)
         << e.what();
   }
-  InstallRequest given{ini};
+  InstallRequest given = request_for(ini);
   given.feedback_pins[1] = "stepgen.1.position-fb";
   const InstallPlan plan = plan_install(given);
   EXPECT_EQ(channel(plan, "y_fb")->signal, "circtest-y-fb");
@@ -112,7 +118,7 @@ TEST(Install, MissingFeedbackIsRefusedNamingTheSetting) {
 TEST(Install, AConfigurationWithCirclogIsRefused) {
   const std::string ini = CIRCTEST_SOURCE_DIR "/configs/sim-servo/sim-servo.ini";
   try {
-    plan_install({ini});
+    plan_install(request_for(ini));
     FAIL() << "expected a refusal";
   } catch (const DataError& e) {
     EXPECT_EQ(e.file(), "circlog.hal");

@@ -11,7 +11,7 @@ namespace circtest::session {
 struct MachineState {
   std::string task_state;  // estop, estop-reset, off, on
   bool estop = true;
-  std::vector<bool> homed;  // per joint
+  std::vector<bool> homed;   // per joint
   std::string interp_state;  // idle, reading, paused, waiting
   double feed_override = 1.0;
   std::array<double, 3> work_origin_machine_mm{};  // G5x + G92 (+ tool length on Z)

@@ -13,7 +13,8 @@ class Child {
  public:
   // Starts ARGV (ARGV[0] a path or a name found on PATH). STDOUT_PATH: its standard output
   // goes to that file (created, replaced); "-": the session's own; empty: to a pipe read with
-  // read_line(). Standard error stays the session's. Throws HalError (exit 7) when it cannot be started.
+  // read_line(). Standard error stays the session's. Throws HalError (exit 7) when it cannot be
+  // started.
   Child(const std::vector<std::string>& argv, const std::string& stdout_path);
   ~Child();
   Child(const Child&) = delete;
