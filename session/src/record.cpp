@@ -80,7 +80,8 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
     }
     const std::string missing = trace_trailer(trace, "runs_missing");
     if (!missing.empty() && missing != "none") {
-      out << "circtest: the program ended before every run was recorded (aborted?): runs "
+      out << "circtest: the test is incomplete (the program ended before every run was "
+             "recorded: aborted?): runs "
           << missing << "; " << trace << " keeps what was recorded; nothing analysed or applied\n";
       return {5};
     }

@@ -5,6 +5,8 @@
 #   circtest install --yes            circlog wired into the configuration (table channels named)
 #   restart LinuxCNC
 #   circtest run (not homed)          refused, exit 7, nothing run
+#   circtest run (feed override 80 %) refused, exit 7
+#   circtest run, aborted / E-stop    incomplete, exit 5: the trace kept, nothing applied
 #   circtest run --start --yes        measured, diagnosed, corrections applied
 #   restart LinuxCNC
 #   circtest verify --start           the same program again: before/after
@@ -52,7 +54,7 @@ fail() { echo "FAIL: $*"; tail -n 20 "$work/linuxcnc.log" 2>/dev/null; exit 1; }
 export CIRCTEST_DISPLAY_PID=$work/display.pid
 start_linuxcnc() {
   rm -f "$CIRCTEST_DISPLAY_PID"
-  (cd "$machine" && exec linuxcnc sim-servo.ini) >>"$work/linuxcnc.log" 2>&1 &
+  (cd "$machine" && exec linuxcnc -r sim-servo.ini) >>"$work/linuxcnc.log" 2>&1 &
   lcnc_pid=$!
   for _ in $(seq 300); do
     [ -f "$CIRCTEST_DISPLAY_PID" ] && "$build/session/circtest-linuxcnc" status >/dev/null 2>&1 &&
@@ -69,23 +71,58 @@ stop_linuxcnc() {
 # The operator: E-stop released, machine on, and (with `home`) homed, through LinuxCNC's
 # Python interface.
 operator() {
-  python3 - "$1" <<'PY'
+  /usr/bin/python3 - "$1" <<'PY'
 import sys, time, linuxcnc
 c, s = linuxcnc.command(), linuxcnc.stat()
-def wait(p, what):
-    end = time.time() + 20
+def wait(p, what, again=None):
+    # LinuxCNC's task may not take commands yet right after start: the command again each s.
+    end = time.time() + 30
+    while time.time() < end:
+        for _ in range(20):
+            s.poll()
+            if p(): return
+            time.sleep(0.05)
+        if again: again()
+    sys.exit("timed out: " + what)
+s.poll()
+if s.task_state == linuxcnc.STATE_ESTOP:
+    reset = lambda: c.state(linuxcnc.STATE_ESTOP_RESET)
+    reset(); wait(lambda: s.task_state == linuxcnc.STATE_ESTOP_RESET, "estop reset", reset)
+if s.task_state != linuxcnc.STATE_ON:
+    on = lambda: c.state(linuxcnc.STATE_ON)
+    on(); wait(lambda: s.task_state == linuxcnc.STATE_ON, "on", on)
+mode = sys.argv[1]
+if mode in ("abort", "estop"):
+    # Mid-run: once the program runs, 3 s into it, as an operator pressing Stop or E-stop.
+    end = time.time() + 60
     while time.time() < end:
         s.poll()
-        if p(): return
-        time.sleep(0.05)
-    sys.exit("timed out: " + what)
-c.state(linuxcnc.STATE_ESTOP_RESET); wait(lambda: s.task_state == linuxcnc.STATE_ESTOP_RESET, "estop reset")
-c.state(linuxcnc.STATE_ON); wait(lambda: s.task_state == linuxcnc.STATE_ON, "on")
-if sys.argv[1] == "home":
+        if s.interp_state != linuxcnc.INTERP_IDLE: break
+        time.sleep(0.02)
+    else:
+        sys.exit("the program did not start")
+    time.sleep(3)
+    if mode == "abort": c.abort()
+    else: c.state(linuxcnc.STATE_ESTOP)
+    sys.exit(0)
+if mode.startswith("override="):
+    c.feedrate(float(mode[9:])); wait(lambda: abs(s.feedrate - float(mode[9:])) < 1e-6, "override")
+    sys.exit(0)
+if mode == "home":
     c.mode(linuxcnc.MODE_MANUAL); c.wait_complete()
     c.home(-1); wait(lambda: all(s.homed[i] for i in range(s.joints)), "homing")
     c.teleop_enable(1); c.wait_complete()
 PY
+}
+
+# circtest ARGS... must exit CODE saying TEXT (on stdout or stderr).
+expect_refusal() {
+  local code=$1 text=$2 rc=0
+  shift 2
+  "$circtest" "$@" >"$work/refusal.out" 2>&1 || rc=$?
+  cat "$work/refusal.out"
+  [ $rc = "$code" ] || fail "circtest $*: exit $rc, expected $code"
+  grep -qF "$text" "$work/refusal.out" || fail "circtest $*: does not say '$text'"
 }
 
 t0=$SECONDS
@@ -93,15 +130,25 @@ t0=$SECONDS
   --instrument z=simz-tab.out >"$work/install.out" || fail "install (exit $?)"
 start_linuxcnc
 operator on
-set +e
-"$circtest" run --ini "$ini" --start --yes >"$work/not-homed.out" 2>"$work/not-homed.err"
-rc=$?
-set -e
-cat "$work/not-homed.err"
-[ $rc = 7 ] || fail "run on a machine not homed: exit $rc, expected 7"
-grep -q "not homed" "$work/not-homed.err" || fail "the refusal does not say 'not homed'"
+expect_refusal 7 "not homed" run --ini "$ini" --start --yes
 [ ! -d "$machine/circtest-sessions" ] || fail "a refused run left a session folder"
 operator home
+# Feed override not at 100 %: refused before any motion.
+operator override=0.8
+expect_refusal 7 "feed override at 80 %" run --ini "$ini" --start --yes
+operator override=1.0
+# An abort and an E-stop mid-run (a short program): incomplete, nothing analysed or applied.
+for fault in abort estop; do
+  operator "$fault" &
+  op=$!
+  expect_refusal 5 "the test is incomplete" run --ini "$ini" --start --yes --d 20 --f 2000
+  wait $op || fail "the $fault did not happen"
+  s=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
+  [ -s "$s/trace.csv" ] || fail "$fault: the trace is not kept"
+  [ ! -e "$s/diagnosis.json" ] && [ ! -e "$s/apply.txt" ] || fail "$fault: analysed or applied"
+  rm -rf "$s"
+  operator home
+done
 "$circtest" run --ini "$ini" --start --yes --d 100 --f 1000 >"$work/run.out" ||
   { cat "$work/run.out"; fail "circtest run (exit $?)"; }
 cat "$work/run.out"
@@ -118,7 +165,7 @@ cat "$work/verify.out"
 stop_linuxcnc
 echo "session e2e: $((SECONDS - t0)) s"
 
-python3 - "$session" "$ini" <<'PY'
+/usr/bin/python3 - "$session" "$ini" <<'PY'
 import json, sys
 session = sys.argv[1]
 def ini_value(sec, key):
