@@ -90,3 +90,21 @@ void require_circlog(std::size_t channels) {
 }
 
 }  // namespace circtest::session
+
+namespace circtest::session {
+
+bool clear_markers(int marker_output, int segment_output) {
+  int code = 0;
+  const std::string enable = program_output({"halcmd", "-s", "getp", "circlog.0.enable"}, code);
+  if (code != 0 || trim(enable) != "TRUE") return false;
+  if (run_program({tool_path("circtest-linuxcnc"), "markers-off", std::to_string(marker_output),
+                   std::to_string(segment_output)}) != 0) {
+    throw HalError(
+        "the marker output is on (left by an aborted program) and could not be "
+        "switched off: M65 P" +
+        std::to_string(marker_output) + " by MDI");
+  }
+  return true;
+}
+
+}  // namespace circtest::session

@@ -5,6 +5,7 @@
 #include <ostream>
 
 #include "circtest/core/strings.hpp"
+#include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
 #include "session_steps.hpp"
 
@@ -56,6 +57,10 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
                             const std::string& program, const std::string& trace,
                             const Console& console) {
   std::ostream& out = console.print();
+  if (clear_markers(setup.marker_output, setup.segment_output)) {
+    out << "circtest: the marker output was on (an aborted program): switched off (M65 P"
+        << setup.marker_output << ")\n";
+  }
   Child recorder({tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","),
                   "--program", program, "--ini", setup.ini_path, "--until-idle", "2"},
                  "-");

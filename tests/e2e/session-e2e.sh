@@ -108,8 +108,9 @@ if mode in ("abort", "estop"):
 if mode.startswith("override="):
     c.feedrate(float(mode[9:])); wait(lambda: abs(s.feedrate - float(mode[9:])) < 1e-6, "override")
     sys.exit(0)
-if mode == "home":
+if mode == "home" and not all(s.homed[i] for i in range(s.joints)):
     c.mode(linuxcnc.MODE_MANUAL); c.wait_complete()
+    c.teleop_enable(0); c.wait_complete()
     c.home(-1); wait(lambda: all(s.homed[i] for i in range(s.joints)), "homing")
     c.teleop_enable(1); c.wait_complete()
 PY
@@ -150,7 +151,7 @@ for fault in abort estop; do
   operator home
 done
 "$circtest" run --ini "$ini" --start --yes --d 100 --f 1000 >"$work/run.out" ||
-  { cat "$work/run.out"; fail "circtest run (exit $?)"; }
+  { rc=$?; cat "$work/run.out"; fail "circtest run (exit $rc)"; }
 cat "$work/run.out"
 session=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
 for f in program.ngc trace.csv results.json diagnosis.json plan.diff apply.txt report.html; do
@@ -160,7 +161,7 @@ stop_linuxcnc
 start_linuxcnc
 operator home
 "$circtest" verify --ini "$ini" --start >"$work/verify.out" ||
-  { cat "$work/verify.out"; fail "circtest verify (exit $?)"; }
+  { rc=$?; cat "$work/verify.out"; fail "circtest verify (exit $rc)"; }
 cat "$work/verify.out"
 stop_linuxcnc
 echo "session e2e: $((SECONDS - t0)) s"

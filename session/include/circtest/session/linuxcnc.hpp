@@ -30,4 +30,9 @@ void require_ready(const MachineState& state, const std::string& ini_path);
 // thread (circtest install written and LinuxCNC restarted since).
 void require_circlog(std::size_t channels);
 
+// An aborted program leaves circlog's marker output on, and the recorder would take what
+// follows for a run: switches the outputs off by MDI (M65, M68) when circlog.0.enable is on.
+// True when it did; throws HalError when LinuxCNC did not run them.
+bool clear_markers(int marker_output, int segment_output);
+
 }  // namespace circtest::session
