@@ -10,6 +10,7 @@
 #   circtest run --start --yes        measured, diagnosed, corrections applied
 #   restart LinuxCNC
 #   circtest verify --start           the same program again: before/after
+#   LinuxCNC quitting mid-run         incomplete, exit 7
 # Checked against the injected errors (the diagnosis's backlash, squareness, scale of X) and
 # the corrections' effect (G after well below G before).
 #   session-e2e.sh BUILD_DIR [WORK_DIR]
@@ -76,14 +77,15 @@ import sys, time, linuxcnc
 c, s = linuxcnc.command(), linuxcnc.stat()
 def wait(p, what, again=None):
     # LinuxCNC's task may not take commands yet right after start: the command again each s.
-    end = time.time() + 30
+    end = time.time() + 60
     while time.time() < end:
         for _ in range(20):
             s.poll()
             if p(): return
             time.sleep(0.05)
         if again: again()
-    sys.exit("timed out: " + what)
+    e = linuxcnc.error_channel().poll()
+    sys.exit("timed out: %s (task state %s, estop %s, last error %s)" % (what, s.task_state, s.estop, e))
 s.poll()
 if s.task_state == linuxcnc.STATE_ESTOP:
     reset = lambda: c.state(linuxcnc.STATE_ESTOP_RESET)
@@ -163,7 +165,10 @@ operator home
 "$circtest" verify --ini "$ini" --start >"$work/verify.out" ||
   { rc=$?; cat "$work/verify.out"; fail "circtest verify (exit $rc)"; }
 cat "$work/verify.out"
-stop_linuxcnc
+# LinuxCNC quitting mid-run: said, the trace kept, exit 7.
+(sleep 6 && kill "$(cat "$CIRCTEST_DISPLAY_PID")") &
+expect_refusal 7 "the test is incomplete" run --ini "$ini" --start --yes --d 20 --f 2000
+wait $lcnc_pid || true
 echo "session e2e: $((SECONDS - t0)) s"
 
 /usr/bin/python3 - "$session" "$ini" <<'PY'

@@ -10,6 +10,7 @@
 #include "circtest/core/ini.hpp"
 #include "circtest/session/hal_config.hpp"
 #include "circtest/session/install.hpp"
+#include "circtest/session/linuxcnc.hpp"
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
@@ -124,4 +125,57 @@ TEST(Install, AConfigurationWithCirclogIsRefused) {
     EXPECT_EQ(e.file(), "circlog.hal");
     EXPECT_EQ(e.line(), 4u);
   }
+}
+
+// --- circtest run's checks of the running machine, before any motion ---
+
+namespace {
+
+MachineState ready_state(const std::string& ini) {
+  MachineState s;
+  s.task_state = "on";
+  s.estop = false;
+  s.homed = {true, true, true};
+  s.interp_state = "idle";
+  s.feed_override = 1.0;
+  s.ini_filename = ini;
+  return s;
+}
+
+std::string refusal(const MachineState& s, const std::string& ini) {
+  try {
+    require_ready(s, ini);
+  } catch (const HalError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(RunChecks, EachStateThatKeepsTheTestFromStartingIsRefusedInOneLine) {
+  const std::string ini = "/cfg/machine.ini";
+  EXPECT_EQ(refusal(ready_state(ini), ini), "");
+  MachineState s = ready_state(ini);
+  s.ini_filename = "/cfg/other.ini";
+  EXPECT_NE(refusal(s, ini).find("LinuxCNC runs /cfg/other.ini, not /cfg/machine.ini"),
+            std::string::npos);
+  s = ready_state(ini);
+  s.estop = true;
+  s.task_state = "estop";
+  EXPECT_NE(refusal(s, ini).find("E-stop"), std::string::npos);
+  s = ready_state(ini);
+  s.task_state = "off";
+  EXPECT_NE(refusal(s, ini).find("the machine is off"), std::string::npos);
+  s = ready_state(ini);
+  s.homed = {true, false, true};
+  EXPECT_NE(refusal(s, ini).find("not homed (joint 1)"), std::string::npos);
+  s = ready_state(ini);
+  s.interp_state = "reading";
+  EXPECT_NE(refusal(s, ini).find("a program is running"), std::string::npos);
+  s = ready_state(ini);
+  s.feed_override = 0.8;
+  EXPECT_NE(refusal(s, ini).find("feed override at 80 %"), std::string::npos);
+  s.feed_override = 1.2;
+  EXPECT_NE(refusal(s, ini).find("feed override at 120 %"), std::string::npos);
 }
