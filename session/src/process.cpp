@@ -80,6 +80,15 @@ bool Child::read_line(std::string& line) {
   }
 }
 
+std::optional<bool> Child::read_line_for(std::string& line, double seconds) {
+  if (buffer_.find('\n') == std::string::npos && out_fd_ >= 0) {
+    pollfd p{out_fd_, POLLIN, 0};
+    const int r = ::poll(&p, 1, static_cast<int>(seconds * 1000));
+    if (r == 0) return std::nullopt;
+  }
+  return read_line(line);
+}
+
 bool Child::running() {
   if (status_ >= 0 || pid_ < 0) return false;
   int st = 0;

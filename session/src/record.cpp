@@ -74,7 +74,26 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   Child linuxcnc(link, "");
   std::string line, end;
   bool override_changed = false;
-  while (linuxcnc.read_line(line)) show_event(line, request, out, end, override_changed);
+  bool recorder_done = false;  // it ended by itself: every announced run recorded, then idle
+  for (;;) {
+    const auto got = linuxcnc.read_line_for(line, 0.5);
+    if (got && !*got) break;
+    if (got) {
+      show_event(line, request, out, end, override_changed);
+      continue;
+    }
+    // The recorder stops with the servo thread: LinuxCNC quit (its status may stay as it was);
+    // or by itself once every run is in (the program's retract may still run).
+    if (!recorder_done && !recorder.running()) {
+      recorder_done = trace_trailer(trace, "stop_reason") == "idle";
+      if (recorder_done) continue;
+      linuxcnc.signal(SIGTERM);
+      linuxcnc.wait();
+      out << "circtest: the test is incomplete (the servo thread stopped: LinuxCNC quit?): "
+          << trace << " keeps what was recorded; nothing analysed or applied\n";
+      return {7};
+    }
+  }
   const int link_rc = linuxcnc.wait();
   if (end == "idle" && !override_changed) {
     // The recorder ends by itself once every announced run is in and the marker stays off.

@@ -94,8 +94,9 @@ if s.task_state != linuxcnc.STATE_ON:
     on = lambda: c.state(linuxcnc.STATE_ON)
     on(); wait(lambda: s.task_state == linuxcnc.STATE_ON, "on", on)
 mode = sys.argv[1]
-if mode in ("abort", "estop"):
-    # Mid-run: once the program runs, 3 s into it, as an operator pressing Stop or E-stop.
+if mode in ("abort", "estop", "quit"):
+    # Mid-run: once the program runs, 3 s into it, as an operator pressing Stop or E-stop,
+    # or LinuxCNC quitting (its display ends).
     end = time.time() + 60
     while time.time() < end:
         s.poll()
@@ -104,7 +105,10 @@ if mode in ("abort", "estop"):
     else:
         sys.exit("the program did not start")
     time.sleep(3)
-    if mode == "abort": c.abort()
+    if mode == "quit":
+        import os, signal
+        os.kill(int(open(os.environ["CIRCTEST_DISPLAY_PID"]).read()), signal.SIGTERM)
+    elif mode == "abort": c.abort()
     else: c.state(linuxcnc.STATE_ESTOP)
     sys.exit(0)
 if mode.startswith("override="):
@@ -166,7 +170,7 @@ operator home
   { rc=$?; cat "$work/verify.out"; fail "circtest verify (exit $rc)"; }
 cat "$work/verify.out"
 # LinuxCNC quitting mid-run: said, the trace kept, exit 7.
-(sleep 6 && kill "$(cat "$CIRCTEST_DISPLAY_PID")") &
+operator quit &
 expect_refusal 7 "the test is incomplete" run --ini "$ini" --start --yes --d 20 --f 2000
 wait $lcnc_pid || true
 echo "session e2e: $((SECONDS - t0)) s"

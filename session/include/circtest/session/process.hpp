@@ -3,6 +3,7 @@
 // LinuxCNC link): started without a shell, their output to a file or a pipe.
 #include <sys/types.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,8 @@ class Child {
 
   // The next line of its standard output (pipe only); false at its end.
   bool read_line(std::string& line);
+  // The same, waiting at most SECONDS for it: nullopt when no line came in that time.
+  std::optional<bool> read_line_for(std::string& line, double seconds);
   // Whether it still runs (reaps it when it has ended).
   bool running();
   void signal(int signo);
