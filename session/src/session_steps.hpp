@@ -46,5 +46,8 @@ struct Figures {
   double g_mm = -1;
 };
 Figures read_figures(const std::string& results_json);
+// Whether AFTER is worse than BEFORE in G or H by more than two runs of an unchanged machine
+// differ (5 % + 0.5 um).
+bool got_worse(const Figures& before, const Figures& after);
 
 }  // namespace circtest::session

@@ -52,6 +52,11 @@ std::string um(double mm) {
 
 }  // namespace
 
+bool got_worse(const Figures& before, const Figures& after) {
+  const auto worse = [](double b, double a) { return b >= 0 && a > b * 1.05 + 0.0005; };
+  return worse(before.g_mm, after.g_mm) || worse(before.h_mm, after.h_mm);
+}
+
 RunOutcome verify_session(const RunRequest& request, const Console& console) {
   std::ostream& out = console.print();
   const SessionSetup setup = read_setup(request.ini_path);
@@ -94,11 +99,12 @@ RunOutcome verify_session(const RunRequest& request, const Console& console) {
       um(before.h_mm), um(now.h_mm), um(before.g_mm), um(now.g_mm));
   write_file_atomic((dir / "verify.txt").string(), table);
   out << table << "circtest: the hand-over report: " << (dir / "report.html").string() << "\n";
-  // Worse: beyond what two runs of an unchanged machine differ by (0.5 um or 5 %).
-  const auto worse = [](double b, double a) { return b >= 0 && a > b * 1.05 + 0.0005; };
-  outcome.worse = worse(before.g_mm, now.g_mm) || worse(before.h_mm, now.h_mm);
+  outcome.worse = got_worse(before, now);
   if (outcome.worse) {
-    out << "circtest: the machine got worse with the corrections\n";
+    out << fmt::format(
+        "circtest: the machine got worse with the corrections (G {} -> {}, H {} "
+        "-> {})\n",
+        um(before.g_mm), um(now.g_mm), um(before.h_mm), um(now.h_mm));
   }
   return outcome;
 }

@@ -9,7 +9,8 @@
 #   circtest run, aborted / E-stop    incomplete, exit 5: the trace kept, nothing applied
 #   circtest run --start --yes        measured, diagnosed, corrections applied
 #   restart LinuxCNC
-#   circtest verify --start           the same program again: before/after
+#   circtest verify                   the same program again (the operator's cycle start):
+#                                     before/after
 #   LinuxCNC quitting mid-run         incomplete, exit 7
 # Checked against the injected errors (the diagnosis's backlash, squareness, scale of X) and
 # the corrections' effect (G after well below G before).
@@ -111,6 +112,26 @@ if mode in ("abort", "estop", "quit"):
     elif mode == "abort": c.abort()
     else: c.state(linuxcnc.STATE_ESTOP)
     sys.exit(0)
+if mode == "cycle-start":
+    # The operator at the machine: cycle start once the program is open, and again at each of
+    # its operator pauses, until it has run to its end.
+    end = time.time() + 300
+    while time.time() < end:
+        s.poll()
+        if s.file.endswith("program.ngc") and s.interp_state == linuxcnc.INTERP_IDLE: break
+        time.sleep(0.05)
+    time.sleep(0.5)
+    c.auto(linuxcnc.AUTO_RUN, 0)
+    wait(lambda: s.interp_state != linuxcnc.INTERP_IDLE, "cycle start")
+    while time.time() < end:
+        s.poll()
+        if s.interp_state == linuxcnc.INTERP_PAUSED or s.task_paused:
+            time.sleep(0.3)
+            c.auto(linuxcnc.AUTO_RESUME)
+            wait(lambda: s.interp_state != linuxcnc.INTERP_PAUSED and not s.task_paused, "resume")
+        if s.interp_state == linuxcnc.INTERP_IDLE: sys.exit(0)
+        time.sleep(0.05)
+    sys.exit("timed out: the program did not end")
 if mode.startswith("override="):
     c.feedrate(float(mode[9:])); wait(lambda: abs(s.feedrate - float(mode[9:])) < 1e-6, "override")
     sys.exit(0)
@@ -166,9 +187,14 @@ done
 stop_linuxcnc
 start_linuxcnc
 operator home
-"$circtest" verify --ini "$ini" --start >"$work/verify.out" ||
+# verify as an operator runs it: circtest opens the program, the operator presses cycle start.
+operator cycle-start &
+op=$!
+"$circtest" verify --ini "$ini" >"$work/verify.out" ||
   { rc=$?; cat "$work/verify.out"; fail "circtest verify (exit $rc)"; }
 cat "$work/verify.out"
+wait $op || fail "the operator's cycle start"
+grep -q "press cycle start on the machine" "$work/verify.out" || fail "verify did not ask for cycle start"
 # LinuxCNC quitting mid-run: said, the trace kept, exit 7.
 operator quit &
 expect_refusal 7 "the test is incomplete" run --ini "$ini" --start --yes --d 20 --f 2000

@@ -12,6 +12,7 @@
 #include "circtest/session/install.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "scratch.hpp"
+#include "session_steps.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -178,4 +179,13 @@ TEST(RunChecks, EachStateThatKeepsTheTestFromStartingIsRefusedInOneLine) {
   EXPECT_NE(refusal(s, ini).find("feed override at 80 %"), std::string::npos);
   s.feed_override = 1.2;
   EXPECT_NE(refusal(s, ini).find("feed override at 120 %"), std::string::npos);
+}
+
+TEST(Verify, WorseMeansBeyondTheRepeatabilityOfTwoRuns) {
+  // G and H in mm: 5 % + 0.5 um of the figure before is what two runs differ by.
+  EXPECT_FALSE(got_worse({0.0100, 0.0200}, {0.0100, 0.0205}));  // G +0.5 um: within
+  EXPECT_TRUE(got_worse({0.0100, 0.0200}, {0.0100, 0.0216}));   // G +1.6 um: worse
+  EXPECT_TRUE(got_worse({0.0100, 0.0200}, {0.0112, 0.0100}));   // H +1.2 um: worse
+  EXPECT_FALSE(got_worse({0.0253, 0.0353}, {0.0105, 0.0126}));  // the e2e's corrections
+  EXPECT_FALSE(got_worse({-1, -1}, {0.01, 0.01}));              // nothing to compare
 }
