@@ -119,7 +119,11 @@ RunOutcome run_session(const RunRequest& request, const Console& console) {
   out << "circtest: session folder " << dir.string() << "\n";
   const std::string program = (dir / "program.ngc").string();
   if (const int rc = run_program(circgen_args(request, state, setup, program)); rc != 0) {
+    // circgen refused (its message above): no test took place, no session to keep.
+    std::error_code ec;
+    fs::remove_all(dir, ec);
     outcome.exit_code = rc;
+    outcome.session_dir.clear();
     return outcome;
   }
   write_file_atomic((dir / "work-origin.txt").string(),

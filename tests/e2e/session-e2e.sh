@@ -6,6 +6,7 @@
 #   restart LinuxCNC
 #   circtest run (not homed)          refused, exit 7, nothing run
 #   circtest run (feed override 80 %) refused, exit 7
+#   circtest run --d 700              beyond the soft limits: circgen refuses, exit 6
 #   circtest run, aborted / E-stop    incomplete, exit 5: the trace kept, nothing applied
 #   circtest run --start --yes        measured, diagnosed, corrections applied
 #   restart LinuxCNC
@@ -165,6 +166,10 @@ operator home
 operator override=0.8
 expect_refusal 7 "feed override at 80 %" run --ini "$ini" --start --yes
 operator override=1.0
+# A program beyond the soft limits (X +-300 mm) from the work offset in use: circgen refuses it.
+expect_refusal 6 "limit" run --ini "$ini" --start --yes --d 700
+[ ! -d "$machine/circtest-sessions" ] || [ -z "$(ls "$machine/circtest-sessions")" ] ||
+  fail "a refused program left a session folder"
 # An abort and an E-stop mid-run (a short program): incomplete, nothing analysed or applied.
 for fault in abort estop; do
   operator "$fault" &
