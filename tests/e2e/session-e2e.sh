@@ -167,7 +167,7 @@ operator override=0.8
 expect_refusal 7 "feed override at 80 %" run --ini "$ini" --start --yes
 operator override=1.0
 # A program beyond the soft limits (X +-300 mm) from the work offset in use: circgen refuses it.
-expect_refusal 6 "limit" run --ini "$ini" --start --yes --d 700
+expect_refusal 6 "MIN_LIMIT" run --ini "$ini" --start --yes --d 700
 [ ! -d "$machine/circtest-sessions" ] || [ -z "$(ls "$machine/circtest-sessions")" ] ||
   fail "a refused program left a session folder"
 # An abort and an E-stop mid-run (a short program): incomplete, nothing analysed or applied.
