@@ -189,3 +189,26 @@ TEST(Verify, WorseMeansBeyondTheRepeatabilityOfTwoRuns) {
   EXPECT_FALSE(got_worse({0.0253, 0.0353}, {0.0105, 0.0126}));  // the e2e's corrections
   EXPECT_FALSE(got_worse({-1, -1}, {0.01, 0.01}));              // nothing to compare
 }
+
+TEST(InstallCommand, WithoutYesAndWithoutATerminalNothingIsWritten) {
+  ScratchDir scratch("session-install");
+  const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
+  const std::string before = circtest::testing::slurp(ini);
+  // run_command gives the program /dev/null as standard input: no terminal to answer on.
+  const auto r = circtest::testing::run_command({CIRCTEST_PATH, "install", "--ini", ini});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("+HALFILE = circtest.hal"), std::string::npos) << "the diff is shown";
+  EXPECT_NE(r.out.find("circtest: nothing written"), std::string::npos) << r.out;
+  EXPECT_EQ(circtest::testing::slurp(ini), before);
+  EXPECT_FALSE(fs::exists(fs::path(ini).parent_path() / "circtest.hal"));
+  EXPECT_FALSE(fs::exists(fs::path(ini).parent_path() / ".circcomp"));
+  // With --yes it is written, and uninstall gives the INI back byte for byte.
+  ASSERT_EQ(
+      circtest::testing::run_command({CIRCTEST_PATH, "install", "--ini", ini, "--yes"}).exit_code,
+      0);
+  EXPECT_NE(circtest::testing::slurp(ini), before);
+  ASSERT_EQ(circtest::testing::run_command({CIRCTEST_PATH, "uninstall", "--ini", ini}).exit_code,
+            0);
+  EXPECT_EQ(circtest::testing::slurp(ini), before);
+  EXPECT_FALSE(fs::exists(fs::path(ini).parent_path() / "circtest.hal"));
+}
