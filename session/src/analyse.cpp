@@ -76,6 +76,12 @@ int analyse_and_apply(const SessionSetup& setup, const RunRequest& request,
   }
   step(with({circana, "report", trace, "-o", (dir / "report.html").string()}, columns),
        dir / "report.txt", out, false);
+  // Into the machine's history (circana's database): a failure there is said, not fatal.
+  if (const int rc = step(with({circana, "diagnose", trace, "--store"}, columns),
+                          dir / "history.txt", out, false);
+      rc != 0) {
+    out << "circtest: note: not stored in the history (circana exit " << rc << ", see above)\n";
+  }
   out << "\ncirctest: the corrections circcomp would write\n";
   if (const int rc = step({circcomp, "plan", "--ini", setup.ini_path, diagnosis}, dir / "plan.diff",
                           out, true);

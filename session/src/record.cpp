@@ -61,9 +61,10 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
     out << "circtest: the marker output was on (an aborted program): switched off (M65 P"
         << setup.marker_output << ")\n";
   }
-  Child recorder({tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","),
-                  "--program", program, "--ini", setup.ini_path, "--until-idle", "2"},
-                 "-");
+  Child recorder(
+      {tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","), "--program",
+       program, "--ini", setup.ini_path, "--until-idle", "2", "--machine", setup.machine_title},
+      "-");
   if (const int rc = recorder.wait_for(0.5); rc >= 0) {
     out << "circtest: circlog-record stopped at once (exit " << rc << "): nothing was run\n";
     return {rc == 0 ? 7 : rc};

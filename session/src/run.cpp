@@ -86,7 +86,8 @@ SessionSetup read_setup(const std::string& ini_path) {
   s.columns = split(*columns);
   s.marker_output = std::stoi(ini.get("CIRCTEST", "MARKER_OUTPUT").value_or("0"));
   s.segment_output = std::stoi(ini.get("CIRCTEST", "SEGMENT_OUTPUT").value_or("0"));
-  s.machine = safe_name(ini.get("EMC", "MACHINE").value_or("machine"));
+  s.machine_title = ini.get("EMC", "MACHINE").value_or("machine");
+  s.machine = safe_name(s.machine_title);
   return s;
 }
 

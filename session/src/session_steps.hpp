@@ -15,7 +15,8 @@ struct SessionSetup {
   std::vector<std::string> columns;
   int marker_output = 0;
   int segment_output = 0;
-  std::string machine;  // [EMC] MACHINE, as a file name
+  std::string machine;        // [EMC] MACHINE, as a file name
+  std::string machine_title;  // [EMC] MACHINE as it is written (the trace's metadata)
 };
 
 // Throws HalError when circtest install has not been applied to the INI.

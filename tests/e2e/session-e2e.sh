@@ -198,6 +198,7 @@ if [ "$config" = sim-stepper ]; then
   stop_linuxcnc
   session=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
   check_diagnosis "$session/diagnosis.json"
+  grep -q "^Stored as test 1 of machine" "$session/history.txt" || fail "not stored in the history"
   echo "session e2e ($config): $((SECONDS - t0)) s"
   exit 0
 fi
@@ -225,6 +226,7 @@ done
   { rc=$?; cat "$work/run.out"; fail "circtest run (exit $rc)"; }
 cat "$work/run.out"
 session=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
+grep -q "^Stored as test 1 of machine" "$session/history.txt" || fail "not stored in the history"
 for f in program.ngc trace.csv results.json diagnosis.json plan.diff apply.txt report.html; do
   [ -s "$session/$f" ] || fail "the session folder has no $f"
 done
