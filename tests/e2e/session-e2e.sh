@@ -81,24 +81,25 @@ operator() {
   /usr/bin/python3 - "$1" <<'PY'
 import sys, time, linuxcnc
 c, s = linuxcnc.command(), linuxcnc.stat()
-def wait(p, what, again=None):
-    # LinuxCNC's task may not take commands yet right after start: the command again each s.
+def wait(p, what):
     end = time.time() + 60
     while time.time() < end:
-        for _ in range(20):
-            s.poll()
-            if p(): return
-            time.sleep(0.05)
-        if again: again()
+        s.poll()
+        if p(): return
+        time.sleep(0.05)
     e = linuxcnc.error_channel().poll()
     sys.exit("timed out: %s (task state %s, estop %s, last error %s)" % (what, s.task_state, s.estop, e))
-s.poll()
-if s.task_state == linuxcnc.STATE_ESTOP:
-    reset = lambda: c.state(linuxcnc.STATE_ESTOP_RESET)
-    reset(); wait(lambda: s.task_state == linuxcnc.STATE_ESTOP_RESET, "estop reset", reset)
-if s.task_state != linuxcnc.STATE_ON:
-    on = lambda: c.state(linuxcnc.STATE_ON)
-    on(); wait(lambda: s.task_state == linuxcnc.STATE_ON, "on", on)
+# Out of E-stop and on: each command again while the state does not follow (right after start
+# the task may not have written its first status, or take commands, yet).
+end = time.time() + 60
+while True:
+    s.poll()
+    if s.task_state == linuxcnc.STATE_ON: break
+    if time.time() > end:
+        sys.exit("timed out: machine on (task state %s, estop %s)" % (s.task_state, s.estop))
+    if s.task_state == linuxcnc.STATE_ESTOP: c.state(linuxcnc.STATE_ESTOP_RESET)
+    elif s.task_state in (linuxcnc.STATE_ESTOP_RESET, linuxcnc.STATE_OFF): c.state(linuxcnc.STATE_ON)
+    time.sleep(0.5)
 mode = sys.argv[1]
 if mode in ("abort", "estop", "quit"):
     # Mid-run: once the program runs, 3 s into it, as an operator pressing Stop or E-stop,
