@@ -40,6 +40,7 @@ in_root() { chroot "$root" env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root 
 
 # Fresh as far as circtest goes: no earlier install may answer for the package.
 for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record /usr/bin/circcomp \
+  /usr/bin/circtest /usr/libexec/circtest/circtest-linuxcnc \
   /usr/lib/linuxcnc/modules/circlog.so /usr/lib/linuxcnc/modules/circtest_kins.so \
   /usr/lib/linuxcnc/modules/circfric.so \
   /usr/share/man/man1/circana.1 /usr/share/man/man1/circana.1.gz /usr/share/man/man9/circlog.9 \
@@ -60,12 +61,13 @@ for f in /usr/bin/circgen /usr/bin/circana /usr/bin/circlog-record \
   /usr/share/man/man9/circlog.9 /usr/share/man/man9/circtest_kins.9 \
   /usr/share/man/man9/circfric.9 \
   /usr/share/bash-completion/completions/circana \
-  /usr/bin/circcomp /usr/share/man/man1/circcomp.1; do
+  /usr/bin/circcomp /usr/share/man/man1/circcomp.1 \
+  /usr/bin/circtest /usr/libexec/circtest/circtest-linuxcnc /usr/share/man/man1/circtest.1; do
   in_root dpkg -S "$f" | grep -q '^circtest: ' || fail "$f is not installed by the package"
 done
 echo "ok: dpkg -i; files in /usr/bin, /usr/lib/linuxcnc/modules, /usr/share/man, bash-completion"
 
-for p in circgen circana circlog-record circcomp; do
+for p in circgen circana circlog-record circcomp circtest; do
   [ "$(in_root "$p" --version)" = "$p $version" ] || fail "$p --version"
 done
 in_root circgen --d 150 --f 1000 --safe-z 5 -o /tmp/test.ngc || fail "circgen"

@@ -1,0 +1,132 @@
+#include <signal.h>
+
+#include <fmt/format.h>
+#include <fstream>
+#include <ostream>
+
+#include "circtest/core/strings.hpp"
+#include "circtest/session/linuxcnc.hpp"
+#include "circtest/session/process.hpp"
+#include "session_steps.hpp"
+
+namespace circtest::session {
+
+namespace {
+
+// What the LinuxCNC link's event line means for the operator; sets END to the end event.
+void show_event(const std::string& line, const RunRequest& request, std::ostream& out,
+                std::string& end, bool& override_changed) {
+  const auto space = line.find(' ');
+  const std::string kind = line.substr(0, space);
+  const std::string rest = space == std::string::npos ? "" : line.substr(space + 1);
+  if (kind == "end") {
+    end = rest;
+  } else if (kind == "waiting") {
+    out << "circtest: the program is open in LinuxCNC: press cycle start on the machine\n";
+  } else if (kind == "started") {
+    out << "circtest: cycle start: the program runs\n";
+  } else if (kind == "paused") {
+    out << "circtest: operator pause (line " << rest << ")"
+        << (request.start ? ": resumed\n" : ": read the message, press cycle start\n");
+  } else if (kind == "message") {
+    out << "circtest: LinuxCNC: " << rest << "\n";
+  } else if (kind == "override") {
+    if (rest != "100") {
+      override_changed = true;
+      out << "circtest: feed override at " << rest
+          << " %: the runs are not at their feed; this test will not be analysed\n";
+    }
+  }
+  out.flush();
+}
+
+// The last value of a `# KEY: value` metadata line of the trace ("" when absent).
+std::string trace_trailer(const std::string& trace, const std::string& key) {
+  std::ifstream in(trace);
+  std::string line, value;
+  const std::string prefix = "# " + key + ": ";
+  while (std::getline(in, line)) {
+    if (line.rfind(prefix, 0) == 0) value = line.substr(prefix.size());
+  }
+  return value;
+}
+
+}  // namespace
+
+RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
+                            const std::string& program, const std::string& trace,
+                            const Console& console) {
+  std::ostream& out = console.print();
+  if (clear_markers(setup.marker_output, setup.segment_output)) {
+    out << "circtest: the marker output was on (an aborted program): switched off (M65 P"
+        << setup.marker_output << ")\n";
+  }
+  Child recorder(
+      {tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","), "--program",
+       program, "--ini", setup.ini_path, "--until-idle", "2", "--machine", setup.machine_title},
+      "-");
+  if (const int rc = recorder.wait_for(0.5); rc >= 0) {
+    out << "circtest: circlog-record stopped at once (exit " << rc << "): nothing was run\n";
+    return {rc == 0 ? 7 : rc};
+  }
+  std::vector<std::string> link = {tool_path("circtest-linuxcnc"), "run", program, "--timeout",
+                                   fmt::format("{}", request.timeout_s)};
+  if (request.start) link.push_back("--start");
+  Child linuxcnc(link, "");
+  std::string line, end;
+  bool override_changed = false;
+  bool recorder_done = false;  // it ended by itself: every announced run recorded, then idle
+  for (;;) {
+    const auto got = linuxcnc.read_line_for(line, 0.5);
+    if (got && !*got) break;
+    if (got) {
+      show_event(line, request, out, end, override_changed);
+      continue;
+    }
+    // The recorder stops with the servo thread: LinuxCNC quit (its status may stay as it was);
+    // or by itself once every run is in (the program's retract may still run).
+    if (!recorder_done && !recorder.running()) {
+      recorder_done = trace_trailer(trace, "stop_reason") == "idle";
+      if (recorder_done) continue;
+      linuxcnc.signal(SIGTERM);
+      linuxcnc.wait();
+      out << "circtest: the test is incomplete (the servo thread stopped: LinuxCNC quit?): "
+          << trace << " keeps what was recorded; nothing analysed or applied\n";
+      return {7};
+    }
+  }
+  const int link_rc = linuxcnc.wait();
+  if (end == "idle" && !override_changed) {
+    // The recorder ends by itself once every announced run is in and the marker stays off.
+    int rc = recorder.wait_for(10);
+    if (rc < 0) {
+      recorder.signal(SIGINT);
+      rc = recorder.wait();
+    }
+    const std::string missing = trace_trailer(trace, "runs_missing");
+    if (!missing.empty() && missing != "none") {
+      out << "circtest: the test is incomplete (the program ended before every run was "
+             "recorded: aborted?): runs "
+          << missing << "; " << trace << " keeps what was recorded; nothing analysed or applied\n";
+      return {5};
+    }
+    if (rc == 8) {
+      out << "circtest: the recorder lost samples (see above): " << trace
+          << " is kept; nothing analysed or applied\n";
+    } else if (rc != 0) {
+      out << "circtest: the recorder failed (exit " << rc << "); nothing analysed or applied\n";
+    } else {
+      out << "circtest: recorded " << trace << "\n";
+    }
+    return {rc};
+  }
+  recorder.signal(SIGINT);
+  recorder.wait();
+  const std::string why = end.empty() ? "the LinuxCNC link stopped" : end;
+  out << "circtest: the test is incomplete ("
+      << (override_changed ? "feed override not 100 %" : why) << "): " << trace
+      << " keeps what was recorded; nothing analysed or applied\n";
+  return {link_rc == 7 ? 7 : 5};
+}
+
+}  // namespace circtest::session
