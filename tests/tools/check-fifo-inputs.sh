@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Every program refuses a FIFO named as an input, unopened: exit code 3 (io) and
-# "FILE: is a FIFO, not a regular file" (the INI: "not a regular file"), within 20 s even
+# "FILE: is a FIFO, not a regular file" (circgen: "is a FIFO, expected a regular INI file"
+# or "... parameter file"; circtest-ini: "not a regular file"), within 20 s even
 # though no writer ever opens the FIFO (opening it for reading would wait for one).
 # usage: check-fifo-inputs.sh SOURCE_DIR CIRCGEN CIRCANA CIRCCOMP CIRCLOG_RECORD CIRCTEST_INI
 set -u
@@ -33,10 +34,10 @@ mkdir "$dir/mill"
 cp "$src"/configs/sim-mill/* "$dir/mill/"
 mkfifo "$dir/mill/sim-mill.var"
 
-check "circgen --ini FIFO" "$dir/fifo: not a regular file" \
+check "circgen --ini FIFO" "$dir/fifo: is a FIFO, expected a regular INI file" \
   "$circgen" --d 100 --f 500 --ini "$dir/fifo" -o "$dir/t.ngc"
 check "circgen, the INI's PARAMETER_FILE a FIFO" \
-  "$dir/mill/sim-mill.var: is a FIFO, not a regular file" \
+  "$dir/mill/sim-mill.var: is a FIFO, expected a regular parameter file" \
   "$circgen" --d 100 --f 500 --ini "$dir/mill/sim-mill.ini" -o "$dir/t.ngc"
 check "circana analyze FIFO" "$dir/fifo: is a FIFO, not a regular file" \
   "$circana" analyze "$dir/fifo"
