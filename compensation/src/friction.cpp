@@ -145,6 +145,26 @@ std::vector<std::string> pins_from(const std::vector<std::string>& words, std::s
   return pins;
 }
 
+// A word halcmd reads as a command, not as the PIN of "PIN = VALUE" (halcmd_commands.cc).
+bool is_halcmd_command(const std::string& word) {
+  static const std::set<std::string> kCommands{
+      "addf",      "alias",     "delf",
+      "delsig",    "echo",      "getp",
+      "gets",      "help",      "linkpp",
+      "linkps",    "linksp",    "list",
+      "loadrt",    "loadusr",   "lock",
+      "net",       "newsig",    "ptype",
+      "quit",      "save",      "setexact_for_test_suite_only",
+      "setp",      "sets",      "show",
+      "source",    "start",     "status",
+      "stop",      "stype",     "unalias",
+      "unecho",    "unlinkp",   "unload",
+      "unloadrt",  "unloadusr", "unlock",
+      "waitusr",   "exit",      "newinst",
+      "newthread", "delthread", "print"};
+  return kCommands.count(word) > 0;
+}
+
 void hal_command(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
   const std::string& cmd = words[0];
   if (cmd == "loadrt") {
@@ -172,7 +192,9 @@ void hal_command(HalWiring& w, const std::vector<std::string>& words, const HalP
     }
   } else if (cmd == "setp" || cmd == "sets") {
     need_words(words, 3, place, cmd + " NAME VALUE");
-    if (cmd == "setp") w.setp[words[1]] = place;
+    (cmd == "setp" ? w.setp : w.sets)[words[1]] = place;
+  } else if (words.size() == 3 && words[1] == "=" && !is_halcmd_command(cmd)) {
+    w.setp[words[0]] = place;  // halcmd(1): "PIN = VALUE" is "setp PIN VALUE"
   } else if (cmd == "addf") {
     need_words(words, 3, place, "addf FUNCTION THREAD [POSITION]");
     add_function(w, words, place);
@@ -619,10 +641,13 @@ HalWiring parse_hal_text(const std::string& text, const std::string& file, const
   return wiring;
 }
 
-HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip) {
-  HalWiring wiring;
+namespace {
+
+// The .hal files of ENTRIES read into WIRING in order (SKIP and other kinds left unread).
+void read_hal_files(const IniDocument& ini, const std::vector<IniEntry>& entries,
+                    const std::string& skip, HalWiring& wiring) {
   const std::string dir = ini_dir(ini.path());
-  for (const auto& h : ini.get_all("HAL", "HALFILE")) {
+  for (const auto& h : entries) {
     if (h.value == skip) continue;
     const fs::path path = fs::path(h.value).is_absolute() || dir.empty() ? fs::path(h.value)
                                                                          : fs::path(dir) / h.value;
@@ -635,6 +660,23 @@ HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip) {
     }
     wiring = parse_hal_text(text, path.string(), ini, std::move(wiring));
   }
+}
+
+}  // namespace
+
+HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip, bool and_later) {
+  HalWiring wiring;
+  read_hal_files(ini, ini.get_all("HAL", "HALFILE"), skip, wiring);
+  if (!and_later) return wiring;
+  // The linuxcnc script runs every HALCMD after the HALFILEs ("halcmd $HALCMD": no INI given,
+  // so no [SECTION]KEY is replaced), then the GUI runs POSTGUI_HALFILE.
+  for (const auto& c : ini.get_all("HAL", "HALCMD")) {
+    std::vector<std::string> words;
+    std::istringstream in(c.value);
+    for (std::string word; in >> word;) words.push_back(word);
+    if (!words.empty()) hal_command(wiring, words, {c.file, c.line, true});
+  }
+  read_hal_files(ini, ini.get_all("HAL", "POSTGUI_HALFILE"), skip, wiring);
   return wiring;
 }
 
