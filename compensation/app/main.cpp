@@ -1,8 +1,16 @@
 // circcomp: writes a circtest diagnosis back into a LinuxCNC configuration. Only option
 // parsing lives here; the work is circtest::compensation.
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <boost/program_options.hpp>
+
+#include <cerrno>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -24,11 +32,21 @@ using namespace circtest::compensation;
 
 namespace {
 
+constexpr const char* kPlanUsage =
+    "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
+    "backlash,scale,squareness,cyclic,friction,servo]\n"
+    "                       [--gain F] [--force] [--json]\n";
+constexpr const char* kApplyUsage =
+    "usage: circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [--only "
+    "backlash,scale,squareness,cyclic,friction,servo]\n"
+    "                       [--gain F] [--force]\n";
+constexpr const char* kRevertUsage =
+    "usage: circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
 constexpr const char* kUsage =
     "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
     "backlash,scale,squareness,cyclic,friction,servo]\n"
     "                       [--gain F] [--force] [--json]\n"
-    "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
+    "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options but --json]\n"
     "       circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
 
 // circcomp's words for what the library asks the user to give: its options (the library's
@@ -55,11 +73,50 @@ void print_summary(const Plan& plan, std::ostream& out) {
   for (const auto& a : plan.advice) out << "# advice: " << a << "\n";
 }
 
+// Writes what is in standard output's buffer; false when it cannot (a full disk, /dev/full, a
+// closed pipe), with errno's reason in REASON.
+bool flush_stdout(std::string& reason) {
+  errno = 0;
+  std::cout.flush();
+  const bool ok = std::cout.good() && std::fflush(stdout) == 0 && std::ferror(stdout) == 0;
+  if (!ok) reason = errno != 0 ? std::strerror(errno) : "write failed";
+  return ok;
+}
+
+// Before a change is committed: what it will do is on standard output, or nothing happens.
+void report_before_commit(const std::string& what) {
+  std::string reason;
+  if (!flush_stdout(reason)) {
+    throw IoError("standard output",
+                  fmt::format("write failed ({}): {} not started, nothing changed", reason, what));
+  }
+}
+
+// After a change is committed: a standard output that fails now is no failure of the change.
+// Exit 13 (unreported) and stderr say that the change IS made and how to undo it.
+int report_after_commit(const std::string& done, const std::string& undo) {
+  std::string reason;
+  if (flush_stdout(reason)) return 0;
+  throw Error(ExitCode::unreported,
+              fmt::format("standard output: write failed ({}) after the {}: the change IS made; {}",
+                          reason, done, undo));
+}
+
 #ifdef CIRCCOMP_CRASH_TEST
 // Only in the crash test's own build of this file (tests/compensation: circcomp-crash-test,
 // never installed): SIGKILL itself after step K of apply or revert, as a power cut or an OOM
 // kill would stop it, so the test sees what such a stop leaves.
 StepHook after_step_hook() {
+  if (const char* f = std::getenv("CIRCCOMP_FULL_STDOUT_AFTER_STEP")) {
+    // Standard output becomes /dev/full after step K: a disk filling during the commit.
+    const auto full_step =
+        static_cast<std::size_t>(parse_option_index("CIRCCOMP_FULL_STDOUT_AFTER_STEP", f));
+    return [full_step](std::size_t step, const std::string&) {
+      if (step != full_step) return;
+      const int fd = ::open("/dev/full", O_WRONLY);
+      if (fd >= 0) ::dup2(fd, STDOUT_FILENO);
+    };
+  }
   const char* k = std::getenv("CIRCCOMP_KILL_AFTER_STEP");
   if (k == nullptr) return {};
   const auto kill_step =
@@ -76,6 +133,35 @@ StepHook after_step_hook() {
 }
 #endif
 
+// The plan; for an apply (CHECKED) also refused as stale when the INI it read is not the one
+// measured: another apply committed between the freshness check and the plan (apply_plan
+// checks the INI against the plan again under the configuration's lock). A plan that fails
+// while the INI is changing under it is refused as stale, not as what the torn read showed.
+Plan plan_for(const std::string& ini, const std::vector<DiagnosisInput>& planes,
+              const PlanOptions& options, bool checked) {
+  const auto changed = [&] {
+    return fmt::format(
+        "{} changed while circcomp planned (another circcomp apply?): nothing "
+        "changed; measure again, or plan again",
+        ini);
+  };
+  try {
+    Plan plan = make_plan(ini, planes, options);
+    if (checked && !plan.provenance_checked) throw StaleError(changed());
+    return plan;
+  } catch (const StaleError&) {
+    throw;
+  } catch (const Error&) {
+    if (!checked) throw;
+    try {
+      require_fresh(ini, planes.front(), false);
+    } catch (const StaleError&) {
+      throw StaleError(changed());
+    }
+    throw;
+  }
+}
+
 int run_revert(const std::string& ini, const std::string& diagnosis, const std::string& to,
                bool force) {
   if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
@@ -85,6 +171,8 @@ int run_revert(const std::string& ini, const std::string& diagnosis, const std::
   RevertOptions options;
   options.as_found = to == "as-found";
   options.force = force;
+  std::cout << "circcomp: reverting " << ini << "\n";
+  report_before_commit("the revert");
   const RevertResult r = revert(ini, options, after_step_hook());
   if (r.reverted) {
     std::cout << "circcomp: reverted " + ini +
@@ -97,7 +185,10 @@ int run_revert(const std::string& ini, const std::string& diagnosis, const std::
     std::cout << "circcomp: earlier applies remain; circcomp revert --to as-found --ini " << ini
               << " goes back to the configuration as it was before the first\n";
   }
-  return 0;
+  return r.reverted ? report_after_commit("revert",
+                                          "circcomp apply of the same diagnosis "
+                                          "makes it again")
+                    : 0;
 }
 
 int run(int argc, char** argv) {
@@ -131,12 +222,17 @@ int run(int argc, char** argv) {
     throw option_usage_error(e, opts);
   }
   if (vm.count("help")) {
-    std::cout << kUsage;
+    std::cout << (command == "plan" ? kPlanUsage : command == "apply" ? kApplyUsage : kRevertUsage);
     return 0;
   }
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
   if (json && command != "plan") throw UsageError("--json: only for circcomp plan");
-  if (command == "revert") return run_revert(ini, diagnosis, to, force);
+  if (command == "revert") {
+    for (const char* option : {"only", "gain"}) {
+      if (vm.count(option)) throw UsageError(fmt::format("--{}: only for plan and apply", option));
+    }
+    return run_revert(ini, diagnosis, to, force);
+  }
   if (!to.empty()) throw UsageError("--to: only for revert");
   if (diagnosis.empty()) throw UsageError("expected DIAGNOSIS.json (circana diagnose --json)");
   PlanOptions options;
@@ -158,10 +254,17 @@ int run(int argc, char** argv) {
       if (w == "servo") options.servo_requested = true;
     }
   }
+  // A named FIFO without a writer would block the read: a pipe is given as - (or <(...)).
+  struct stat st {};
+  if (::lstat(diagnosis.c_str(), &st) == 0 && S_ISFIFO(st.st_mode)) {
+    throw IoError(diagnosis,
+                  "is a FIFO: expected the diagnosis JSON as a regular file (a pipe "
+                  "as -)");
+  }
   // One plane's diagnosis, or a test set's (one entry per plane).
   const std::vector<DiagnosisInput> planes = read_diagnosis_planes(diagnosis);
   if (command == "apply") require_fresh(ini, planes.front(), force, circcomp_option_words);
-  const Plan plan = make_plan(ini, planes, options);
+  const Plan plan = plan_for(ini, planes, options, command == "apply" && !force);
   if (command == "plan" && json) {
     // The changes as data (circtest.plan/1) for circana report --changes.
     std::cout << json_text(plan_json(plan), 2) << "\n";
@@ -187,13 +290,17 @@ int run(int argc, char** argv) {
     return 0;
   }
   require_kins_module(plan, circcomp_option_words);
-  apply_plan(plan, after_step_hook());
+  // What the apply does is on standard output before it starts; the line after it says it
+  // is done (exit 13 when only that line cannot be written: the change is made).
   print_summary(plan, std::cout);
   for (const auto& f : plan.files) {
-    std::cout << "circcomp: " << (f.existed ? "changed " : "created ") << f.path << "\n";
+    std::cout << "circcomp: " << (f.existed ? "changing " : "creating ") << f.path << "\n";
   }
-  std::cout << "circcomp: originals kept; undo with: circcomp revert --ini " << ini << "\n";
-  return 0;
+  report_before_commit("the apply");
+  apply_plan(plan, after_step_hook());
+  std::cout << "circcomp: applied; originals kept; undo with: circcomp revert --ini " << ini
+            << "\n";
+  return report_after_commit("apply", "undo it with: circcomp revert --ini " + ini);
 }
 
 }  // namespace

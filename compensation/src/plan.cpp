@@ -823,7 +823,8 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
   plan.ini_path = ini_path;
   IniDocument ini = IniDocument::load(ini_path);
   const ConfigDir config(ini_path);
-  plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == sha256_hex(ini_text(ini_path));
+  plan.ini_sha256 = sha256_hex(ini_text(ini_path));
+  plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == plan.ini_sha256;
   TableFiles tables;
   PlanContext c{ini_path, d, o, ini, config, units_per_mm(ini), ini_dir(ini_path), plan, tables};
 
@@ -856,18 +857,22 @@ Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& p
   if (!(o.gain > 0.0 && o.gain <= 1.0)) {
     throw UsageError(fmt::format("{}: expected 0 < F <= 1", o.setting_words(PlanSetting::gain)));
   }
-  if (o.friction_requested && o.only.size() == 1) {
-    throw UsageError(fmt::format(
-        "{}: friction is planned from one plane's diagnosis, not from a test set (circana "
-        "diagnose --plane P --json)",
-        planes.front().source));
+  for (const auto& [requested, what] :
+       {std::pair{o.friction_requested, "friction"}, std::pair{o.servo_requested, "servo"}}) {
+    if (requested && o.only.size() == 1) {
+      throw UsageError(
+          fmt::format("{}: {} is planned from one plane's diagnosis, not from a test set (circana "
+                      "diagnose --plane P --json)",
+                      planes.front().source, what));
+    }
   }
   Plan plan;
   plan.ini_path = ini_path;
   IniDocument ini = IniDocument::load(ini_path);
   const ConfigDir config(ini_path);
   const DiagnosisInput& first = planes.front();
-  plan.provenance_checked = first.ini_sha256 && *first.ini_sha256 == sha256_hex(ini_text(ini_path));
+  plan.ini_sha256 = sha256_hex(ini_text(ini_path));
+  plan.provenance_checked = first.ini_sha256 && *first.ini_sha256 == plan.ini_sha256;
   TableFiles tables;
   std::vector<SquarenessChange> squareness;
   for (const DiagnosisInput& d : planes) {
@@ -886,6 +891,15 @@ Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& p
     plan.notes.push_back(
         "friction compensation is not planned from a test set: plan it from one plane's "
         "diagnosis (circana diagnose --plane P --json)");
+  }
+  if (c.wants("servo")) {
+    // FF1 and P are matched to a common lag of the joints a plan changes together; the planes
+    // of a set each measured two axes at their own feed, so one axis's lag comes from up to
+    // two planes and a common target over three axes from none.
+    plan.notes.push_back(
+        "servo gains are not planned from a test set: its planes measured each axis's lag in "
+        "different circles; plan them from one plane's diagnosis (circana diagnose --plane P "
+        "--json)");
   }
   collect_files(c);
   return plan;
@@ -907,8 +921,15 @@ std::vector<std::string> lines_of(const std::string& text) {
   return out;
 }
 
-std::string file_diff(const FileChange& f) {
-  const auto a = lines_of(f.before), b = lines_of(f.after);
+struct Op {
+  char kind;  // ' ' kept, '-' removed, '+' added
+  std::size_t ai, bi;
+};
+
+// The LCS table walk: for files up to kMaxLcsCells (configuration files are small), ties
+// taking '-' first.
+constexpr std::size_t kMaxLcsCells = std::size_t{4} << 20;
+std::vector<Op> lcs_script(const std::vector<std::string>& a, const std::vector<std::string>& b) {
   const std::size_t n = a.size(), m = b.size();
   std::vector<std::vector<unsigned>> lcs(n + 1, std::vector<unsigned>(m + 1, 0));
   for (std::size_t i = n; i-- > 0;) {
@@ -916,10 +937,6 @@ std::string file_diff(const FileChange& f) {
       lcs[i][j] = a[i] == b[j] ? lcs[i + 1][j + 1] + 1 : std::max(lcs[i + 1][j], lcs[i][j + 1]);
     }
   }
-  struct Op {
-    char kind;
-    std::size_t ai, bi;
-  };
   std::vector<Op> ops;
   std::size_t i = 0, j = 0;
   while (i < n || j < m) {
@@ -930,6 +947,81 @@ std::string file_diff(const FileChange& f) {
     else
       ops.push_back({'-', i++, j});
   }
+  return ops;
+}
+
+// Myers' greedy shortest edit script for larger files: time O((N + M) D), memory O(D^2) for
+// D changed lines (a large INI with a few changes plans in bounded memory).
+std::vector<Op> myers_script(const std::vector<std::string>& a, const std::vector<std::string>& b) {
+  const long n = static_cast<long>(a.size()), m = static_cast<long>(b.size());
+  std::vector<std::vector<long>> trace;  // V of every d: the furthest x on diagonal k
+  std::vector<long> v(3, 0);             // diagonals -d-1 .. d+1 at offset d+1
+  long d = 0;
+  bool reached = false;
+  for (;; ++d) {
+    std::vector<long> next(2 * d + 3, 0);
+    const auto at = [](std::vector<long>& row, long dd, long k) -> long& {
+      return row[static_cast<std::size_t>(k + dd + 1)];
+    };
+    for (long k = -d; k <= d; k += 2) {
+      long x = 0;
+      if (d == 0) {
+        x = 0;
+      } else if (k == -d || (k != d && at(v, d - 1, k - 1) < at(v, d - 1, k + 1))) {
+        x = at(v, d - 1, k + 1);  // down: an added line
+      } else {
+        x = at(v, d - 1, k - 1) + 1;  // right: a removed line
+      }
+      long y = x - k;
+      while (x < n && y < m && a[static_cast<std::size_t>(x)] == b[static_cast<std::size_t>(y)]) {
+        ++x;
+        ++y;
+      }
+      at(next, d, k) = x;
+      if (x >= n && y >= m) {
+        reached = true;
+        break;
+      }
+    }
+    trace.push_back(next);
+    if (reached) break;
+    v = std::move(next);
+  }
+  std::vector<Op> ops;
+  long x = n, y = m;
+  for (long dd = d; dd > 0; --dd) {
+    const std::vector<long>& prev = trace[static_cast<std::size_t>(dd - 1)];
+    const auto prev_at = [&](long k) { return prev[static_cast<std::size_t>(k + dd)]; };
+    const long k = x - y;
+    const bool down = k == -dd || (k != dd && prev_at(k - 1) < prev_at(k + 1));
+    const long pk = down ? k + 1 : k - 1;
+    const long px = prev_at(pk), py = px - pk;
+    while (x > (down ? px : px + 1) && y > (down ? py + 1 : py)) {
+      --x;
+      --y;
+      ops.push_back({' ', static_cast<std::size_t>(x), static_cast<std::size_t>(y)});
+    }
+    if (down) {
+      --y;
+      ops.push_back({'+', static_cast<std::size_t>(x), static_cast<std::size_t>(y)});
+    } else {
+      --x;
+      ops.push_back({'-', static_cast<std::size_t>(x), static_cast<std::size_t>(y)});
+    }
+  }
+  while (x > 0 && y > 0) {
+    --x;
+    --y;
+    ops.push_back({' ', static_cast<std::size_t>(x), static_cast<std::size_t>(y)});
+  }
+  std::reverse(ops.begin(), ops.end());
+  return ops;
+}
+
+std::string file_diff(const FileChange& f) {
+  const auto a = lines_of(f.before), b = lines_of(f.after);
+  const std::vector<Op> ops =
+      (a.size() + 1) * (b.size() + 1) <= kMaxLcsCells ? lcs_script(a, b) : myers_script(a, b);
   auto show = [](std::string line) {
     if (line.empty() || line.back() != '\n') return line + "\n\\ No newline at end of file\n";
     return line;

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -594,3 +595,34 @@ TEST(Compensation, CyclicPhaseIsInMachineCoordinatesFromDiagnoseToTable) {
   EXPECT_LT(worst, 0.003 * 0.05);  // under 5 % of the amplitude left
 }
 #endif
+
+// A 50,000-line INI with changes at both ends (the kinematics near the top, [CIRCTEST_COMP]
+// appended): circcomp plan runs within 256 MB of address space (the LCS table of the whole
+// file was 10 GB) and its diff, applied by patch(1) to a copy, gives the plan's new INI.
+TEST(Compensation, LargeIniIsPlannedInBoundedMemoryAndItsDiffApplies) {
+  Scratch s;
+  std::string text = machine();
+  std::size_t lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+  for (int i = 0; lines < 50000; ++i, lines += 3) {
+    text += "[EXTRA_" + std::to_string(i) + "]\nKEY = " + std::to_string(i) + "\n\n";
+  }
+  const std::string ini = s.write("m.ini", text);
+  s.write("circtest_kins.so", "");
+  DiagnosisInput d = diag(0.002, ini);
+  d.squareness_urad = {100.0, 0.5};
+  PlanOptions o;
+  o.only = {"backlash", "squareness"};
+  const Plan plan = make_plan(ini, d, o);
+  ASSERT_EQ(plan.files.size(), 2u);
+  const std::string dir = s.dir().string();
+  const std::string json = R"({"schema": "circtest.diagnosis/1", "units": "mm", "plane": "XY",
+    "axes": ["X", "Y"], "backlash_mm": {"X": 0.002, "Y": 0.0}, "squareness_urad": 100,
+    "standard_error": {"backlash_mm": {"X": 1e-5, "Y": 1e-5}, "squareness_urad": 0.5}})";
+  s.write("d.json", json);
+  const std::string cmd = "cd " + dir + " && (ulimit -v 262144; " + CIRCCOMP_PATH +
+                          " plan --ini m.ini --only backlash,squareness d.json >plan.diff) && "
+                          "mkdir copy && cp m.ini copy/ && cd copy && sed -n '/^--- a\\/m.ini/,"
+                          "/^--- /p' ../plan.diff | sed '$d' | patch -s -p1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << read_file(dir + "/plan.diff").substr(0, 2000);
+  EXPECT_EQ(read_file(dir + "/copy/m.ini"), plan.files[0].after);
+}

@@ -173,3 +173,26 @@ TEST(TestSetPlan, FrictionAloneIsRefusedForASet) {
                ExitCode::usage,
                "friction is planned from one plane's diagnosis, not from a test set");
 }
+
+// Servo gains from a set: a note says why not (each axis's lag measured in different
+// circles); asked for alone, a usage error naming the one-plane command.
+TEST(TestSetPlan, ServoIsNotPlannedFromASetAndANoteSaysWhy) {
+  circtest::testing::ScratchDir s("circcomp-set");
+  const std::string ini =
+      s.write("m.ini",
+              "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
+              "coordinates=XYZ\nJOINTS = 3\n\n" +
+                  joint(0) + joint(1) + joint(2));
+  const auto planes = parse_diagnosis_planes(set_doc().dump(), "set.json");
+  const Plan plan = make_plan(ini, planes, PlanOptions{});
+  bool noted = false;
+  for (const auto& n : plan.notes) {
+    noted = noted || n.find("servo gains are not planned from a test set") != std::string::npos;
+  }
+  EXPECT_TRUE(noted);
+  PlanOptions o;
+  o.only = {"servo"};
+  o.servo_requested = true;
+  EXPECT_ERROR(make_plan(ini, planes, o), ExitCode::usage,
+               "servo is planned from one plane's diagnosis, not from a test set");
+}
