@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -243,15 +244,21 @@ int run(int argc, char** argv) {
     options.only.clear();
     std::istringstream in(only);
     for (std::string w; std::getline(in, w, ',');) {
-      if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic" &&
-          w != "friction" && w != "servo") {
-        throw UsageError(
-            "--only: expected backlash, scale, squareness, cyclic, friction or servo, got '" + w +
-            "'");
+      const std::optional<Correction> c = correction_named(w);
+      if (!c) {
+        std::string names;
+        const std::vector<Correction> all = all_corrections();
+        for (std::size_t i = 0; i < all.size(); ++i) {
+          names += std::string(i == 0                ? ""
+                               : i + 1 == all.size() ? " or "
+                                                     : ", ") +
+                   std::string(correction_name(all[i]));
+        }
+        throw UsageError(fmt::format("--only: expected {}, got '{}'", names, w));
       }
-      options.only.insert(w);
-      if (w == "friction") options.friction_requested = true;
-      if (w == "servo") options.servo_requested = true;
+      options.only.insert(*c);
+      if (*c == Correction::friction) options.friction_requested = true;
+      if (*c == Correction::servo) options.servo_requested = true;
     }
   }
   // A named FIFO without a writer would block the read: a pipe is given as - (or <(...)).

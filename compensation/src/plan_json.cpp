@@ -13,7 +13,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/numbers.hpp"
-#include "plan_internal.hpp"
+#include "plan/context.hpp"
 
 namespace circtest::compensation {
 

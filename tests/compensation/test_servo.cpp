@@ -1,4 +1,4 @@
-// circcomp's servo step (compensation/src/servo.cpp) on pncconf-style configurations
+// circcomp's servo step (compensation/src/plan/servo.cpp) on pncconf-style configurations
 // (tests/compensation/data): FF1 written into the [JOINT_n] keys the HAL reads, the variants
 // pncconf and the stock configurations use (pid.x / pid.0, an FF1 setp missing, literal
 // gains), P where FF1 alone cannot match, the bounds, the refusals naming file and line, the
@@ -66,7 +66,7 @@ DiagnosisInput lags(std::optional<double> x_ms, std::optional<double> y_ms) {
 
 PlanOptions servo_only() {
   PlanOptions o;
-  o.only = {"servo"};
+  o.only = {Correction::servo};
   o.servo_requested = true;
   return o;
 }

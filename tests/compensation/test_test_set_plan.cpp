@@ -132,7 +132,7 @@ TEST(TestSetPlan, ThreeSquarenessesIntoCircTestKinsAndEachBacklashOnce) {
                   joint(0) + joint(1) + joint(2));
   s.write("mill.hal", "loadrt trivkins coordinates=XYZ\n");
   PlanOptions o;
-  o.only = {"backlash", "squareness"};
+  o.only = {Correction::backlash, Correction::squareness};
   const Plan plan = make_plan(ini, parse_diagnosis_planes(set_doc().dump(), "set.json"), o);
   const FileChange* m = change_of(plan, "m.ini");
   ASSERT_TRUE(m);
@@ -167,7 +167,7 @@ TEST(TestSetPlan, FrictionAloneIsRefusedForASet) {
               "coordinates=XYZ\nJOINTS = 3\n\n" +
                   joint(0) + joint(1) + joint(2));
   PlanOptions o;
-  o.only = {"friction"};
+  o.only = {Correction::friction};
   o.friction_requested = true;
   EXPECT_ERROR(make_plan(ini, parse_diagnosis_planes(set_doc().dump(), "set.json"), o),
                ExitCode::usage,
@@ -191,7 +191,7 @@ TEST(TestSetPlan, ServoIsNotPlannedFromASetAndANoteSaysWhy) {
   }
   EXPECT_TRUE(noted);
   PlanOptions o;
-  o.only = {"servo"};
+  o.only = {Correction::servo};
   o.servo_requested = true;
   EXPECT_ERROR(make_plan(ini, planes, o), ExitCode::usage,
                "servo is planned from one plane's diagnosis, not from a test set");

@@ -87,13 +87,4 @@ HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip, bool 
 HalWiring parse_hal_text(const std::string& text, const std::string& file, const IniDocument& ini,
                          HalWiring wiring = {});
 
-// Plans [FRICTION_<axis>] for both axes of the diagnosis (step 1: first tuning; step 2:
-// refinement of what circtest-fric.hal already loads) and, for a first tuning, the HAL file
-// into FILES (path -> (existed, content)). Throws WiringError naming the HAL file and line
-// when the joint's position command cannot be found or spliced, or the servo thread has no
-// motion-controller; DataError naming the diagnosis for a spike it refuses.
-void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& diagnosis,
-                   const PlanOptions& options, Plan& plan,
-                   std::map<std::string, std::pair<bool, std::string>>& files);
-
 }  // namespace circtest::compensation

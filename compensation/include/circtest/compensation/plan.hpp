@@ -29,8 +29,16 @@ using PlanSettingWords = SettingWords<PlanSetting>;
 // The library's words: "the force setting", "the gain setting", ...
 std::string_view library_setting_words(PlanSetting setting) noexcept;
 
+// The corrections circcomp plans; each is a step of the planner (compensation/src/plan/).
+enum class Correction { backlash, scale, squareness, cyclic, friction, servo };
+// "backlash", "scale", ...: the correction's name in messages and in a front end's words.
+std::string_view correction_name(Correction c) noexcept;
+std::optional<Correction> correction_named(std::string_view name) noexcept;
+std::vector<Correction> all_corrections();  // in the order above
+
 struct PlanOptions {
-  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic", "friction", "servo"};
+  std::set<Correction> only{Correction::backlash, Correction::scale,    Correction::squareness,
+                            Correction::cyclic,   Correction::friction, Correction::servo};
   // Friction asked for by name: a configuration circfric cannot be wired into is then refused;
   // when it is only part of the default set, that is a note and the other corrections go on.
   bool friction_requested = false;

@@ -1,7 +1,8 @@
 // circcomp's servo step: the per-axis following lag of a diagnosis matched by velocity feed
 // forward (FF1, and P where FF1 alone cannot match) of each joint's pid, written where the
 // configuration's HAL reads it ([JOINT_n] keys, or a literal setp edited in place); stepgen
-// joints get the stepgen checks instead (docs/compensation.md, "Servo").
+// joints get the stepgen checks instead (docs/compensation.md, "Servo"); without a per-axis
+// lag, the mismatch advice.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -15,7 +16,7 @@
 #include "circtest/compensation/friction.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
-#include "plan_internal.hpp"
+#include "context.hpp"
 
 namespace circtest::compensation {
 
@@ -38,8 +39,6 @@ constexpr double kMaxGainTimesPeriod = 0.25;
 constexpr double kMinFf1Change = 0.005;
 // A following lag beyond this is no servo loop's (1 / P of P = 0.1 1/s): implausible.
 constexpr double kMaxLagMs = 10000.0;
-
-using Files = std::map<std::string, std::pair<bool, std::string>>;  // path -> (existed, after)
 
 // How a pid pin gets its value: the HAL command that decides it (the last halcmd runs).
 struct Gain {
@@ -251,7 +250,7 @@ double ini_number(const IniDocument& ini, const std::string& section, const char
 
 // The new text of the HAL file holding a gain: the literal replaced, or a setp inserted.
 void write_gain(const JointServo& js, const Gain& g, const std::string& pin, double value,
-                const Gain& after, IniDocument& ini, Files& files) {
+                const Gain& after, IniDocument& ini, PlanFiles& files) {
   if (g.kind == Gain::Kind::ini_key) {
     ini.set(g.section, g.key, number_text(value));
     return;
@@ -521,10 +520,37 @@ void check_shared_gains(const std::vector<JointServo>& joints) {
   }
 }
 
+// Advice: the servo mismatch, which no configuration value of circcomp's changes.
+void servo_advice(PlanContext& c) {
+  const DiagnosisInput& d = c.d();
+  if (!d.servo_mismatch_ms.value || std::fabs(*d.servo_mismatch_ms.value) < 0.05) return;
+  const double m = *d.servo_mismatch_ms.value;
+  const char slow = m > 0 ? d.axes[0] : d.axes[1];
+  const char fast = m > 0 ? d.axes[1] : d.axes[0];
+  std::string joints;
+  for (int j : joints_of(c.ini, slow)) joints += fmt::format(" [JOINT_{}]", j);
+  std::string how = "until their lag times 1/Kv agree";
+  if (d.kv_per_s && *d.kv_per_s > 0) {
+    const double kv = *d.kv_per_s;
+    const double lag_slow = 1.0 / kv + std::fabs(m) * 1e-3 / 2;
+    const double lag_fast = 1.0 / kv - std::fabs(m) * 1e-3 / 2;
+    how = fmt::format("(about Kv {:.1f} 1/s now against {:.1f} 1/s: raise it by {:.1f} %)",
+                      1.0 / lag_slow, 1.0 / lag_fast, (lag_slow / lag_fast - 1.0) * 100.0);
+  }
+  c.plan.advice.push_back(fmt::format(
+      "servo mismatch: {} lags {} by {:.2f} ms: raise the position-loop gain (P, Kv) of{} "
+      "{} or lower {}'s; no INI value of circcomp's changes that",
+      slow, fast, std::fabs(m), joints, how, fast));
+}
+
 }  // namespace
 
-bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o, Plan& plan,
-                std::map<std::string, std::pair<bool, std::string>>& files) {
+bool plan_servo(PlanContext& c) {
+  IniDocument& ini = c.ini;
+  const DiagnosisInput& d = c.d();
+  const PlanOptions& o = c.o;
+  Plan& plan = c.plan;
+  PlanFiles& files = c.files;
   const HalWiring w = read_hal_wiring(ini, "", true);
   std::vector<JointServo> joints;
   std::vector<std::string> skipped;
@@ -635,6 +661,33 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
         js.lag_s * 1e3, lag_after * 1e3));
   }
   return true;
+}
+
+// Servo: tried on a trial context (the configuration's texts, an empty plan), so that a
+// configuration it cannot take keeps every other correction. A refusal of the diagnosis
+// itself (MeasurementError) is thrown as for every other step.
+void servo_step(PlanContext& c) {
+  c.changes_before_servo = c.plan.changes.size();
+  if (!c.wants(Correction::servo)) return;
+  PlanContext tried = c.trial();
+  try {
+    if (!plan_servo(tried)) {
+      c.plan.notes.insert(c.plan.notes.end(), tried.plan.notes.begin(), tried.plan.notes.end());
+      return;
+    }
+  } catch (const MeasurementError&) {
+    throw;
+  } catch (const DataError& e) {
+    if (c.o.servo_requested) throw;
+    c.plan.notes.push_back(fmt::format("servo gains not planned: {}", e.what()));
+    return;
+  }
+  c.merge(std::move(tried));
+  c.servo_answered = true;
+}
+
+void servo_advice_step(PlanContext& c) {
+  if (!c.servo_answered) servo_advice(c);
 }
 
 }  // namespace circtest::compensation
