@@ -64,8 +64,9 @@ std::string_view circcomp_option_words(PlanSetting setting) noexcept {
 
 #ifdef CIRCCOMP_CRASH_TEST
 // Only in the crash test's own build of this file (tests/compensation: circcomp-crash-test,
-// never installed): SIGKILL itself after step K of apply or revert, as a power cut or an OOM
-// kill would stop it, so the test sees what such a stop leaves.
+// never installed): SIGKILL itself after step K of apply or revert (CIRCCOMP_KILL_AFTER_STEP),
+// as a power cut or an OOM kill would stop it, so the test sees what such a stop leaves; or
+// standard output turned into /dev/full after step K (CIRCCOMP_FULL_STDOUT_AFTER_STEP).
 StepHook after_step_hook() {
   if (const char* f = std::getenv("CIRCCOMP_FULL_STDOUT_AFTER_STEP")) {
     // Standard output becomes /dev/full after step K: a disk filling during the commit.
