@@ -1,20 +1,23 @@
 // circcomp: writes a circtest diagnosis back into a LinuxCNC configuration. Only option
-// parsing lives here; the work is circtest::compensation.
+// parsing lives here: the options become a CirccompRequest run by app/commands.cpp.
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <unistd.h>
 #include <boost/program_options.hpp>
+
 #include <csignal>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
 
-#include "circtest/compensation/diagnosis_input.hpp"
+#include "circtest/circcomp/commands.hpp"
 #include "circtest/compensation/plan.hpp"
-#include "circtest/compensation/plan_json.hpp"
 #include "circtest/core/cli.hpp"
 #include "circtest/core/cli_options.hpp"
 #include "circtest/core/error.hpp"
-#include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/version.hpp"
 
@@ -24,11 +27,21 @@ using namespace circtest::compensation;
 
 namespace {
 
+constexpr const char* kPlanUsage =
+    "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
+    "backlash,scale,squareness,cyclic,friction,servo]\n"
+    "                       [--gain F] [--force] [--json]\n";
+constexpr const char* kApplyUsage =
+    "usage: circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [--only "
+    "backlash,scale,squareness,cyclic,friction,servo]\n"
+    "                       [--gain F] [--force]\n";
+constexpr const char* kRevertUsage =
+    "usage: circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
 constexpr const char* kUsage =
     "usage: circcomp plan   --ini MACHINE.ini DIAGNOSIS.json [--only "
     "backlash,scale,squareness,cyclic,friction,servo]\n"
     "                       [--gain F] [--force] [--json]\n"
-    "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options]\n"
+    "       circcomp apply  --ini MACHINE.ini DIAGNOSIS.json [the same options but --json]\n"
     "       circcomp revert --ini MACHINE.ini [--to last|as-found] [--force]\n";
 
 // circcomp's words for what the library asks the user to give: its options (the library's
@@ -49,17 +62,22 @@ std::string_view circcomp_option_words(PlanSetting setting) noexcept {
   return library_setting_words(setting);
 }
 
-void print_summary(const Plan& plan, std::ostream& out) {
-  for (const auto& c : plan.changes) out << "# change: " << c << "\n";
-  for (const auto& n : plan.notes) out << "# note: " << n << "\n";
-  for (const auto& a : plan.advice) out << "# advice: " << a << "\n";
-}
-
 #ifdef CIRCCOMP_CRASH_TEST
 // Only in the crash test's own build of this file (tests/compensation: circcomp-crash-test,
-// never installed): SIGKILL itself after step K of apply or revert, as a power cut or an OOM
-// kill would stop it, so the test sees what such a stop leaves.
+// never installed): SIGKILL itself after step K of apply or revert (CIRCCOMP_KILL_AFTER_STEP),
+// as a power cut or an OOM kill would stop it, so the test sees what such a stop leaves; or
+// standard output turned into /dev/full after step K (CIRCCOMP_FULL_STDOUT_AFTER_STEP).
 StepHook after_step_hook() {
+  if (const char* f = std::getenv("CIRCCOMP_FULL_STDOUT_AFTER_STEP")) {
+    // Standard output becomes /dev/full after step K: a disk filling during the commit.
+    const auto full_step =
+        static_cast<std::size_t>(parse_option_index("CIRCCOMP_FULL_STDOUT_AFTER_STEP", f));
+    return [full_step](std::size_t step, const std::string&) {
+      if (step != full_step) return;
+      const int fd = ::open("/dev/full", O_WRONLY);
+      if (fd >= 0) ::dup2(fd, STDOUT_FILENO);
+    };
+  }
   const char* k = std::getenv("CIRCCOMP_KILL_AFTER_STEP");
   if (k == nullptr) return {};
   const auto kill_step =
@@ -75,30 +93,6 @@ StepHook after_step_hook() {
   return {};
 }
 #endif
-
-int run_revert(const std::string& ini, const std::string& diagnosis, const std::string& to,
-               bool force) {
-  if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
-  if (!to.empty() && to != "last" && to != "as-found") {
-    throw UsageError("--to: expected last or as-found, got '" + to + "'");
-  }
-  RevertOptions options;
-  options.as_found = to == "as-found";
-  options.force = force;
-  const RevertResult r = revert(ini, options, after_step_hook());
-  if (r.reverted) {
-    std::cout << "circcomp: reverted " + ini +
-                     (options.as_found ? " to the configuration as found before the first apply\n"
-                                       : " to the state before the last apply\n");
-  } else {
-    std::cout << "circcomp: nothing to revert for " + ini + "\n";
-  }
-  if (r.earlier_kept) {
-    std::cout << "circcomp: earlier applies remain; circcomp revert --to as-found --ini " << ini
-              << " goes back to the configuration as it was before the first\n";
-  }
-  return 0;
-}
 
 int run(int argc, char** argv) {
   if (argc < 2) throw UsageError(std::string("expected plan, apply or revert\n") + kUsage);
@@ -131,12 +125,28 @@ int run(int argc, char** argv) {
     throw option_usage_error(e, opts);
   }
   if (vm.count("help")) {
-    std::cout << kUsage;
+    std::cout << (command == "plan" ? kPlanUsage : command == "apply" ? kApplyUsage : kRevertUsage);
     return 0;
   }
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
   if (json && command != "plan") throw UsageError("--json: only for circcomp plan");
-  if (command == "revert") return run_revert(ini, diagnosis, to, force);
+  if (command == "revert") {
+    for (const char* option : {"only", "gain"}) {
+      if (vm.count(option)) throw UsageError(fmt::format("--{}: only for plan and apply", option));
+    }
+    if (!diagnosis.empty()) throw UsageError("revert takes no diagnosis");
+    if (!to.empty() && to != "last" && to != "as-found") {
+      throw UsageError("--to: expected last or as-found, got '" + to + "'");
+    }
+    CirccompRequest request;
+    request.command = CirccompCommand::revert;
+    request.ini = ini;
+    request.revert.as_found = to == "as-found";
+    request.revert.force = force;
+    request.words = circcomp_option_words;
+    request.after_step = after_step_hook();
+    return run_circcomp(request);
+  }
   if (!to.empty()) throw UsageError("--to: only for revert");
   if (diagnosis.empty()) throw UsageError("expected DIAGNOSIS.json (circana diagnose --json)");
   PlanOptions options;
@@ -147,53 +157,32 @@ int run(int argc, char** argv) {
     options.only.clear();
     std::istringstream in(only);
     for (std::string w; std::getline(in, w, ',');) {
-      if (w != "backlash" && w != "scale" && w != "squareness" && w != "cyclic" &&
-          w != "friction" && w != "servo") {
-        throw UsageError(
-            "--only: expected backlash, scale, squareness, cyclic, friction or servo, got '" + w +
-            "'");
+      const std::optional<Correction> c = correction_named(w);
+      if (!c) {
+        std::string names;
+        const std::vector<Correction> all = all_corrections();
+        for (std::size_t i = 0; i < all.size(); ++i) {
+          names += std::string(i == 0                ? ""
+                               : i + 1 == all.size() ? " or "
+                                                     : ", ") +
+                   std::string(correction_name(all[i]));
+        }
+        throw UsageError(fmt::format("--only: expected {}, got '{}'", names, w));
       }
-      options.only.insert(w);
-      if (w == "friction") options.friction_requested = true;
-      if (w == "servo") options.servo_requested = true;
+      options.only.insert(*c);
+      if (*c == Correction::friction) options.friction_requested = true;
+      if (*c == Correction::servo) options.servo_requested = true;
     }
   }
-  // One plane's diagnosis, or a test set's (one entry per plane).
-  const std::vector<DiagnosisInput> planes = read_diagnosis_planes(diagnosis);
-  if (command == "apply") require_fresh(ini, planes.front(), force, circcomp_option_words);
-  const Plan plan = make_plan(ini, planes, options);
-  if (command == "plan" && json) {
-    // The changes as data (circtest.plan/1) for circana report --changes.
-    std::cout << json_text(plan_json(plan), 2) << "\n";
-    return 0;
-  }
-  if (command == "plan") {
-    std::cout << unified_diff(plan);
-    print_summary(plan, std::cout);
-    try {
-      require_kins_module(plan, circcomp_option_words);
-    } catch (const HalError& e) {
-      std::cout << "# note: apply will refuse (exit 7): " << e.what() << "\n";
-    }
-    if (!plan.provenance_checked) {
-      std::cout << "# note: the diagnosis's ini_sha256 does not match " << ini
-                << " now: apply will refuse (exit 10) without --force\n";
-    }
-    return 0;
-  }
-  if (plan.files.empty()) {
-    print_summary(plan, std::cout);
-    std::cout << "circcomp: nothing to change in " << ini << "\n";
-    return 0;
-  }
-  require_kins_module(plan, circcomp_option_words);
-  apply_plan(plan, after_step_hook());
-  print_summary(plan, std::cout);
-  for (const auto& f : plan.files) {
-    std::cout << "circcomp: " << (f.existed ? "changed " : "created ") << f.path << "\n";
-  }
-  std::cout << "circcomp: originals kept; undo with: circcomp revert --ini " << ini << "\n";
-  return 0;
+  CirccompRequest request;
+  request.command = command == "plan" ? CirccompCommand::plan : CirccompCommand::apply;
+  request.ini = ini;
+  request.diagnosis = diagnosis;
+  request.plan_options = options;
+  request.json = json;
+  request.words = circcomp_option_words;
+  request.after_step = after_step_hook();
+  return run_circcomp(request);
 }
 
 }  // namespace

@@ -1,9 +1,14 @@
 // circcomp apply and revert: the plan's files written and restored inside the configuration
 // directory only (ConfigDir), with the originals and the manifest (manifest.hpp) in .circcomp/.
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -24,6 +29,27 @@ constexpr const char* kState = ".circcomp";
 
 std::string in_state(const std::string& file) {
   return std::string(kState) + "/" + file;
+}
+
+// Under the lock: the configuration is still what PLAN read (its INI's SHA-256, every file's
+// text), or the plan is refused: another apply (or an editor) came first.
+void require_unchanged(const ConfigDir& dir, const Plan& plan) {
+  const auto ini = read_config_file(plan.ini_path);
+  if (!plan.ini_sha256.empty() && (!ini || sha256_hex(*ini) != plan.ini_sha256)) {
+    throw StaleError(fmt::format(
+        "{} changed since this plan read it (another circcomp apply, or an editor): nothing "
+        "changed; plan again",
+        plan.ini_path));
+  }
+  for (const FileChange& f : plan.files) {
+    const auto now = dir.read(f.name);
+    if (now.has_value() != f.existed || (now && *now != f.before)) {
+      throw StaleError(fmt::format(
+          "{} changed since this plan read it (another circcomp apply, or an editor): nothing "
+          "changed; plan again",
+          f.path));
+    }
+  }
 }
 
 // Writes NAME through a temporary, calling AFTER_STEP when it is written and when in place.
@@ -133,13 +159,65 @@ std::vector<ManifestEntry> found_after_undo(const ConfigDir& dir, const Manifest
   return out;
 }
 
+// The configurations this process holds the lock of, with the number of holders.
+std::map<std::string, int>& held_locks() {
+  static std::map<std::string, int> held;
+  return held;
+}
+
 }  // namespace
+
+ConfigLock::ConfigLock(const std::string& ini_path) {
+  const ConfigDir dir(ini_path);
+  root_ = dir.root();
+  if (held_locks()[root_]++ > 0) return;  // held by an outer one of this process
+  try {
+    dir.state_folder(kState, true);
+    path_ = dir.path(in_state("lock"));
+    for (int attempt = 0; attempt < 16 && fd_ < 0; ++attempt) {
+      const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+      if (fd < 0) {
+        throw IoError(path_, fmt::format("cannot open the lock: {}", std::strerror(errno)));
+      }
+      if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        ::close(fd);
+        throw StaleError(fmt::format(
+            "{}: another circcomp apply or revert of this configuration is under way: nothing "
+            "changed; when it is done, plan again",
+            path_));
+      }
+      // The holder before removes the file when it is done: a lock on a removed file is no
+      // lock, so it is opened again.
+      struct stat held {};
+      struct stat named {};
+      if (::fstat(fd, &held) == 0 && ::lstat(path_.c_str(), &named) == 0 &&
+          held.st_dev == named.st_dev && held.st_ino == named.st_ino) {
+        fd_ = fd;
+      } else {
+        ::close(fd);
+      }
+    }
+    if (fd_ < 0) throw IoError(path_, "the lock file keeps being replaced");
+  } catch (...) {
+    --held_locks()[root_];
+    throw;
+  }
+}
+
+ConfigLock::~ConfigLock() {
+  if (--held_locks()[root_] > 0 || fd_ < 0) return;
+  // Still held: the file goes, and the state folder with it when nothing else is in it.
+  ::unlink(path_.c_str());
+  ::rmdir(fs::path(path_).parent_path().c_str());
+  ::close(fd_);
+}
 
 void apply_plan(const Plan& plan, const StepHook& after_step) {
   const ConfigDir dir(plan.ini_path);
   for (const FileChange& f : plan.files) dir.regular_or_absent(f.name);
+  const ConfigLock lock(plan.ini_path);
+  require_unchanged(dir, plan);
   const std::optional<Manifest> previous = current_manifest(dir);
-  dir.state_folder(kState, true);
   StepWriter writer(dir, after_step);
   const std::string prefix = fmt::format(
       "{:x}-{:x}", std::chrono::steady_clock::now().time_since_epoch().count(), ::getpid());
@@ -176,6 +254,8 @@ RevertResult revert(const std::string& ini_path, const RevertOptions& options,
                     const StepHook& after_step) {
   const ConfigDir dir(ini_path);
   RevertResult result;
+  if (!dir.state_folder(kState, false)) return result;
+  const ConfigLock lock(ini_path);
   const std::optional<Manifest> m = current_manifest(dir);
   if (!m || (m->last.empty() && m->found.empty())) {
     if (dir.state_folder(kState, false)) {

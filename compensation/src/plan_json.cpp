@@ -6,13 +6,14 @@
 #include <filesystem>
 #include <map>
 #include <optional>
+#include <set>
 #include <string_view>
 
 #include "circtest/compensation/comp_table.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/numbers.hpp"
-#include "plan_internal.hpp"
+#include "plan/context.hpp"
 
 namespace circtest::compensation {
 
@@ -258,6 +259,48 @@ std::string file_words(const FileChange& f, const std::string& ini_path, const M
   return what;
 }
 
+// The lines of TEXT (without their line breaks).
+std::vector<std::string_view> text_lines(std::string_view text) {
+  std::vector<std::string_view> out;
+  while (!text.empty()) {
+    const std::size_t e = text.find('\n');
+    out.push_back(text.substr(0, e));
+    text = e == std::string_view::npos ? std::string_view() : text.substr(e + 1);
+  }
+  return out;
+}
+
+// The gains written into the HAL lines of F, one change each (a setting); true when they are
+// all that changes in F (each changed line one of theirs).
+bool hal_value_changes(const Plan& plan, const FileChange& f, ojson& out) {
+  std::set<std::size_t> lines;
+  for (const HalValueChange& v : plan.hal_values) {
+    if (v.file != f.path) continue;
+    lines.insert(v.line);
+    ojson c;
+    c["file"] = f.path;
+    c["section"] = nullptr;
+    c["key"] = v.key;
+    c["before"] = v.before;
+    c["after"] = v.after;
+    c["words"] =
+        fmt::format("{} {} {} → {} ({}:{}, {})", v.key, v.axis ? std::string(1, v.axis) : "?",
+                    v.before, v.after, fs::path(f.path).filename().string(), v.line, v.command);
+    c["kind"] = "setting";
+    c["effective"] = true;
+    c["hal_line"] = v.line;
+    c["hal_command"] = v.command;
+    out.push_back(std::move(c));
+  }
+  if (lines.empty() || !f.existed) return false;
+  const auto a = text_lines(f.before), b = text_lines(f.after);
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i] != b[i] && lines.count(i + 1) == 0) return false;
+  }
+  return true;
+}
+
 bool has_sections(const std::string& text, const std::string& path) {
   try {
     return !IniDocument::parse(text, path).sections().empty();
@@ -288,6 +331,10 @@ nlohmann::ordered_json plan_json(const Plan& plan) {
       // A compensation table holds settings (backlash, scale); any other file is wiring.
       bool table = false;
       file["words"] = file_words(f, plan.ini_path, m, table);
+      if (hal_value_changes(plan, f, changes)) {
+        files.push_back(std::move(file));
+        continue;
+      }
       changes.push_back({{"file", f.path},
                          {"section", nullptr},
                          {"key", nullptr},

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -56,7 +57,7 @@ DiagnosisInput diag(double backlash_x, const std::string& ini_path = "") {
   return d;
 }
 
-PlanOptions only(const std::string& what) {
+PlanOptions only(Correction what) {
   PlanOptions o;
   o.only = {what};
   return o;
@@ -77,7 +78,7 @@ TEST(Compensation, BacklashIsIncremental) {
   const std::string ini = s.write("m.ini", machine());
   for (const auto& [measured, expected] :
        std::vector<std::pair<double, std::string>>{{0.002, "0.01"}, {-0.002, "0.006"}}) {
-    const Plan plan = make_plan(ini, diag(measured), only("backlash"));
+    const Plan plan = make_plan(ini, diag(measured), only(Correction::backlash));
     ASSERT_EQ(plan.files.size(), 1u);
     const IniDocument after = IniDocument::parse(plan.files[0].after);
     EXPECT_EQ(after.get("JOINT_0", "BACKLASH"), expected);
@@ -88,7 +89,7 @@ TEST(Compensation, BacklashIsIncremental) {
     EXPECT_EQ(plan.files[0].after, before);
   }
   // A gain applies a share: 0.008 + 0.5 * 0.002.
-  PlanOptions half = only("backlash");
+  PlanOptions half = only(Correction::backlash);
   half.gain = 0.5;
   EXPECT_EQ(IniDocument::parse(make_plan(ini, diag(0.002), half).files[0].after)
                 .get("JOINT_0", "BACKLASH"),
@@ -101,7 +102,7 @@ TEST(Compensation, ApplyRevertIdempotence) {
   const std::string ini = s.write("m.ini", text);
   const DiagnosisInput d = diag(0.002, ini);
   require_fresh(ini, d, false);
-  apply_plan(make_plan(ini, d, only("backlash")));
+  apply_plan(make_plan(ini, d, only(Correction::backlash)));
   EXPECT_EQ(IniDocument::load(ini).get("JOINT_0", "BACKLASH"), "0.01");
   // The same diagnosis again: the INI is not the one measured any more.
   EXPECT_THROW(require_fresh(ini, d, false), StaleError);
@@ -175,7 +176,7 @@ TEST(Compensation, ExistingTablesType0And1AreMergedInTheirType) {
     const std::string ini = s.write(
         "m.ini", machine("trivkins", "BACKLASH = 0.5\nCOMP_FILE = x.comp\nCOMP_FILE_TYPE = " +
                                          std::to_string(type) + "\n"));
-    const Plan plan = make_plan(ini, diag(0.004), only("backlash"));
+    const Plan plan = make_plan(ini, diag(0.004), only(Correction::backlash));
     ASSERT_EQ(plan.files.size(), 1u) << "the INI stays as it is";
     EXPECT_EQ(fs::path(plan.files[0].path).filename(), "x.comp");
     const CompTable before = parse_comp_table(table, type, "x");
@@ -228,7 +229,7 @@ TEST(Compensation, TableRulesOfLinuxcnc) {
   const std::string ini =
       s.write("m.ini", machine("trivkins", "COMP_FILE = x.comp\nCOMP_FILE_TYPE = 1\n"));
   try {
-    make_plan(ini, diag(0.004), only("backlash"));
+    make_plan(ini, diag(0.004), only(Correction::backlash));
     FAIL();
   } catch (const ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("ignores all of it"), std::string::npos) << e.what();
@@ -242,7 +243,8 @@ TEST(Compensation, GantryCorrectsBothJoints) {
   const std::string ini = s.write("m.ini", text);
   DiagnosisInput d = diag(0.0);
   d.backlash_mm[1] = {0.003, 1e-5};
-  const IniDocument after = IniDocument::parse(make_plan(ini, d, only("backlash")).files[0].after);
+  const IniDocument after =
+      IniDocument::parse(make_plan(ini, d, only(Correction::backlash)).files[0].after);
   EXPECT_EQ(after.get("JOINT_1", "BACKLASH"), "0.003");
   EXPECT_EQ(after.get("JOINT_2", "BACKLASH"), "0.003");
   EXPECT_EQ(after.get("JOINT_0", "BACKLASH"), std::nullopt);
@@ -258,7 +260,7 @@ TEST(Compensation, IncludedJointsChangeInTheirFile) {
                "#INCLUDE joints.inc\n");
   const std::string ini = s.write("m.ini", text);
   const DiagnosisInput d = diag(0.002, ini);
-  const Plan plan = make_plan(ini, d, only("backlash"));
+  const Plan plan = make_plan(ini, d, only(Correction::backlash));
   ASSERT_EQ(plan.files.size(), 1u);
   EXPECT_EQ(fs::path(plan.files[0].path).filename(), "joints.inc");
   apply_plan(plan);
@@ -297,7 +299,7 @@ TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   d.cyclic[0] = Cyclic{0.002, 5.0, 0.3, 1e-4};
   // 600 mm of travel at 5/16 mm spacing is 1921 points: not written, said why.
   const std::string wide = s.write("w.ini", machine("trivkins", ""));
-  const Plan refused = make_plan(wide, d, only("cyclic"));
+  const Plan refused = make_plan(wide, d, only(Correction::cyclic));
   EXPECT_TRUE(refused.files.empty());
   bool said = false;
   for (const auto& n : refused.notes)
@@ -308,7 +310,7 @@ TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   narrow.replace(narrow.find("MIN_LIMIT = -300"), 16, "MIN_LIMIT = 0");
   narrow.replace(narrow.find("MAX_LIMIT = 300"), 15, "MAX_LIMIT = 50");
   const std::string ini = s.write("n.ini", narrow);
-  const Plan plan = make_plan(ini, d, only("cyclic"));
+  const Plan plan = make_plan(ini, d, only(Correction::cyclic));
   const FileChange* table = nullptr;
   for (const auto& f : plan.files)
     if (f.path.ends_with(".comp")) table = &f;
@@ -470,7 +472,7 @@ TEST(Compensation, SquarenessSwitchesToCircTestKins) {
   const std::string ini = s.write("m.ini", text);
   const std::string hal_text = "# the mill\nloadrt  trivkins coordinates=XYZ\nloadrt motmod\n";
   s.write("mill.hal", hal_text);
-  const Plan plan = make_plan(ini, square(100.0), only("squareness"));
+  const Plan plan = make_plan(ini, square(100.0), only(Correction::squareness));
   ASSERT_EQ(plan.files.size(), 3u);  // INI, mill.hal, the new circtest-comp.hal
   const IniDocument after = IniDocument::parse(change_of(plan, "m.ini")->after);
   EXPECT_EQ(after.get("KINS", "KINEMATICS"), "circtest_kins coordinates=XYZ kinstype=1");
@@ -505,13 +507,13 @@ TEST(Compensation, SquarenessIsIncrementalOnCircTestKins) {
                                    "SQUARENESS_YZ = 2.0e-05\nSQUARENESS_ZX = 0.0\n"));
   s.write("mill.hal", "loadrt [KINS]KINEMATICS\n");
   // The measurement saw 100 urad compensated; a residual of -3 urad gives 97 urad.
-  Plan plan = make_plan(ini, square(-3.0), only("squareness"));
+  Plan plan = make_plan(ini, square(-3.0), only(Correction::squareness));
   IniDocument after = IniDocument::parse(change_of(plan, "m.ini")->after);
   EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_XY"), "9.700000e-05");
   EXPECT_EQ(after.get("CIRCTEST_COMP", "SQUARENESS_YZ"), "2.0e-05");  // untouched
   EXPECT_EQ(after.get("KINS", "KINEMATICS"), "circtest_kins coordinates=XYZ");
   // YZ: its own key, the others kept; half the residual with --gain 0.5.
-  PlanOptions half = only("squareness");
+  PlanOptions half = only(Correction::squareness);
   half.gain = 0.5;
   plan = make_plan(ini, square(10.0, "YZ"), half);
   after = IniDocument::parse(change_of(plan, "m.ini")->after);
@@ -525,7 +527,7 @@ TEST(Compensation, SquarenessIsIncrementalOnCircTestKins) {
   IniDocument l = IniDocument::load(listed);
   l.append("HAL", "HALFILE", "circtest-comp.hal");
   write_file_atomic(listed, l.render());
-  plan = make_plan(listed, square(5.0), only("squareness"));
+  plan = make_plan(listed, square(5.0), only(Correction::squareness));
   ASSERT_EQ(plan.files.size(), 1u);
   EXPECT_EQ(IniDocument::parse(plan.files[0].after).get_all("HAL", "HALFILE").size(), 3u);
 }
@@ -535,7 +537,7 @@ TEST(Compensation, SquarenessRefusals) {
   const std::string ini = s.write("m.ini", hal_machine("trivkins coordinates=XYZ"));
   s.write("mill.hal", "loadrt [KINS]KINEMATICS\n");
   try {
-    make_plan(ini, square(1500.0), only("squareness"));
+    make_plan(ini, square(1500.0), only(Correction::squareness));
     FAIL();
   } catch (const DataError& e) {
     EXPECT_NE(std::string(e.what()).find("X/Y squareness = 1500.0 urad is implausible"),
@@ -544,13 +546,13 @@ TEST(Compensation, SquarenessRefusals) {
   }
   // A circtest-comp.hal that is not circcomp's is never overwritten.
   s.write("circtest-comp.hal", "# someone's own file\n");
-  EXPECT_THROW(make_plan(ini, square(50.0), only("squareness")), DataError);
+  EXPECT_THROW(make_plan(ini, square(50.0), only(Correction::squareness)), DataError);
   fs::remove(s.dir() / "circtest-comp.hal");
   // Kinematics other than trivkins/circtest_kins: refused.
   const std::string five = s.write("5.ini", hal_machine("5axiskins"));
-  EXPECT_THROW(make_plan(five, square(50.0), only("squareness")), DataError);
+  EXPECT_THROW(make_plan(five, square(50.0), only(Correction::squareness)), DataError);
   // Below half a microradian there is nothing to write.
-  EXPECT_TRUE(make_plan(ini, square(0.2), only("squareness")).files.empty());
+  EXPECT_TRUE(make_plan(ini, square(0.2), only(Correction::squareness)).files.empty());
 }
 
 #if defined(CIRCANA_PATH)
@@ -576,7 +578,7 @@ TEST(Compensation, CyclicPhaseIsInMachineCoordinatesFromDiagnoseToTable) {
   text.replace(text.find("MIN_LIMIT = -300\nMAX_LIMIT = 300"), 32,
                "MIN_LIMIT = 80\nMAX_LIMIT = 125");
   const std::string ini = s.write("m.ini", text);
-  const Plan plan = make_plan(ini, read_diagnosis(diagnosis), only("cyclic"));
+  const Plan plan = make_plan(ini, read_diagnosis(diagnosis), only(Correction::cyclic));
   const FileChange* table = nullptr;
   for (const auto& f : plan.files) {
     if (f.path.ends_with("circtest-joint0.comp")) table = &f;
@@ -594,3 +596,34 @@ TEST(Compensation, CyclicPhaseIsInMachineCoordinatesFromDiagnoseToTable) {
   EXPECT_LT(worst, 0.003 * 0.05);  // under 5 % of the amplitude left
 }
 #endif
+
+// A 50,000-line INI with changes at both ends (the kinematics near the top, [CIRCTEST_COMP]
+// appended): circcomp plan runs within 256 MB of address space (the LCS table of the whole
+// file was 10 GB) and its diff, applied by patch(1) to a copy, gives the plan's new INI.
+TEST(Compensation, LargeIniIsPlannedInBoundedMemoryAndItsDiffApplies) {
+  Scratch s;
+  std::string text = machine();
+  std::size_t lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+  for (int i = 0; lines < 50000; ++i, lines += 3) {
+    text += "[EXTRA_" + std::to_string(i) + "]\nKEY = " + std::to_string(i) + "\n\n";
+  }
+  const std::string ini = s.write("m.ini", text);
+  s.write("circtest_kins.so", "");
+  DiagnosisInput d = diag(0.002, ini);
+  d.squareness_urad = {100.0, 0.5};
+  PlanOptions o;
+  o.only = {Correction::backlash, Correction::squareness};
+  const Plan plan = make_plan(ini, d, o);
+  ASSERT_EQ(plan.files.size(), 2u);
+  const std::string dir = s.dir().string();
+  const std::string json = R"({"schema": "circtest.diagnosis/1", "units": "mm", "plane": "XY",
+    "axes": ["X", "Y"], "backlash_mm": {"X": 0.002, "Y": 0.0}, "squareness_urad": 100,
+    "standard_error": {"backlash_mm": {"X": 1e-5, "Y": 1e-5}, "squareness_urad": 0.5}})";
+  s.write("d.json", json);
+  const std::string cmd = "cd " + dir + " && (ulimit -v 262144; " + CIRCCOMP_PATH +
+                          " plan --ini m.ini --only backlash,squareness d.json >plan.diff) && "
+                          "mkdir copy && cp m.ini copy/ && cd copy && sed -n '/^--- a\\/m.ini/,"
+                          "/^--- /p' ../plan.diff | sed '$d' | patch -s -p1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << read_file(dir + "/plan.diff").substr(0, 2000);
+  EXPECT_EQ(read_file(dir + "/copy/m.ini"), plan.files[0].after);
+}

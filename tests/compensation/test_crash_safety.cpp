@@ -115,13 +115,13 @@ void expect_whole(const Tree& now, const Tree& old_tree, const Tree& new_tree, l
   }
 }
 
-// Only the manifest and originals in the state folder: no temporary of any write.
+// Only the manifest, originals and the lock in the state folder: no temporary of any write.
 void expect_no_temporaries(const fs::path& dir, long k) {
   const fs::path state = dir / ".circcomp";
   if (!fs::exists(state)) return;
   for (const auto& e : fs::directory_iterator(state)) {
     const std::string name = e.path().filename().string();
-    EXPECT_TRUE(name == "manifest" || name.ends_with(".orig"))
+    EXPECT_TRUE(name == "manifest" || name == "lock" || name.ends_with(".orig"))
         << "step " << k << ": left behind: " << name;
   }
 }
@@ -271,4 +271,114 @@ TEST_F(CrashSafety, TheInstalledCirccompHasNoKillHook) {
   EXPECT_FALSE(o.killed) << o.err;
   EXPECT_EQ(o.exit_code, 0) << o.err;
   EXPECT_EQ(tree_of(dir), ref.after);
+}
+
+// Standard output and the commit (README, exit codes 3 and 13): what apply or revert will do
+// is written before it starts, so a standard output that fails from the start (/dev/full)
+// stops it with exit 3 and nothing changed; one that fails only after the commit (here:
+// /dev/full from the commit's first step on) gives exit 13 and a stderr line saying the
+// change IS made, with the configuration changed.
+namespace {
+
+struct ShellRun {
+  int exit_code = -1;
+  std::string err;
+};
+
+ShellRun run_shell(const std::string& cmd, const fs::path& err) {
+  const int status = std::system((cmd + " 2>" + err.string()).c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(err.string())};
+}
+
+}  // namespace
+
+TEST_F(CrashSafety, StandardOutputFailingBeforeTheCommitChangesNothing) {
+  const fs::path dir = root_ / "full";
+  make_machine(dir);
+  const Tree before = tree_of(dir);
+  const fs::path diagnosis = root_ / "full.json";
+  spit(diagnosis, diagnosis_for(dir / "m.ini", 100.0, true));
+  const std::string ini = (dir / "m.ini").string();
+  const ShellRun a = run_shell(
+      std::string(CIRCCOMP_PATH) + " apply --ini " + ini + " " + diagnosis.string() + " >/dev/full",
+      root_ / "full.err");
+  EXPECT_EQ(a.exit_code, 3) << a.err;
+  EXPECT_NE(a.err.find("the apply not started, nothing changed"), std::string::npos) << a.err;
+  EXPECT_EQ(tree_of(dir), before);
+  EXPECT_FALSE(fs::exists(dir / ".circcomp" / "manifest"));
+  // The same for revert: an applied configuration stays applied.
+  const ShellRun applied = run_shell(
+      std::string(CIRCCOMP_PATH) + " apply --ini " + ini + " " + diagnosis.string() + " >/dev/null",
+      root_ / "full.err");
+  ASSERT_EQ(applied.exit_code, 0) << applied.err;
+  const Tree after = tree_of(dir);
+  const ShellRun r = run_shell(std::string(CIRCCOMP_PATH) + " revert --ini " + ini + " >/dev/full",
+                               root_ / "full.err");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("the revert not started, nothing changed"), std::string::npos) << r.err;
+  EXPECT_EQ(tree_of(dir), after);
+}
+
+TEST_F(CrashSafety, StandardOutputFailingAfterTheCommitSaysTheChangeIsMade) {
+  const Applied ref = applied_machine("ref", 100.0, true);
+  ASSERT_FALSE(HasFailure());
+  const fs::path dir = root_ / "late";
+  make_machine(dir);
+  const fs::path diagnosis = root_ / "late.json";
+  spit(diagnosis, diagnosis_for(dir / "m.ini", 100.0, true));
+  const std::string ini = (dir / "m.ini").string();
+  const std::string late = "CIRCCOMP_FULL_STDOUT_AFTER_STEP=0 ";
+  const ShellRun a = run_shell(late + CIRCCOMP_CRASH_TEST_PATH + " apply --ini " + ini + " " +
+                                   diagnosis.string() + " >/dev/null",
+                               root_ / "late.err");
+  EXPECT_EQ(a.exit_code, 13) << a.err;
+  EXPECT_NE(
+      a.err.find("after the apply: the change IS made; undo it with: circcomp revert --ini " + ini),
+      std::string::npos)
+      << a.err;
+  EXPECT_EQ(tree_of(dir), ref.after);
+  const ShellRun r = run_shell(
+      late + CIRCCOMP_CRASH_TEST_PATH + " revert --ini " + ini + " >/dev/null", root_ / "late.err");
+  EXPECT_EQ(r.exit_code, 13) << r.err;
+  EXPECT_NE(r.err.find("after the revert: the change IS made"), std::string::npos) << r.err;
+  EXPECT_EQ(tree_of(dir), ref.before);
+}
+
+// Eight applies of one diagnosis started at once: exactly one changes the configuration, every
+// other is refused (exit 10: the lock is held, or the INI is no longer the one measured or
+// planned) and says why; the configuration is then the one apply's.
+TEST_F(CrashSafety, ConcurrentAppliesOfOneDiagnosisOneWins) {
+  const Applied ref = applied_machine("ref", 100.0, true);
+  ASSERT_FALSE(HasFailure());
+  for (int round = 0; round < 3; ++round) {
+    const fs::path dir = root_ / named("race", round);
+    make_machine(dir);
+    const fs::path diagnosis = root_ / (named("race", round) + ".json");
+    spit(diagnosis, diagnosis_for(dir / "m.ini", 100.0, true));
+    std::string cmd = "cd " + root_.string() + " && for i in 1 2 3 4 5 6 7 8; do (" +
+                      CIRCCOMP_PATH + " apply --ini " + (dir / "m.ini").string() + " " +
+                      diagnosis.string() + " >/dev/null 2>" + dir.string() + ".err$i; echo $? >" +
+                      dir.string() + ".rc$i) & done; wait";
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    int won = 0;
+    for (int i = 1; i <= 8; ++i) {
+      const std::string rc = read_file(dir.string() + ".rc" + std::to_string(i));
+      const std::string err = read_file(dir.string() + ".err" + std::to_string(i));
+      if (rc == "0\n") {
+        ++won;
+        continue;
+      }
+      EXPECT_EQ(rc, "10\n") << err;
+      EXPECT_TRUE(err.find("another circcomp apply or revert of this configuration is under "
+                           "way") != std::string::npos ||
+                  err.find("changed since") != std::string::npos ||
+                  err.find("changed while circcomp planned") != std::string::npos)
+          << err;
+    }
+    EXPECT_EQ(won, 1) << "round " << round;
+    EXPECT_EQ(tree_of(dir), ref.after);
+    ASSERT_EQ(revert(dir), 0);
+    EXPECT_EQ(tree_of(dir), ref.before);
+    EXPECT_FALSE(fs::exists(dir / ".circcomp"));
+  }
 }

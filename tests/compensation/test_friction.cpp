@@ -52,7 +52,7 @@ DiagnosisInput spikes(std::optional<double> x_mm, std::optional<double> y_mm, do
 
 PlanOptions friction_only() {
   PlanOptions o;
-  o.only = {"friction"};
+  o.only = {Correction::friction};
   o.friction_requested = true;
   return o;
 }
@@ -217,7 +217,7 @@ TEST(Friction, NoSpikeNoFrictionChange) {
   EXPECT_TRUE(has_text(plan.notes, "its decay was not measured"));
   // Without friction in the plan's kinds, a spike is advice as before.
   PlanOptions backlash;
-  backlash.only = {"backlash"};
+  backlash.only = {Correction::backlash};
   plan = make_plan(c.ini, spikes(0.004, 0.0), backlash);
   EXPECT_TRUE(plan.files.empty());
   EXPECT_TRUE(has_text(plan.advice, "X reversal spikes of 4.0 um"));

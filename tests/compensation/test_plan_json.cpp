@@ -64,7 +64,7 @@ TEST(PlanJson, BacklashAndSquarenessInPlainWords) {
   const std::string ini = s.write("m.ini", machine());
   s.write("mill.hal", "loadrt trivkins coordinates=YXZ\nloadrt motmod\n");
   PlanOptions o;
-  o.only = {"backlash", "squareness"};
+  o.only = {Correction::backlash, Correction::squareness};
   const Plan plan = make_plan(ini, diagnosis(ini), o);
   const ojson j = plan_json(plan);
   EXPECT_EQ(j["schema"], "circtest.plan/1");
@@ -104,7 +104,7 @@ TEST(PlanJson, ACompensationTableIsReadAsBacklashAndScale) {
   d.scale_ppm[0] = {20.0, 0.5};
   d.scale_ppm[1] = {0.0, 0.5};
   PlanOptions o;
-  o.only = {"backlash", "scale"};
+  o.only = {Correction::backlash, Correction::scale};
   const ojson j = plan_json(make_plan(ini, d, o));
   const std::string all = words(j);
   // The table holds the old and the new play (8 + 2.2 um) and the scale correction.

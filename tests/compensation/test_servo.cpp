@@ -1,4 +1,4 @@
-// circcomp's servo step (compensation/src/servo.cpp) on pncconf-style configurations
+// circcomp's servo step (compensation/src/plan/servo.cpp) on pncconf-style configurations
 // (tests/compensation/data): FF1 written into the [JOINT_n] keys the HAL reads, the variants
 // pncconf and the stock configurations use (pid.x / pid.0, an FF1 setp missing, literal
 // gains), P where FF1 alone cannot match, the bounds, the refusals naming file and line, the
@@ -17,6 +17,7 @@
 
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/compensation/plan.hpp"
+#include "circtest/compensation/plan_json.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
@@ -65,7 +66,7 @@ DiagnosisInput lags(std::optional<double> x_ms, std::optional<double> y_ms) {
 
 PlanOptions servo_only() {
   PlanOptions o;
-  o.only = {"servo"};
+  o.only = {Correction::servo};
   o.servo_requested = true;
   return o;
 }
@@ -406,4 +407,111 @@ TEST(Servo, TwoJointsReadingOneKeyWithDifferentGainsAreRefused) {
   c.write("pncconf-servo.ini", ini);
   const Plan same = make_plan(c.ini, lags(kLagX, kLagX), servo_only());
   EXPECT_TRUE(has_text(same.changes, "Y servo (joint 1, pid.y): FF1")) << all(same.changes);
+}
+
+// ---- every way halcmd sets a value (halcmd(1): "PIN = VALUE" is "setp PIN VALUE"; "sets
+// SIGNAL VALUE" sets every pin on the signal; [SECTION]KEY in each), the last one run wins ----
+
+// A later "PIN = VALUE" (custom.hal runs after pncconf-servo.hal) decides FF1: its literal is
+// what circcomp reads and edits, not the [JOINT_0] FF1 the earlier setp names.
+TEST(ServoForms, LaterEqualsFormIsReadAndEdited) {
+  Config c("pncconf-servo");
+  c.write("custom.hal", c.read("custom.hal") + "pid.x.FF1 = 0.4\n");
+  const Plan plan = make_plan(c.ini, lags(kLagX, kLagY), servo_only());
+  EXPECT_TRUE(has_text(plan.changes, "X servo (joint 0, pid.x): FF1 0.4 -> ")) << all(plan.changes);
+  EXPECT_TRUE(has_text(plan.changes, "custom.hal:3 (pid.x.FF1 =)")) << all(plan.changes);
+  const FileChange* custom = file_of(plan, "custom.hal");
+  ASSERT_NE(custom, nullptr) << all(plan.notes);
+  EXPECT_EQ(custom->after.find("pid.x.FF1 = 0.4\n"), std::string::npos) << custom->after;
+  EXPECT_NE(custom->after.find("pid.x.FF1 = 1.0\n"), std::string::npos) << custom->after;
+  // [JOINT_0] FF1 is not what LinuxCNC uses: it stays.
+  const FileChange* ini = file_of(plan, "pncconf-servo.ini");
+  if (ini != nullptr) {
+    EXPECT_EQ(IniDocument::parse(ini->after).get("JOINT_0", "FF1"), "0.0");
+  }
+  // The HAL literal is a change of the plan's data, with its value before and after.
+  const auto j = plan_json(plan);
+  bool found = false;
+  for (const auto& ch : j["changes"]) {
+    if (ch["key"] == "FF1" && ch["before"] == "0.4") {
+      found = true;
+      EXPECT_EQ(ch["after"], "1.0");
+      EXPECT_EQ(ch["kind"], "setting");
+      EXPECT_EQ(ch["hal_line"], 3);
+    }
+  }
+  EXPECT_TRUE(found) << j.dump(2);
+}
+
+TEST(ServoForms, EqualsFormWithAnIniReferenceEditsThatKey) {
+  Config c("pncconf-servo");
+  c.write("custom.hal", c.read("custom.hal") + "pid.x.FF1 = [PID_X]FF1\n");
+  c.write("pncconf-servo.ini", c.read("pncconf-servo.ini") + "\n[PID_X]\nFF1 = 0.3\n");
+  const Plan plan = make_plan(c.ini, lags(kLagX, kLagY), servo_only());
+  EXPECT_TRUE(has_text(plan.changes, "FF1 0.3 -> 1.0 at [PID_X] FF1")) << all(plan.changes);
+  const IniDocument after = IniDocument::parse(file_of(plan, "pncconf-servo.ini")->after);
+  EXPECT_EQ(after.get("PID_X", "FF1"), "1.0");
+  EXPECT_EQ(after.get("JOINT_0", "FF1"), "0.0");
+}
+
+TEST(ServoForms, SetsOfTheSignalDecidesAndIsEdited) {
+  Config c("pncconf-servo");
+  c.edit("pncconf-servo.hal", "setp   pid.y.FF1       [JOINT_1]FF1", "net y-ff1 pid.y.FF1");
+  c.write("custom.hal", c.read("custom.hal") + "sets y-ff1 [JOINT_1](FF1)\n");
+  Plan plan = make_plan(c.ini, lags(kLagX, kLagY), servo_only());
+  EXPECT_TRUE(has_text(plan.changes, "Y servo (joint 1, pid.y): FF1 0.0 -> ")) << all(plan.changes);
+  EXPECT_TRUE(has_text(plan.changes, "at [JOINT_1] FF1")) << all(plan.changes);
+  // A literal sets value is edited in place.
+  c.write("custom.hal", c.read("custom.hal") + "sets y-ff1 0.25   # by hand\n");
+  plan = make_plan(c.ini, lags(kLagX, kLagY), servo_only());
+  EXPECT_TRUE(has_text(plan.changes, "FF1 0.25 -> ")) << all(plan.changes);
+  EXPECT_TRUE(has_text(plan.changes, "custom.hal:4 (sets y-ff1)")) << all(plan.changes);
+  const FileChange* custom = file_of(plan, "custom.hal");
+  ASSERT_NE(custom, nullptr);
+  EXPECT_EQ(custom->after.find("sets y-ff1 0.25"), std::string::npos);
+  EXPECT_NE(custom->after.find("   # by hand\n"), std::string::npos);
+}
+
+TEST(ServoForms, SetsReachingAPinOutsideThePlanIsRefused) {
+  Config c("pncconf-servo");
+  c.edit("pncconf-servo.hal", "setp   pid.y.FF1       [JOINT_1]FF1", "net ff1 pid.y.FF1 pid.z.FF1");
+  c.write("custom.hal", c.read("custom.hal") + "sets ff1 0.2\n");
+  EXPECT_ERROR(make_plan(c.ini, lags(kLagX, kLagY), servo_only()), ExitCode::data,
+               c.path("custom.hal") + ":3: sets ff1 sets pid.y.FF1 and also pid.z.FF1");
+}
+
+TEST(ServoForms, HalcmdEntryOfTheIniIsRefusedNamingItsLine) {
+  Config c("pncconf-servo");
+  c.edit("pncconf-servo.ini", "HALFILE = custom.hal\n",
+         "HALFILE = custom.hal\nHALCMD = setp pid.x.FF1 0.3\n");
+  const std::size_t line = line_of(c.read("pncconf-servo.ini"), "HALCMD");
+  EXPECT_ERROR(make_plan(c.ini, lags(kLagX, kLagY), servo_only()), ExitCode::data,
+               c.ini + ":" + std::to_string(line) + ": pid.x.FF1 is set by this [HAL] HALCMD");
+}
+
+TEST(ServoForms, PostguiHalfileRunsLastAndIsEdited) {
+  Config c("pncconf-servo");
+  c.write("custom_postgui.hal", "setp pid.x.FF1 0.6\n");
+  const Plan plan = make_plan(c.ini, lags(kLagX, kLagY), servo_only());
+  EXPECT_TRUE(has_text(plan.changes, "FF1 0.6 -> 1.0 at ")) << all(plan.changes);
+  ASSERT_NE(file_of(plan, "custom_postgui.hal"), nullptr);
+  EXPECT_EQ(file_of(plan, "custom_postgui.hal")->after, "setp pid.x.FF1 1.0\n");
+}
+
+// An axis lagging 0.01 ms with a standard error of 0.01 ms: FF1 is matched (the whole band
+// asks (0.01 + 0.02) ms x P 30 = 0.0009 of FF1), which is no reason to measure again.
+TEST(ServoForms, LagOfAboutZeroIsAlreadyMatched) {
+  Config c("pncconf-servo");
+  c.edit("pncconf-servo.ini", "FF1 = 0.0", "FF1 = 1.0");
+  const Plan plan = make_plan(c.ini, lags(0.01, 0.01), servo_only());
+  EXPECT_TRUE(has_text(plan.notes,
+                       "X servo: the lag 0.010 ms (standard error 0.010 ms) is "
+                       "already matched"))
+      << all(plan.notes);
+  EXPECT_FALSE(has_text(plan.notes, "measure again")) << all(plan.notes);
+  EXPECT_TRUE(plan.files.empty());
+  // A lag as uncertain but large enough to matter is still measured again.
+  DiagnosisInput d = lags(1.0, 1.0);
+  d.axis_lag_ms[0].standard_error = 0.5;
+  EXPECT_TRUE(has_text(make_plan(c.ini, d, servo_only()).notes, "measure again"));
 }

@@ -132,7 +132,7 @@ TEST(TestSetPlan, ThreeSquarenessesIntoCircTestKinsAndEachBacklashOnce) {
                   joint(0) + joint(1) + joint(2));
   s.write("mill.hal", "loadrt trivkins coordinates=XYZ\n");
   PlanOptions o;
-  o.only = {"backlash", "squareness"};
+  o.only = {Correction::backlash, Correction::squareness};
   const Plan plan = make_plan(ini, parse_diagnosis_planes(set_doc().dump(), "set.json"), o);
   const FileChange* m = change_of(plan, "m.ini");
   ASSERT_TRUE(m);
@@ -167,9 +167,32 @@ TEST(TestSetPlan, FrictionAloneIsRefusedForASet) {
               "coordinates=XYZ\nJOINTS = 3\n\n" +
                   joint(0) + joint(1) + joint(2));
   PlanOptions o;
-  o.only = {"friction"};
+  o.only = {Correction::friction};
   o.friction_requested = true;
   EXPECT_ERROR(make_plan(ini, parse_diagnosis_planes(set_doc().dump(), "set.json"), o),
                ExitCode::usage,
                "friction is planned from one plane's diagnosis, not from a test set");
+}
+
+// Servo gains from a set: a note says why not (each axis's lag measured in different
+// circles); asked for alone, a usage error naming the one-plane command.
+TEST(TestSetPlan, ServoIsNotPlannedFromASetAndANoteSaysWhy) {
+  circtest::testing::ScratchDir s("circcomp-set");
+  const std::string ini =
+      s.write("m.ini",
+              "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
+              "coordinates=XYZ\nJOINTS = 3\n\n" +
+                  joint(0) + joint(1) + joint(2));
+  const auto planes = parse_diagnosis_planes(set_doc().dump(), "set.json");
+  const Plan plan = make_plan(ini, planes, PlanOptions{});
+  bool noted = false;
+  for (const auto& n : plan.notes) {
+    noted = noted || n.find("servo gains are not planned from a test set") != std::string::npos;
+  }
+  EXPECT_TRUE(noted);
+  PlanOptions o;
+  o.only = {Correction::servo};
+  o.servo_requested = true;
+  EXPECT_ERROR(make_plan(ini, planes, o), ExitCode::usage,
+               "servo is planned from one plane's diagnosis, not from a test set");
 }

@@ -658,3 +658,43 @@ TEST_F(Hostile, FrictionWiringThatCannotBeSplicedIsRefused) {
   EXPECT_EQ(slurp(ini_), kMachineIni);
   EXPECT_FALSE(fs::exists(cfg_ / "circtest-fric.hal"));
 }
+
+// A diagnosis that is a named FIFO: refused at once (a FIFO without a writer would block the
+// read), not waited on; "timeout" stops a hang with 124.
+TEST_F(Hostile, ADiagnosisThatIsAFifoIsRefusedWithoutWaiting) {
+  const fs::path fifo = top() / "diagnosis.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  for (const char* command : {"plan", "apply"}) {
+    SCOPED_TRACE(command);
+    const CommandResult r = run_command(
+        {"/usr/bin/timeout", "20", CIRCCOMP_PATH, command, "--ini", ini_, fifo.string()},
+        {"CIRCTEST_KINS_MODULE=" + (top() / "circtest_kins.so").string()});
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_NE(r.err.find(fifo.string() + ": is a FIFO: expected the diagnosis JSON"),
+              std::string::npos)
+        << r.err;
+  }
+  EXPECT_EQ(slurp(ini_), kMachineIni);
+}
+
+// Each command's --help lists what that command accepts, and the command refuses the rest.
+TEST_F(Hostile, EachCommandsHelpListsOnlyItsOptions) {
+  const CommandResult revert_help = circcomp({"revert", "--help"});
+  EXPECT_EQ(revert_help.exit_code, 0);
+  EXPECT_EQ(revert_help.out.find("--only"), std::string::npos) << revert_help.out;
+  EXPECT_EQ(revert_help.out.find("--gain"), std::string::npos) << revert_help.out;
+  EXPECT_NE(revert_help.out.find("--to last|as-found"), std::string::npos) << revert_help.out;
+  const CommandResult apply_help = circcomp({"apply", "--help"});
+  EXPECT_EQ(apply_help.out.find("--json"), std::string::npos) << apply_help.out;
+  EXPECT_EQ(apply_help.out.find("--to"), std::string::npos) << apply_help.out;
+  EXPECT_NE(apply_help.out.find("--gain F"), std::string::npos) << apply_help.out;
+  const CommandResult plan_help = circcomp({"plan", "--help"});
+  EXPECT_NE(plan_help.out.find("--json"), std::string::npos) << plan_help.out;
+  EXPECT_EQ(plan_help.out.find("revert"), std::string::npos) << plan_help.out;
+  expect_refused(
+      [&] {
+        return revert({"--only", "backlash"});
+      },
+      2, "--only: only for plan and apply");
+  expect_refused([&] { return revert({"--gain", "0.5"}); }, 2, "--gain: only for plan and apply");
+}

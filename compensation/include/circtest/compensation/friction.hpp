@@ -56,6 +56,7 @@ class WiringError : public DataError {
 struct HalPlace {
   std::string file;
   std::size_t line = 0;
+  bool ini_halcmd = false;  // a [HAL] HALCMD entry of the INI (FILE:LINE is the INI's line)
 };
 
 // What circcomp needs to know of a configuration's HAL files (the .hal ones, read in load
@@ -67,8 +68,9 @@ struct HalWiring {
     HalPlace place;  // the first net or link naming it
   };
   std::map<std::string, Signal> signals;
-  std::map<std::string, std::string> pin_signal;            // pin -> signal
-  std::map<std::string, HalPlace> setp;                     // pin -> the setp giving it a literal
+  std::map<std::string, std::string> pin_signal;  // pin -> signal
+  std::map<std::string, HalPlace> setp;  // pin -> the last setp (or "PIN = VALUE") naming it
+  std::map<std::string, HalPlace> sets;  // signal -> the last sets naming it
   std::map<std::string, std::vector<std::string>> threads;  // thread -> functions
   std::map<std::string, HalPlace> addf;                     // function -> its addf
   std::vector<std::string> pid_instances;                   // from loadrt pid
@@ -77,19 +79,12 @@ struct HalWiring {
   std::vector<std::string> unread;                          // HALFILEs not read (.tcl, LIB:)
 };
 
-// Reads the configuration's HAL files as halcmd would run them, skipping SKIP (circcomp's own
-// file). Throws ParseError (file, line) for a command with too few words.
-HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip);
+// Reads the configuration's HAL files ([HAL] HALFILE) as halcmd would run them, skipping SKIP
+// (circcomp's own file); with AND_LATER also what LinuxCNC runs after them: the [HAL] HALCMD
+// entries, then [HAL] POSTGUI_HALFILE. Throws ParseError (file, line) for a command with too
+// few words.
+HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip, bool and_later = false);
 HalWiring parse_hal_text(const std::string& text, const std::string& file, const IniDocument& ini,
                          HalWiring wiring = {});
-
-// Plans [FRICTION_<axis>] for both axes of the diagnosis (step 1: first tuning; step 2:
-// refinement of what circtest-fric.hal already loads) and, for a first tuning, the HAL file
-// into FILES (path -> (existed, content)). Throws WiringError naming the HAL file and line
-// when the joint's position command cannot be found or spliced, or the servo thread has no
-// motion-controller; DataError naming the diagnosis for a spike it refuses.
-void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& diagnosis,
-                   const PlanOptions& options, Plan& plan,
-                   std::map<std::string, std::pair<bool, std::string>>& files);
 
 }  // namespace circtest::compensation

@@ -29,8 +29,16 @@ using PlanSettingWords = SettingWords<PlanSetting>;
 // The library's words: "the force setting", "the gain setting", ...
 std::string_view library_setting_words(PlanSetting setting) noexcept;
 
+// The corrections circcomp plans; each is a step of the planner (compensation/src/plan/).
+enum class Correction { backlash, scale, squareness, cyclic, friction, servo };
+// "backlash", "scale", ...: the correction's name in messages and in a front end's words.
+std::string_view correction_name(Correction c) noexcept;
+std::optional<Correction> correction_named(std::string_view name) noexcept;
+std::vector<Correction> all_corrections();  // in the order above
+
 struct PlanOptions {
-  std::set<std::string> only{"backlash", "scale", "squareness", "cyclic", "friction", "servo"};
+  std::set<Correction> only{Correction::backlash, Correction::scale,    Correction::squareness,
+                            Correction::cyclic,   Correction::friction, Correction::servo};
   // Friction asked for by name: a configuration circfric cannot be wired into is then refused;
   // when it is only part of the default set, that is a note and the other corrections go on.
   bool friction_requested = false;
@@ -50,15 +58,28 @@ struct FileChange {
   std::string after;
 };
 
+// A value circcomp writes into a HAL command as written (the literal of a setp, a "PIN =
+// VALUE" or a sets), not into an INI key: a change of the plan JSON of its own.
+struct HalValueChange {
+  std::string file;  // the HAL file, as the INI names it
+  std::size_t line = 0;
+  std::string command;  // the command's words before the value: "setp pid.x.FF1", "sets x-ff1"
+  std::string key;      // the gain: FF1, Pgain
+  char axis = 0;
+  std::string before, after;
+};
+
 struct Plan {
   std::string ini_path;
-  std::vector<FileChange> files;     // only files whose content changes
-  std::vector<std::string> changes;  // one line per correction, for the summary
-  std::vector<std::string> advice;   // what circcomp cannot write (servo gains, friction)
-  std::vector<std::string> notes;    // what was skipped and why
-  bool provenance_checked = false;   // the diagnosis's ini_sha256 matched the INI
-  bool needs_kins_module = false;    // the plan loads the circtest_kins kinematics
-  bool needs_fric_module = false;    // the plan loads circfric (friction compensation)
+  std::vector<FileChange> files;           // only files whose content changes
+  std::vector<std::string> changes;        // one line per correction, for the summary
+  std::vector<std::string> advice;         // what circcomp cannot write (servo gains, friction)
+  std::vector<std::string> notes;          // what was skipped and why
+  std::vector<HalValueChange> hal_values;  // the values written into HAL lines
+  bool provenance_checked = false;         // the diagnosis's ini_sha256 matched the INI
+  std::string ini_sha256;                  // the INI's SHA-256 as the plan read it
+  bool needs_kins_module = false;          // the plan loads the circtest_kins kinematics
+  bool needs_fric_module = false;          // the plan loads circfric (friction compensation)
 };
 
 // Reads the INI (with its #INCLUDEd files and COMP_FILEs) and builds the plan. Throws
@@ -94,11 +115,30 @@ void require_kins_module(const Plan& plan, PlanSettingWords words = library_sett
 
 // Writes the originals and a manifest (manifest.hpp) into <ini dir>/.circcomp/, then every
 // file atomically. Every file is checked first (ConfigDir: inside the directory, no link, a
-// regular file or absent): a refusal touches nothing.
+// regular file or absent): a refusal touches nothing. One apply or revert of a configuration
+// at a time: each holds .circcomp/lock (flock) while it works; another one meanwhile is
+// refused with StaleError (exit 10), and so is a plan whose INI (its SHA-256) or files are no
+// longer what it read, checked under the lock (two applies of one diagnosis: one wins).
 // AFTER_STEP, when given, is called after every step (a temporary written but not yet renamed
 // into place, then the rename) with the step's number from 0 and a description: the crash
 // test kills the process there (circcomp-crash-test, tests/compensation).
 using StepHook = std::function<void(std::size_t step, const std::string& what)>;
+// One apply or revert of a configuration at a time: an exclusive flock on
+// <ini dir>/.circcomp/lock, held from construction to destruction (which removes the file, and
+// the state folder when nothing else is in it). Another process holding it: StaleError (exit
+// 10), nothing changed. Within one process it nests: apply_plan and revert take one, and
+// share the hold of an outer one.
+class ConfigLock {
+ public:
+  explicit ConfigLock(const std::string& ini_path);
+  ~ConfigLock();
+  ConfigLock(const ConfigLock&) = delete;
+  ConfigLock& operator=(const ConfigLock&) = delete;
+
+ private:
+  std::string root_, path_;
+  int fd_ = -1;
+};
 void apply_plan(const Plan& plan, const StepHook& after_step = {});
 struct RevertOptions {
   bool as_found = false;  // back to the state before the first apply, not only the last one

@@ -21,6 +21,7 @@ enum class ExitCode : int {
   stale = 10,        // circcomp apply: the INI changed since the measurement
   database = 11,     // the history database cannot be opened, read or written
   unsafe_path = 12,  // circcomp: a path outside the configuration, a link or not a regular file
+  unreported = 13,   // circcomp apply/revert: the change IS made, standard output failed after it
 };
 
 class Error : public std::runtime_error {

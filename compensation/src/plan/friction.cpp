@@ -12,7 +12,7 @@
 #include "circtest/core/circfric_limits.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
-#include "plan_internal.hpp"
+#include "context.hpp"
 
 namespace circtest::compensation {
 
@@ -21,171 +21,6 @@ using namespace detail;
 
 namespace {
 
-bool is_arrow(const std::string& w) {
-  return w == "=>" || w == "<=" || w == "<=>";
-}
-
-bool ini_key_char(char c) {
-  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
-}
-
-// WORD with every [SECTION]KEY and [SECTION](KEY) replaced by the INI's value (kept as it is
-// when the INI has none). A scan, not a regular expression: a word of megabytes is read in
-// linear time and constant stack.
-std::string substituted(const std::string& w, const IniDocument& ini) {
-  std::string out;
-  std::size_t i = 0;
-  std::size_t close = 0;  // the first ']' after the last '[' looked at (found once per ']')
-  while (i < w.size()) {
-    const std::size_t open = w.find('[', i);
-    if (open == std::string::npos) break;
-    if (close <= open) close = w.find(']', open + 1);
-    if (close == std::string::npos) break;
-    if (close == open + 1 || w.find('[', open + 1) < close) {
-      out.append(w, i, open + 1 - i);
-      i = open + 1;
-      continue;
-    }
-    std::size_t k = close + 1;
-    const bool paren = k < w.size() && w[k] == '(';
-    if (paren) ++k;
-    const std::size_t key_begin = k;
-    while (k < w.size() && ini_key_char(w[k])) ++k;
-    const bool closed = !paren || (k < w.size() && w[k] == ')');
-    if (k == key_begin || !closed) {
-      out.append(w, i, close + 1 - i);
-      i = close + 1;
-      continue;
-    }
-    const std::size_t end = paren ? k + 1 : k;
-    out.append(w, i, open - i);
-    const auto v = ini.get(std::string_view(w).substr(open + 1, close - open - 1),
-                           std::string_view(w).substr(key_begin, k - key_begin));
-    out += v ? *v : w.substr(open, end - open);
-    i = end;
-  }
-  out.append(w, i);
-  return out;
-}
-
-// halcmd's words of one logical line: blanks split, '#' at a word's start ends the line,
-// [SECTION]KEY words replaced from the INI.
-std::vector<std::string> hal_words(const std::string& line, const IniDocument& ini) {
-  std::vector<std::string> words;
-  std::istringstream in(line);
-  for (std::string w; in >> w;) {
-    if (w.front() == '#') break;
-    words.push_back(w.find('[') == std::string::npos ? w : substituted(w, ini));
-  }
-  return words;
-}
-
-void link_pin(HalWiring& w, const std::string& signal, const std::string& pin,
-              const HalPlace& place) {
-  auto [it, fresh] = w.signals.try_emplace(signal);
-  if (fresh) it->second.place = place;
-  if (const auto old = w.pin_signal.find(pin); old != w.pin_signal.end()) {
-    w.signals[old->second].pins.erase(pin);
-  }
-  it->second.pins.insert(pin);
-  w.pin_signal[pin] = signal;
-}
-
-void add_function(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
-  auto& list = w.threads[words[2]];
-  long position = -1;
-  if (words.size() > 3) {
-    const auto v = parse_finite(words[3]);
-    if (!v || *v != std::floor(*v) || *v == 0 || std::fabs(*v) > 1e6) {
-      throw ParseError(place.file, place.line,
-                       fmt::format("addf {} {} {}: expected a position (1 = first, -1 = last)",
-                                   words[1], words[2], words[3]));
-    }
-    position = static_cast<long>(*v);
-  }
-  const long size = static_cast<long>(list.size());
-  long index = position > 0 ? position - 1 : size + 1 + position;
-  index = std::clamp(index, 0L, size);
-  list.insert(list.begin() + index, words[1]);
-  w.addf[words[1]] = place;
-}
-
-void load_module(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
-  if (words[1] == "circfric") w.loads_circfric = place;
-  if (words[1] != "pid") return;
-  bool named = false;
-  int count = 3;  // pid's default
-  for (std::size_t i = 2; i < words.size(); ++i) {
-    if (words[i].starts_with("names=")) {
-      named = true;
-      std::istringstream in(words[i].substr(6));
-      for (std::string n; std::getline(in, n, ',');) w.pid_instances.push_back(n);
-    } else if (words[i].starts_with("num_chan=")) {
-      count = static_cast<int>(std::clamp(parse_finite(words[i].substr(9)).value_or(3), 0.0, 64.0));
-    }
-  }
-  for (int i = 0; !named && i < count; ++i) {
-    w.pid_instances.push_back(fmt::format("pid.{}", i));
-  }
-}
-
-void need_words(const std::vector<std::string>& words, std::size_t n, const HalPlace& place,
-                const std::string& form) {
-  if (words.size() < n) {
-    throw ParseError(place.file, place.line, fmt::format("expected '{}'", form));
-  }
-}
-
-// Pins of WORDS from index FROM on, arrows left out.
-std::vector<std::string> pins_from(const std::vector<std::string>& words, std::size_t from) {
-  std::vector<std::string> pins;
-  for (std::size_t i = from; i < words.size(); ++i) {
-    if (!is_arrow(words[i])) pins.push_back(words[i]);
-  }
-  return pins;
-}
-
-void hal_command(HalWiring& w, const std::vector<std::string>& words, const HalPlace& place) {
-  const std::string& cmd = words[0];
-  if (cmd == "loadrt") {
-    need_words(words, 2, place, "loadrt MODULE [ARGS]");
-    load_module(w, words, place);
-  } else if (cmd == "net") {
-    need_words(words, 2, place, "net SIGNAL PIN...");
-    if (auto [it, fresh] = w.signals.try_emplace(words[1]); fresh) it->second.place = place;
-    for (const auto& pin : pins_from(words, 2)) link_pin(w, words[1], pin, place);
-  } else if (cmd == "linksp" || cmd == "linkps") {
-    const auto rest = pins_from(words, 1);
-    if (rest.size() != 2) throw ParseError(place.file, place.line, "expected '" + cmd + " A B'");
-    if (cmd == "linksp") link_pin(w, rest[0], rest[1], place);
-    if (cmd == "linkps") link_pin(w, rest[1], rest[0], place);
-  } else if (cmd == "linkpp") {
-    const auto rest = pins_from(words, 1);
-    if (rest.size() != 2) throw ParseError(place.file, place.line, "expected 'linkpp PIN PIN'");
-    link_pin(w, rest[0], rest[0], place);
-    link_pin(w, rest[0], rest[1], place);
-  } else if (cmd == "unlinkp") {
-    need_words(words, 2, place, "unlinkp PIN");
-    if (const auto it = w.pin_signal.find(words[1]); it != w.pin_signal.end()) {
-      w.signals[it->second].pins.erase(words[1]);
-      w.pin_signal.erase(it);
-    }
-  } else if (cmd == "setp" || cmd == "sets") {
-    need_words(words, 3, place, cmd + " NAME VALUE");
-    if (cmd == "setp") w.setp[words[1]] = place;
-  } else if (cmd == "addf") {
-    need_words(words, 3, place, "addf FUNCTION THREAD [POSITION]");
-    add_function(w, words, place);
-  } else if (cmd == "delf") {
-    need_words(words, 2, place, "delf FUNCTION [THREAD]");
-    for (auto& [thread, list] : w.threads) {
-      if (words.size() > 2 && thread != words[2]) continue;
-      list.erase(std::remove(list.begin(), list.end(), words[1]), list.end());
-    }
-  }
-}
-
-// A pin circfric is spliced in front of: a pid's command or a stepgen's position command.
 bool is_command_target(const HalWiring& w, const std::string& pin) {
   if (pin.ends_with(".position-cmd") && pin.find("stepgen.") != std::string::npos) return true;
   if (!pin.ends_with(".command")) return false;
@@ -594,53 +429,31 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
   }
 }
 
+// The reversal spikes' advice: friction, not play.
+void spike_advice(PlanContext& c) {
+  for (int k = 0; k < 2; ++k) {
+    const auto& s = c.d().reversal_spike_mm[k];
+    if (!s.value || std::fabs(*s.value) < 1e-3) continue;
+    c.plan.advice.push_back(fmt::format(
+        "{} reversal spikes of {:.1f} um{}: friction (stick-slip at the reversal), not play; "
+        "compensating them as backlash makes parts worse: check gibs and lubrication, or "
+        "let circcomp plan friction compensation (circfric)",
+        c.d().axes[k], *s.value * 1e3,
+        c.d().reversal_spike_ms[k]
+            ? fmt::format(" decaying in {:.0f} ms", *c.d().reversal_spike_ms[k])
+            : ""));
+  }
+}
+
 }  // namespace
 
-HalWiring parse_hal_text(const std::string& text, const std::string& file, const IniDocument& ini,
-                         HalWiring wiring) {
-  std::istringstream in(text);
-  std::size_t number = 0;
-  std::string logical;
-  std::size_t first = 0;
-  for (std::string line; std::getline(in, line);) {
-    ++number;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (logical.empty()) first = number;
-    if (!line.empty() && line.back() == '\\') {
-      logical += line.substr(0, line.size() - 1) + " ";
-      continue;
-    }
-    logical += line;
-    const auto words = hal_words(logical, ini);
-    logical.clear();
-    if (!words.empty()) hal_command(wiring, words, {file, first});
-  }
-  wiring.read.push_back(file);
-  return wiring;
-}
-
-HalWiring read_hal_wiring(const IniDocument& ini, const std::string& skip) {
-  HalWiring wiring;
-  const std::string dir = ini_dir(ini.path());
-  for (const auto& h : ini.get_all("HAL", "HALFILE")) {
-    if (h.value == skip) continue;
-    const fs::path path = fs::path(h.value).is_absolute() || dir.empty() ? fs::path(h.value)
-                                                                         : fs::path(dir) / h.value;
-    bool existed = false;
-    const std::string text =
-        fs::path(h.value).extension() == ".hal" ? slurp_if(path.string(), existed) : "";
-    if (!existed) {
-      wiring.unread.push_back(h.value);
-      continue;
-    }
-    wiring = parse_hal_text(text, path.string(), ini, std::move(wiring));
-  }
-  return wiring;
-}
-
-void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInput& d,
-                   const PlanOptions& o, Plan& plan,
-                   std::map<std::string, std::pair<bool, std::string>>& files) {
+void plan_friction(PlanContext& c) {
+  IniDocument& ini = c.ini;
+  const ConfigDir& config = c.config;
+  const DiagnosisInput& d = c.d();
+  const PlanOptions& o = c.o;
+  Plan& plan = c.plan;
+  PlanFiles& files = c.files;
   const double upm = units_per_mm(ini);
   bool loaded = false;
   for (const auto& h : ini.get_all("HAL", "HALFILE")) loaded |= h.value == kFrictionHalFile;
@@ -743,6 +556,43 @@ void plan_friction(IniDocument& ini, const ConfigDir& config, const DiagnosisInp
                                        kFrictionHalFile, splices[i].instance, splices[i].pos_signal,
                                        splices[i].target, thread, position + i));
   }
+}
+
+// Friction: circfric wired by circtest-fric.hal, its values in [FRICTION_<axis>]. Not in a
+// round whose servo gains change: the spike is the loop's answer to the friction, and step 1
+// divides by the share of the pulse the old lag passes (tuned on the old loop, circfric would
+// push the table by that share's inverse, 2.5x at FF1 0 -> 1).
+void friction_step(PlanContext& c) {
+  if (!c.wants(Correction::friction)) return;
+  if (c.plan.changes.size() > c.changes_before_servo) {
+    c.plan.notes.push_back(
+        "friction compensation not planned in this round: the servo gains change, and the "
+        "reversal spike changes with them; rerun the circle and plan again");
+    c.friction_answered = true;
+    return;
+  }
+  if (c.o.friction_requested) {
+    plan_friction(c);
+    c.friction_answered = true;
+    return;
+  }
+  // Tried on a trial context: a configuration without a pid or stepgen to splice into (a
+  // simulated machine, a HAL of its own kind) keeps every other correction.
+  PlanContext tried = c.trial();
+  try {
+    plan_friction(tried);
+  } catch (const WiringError& e) {
+    // Only where to wire the compensator is in question here: what the measurement says (an
+    // implausible spike) is refused as ever.
+    c.plan.notes.push_back(fmt::format("friction compensation not planned: {}", e.what()));
+    return;
+  }
+  c.merge(std::move(tried));
+  c.friction_answered = true;
+}
+
+void spike_advice_step(PlanContext& c) {
+  if (!c.friction_answered) spike_advice(c);
 }
 
 }  // namespace circtest::compensation

@@ -1,7 +1,8 @@
 // circcomp's servo step: the per-axis following lag of a diagnosis matched by velocity feed
 // forward (FF1, and P where FF1 alone cannot match) of each joint's pid, written where the
 // configuration's HAL reads it ([JOINT_n] keys, or a literal setp edited in place); stepgen
-// joints get the stepgen checks instead (docs/compensation.md, "Servo").
+// joints get the stepgen checks instead (docs/compensation.md, "Servo"); without a per-axis
+// lag, the mismatch advice.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -9,12 +10,13 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <set>
 #include <sstream>
 
 #include "circtest/compensation/friction.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/numbers.hpp"
-#include "plan_internal.hpp"
+#include "context.hpp"
 
 namespace circtest::compensation {
 
@@ -38,14 +40,14 @@ constexpr double kMinFf1Change = 0.005;
 // A following lag beyond this is no servo loop's (1 / P of P = 0.1 1/s): implausible.
 constexpr double kMaxLagMs = 10000.0;
 
-using Files = std::map<std::string, std::pair<bool, std::string>>;  // path -> (existed, after)
-
-// How a pid pin gets its value.
+// How a pid pin gets its value: the HAL command that decides it (the last halcmd runs).
 struct Gain {
   enum class Kind { ini_key, literal, unset } kind = Kind::unset;
   double value = 0.0;
   std::string section, key;                    // ini_key: the [SECTION]KEY the HAL names
-  HalPlace place;                              // the setp (ini_key, literal)
+  HalPlace place;                              // the command (ini_key, literal)
+  std::string setter;                          // its words before the value: "setp pid.x.FF1"
+  std::vector<std::string> pins;               // the pins it sets (a sets: the signal's)
   std::size_t value_begin = 0, value_end = 0;  // literal: the value's bytes in the file
 };
 
@@ -128,19 +130,55 @@ std::vector<std::pair<std::size_t, std::size_t>> raw_words(const std::string& te
   return words;
 }
 
-// How PIN (pid.x.FF1) gets its value: the last setp naming it, read from its file as written.
-Gain gain_of(const HalWiring& w, const IniDocument& ini, const std::string& pin) {
-  Gain g;
+// The command that decides PIN's value as halcmd runs the files: for a pin on a signal the
+// last "sets SIGNAL VALUE", else the last "setp PIN VALUE" or "PIN = VALUE". Refused naming
+// the file and line where circcomp cannot change it.
+HalPlace value_command(const HalWiring& w, const std::string& pin, std::vector<std::string>& pins) {
+  pins = {pin};
   if (const auto s = w.pin_signal.find(pin); s != w.pin_signal.end()) {
-    const auto& place = w.signals.at(s->second).place;
-    throw DataError(place.file, place.line,
-                    fmt::format("{} is on signal {}: its value comes from the HAL at run time, "
-                                "not from a setp circcomp could change; set it by hand",
-                                pin, s->second));
+    const auto& signal = w.signals.at(s->second);
+    const auto set = w.sets.find(s->second);
+    if (set == w.sets.end()) {
+      throw DataError(signal.place.file, signal.place.line,
+                      fmt::format("{} is on signal {}: its value comes from the HAL at run time, "
+                                  "not from a setp or sets circcomp could change; set it by hand",
+                                  pin, s->second));
+    }
+    pins.assign(signal.pins.begin(), signal.pins.end());
+    return set->second;
   }
   const auto it = w.setp.find(pin);
-  if (it == w.setp.end()) return g;
-  g.place = it->second;
+  return it == w.setp.end() ? HalPlace{} : it->second;
+}
+
+// The INI key a whole value word names ([SECTION]KEY or [SECTION](KEY), halcmd's key
+// characters), or nullopt.
+std::optional<std::pair<std::string, std::string>> ini_reference(const std::string& word) {
+  if (word.size() <= 3 || word.front() != '[') return std::nullopt;
+  const std::size_t close = word.find(']');
+  if (close == std::string::npos || close <= 1) return std::nullopt;
+  std::string key = word.substr(close + 1);
+  if (key.size() > 2 && key.front() == '(' && key.back() == ')')
+    key = key.substr(1, key.size() - 2);
+  const bool plain = !key.empty() && std::all_of(key.begin(), key.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '.' || c == '-';
+  });
+  if (!plain) return std::nullopt;
+  return std::pair{word.substr(1, close - 1), key};
+}
+
+// How PIN (pid.x.FF1) gets its value, read from the deciding command's file as written.
+Gain gain_of(const HalWiring& w, const IniDocument& ini, const std::string& pin) {
+  Gain g;
+  g.place = value_command(w, pin, g.pins);
+  if (g.place.file.empty()) return g;
+  if (g.place.ini_halcmd) {
+    throw DataError(g.place.file, g.place.line,
+                    fmt::format("{} is set by this [HAL] HALCMD, which LinuxCNC runs after the "
+                                "HAL files: circcomp does not edit HALCMD entries; move it into "
+                                "a HAL file, or set it by hand",
+                                pin));
+  }
   bool existed = false;
   const std::string text = slurp_if(g.place.file, existed);
   const auto words = raw_words(text, g.place.line);
@@ -148,43 +186,37 @@ Gain gain_of(const HalWiring& w, const IniDocument& ini, const std::string& pin)
     throw DataError(g.place.file, g.place.line,
                     fmt::format("expected 'setp {} VALUE' on this line", pin));
   }
-  const std::string word = text.substr(words[2].first, words[2].second - words[2].first);
-  // [SECTION]KEY or [SECTION](KEY), the whole word.
-  if (word.size() > 3 && word.front() == '[') {
-    const std::size_t close = word.find(']');
-    std::string key = close == std::string::npos ? "" : word.substr(close + 1);
-    if (key.size() > 2 && key.front() == '(' && key.back() == ')')
-      key = key.substr(1, key.size() - 2);
-    const bool plain = !key.empty() && std::all_of(key.begin(), key.end(), [](char c) {
-      return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_';
-    });
-    if (close != std::string::npos && close > 1 && plain) {
-      g.kind = Gain::Kind::ini_key;
-      g.section = word.substr(1, close - 1);
-      g.key = key;
-      const auto e = ini.find(g.section, g.key);
-      if (!e) {
-        throw DataError(g.place.file, g.place.line,
-                        fmt::format("setp {} {}: the INI has no [{}] {}, so halcmd cannot load "
-                                    "this file; add the key, measure, then plan again",
-                                    pin, word, g.section, g.key));
-      }
-      const auto v = parse_finite(e->value);
-      if (!v) {
-        throw DataError(e->file, e->line,
-                        fmt::format("[{}] {} = '{}' (read by {}): expected a number", g.section,
-                                    g.key, e->value, pin));
-      }
-      g.value = *v;
-      return g;
+  const auto word_at = [&](std::size_t i) {
+    return text.substr(words[i].first, words[i].second - words[i].first);
+  };
+  g.setter = word_at(0) + " " + word_at(1);
+  const std::string word = word_at(2);
+  if (const auto ref = ini_reference(word)) {
+    g.kind = Gain::Kind::ini_key;
+    g.section = ref->first;
+    g.key = ref->second;
+    const auto e = ini.find(g.section, g.key);
+    if (!e) {
+      throw DataError(g.place.file, g.place.line,
+                      fmt::format("{} {}: the INI has no [{}] {}, so halcmd cannot load this "
+                                  "file; add the key, measure, then plan again",
+                                  g.setter, word, g.section, g.key));
     }
+    const auto v = parse_finite(e->value);
+    if (!v) {
+      throw DataError(e->file, e->line,
+                      fmt::format("[{}] {} = '{}' (read by {}): expected a number", g.section,
+                                  g.key, e->value, pin));
+    }
+    g.value = *v;
+    return g;
   }
   const auto v = parse_finite(word);
   if (!v) {
     throw DataError(g.place.file, g.place.line,
-                    fmt::format("setp {} {}: neither a number nor one [SECTION]KEY; circcomp "
+                    fmt::format("{} {}: neither a number nor one [SECTION]KEY; circcomp "
                                 "changes only those: set it by hand",
-                                pin, word));
+                                g.setter, word));
   }
   g.kind = Gain::Kind::literal;
   g.value = *v;
@@ -218,7 +250,7 @@ double ini_number(const IniDocument& ini, const std::string& section, const char
 
 // The new text of the HAL file holding a gain: the literal replaced, or a setp inserted.
 void write_gain(const JointServo& js, const Gain& g, const std::string& pin, double value,
-                const Gain& after, IniDocument& ini, Files& files) {
+                const Gain& after, IniDocument& ini, PlanFiles& files) {
   if (g.kind == Gain::Kind::ini_key) {
     ini.set(g.section, g.key, number_text(value));
     return;
@@ -249,7 +281,7 @@ void write_gain(const JointServo& js, const Gain& g, const std::string& pin, dou
     if (at == std::string::npos || text.find(line, at + 1) != std::string::npos) {
       throw DataError(
           g.place.file, g.place.line,
-          fmt::format("cannot place the edit of setp {} uniquely: set it by hand", pin));
+          fmt::format("cannot place the edit of {} uniquely: set it by hand", g.setter));
     }
     text.replace(at, line.size(), next);
     return;
@@ -414,12 +446,19 @@ void check_ferror(const IniDocument& ini, const JointServo& js) {
   }
 }
 
+// Whether A and B are one place of the configuration: one INI key, or one HAL literal.
+bool same_command(const Gain& a, const Gain& b) {
+  if (a.kind != b.kind || a.kind == Gain::Kind::unset) return false;
+  if (a.kind == Gain::Kind::ini_key) return a.section == b.section && a.key == b.key;
+  return a.place.file == b.place.file && a.place.line == b.place.line;
+}
+
 std::string gain_where(const Gain& g, const std::string& pin, int joint, const HalPlace& anchor) {
   switch (g.kind) {
     case Gain::Kind::ini_key:
       return fmt::format("[{}] {}", g.section, g.key);
     case Gain::Kind::literal:
-      return fmt::format("{}:{} (setp {})", g.place.file, g.place.line, pin);
+      return fmt::format("{}:{} ({})", g.place.file, g.place.line, g.setter);
     case Gain::Kind::unset:
       break;
   }
@@ -427,11 +466,12 @@ std::string gain_where(const Gain& g, const std::string& pin, int joint, const H
                      pin.substr(pin.rfind('.') + 1), pin, anchor.file, anchor.line);
 }
 
-// Two joints whose pids read their gain from the same INI key (a gantry's second joint set
-// up with the first joint's section, a copied line) cannot take two different values: the
-// last write would win silently. The same value is written once; different ones are refused
-// naming both setp lines.
-void check_shared_keys(const std::vector<JointServo>& joints) {
+// One command setting the gain of two joints (their pids read the same INI key, a gantry's
+// second joint set up with the first joint's section, a copied line; or one sets of a signal
+// joining both pins) cannot take two different values: the last write would win silently.
+// The same value is written once; different ones are refused naming both lines. A sets whose
+// signal also joins a pin this plan does not set is refused: the change would reach it too.
+void check_shared_gains(const std::vector<JointServo>& joints) {
   struct Use {
     const JointServo* joint;
     const Gain* gain;
@@ -439,36 +479,79 @@ void check_shared_keys(const std::vector<JointServo>& joints) {
     const char* pin;
   };
   std::vector<Use> uses;
+  std::set<std::string> planned;
   for (const auto& js : joints) {
     uses.push_back({&js, &js.ff1, js.ff1_new, "FF1"});
     uses.push_back({&js, &js.p, js.p_new, "Pgain"});
+    planned.insert(js.pid + ".FF1");
+    planned.insert(js.pid + ".Pgain");
+  }
+  for (const Use& u : uses) {
+    for (const std::string& other : u.gain->pins) {
+      if (planned.count(other) == 0) {
+        throw DataError(
+            u.gain->place.file, u.gain->place.line,
+            fmt::format("{} sets {}.{} and also {}, which this plan does not change: "
+                        "give {}.{} a value of its own",
+                        u.gain->setter, u.joint->pid, u.pin, other, u.joint->pid, u.pin));
+      }
+    }
   }
   for (std::size_t i = 0; i < uses.size(); ++i) {
     for (std::size_t k = 0; k < i; ++k) {
       const Use &a = uses[k], &b = uses[i];
-      if (a.gain->kind != Gain::Kind::ini_key || b.gain->kind != Gain::Kind::ini_key ||
-          a.gain->section != b.gain->section || a.gain->key != b.gain->key) {
-        continue;
-      }
+      if (!same_command(*a.gain, *b.gain)) continue;
       if (std::abs(a.value - b.value) <= 1e-9 * std::max(std::abs(a.value), std::abs(b.value))) {
         continue;
       }
+      const std::string what =
+          a.gain->kind == Gain::Kind::ini_key
+              ? fmt::format("{} reads [{}]{} as {} does ({}:{})", b.gain->setter, b.gain->section,
+                            b.gain->key, a.gain->setter, a.gain->place.file, a.gain->place.line)
+              : fmt::format("{} sets {}.{} and {}.{}", b.gain->setter, a.joint->pid, a.pin,
+                            b.joint->pid, b.pin);
       throw DataError(
           b.gain->place.file, b.gain->place.line,
-          fmt::format("setp {}.{} reads [{}]{} as setp {}.{} does ({}:{}), but joint {} needs {} "
-                      "and joint {} needs {}: give each joint its own key",
-                      b.joint->pid, b.pin, b.gain->section, b.gain->key, a.joint->pid, a.pin,
-                      a.gain->place.file, a.gain->place.line, a.joint->joint, number_text(a.value),
-                      b.joint->joint, number_text(b.value)));
+          fmt::format("{}, but joint {} needs {} and joint {} needs {}: give each "
+                      "joint its own {}",
+                      what, a.joint->joint, number_text(a.value), b.joint->joint,
+                      number_text(b.value), a.gain->kind == Gain::Kind::ini_key ? "key" : "value"));
     }
   }
 }
 
+// Advice: the servo mismatch, which no configuration value of circcomp's changes.
+void servo_advice(PlanContext& c) {
+  const DiagnosisInput& d = c.d();
+  if (!d.servo_mismatch_ms.value || std::fabs(*d.servo_mismatch_ms.value) < 0.05) return;
+  const double m = *d.servo_mismatch_ms.value;
+  const char slow = m > 0 ? d.axes[0] : d.axes[1];
+  const char fast = m > 0 ? d.axes[1] : d.axes[0];
+  std::string joints;
+  for (int j : joints_of(c.ini, slow)) joints += fmt::format(" [JOINT_{}]", j);
+  std::string how = "until their lag times 1/Kv agree";
+  if (d.kv_per_s && *d.kv_per_s > 0) {
+    const double kv = *d.kv_per_s;
+    const double lag_slow = 1.0 / kv + std::fabs(m) * 1e-3 / 2;
+    const double lag_fast = 1.0 / kv - std::fabs(m) * 1e-3 / 2;
+    how = fmt::format("(about Kv {:.1f} 1/s now against {:.1f} 1/s: raise it by {:.1f} %)",
+                      1.0 / lag_slow, 1.0 / lag_fast, (lag_slow / lag_fast - 1.0) * 100.0);
+  }
+  c.plan.advice.push_back(fmt::format(
+      "servo mismatch: {} lags {} by {:.2f} ms: raise the position-loop gain (P, Kv) of{} "
+      "{} or lower {}'s; no INI value of circcomp's changes that",
+      slow, fast, std::fabs(m), joints, how, fast));
+}
+
 }  // namespace
 
-bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o, Plan& plan,
-                std::map<std::string, std::pair<bool, std::string>>& files) {
-  const HalWiring w = read_hal_wiring(ini, "");
+bool plan_servo(PlanContext& c) {
+  IniDocument& ini = c.ini;
+  const DiagnosisInput& d = c.d();
+  const PlanOptions& o = c.o;
+  Plan& plan = c.plan;
+  PlanFiles& files = c.files;
+  const HalWiring w = read_hal_wiring(ini, "", true);
   std::vector<JointServo> joints;
   std::vector<std::string> skipped;
   bool stepper = false;
@@ -499,14 +582,23 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
                         "check the measurement",
                         d.axes[k], *lag.value, kMaxLagMs));
       }
+      JointServo js = read_joint(w, ini, d.axes[k], j, loop, *lag.value * 1e-3);
       if (lag.standard_error && *lag.standard_error * 10.0 > std::abs(*lag.value)) {
+        // A lag whose whole uncertainty asks less of FF1 than is worth changing is matched.
+        const double reach = (std::abs(*lag.value) + 2.0 * *lag.standard_error) * 1e-3;
+        if (reach * js.p.value >= kMinFf1Change) {
+          plan.notes.push_back(fmt::format(
+              "{} servo: the lag {:.3f} ms has a standard error of {:.3f} ms, more than a tenth "
+              "of it: no FF1 proposed; measure again",
+              d.axes[k], *lag.value, *lag.standard_error));
+          return false;
+        }
         plan.notes.push_back(fmt::format(
-            "{} servo: the lag {:.3f} ms has a standard error of {:.3f} ms, more than a tenth of "
-            "it: no FF1 proposed; measure again",
-            d.axes[k], *lag.value, *lag.standard_error));
-        return false;
+            "{} servo: the lag {:.3f} ms (standard error {:.3f} ms) is already matched: FF1 "
+            "would change by less than {}",
+            d.axes[k], *lag.value, *lag.standard_error, kMinFf1Change));
       }
-      joints.push_back(read_joint(w, ini, d.axes[k], j, loop, *lag.value * 1e-3));
+      joints.push_back(std::move(js));
     }
   }
   if (!skipped.empty() && !stepper) {
@@ -541,13 +633,23 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
     return true;
   }
   for (const auto& js : joints) check_ferror(ini, js);
-  check_shared_keys(joints);
+  check_shared_gains(joints);
+  std::set<std::pair<std::string, std::size_t>> written;  // HAL literals, each written once
+  auto write = [&](const JointServo& js, const Gain& g, const char* name, double value) {
+    const std::string pin = js.pid + "." + name;
+    if (g.kind == Gain::Kind::literal && !written.insert({g.place.file, g.place.line}).second) {
+      return;
+    }
+    write_gain(js, g, pin, value, js.p, ini, files);
+    if (g.kind == Gain::Kind::literal) {
+      plan.hal_values.push_back({g.place.file, g.place.line, g.setter, name, js.axis,
+                                 number_text(g.value), number_text(value)});
+    }
+  };
   for (const auto& js : joints) {
     const double lag_after = (js.c - js.ff1_new) / js.p_new;
-    if (std::abs(js.p_new - js.p.value) > 1e-9 * js.p.value) {
-      write_gain(js, js.p, js.pid + ".Pgain", js.p_new, js.p, ini, files);
-    }
-    write_gain(js, js.ff1, js.pid + ".FF1", js.ff1_new, js.p, ini, files);
+    if (std::abs(js.p_new - js.p.value) > 1e-9 * js.p.value) write(js, js.p, "Pgain", js.p_new);
+    write(js, js.ff1, "FF1", js.ff1_new);
     plan.changes.push_back(fmt::format(
         "{} servo (joint {}, {}): FF1 {} -> {} at {}{}; lag {:.2f} -> {:.2f} ms", js.axis, js.joint,
         js.pid, number_text(js.ff1.value), number_text(js.ff1_new),
@@ -559,6 +661,33 @@ bool plan_servo(IniDocument& ini, const DiagnosisInput& d, const PlanOptions& o,
         js.lag_s * 1e3, lag_after * 1e3));
   }
   return true;
+}
+
+// Servo: tried on a trial context (the configuration's texts, an empty plan), so that a
+// configuration it cannot take keeps every other correction. A refusal of the diagnosis
+// itself (MeasurementError) is thrown as for every other step.
+void servo_step(PlanContext& c) {
+  c.changes_before_servo = c.plan.changes.size();
+  if (!c.wants(Correction::servo)) return;
+  PlanContext tried = c.trial();
+  try {
+    if (!plan_servo(tried)) {
+      c.plan.notes.insert(c.plan.notes.end(), tried.plan.notes.begin(), tried.plan.notes.end());
+      return;
+    }
+  } catch (const MeasurementError&) {
+    throw;
+  } catch (const DataError& e) {
+    if (c.o.servo_requested) throw;
+    c.plan.notes.push_back(fmt::format("servo gains not planned: {}", e.what()));
+    return;
+  }
+  c.merge(std::move(tried));
+  c.servo_answered = true;
+}
+
+void servo_advice_step(PlanContext& c) {
+  if (!c.servo_answered) servo_advice(c);
 }
 
 }  // namespace circtest::compensation
