@@ -160,9 +160,33 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
   return sections;
 }
 
+std::string uncertainty_text(const UncertaintyBudget& b) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out,
+                 "\nUncertainty budget (ISO/TR 230-9, GUM; instrument profile {}: {})\n"
+                 "   {:<38} {:>9} {:<12} {:<18} {:>5} {:>5} {:>5}\n",
+                 instrument_profile_name(b.profile), b.profile_note, "contribution", "value um",
+                 "distribution", "source", "c_G", "c_H", "c_F");
+  for (const auto& c : b.contributions) {
+    fmt::format_to(out, "   {:<38} {:>9.3f} {:<12} {:<18} {:>5.3g} {:>5.3g} {:>5.3g}\n", c.name,
+                   c.value_mm * 1000.0, distribution_name(c.distribution), c.source, c.c_g, c.c_h,
+                   c.c_f);
+  }
+  fmt::format_to(out,
+                 "   u = root sum of squares of c x (value, or value/sqrt(3) for a rectangular "
+                 "half-width); U = k u, k = {:g}\n   U(G) = {}, U(H) = {}, U(F) = {}\n",
+                 b.k, um_abs(b.u_g_mm), um_abs(b.u_h_mm), um_abs(b.u_f_mm));
+  for (const auto& c : b.contributions) fmt::format_to(out, "   {}: {}\n", c.name, c.note);
+  return s;
+}
+
 std::string text_report(const Evaluation& ev) {
   std::string s;
   auto out = std::back_inserter(s);
+  const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
+  const std::string u_g = fmt::format(", U = {} (k = 2)", um_abs(budget.u_g_mm));
+  const std::string u_f = fmt::format("  U = {} (k = 2)", um_abs(budget.u_f_mm));
   fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
   for (const ReportSection& section : header_sections(ev)) {
     s += section.title + "\n";
@@ -182,16 +206,18 @@ std::string text_report(const Evaluation& ev) {
             ? feed_text(ccw.feed_mm_per_min)
             : feed_text(ccw.feed_mm_per_min) + " / " + feed_text(cw.feed_mm_per_min);
     fmt::format_to(out,
-                   "a) Circular hysteresis H_{} = {}  at {}  (largest at {:.1f} deg, runs {}/{})\n",
-                   ccw.label, um_abs(h.h_mm), feeds, h.at_angle_deg, h.run_ccw + 1, h.run_cw + 1);
+                   "a) Circular hysteresis H_{} = {}  at {}  (largest at {:.1f} deg, runs {}/{}), "
+                   "U = {} (k = 2)\n",
+                   ccw.label, um_abs(h.h_mm), feeds, h.at_angle_deg, h.run_ccw + 1, h.run_cw + 1,
+                   um_abs(budget.u_h_mm));
   }
   if (ev.hysteresis.empty()) s += "a) Circular hysteresis H: not available\n";
   fmt::format_to(out, "b) Circular deviation G ({})\n", g_method_name(ev.g_method));
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
     const auto& r = ev.runs[i];
-    fmt::format_to(out, "   run {} {:>3} {:>12} G_{} = {}   (other method: {})\n", i + 1,
+    fmt::format_to(out, "   run {} {:>3} {:>12} G_{} = {}{}   (other method: {})\n", i + 1,
                    direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
-                   um_abs(r.g_mm(ev.g_method)),
+                   um_abs(r.g_mm(ev.g_method)), u_g,
                    um_abs(r.g_mm(ev.g_method == GMethod::min_zone ? GMethod::least_squares
                                                                   : GMethod::min_zone)));
   }
@@ -199,9 +225,9 @@ std::string text_report(const Evaluation& ev) {
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
     const auto& r = ev.runs[i];
     if (r.f_max_mm) {
-      fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}  (centre: {})\n",
+      fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}{}  (centre: {})\n",
                      i + 1, direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
-                     um(*r.f_max_mm), r.label, um(*r.f_min_mm),
+                     um(*r.f_max_mm), r.label, um(*r.f_min_mm), u_f,
                      f_centre_method_name(r.f_centre_method));
     } else {
       fmt::format_to(out, "   run {} {:>3} F: not available\n", i + 1,
@@ -220,6 +246,7 @@ std::string text_report(const Evaluation& ev) {
     if (r.feed_mm_per_min) fmt::format_to(out, ", feed {:.0f} mm/min", *r.feed_mm_per_min);
     s += ", no smoothing\n";
   }
+  s += uncertainty_text(budget);
   for (const auto& n : ev.notes) fmt::format_to(out, "Note: {}\n", n);
   return s;
 }

@@ -13,6 +13,8 @@
 namespace circtest {
 
 std::string text_report(const Evaluation& evaluation);
+// The uncertainty budget as the text report's table, its U and each contribution's note.
+std::string uncertainty_text(const UncertaintyBudget& budget);
 
 // The clause 6 (test) and clause 4.4 (conditions) items of a report in order, each with its
 // value or "not recorded": the text and the HTML report list the same items.
