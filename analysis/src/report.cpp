@@ -1,6 +1,7 @@
 #include "circtest/analysis/report.hpp"
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/trace_keys.hpp"
 
 #include <fmt/format.h>
@@ -179,6 +180,35 @@ std::string uncertainty_text(const UncertaintyBudget& b) {
                  b.k, um_abs(b.u_g_mm), um_abs(b.u_h_mm), um_abs(b.u_f_mm));
   for (const auto& c : b.contributions) fmt::format_to(out, "   {}: {}\n", c.name, c.note);
   return s;
+}
+
+std::string limits_text(const std::vector<LimitDecision>& decisions) {
+  std::string s = fmt::format("\nAgainst the limits ({})\n", kDecisionRule);
+  auto out = std::back_inserter(s);
+  for (const auto& d : decisions) {
+    if (!d.value_mm) {
+      fmt::format_to(out, "   {}: not measured, limit {}: does not pass\n", d.quantity,
+                     um_abs(d.limit_mm));
+      continue;
+    }
+    fmt::format_to(out, "   {} = {}, U = {} (k = 2), limit {}: {}\n", d.quantity,
+                   um_abs(*d.value_mm), um_abs(d.u_mm), um_abs(d.limit_mm),
+                   decision_words(*d.decision));
+  }
+  return s;
+}
+
+nlohmann::ordered_json limits_json(const std::vector<LimitDecision>& decisions) {
+  json items = json::array();
+  for (const auto& d : decisions) {
+    items.push_back({{"quantity", d.quantity},
+                     {"value", json_number_or_null(d.value_mm)},
+                     {"U", d.u_mm},
+                     {"limit", d.limit_mm},
+                     {"decision", d.decision ? json(std::string(decision_words(*d.decision)))
+                                             : json("not measured")}});
+  }
+  return {{"rule", kDecisionRule}, {"items", items}, {"pass", all_pass(decisions)}};
 }
 
 std::string text_report(const Evaluation& ev) {

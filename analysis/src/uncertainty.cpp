@@ -442,4 +442,33 @@ std::string_view decision_words(Decision d) noexcept {
   return "not decided: within the uncertainty";
 }
 
+std::vector<LimitDecision> decide_limits(const Evaluation& ev, const UncertaintyBudget& b,
+                                         const ResultLimits& limits) {
+  std::optional<double> h, g, f;
+  auto keep_max = [](std::optional<double>& m, double v) { m = m ? std::max(*m, v) : v; };
+  for (const auto& p : ev.hysteresis) keep_max(h, p.h_mm);
+  for (const auto& r : ev.runs) {
+    keep_max(g, r.g_mm(ev.g_method));
+    if (r.f_max_mm) keep_max(f, std::max(std::abs(*r.f_max_mm), std::abs(*r.f_min_mm)));
+  }
+  std::vector<LimitDecision> out;
+  auto one = [&out](const char* q, const std::optional<double>& limit,
+                    const std::optional<double>& value, double u) {
+    if (!limit) return;
+    LimitDecision d{q, value, u, *limit, std::nullopt};
+    if (value) d.decision = decide(*value, u, *limit);
+    out.push_back(d);
+  };
+  one("H", limits.h_mm, h, b.u_h_mm);
+  one("G", limits.g_mm, g, b.u_g_mm);
+  one("F", limits.f_mm, f, b.u_f_mm);
+  return out;
+}
+
+bool all_pass(const std::vector<LimitDecision>& decisions) noexcept {
+  return std::all_of(decisions.begin(), decisions.end(), [](const LimitDecision& d) {
+    return d.decision && *d.decision == Decision::pass;
+  });
+}
+
 }  // namespace circtest

@@ -83,4 +83,24 @@ inline constexpr const char* kDecisionRule =
     "ISO 14253-1: pass when value + U <= limit, fail when value - U > limit, otherwise not "
     "decided (U expanded, k = 2)";
 
+// Limits on H, G and F (mm) and each judged by the rule: the largest H of the pairs, G of the
+// runs and |F| of the runs, each with its U. A limit whose quantity was not measured decides
+// nothing (decision empty) and does not pass.
+struct ResultLimits {
+  std::optional<double> h_mm, g_mm, f_mm;
+  bool empty() const { return !h_mm && !g_mm && !f_mm; }
+};
+struct LimitDecision {
+  const char* quantity;  // "H", "G", "F"
+  std::optional<double> value_mm;
+  double u_mm = 0.0;
+  double limit_mm = 0.0;
+  std::optional<Decision> decision;  // none: not measured
+};
+std::vector<LimitDecision> decide_limits(const Evaluation& evaluation,
+                                         const UncertaintyBudget& budget,
+                                         const ResultLimits& limits);
+// True when every limit passes (nothing failed, undecided or unmeasured).
+bool all_pass(const std::vector<LimitDecision>& decisions) noexcept;
+
 }  // namespace circtest

@@ -70,6 +70,9 @@ struct AnalyzeRequest {
   bool radial = false;
   bool store = false;  // also keep the test in the history (--store)
   std::string db_url;  // the history: empty for the default SQLite file
+  // "H=0.015,G=0.020,F=0.020": each judged with its U by ISO 14253-1 (uncertainty.hpp); the
+  // exit code is ExitCode::tolerance unless every one passes. Empty: no verdict.
+  std::string limits;
 };
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code. A test set: each
