@@ -4,11 +4,17 @@
 // stated U (k = 2) within 15 %; a budget that leaves a drawn contribution out must not.
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <vector>
 
 #include "circtest/analysis/evaluation.hpp"
+#include "circtest/analysis/report.hpp"
+#include "circtest/analysis/result_json.hpp"
 #include "circtest/analysis/uncertainty.hpp"
 #include "machine_sim.hpp"
 
@@ -241,6 +247,62 @@ TEST(Uncertainty, RectangularHalfWidthIsDividedBySqrt3) {
   c.value_mm = 0.003;
   c.distribution = Distribution::rectangular;
   EXPECT_DOUBLE_EQ(c.standard_mm(), 0.003 / std::sqrt(3.0));
+}
+
+// The JSON carries U_G, U_F, U_H and the budget, and reads back to the same document with
+// stated inputs.
+TEST(Uncertainty, JsonCarriesTheBudgetAndReadsBack) {
+  EvaluationOptions eo;
+  eo.threads = 1;
+  eo.uncertainty = stated();
+  eo.uncertainty.calibration_mm = 0.002;
+  const Evaluation ev = evaluate(base_trace(), eo);
+  const auto doc = to_json(ev);
+  const UncertaintyBudget b = uncertainty_budget(ev, eo.uncertainty);
+  EXPECT_DOUBLE_EQ(doc["runs"][0]["U_G"].get<double>(), b.u_g_mm);
+  EXPECT_DOUBLE_EQ(doc["runs"][1]["U_F"].get<double>(), b.u_f_mm);
+  EXPECT_DOUBLE_EQ(doc["U_H"].get<double>(), b.u_h_mm);
+  EXPECT_EQ(doc["uncertainty"]["contributions"][0]["name"], "instrument calibration");
+  EXPECT_DOUBLE_EQ(doc["uncertainty"]["contributions"][0]["value_mm"].get<double>(), 0.002);
+  EXPECT_EQ(doc["uncertainty"]["contributions"][0]["source"], "option");
+  // The existing keys keep their place: U_G comes after every key a run had.
+  EXPECT_EQ(std::prev(doc["runs"][0].end()).key(), "U_F");
+  EXPECT_EQ(to_json(evaluation_from_json(doc)), doc);
+}
+
+// The text says "G = ..., U = ... (k = 2)" per run and judges a limit within U as not decided.
+TEST(Uncertainty, TextAndLimitsFollowTheRule) {
+  EvaluationOptions eo;
+  eo.threads = 1;
+  eo.uncertainty = stated();
+  const Evaluation ev = evaluate(base_trace(), eo);
+  const UncertaintyBudget b = uncertainty_budget(ev, eo.uncertainty);
+  const std::string text = text_report(ev);
+  EXPECT_NE(text.find(fmt::format("G_XY = {:.1f} um, U = {:.1f} um (k = 2)",
+                                  ev.runs[0].g_mzc_mm * 1e3, b.u_g_mm * 1e3)),
+            std::string::npos)
+      << text;
+  const double g = std::max(ev.runs[0].g_mzc_mm, ev.runs[1].g_mzc_mm);
+  ResultLimits limits;
+  limits.g_mm = g + b.u_g_mm / 2;  // within U of the value
+  limits.h_mm = 1.0;
+  auto d = decide_limits(ev, b, limits);
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_STREQ(d[0].quantity, "H");
+  EXPECT_EQ(d[0].decision, Decision::pass);
+  EXPECT_EQ(d[1].decision, Decision::not_decided);
+  EXPECT_FALSE(all_pass(d));
+  const std::string words = limits_text(d);
+  EXPECT_NE(words.find(kDecisionRule), std::string::npos);
+  EXPECT_NE(words.find("not decided: within the uncertainty"), std::string::npos);
+  limits.g_mm = g + 1.01 * b.u_g_mm;
+  EXPECT_TRUE(all_pass(decide_limits(ev, b, limits)));
+  limits.f_mm = 1.0;
+  Evaluation no_f = ev;
+  for (auto& r : no_f.runs) r.f_max_mm.reset(), r.f_min_mm.reset();
+  d = decide_limits(no_f, b, limits);
+  EXPECT_FALSE(d.back().decision.has_value());  // not measured: does not pass
+  EXPECT_FALSE(all_pass(d));
 }
 
 }  // namespace
