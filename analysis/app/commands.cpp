@@ -291,29 +291,6 @@ EvaluatedTrace evaluate_file(const std::string& path, const EvaluationOptions& a
 
 namespace {
 
-// The H, G, F limits of analyze --limits (the history's syntax; backlash and squareness are
-// the diagnosis's, judged by circana report and history).
-std::optional<ResultLimits> analyze_limits(const AnalyzeRequest& request) {
-  if (request.limits.empty()) return std::nullopt;
-  const history::Limits l = history::parse_limits(request.limits, "--limits");
-  if (l.backlash_mm || l.squareness_urad) {
-    throw UsageError(
-        "--limits of circana analyze: H, G and F only (backlash and squareness: "
-        "circana report or history)");
-  }
-  return ResultLimits{l.h_mm, l.g_mm, l.f_mm};
-}
-
-// The verdict of one evaluation against the limits, into its text or JSON; false unless every
-// limit passes.
-bool add_limits(const Evaluation& ev, const ResultLimits& limits, std::string* text,
-                nlohmann::ordered_json* doc) {
-  const auto decisions = decide_limits(ev, uncertainty_budget(ev, ev.uncertainty_options), limits);
-  if (text) *text += limits_text(decisions);
-  if (doc) (*doc)["verdicts"] = limits_json(decisions);
-  return all_pass(decisions);
-}
-
 // circana analyze of a test set: each plane's report in program order, its plot per plane.
 int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>& planes,
                 std::optional<ProgressTicker>& progress, std::ostream& out) {
@@ -332,7 +309,7 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
     text = fmt::format("Test set {}: planes {}\n", request.trace_path, plane_names(planes));
   }
   std::vector<std::pair<std::string, std::string>> plots;
-  const std::optional<ResultLimits> limits = analyze_limits(request);
+  const std::optional<ResultLimits>& limits = request.limits;
   bool pass = true;
   for (const EvaluatedTrace& p : planes) {
     const Plane plane = p.evaluation.plane;
@@ -349,10 +326,10 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
     if (request.json) {
       doc["test_set"].push_back(std::string(plane_name(plane)));
       doc["planes"].push_back(to_json(p.evaluation));
-      if (limits) pass &= add_limits(p.evaluation, *limits, nullptr, &doc["planes"].back());
+      if (limits) pass &= add_limit_verdicts(p.evaluation, *limits, nullptr, &doc["planes"].back());
     } else {
       text += fmt::format("\n=== Plane {} ===\n", plane_name(plane)) + text_report(p.evaluation);
-      if (limits) pass &= add_limits(p.evaluation, *limits, &text, nullptr);
+      if (limits) pass &= add_limit_verdicts(p.evaluation, *limits, &text, nullptr);
       text += diagnosis ? short_text_report(*diagnosis)
                         : std::string("\nDiagnosis: not available (") + diagnosis_error + ")\n";
     }
@@ -394,17 +371,10 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
   progress->stage("diagnosing " + request.trace_path);
-  const std::optional<ResultLimits> limits = analyze_limits(request);
-  bool pass = true;
-  std::string text;
-  if (request.json) {
-    nlohmann::ordered_json doc = to_json(ev);
-    if (limits) pass = add_limits(ev, *limits, nullptr, &doc);
-    text = json_text(doc, 2) + "\n";
-  } else {
-    text = text_report(ev);
-    if (limits) pass = add_limits(ev, *limits, &text, nullptr);
-  }
+  nlohmann::ordered_json doc = request.json ? to_json(ev) : nlohmann::ordered_json();
+  std::string text = request.json ? std::string() : text_report(ev);
+  const bool pass = !request.limits || add_limit_verdicts(ev, *request.limits, &text, &doc);
+  if (request.json) text = json_text(doc, 2) + "\n";
   // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
   // still gets its H, G and F.
   std::optional<Diagnosis> diagnosis;

@@ -319,7 +319,7 @@ int analyze(const std::vector<std::string>& args) {
         "limits", po::value<std::string>(), "H=MM,G=MM,F=MM: verdicts by ISO 14253-1");
   });
   p.request.store = p.vm.count("store") > 0;
-  if (p.vm.count("limits")) p.request.limits = p.vm["limits"].as<std::string>();
+  if (p.vm.count("limits")) p.request.limits = result_limits(p.vm["limits"].as<std::string>());
   if (p.vm.count("db")) {
     if (!p.request.store) throw UsageError("--db: only with --store");
     p.request.db_url = p.vm["db"].as<std::string>();

@@ -211,6 +211,14 @@ nlohmann::ordered_json limits_json(const std::vector<LimitDecision>& decisions) 
   return {{"rule", kDecisionRule}, {"items", items}, {"pass", all_pass(decisions)}};
 }
 
+bool add_limit_verdicts(const Evaluation& ev, const ResultLimits& limits, std::string* text,
+                        nlohmann::ordered_json* doc) {
+  const auto decisions = decide_limits(ev, uncertainty_budget(ev, ev.uncertainty_options), limits);
+  if (text) *text += limits_text(decisions);
+  if (doc && doc->is_object()) (*doc)["verdicts"] = limits_json(decisions);
+  return all_pass(decisions);
+}
+
 std::string text_report(const Evaluation& ev) {
   std::string s;
   auto out = std::back_inserter(s);
