@@ -305,4 +305,24 @@ TEST(Uncertainty, TextAndLimitsFollowTheRule) {
   EXPECT_FALSE(all_pass(d));
 }
 
+// Recorded temperatures: each enters F with R sqrt((a u_T)^2 + (u_a (T - 20))^2).
+TEST(Uncertainty, RecordedTemperaturesEnterFOnly) {
+  Trace t = base_trace();
+  t.metadata.set("temperature_machine_C", "22");
+  EvaluationOptions eo;
+  eo.threads = 1;
+  const Evaluation ev = evaluate(t, eo);
+  const UncertaintyBudget b = uncertainty_budget(ev, {});
+  const UncertaintyContribution* machine = nullptr;
+  for (const auto& c : b.contributions) {
+    if (c.name == "temperature of the machine") machine = &c;
+  }
+  ASSERT_NE(machine, nullptr);
+  EXPECT_EQ(machine->source, "measured");
+  const double a = kAlphaMachine;
+  EXPECT_NEAR(machine->value_mm, kR * std::hypot(a * 0.2, 0.1 * a * 2.0), 1e-12);
+  EXPECT_EQ(machine->c_g, 0.0);
+  EXPECT_EQ(machine->c_f, 1.0);
+}
+
 }  // namespace
