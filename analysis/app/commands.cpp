@@ -309,6 +309,8 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
     text = fmt::format("Test set {}: planes {}\n", request.trace_path, plane_names(planes));
   }
   std::vector<std::pair<std::string, std::string>> plots;
+  const std::optional<ResultLimits>& limits = request.limits;
+  bool pass = true;
   for (const EvaluatedTrace& p : planes) {
     const Plane plane = p.evaluation.plane;
     std::optional<Diagnosis> diagnosis;
@@ -324,8 +326,10 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
     if (request.json) {
       doc["test_set"].push_back(std::string(plane_name(plane)));
       doc["planes"].push_back(to_json(p.evaluation));
+      if (limits) pass &= add_limit_verdicts(p.evaluation, *limits, nullptr, &doc["planes"].back());
     } else {
       text += fmt::format("\n=== Plane {} ===\n", plane_name(plane)) + text_report(p.evaluation);
+      if (limits) pass &= add_limit_verdicts(p.evaluation, *limits, &text, nullptr);
       text += diagnosis ? short_text_report(*diagnosis)
                         : std::string("\nDiagnosis: not available (") + diagnosis_error + ")\n";
     }
@@ -347,7 +351,7 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
   progress.reset();
   out << (request.json ? json_text(doc, 2) + "\n" : text);
   out.flush();
-  return 0;
+  return pass ? 0 : static_cast<int>(ExitCode::tolerance);
 }
 
 }  // namespace
@@ -367,7 +371,10 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   const Trace& trace = evaluated.trace;
   const Evaluation& ev = evaluated.evaluation;
   progress->stage("diagnosing " + request.trace_path);
-  std::string text = request.json ? json_text(to_json(ev), 2) + "\n" : text_report(ev);
+  nlohmann::ordered_json doc = request.json ? to_json(ev) : nlohmann::ordered_json();
+  std::string text = request.json ? std::string() : text_report(ev);
+  const bool pass = !request.limits || add_limit_verdicts(ev, *request.limits, &text, &doc);
+  if (request.json) text = json_text(doc, 2) + "\n";
   // The diagnosis is a summary here (text, and a panel of the plot); a trace it cannot handle
   // still gets its H, G and F.
   std::optional<Diagnosis> diagnosis;
@@ -402,7 +409,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   progress.reset();
   out << text;
   out.flush();
-  return 0;
+  return pass ? 0 : static_cast<int>(ExitCode::tolerance);
 }
 
 namespace {

@@ -107,4 +107,14 @@ history::TestRecord history_record(const Evaluation& ev, const Diagnosis* diagno
   return r;
 }
 
+ResultLimits result_limits(const std::string& text) {
+  const history::Limits l = history::parse_limits(text, "--limits");
+  if (l.backlash_mm || l.squareness_urad) {
+    throw UsageError(
+        "--limits of circana analyze: H, G and F only (backlash and squareness: "
+        "circana report or history)");
+  }
+  return ResultLimits{l.h_mm, l.g_mm, l.f_mm};
+}
+
 }  // namespace circtest

@@ -31,7 +31,9 @@ const char* kUsage =
     "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
     "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
     "                     [--svg PLOT.svg] [--compare EARLIER_TRACE] [--scale-um-per-div UM]\n"
-    "                     [--radial]\n"
+    "                     [--radial] [--limits H=MM,G=MM,F=MM]\n"
+    "                     [--instrument-profile auto|ballbar|grid-encoder|scales]\n"
+    "                     [--uncertainty calibration=MM,resolution=MM,...]\n"
     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
     "                     [--units mm|inch] [--radius-tolerance MM] [--warn-inconsistent]\n"
@@ -137,6 +139,50 @@ std::vector<std::pair<std::string, std::string>> condition_values(const po::vari
   return out;
 }
 
+// --uncertainty KEY=VALUE,...: the budget's stated inputs (docs/uncertainty.md).
+void parse_uncertainty(const std::string& text, UncertaintyOptions& u) {
+  constexpr NumberRange kMm{0.0, 1.0, false, "a length in mm from 0 to 1"};
+  constexpr NumberRange kKelvin{0.0, 50.0, false, "a temperature in K from 0 to 50"};
+  std::vector<std::string> items;
+  for (std::size_t pos = 0; pos <= text.size();) {
+    const std::size_t comma = std::min(text.find(',', pos), text.size());
+    items.push_back(text.substr(pos, comma - pos));
+    pos = comma + 1;
+  }
+  for (const std::string& item : items) {
+    const auto eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    const std::string value = eq == std::string::npos ? std::string() : item.substr(eq + 1);
+    auto mm = [&] { return parse_option_number("--uncertainty " + key, value, kMm); };
+    auto kelvin = [&] { return parse_option_number("--uncertainty " + key, value, kKelvin); };
+    if (key == "calibration") {
+      u.calibration_mm = mm();
+    } else if (key == "resolution") {
+      u.resolution_mm = mm();
+    } else if (key == "centring") {
+      u.centring_mm = mm();
+    } else if (key == "unseen") {
+      u.unseen_mm = mm();
+    } else if (key == "repeat-G") {
+      u.repeatability_g_mm = mm();
+    } else if (key == "repeat-F") {
+      u.repeatability_f_mm = mm();
+    } else if (key == "repeat-H") {
+      u.repeatability_h_mm = mm();
+    } else if (key == "thermometer") {
+      u.thermometer_K = kelvin();
+    } else if (key == "temperature-range") {
+      u.assumed_temperature_half_width_K = kelvin();
+    } else {
+      throw UsageError(
+          "--uncertainty: expected KEY=VALUE items (calibration, resolution, "
+          "centring, unseen, repeat-G, repeat-F, repeat-H in mm; thermometer, "
+          "temperature-range in K), got '" +
+          item + "'");
+    }
+  }
+}
+
 // The options analyze and diagnose share; `extra` adds a command's own.
 struct Parsed {
   po::variables_map vm;
@@ -163,7 +209,11 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
       "units", po::value<std::string>(), "unit of the trace's positions: mm or inch")(
       "radius-tolerance", po::value<std::string>(),
       "largest nominal-to-measured radius difference, mm")(
-      "warn-inconsistent", "note a radius mismatch or a short run instead of refusing");
+      "warn-inconsistent", "note a radius mismatch or a short run instead of refusing")(
+      "instrument-profile", po::value<std::string>(),
+      "uncertainty budget: auto, ballbar, grid-encoder or scales")(
+      "uncertainty", po::value<std::string>(),
+      "uncertainty budget inputs KEY=VALUE,... (docs/uncertainty.md)");
   add_condition_options(desc);
   extra(desc);
   po::positional_options_description pos;
@@ -247,15 +297,29 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   if (auto a = number("alpha-instrument", kExpansionRangePerK)) {
     o.temperatures.instrument_expansion_per_K = *a;
   }
+  if (vm.count("instrument-profile")) {
+    const std::string name = vm["instrument-profile"].as<std::string>();
+    const auto profile = parse_instrument_profile(name);
+    if (!profile) {
+      throw UsageError(
+          "--instrument-profile: expected auto, ballbar, grid-encoder or scales, got '" + name +
+          "'");
+    }
+    o.uncertainty.profile = *profile;
+  }
+  if (vm.count("uncertainty"))
+    parse_uncertainty(vm["uncertainty"].as<std::string>(), o.uncertainty);
   return parsed;
 }
 
 int analyze(const std::vector<std::string>& args) {
   Parsed p = analyze_options(args, "analyze", [](po::options_description& d) {
     d.add_options()("store", "also keep the test in the history")(
-        "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
+        "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL")(
+        "limits", po::value<std::string>(), "H=MM,G=MM,F=MM: verdicts by ISO 14253-1");
   });
   p.request.store = p.vm.count("store") > 0;
+  if (p.vm.count("limits")) p.request.limits = result_limits(p.vm["limits"].as<std::string>());
   if (p.vm.count("db")) {
     if (!p.request.store) throw UsageError("--db: only with --store");
     p.request.db_url = p.vm["db"].as<std::string>();

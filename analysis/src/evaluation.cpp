@@ -269,6 +269,7 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   ev.conditions = trace.metadata;
   for (const auto& [key, value] : options.conditions) ev.conditions.set(key, value);
   ev.g_method = options.g_method;
+  ev.uncertainty_options = options.uncertainty;
   resolve_set_up(trace, options, ev);
   check_plane_motion(trace, ev.plane, ev.columns, options.input_checks.remedy_words,
                      ev.nominal_radius_mm);

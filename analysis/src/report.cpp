@@ -1,6 +1,7 @@
 #include "circtest/analysis/report.hpp"
 
 #include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
 #include "circtest/core/trace_keys.hpp"
 
 #include <fmt/format.h>
@@ -160,9 +161,70 @@ std::vector<ReportSection> header_sections(const Evaluation& ev) {
   return sections;
 }
 
+std::string uncertainty_text(const UncertaintyBudget& b) {
+  std::string s;
+  auto out = std::back_inserter(s);
+  fmt::format_to(out,
+                 "\nUncertainty budget (ISO/TR 230-9, GUM; instrument profile {}: {})\n"
+                 "   {:<38} {:>9} {:<12} {:<18} {:>5} {:>5} {:>5}\n",
+                 instrument_profile_name(b.profile), b.profile_note, "contribution", "value um",
+                 "distribution", "source", "c_G", "c_H", "c_F");
+  for (const auto& c : b.contributions) {
+    fmt::format_to(out, "   {:<38} {:>9.3f} {:<12} {:<18} {:>5.3g} {:>5.3g} {:>5.3g}\n", c.name,
+                   c.value_mm * 1000.0, distribution_name(c.distribution), c.source, c.c_g, c.c_h,
+                   c.c_f);
+  }
+  fmt::format_to(out,
+                 "   u = root sum of squares of c x (value, or value/sqrt(3) for a rectangular "
+                 "half-width); U = k u, k = {:g}\n   U(G) = {}, U(H) = {}, U(F) = {}\n",
+                 b.k, um_abs(b.u_g_mm), um_abs(b.u_h_mm), um_abs(b.u_f_mm));
+  for (const auto& c : b.contributions) fmt::format_to(out, "   {}: {}\n", c.name, c.note);
+  return s;
+}
+
+std::string limits_text(const std::vector<LimitDecision>& decisions) {
+  std::string s = fmt::format("\nAgainst the limits ({})\n", kDecisionRule);
+  auto out = std::back_inserter(s);
+  for (const auto& d : decisions) {
+    if (!d.value_mm) {
+      fmt::format_to(out, "   {}: not measured, limit {}: does not pass\n", d.quantity,
+                     um_abs(d.limit_mm));
+      continue;
+    }
+    fmt::format_to(out, "   {} = {}, U = {} (k = 2), limit {}: {}\n", d.quantity,
+                   um_abs(*d.value_mm), um_abs(d.u_mm), um_abs(d.limit_mm),
+                   decision_words(*d.decision));
+  }
+  return s;
+}
+
+nlohmann::ordered_json limits_json(const std::vector<LimitDecision>& decisions) {
+  json items = json::array();
+  for (const auto& d : decisions) {
+    items.push_back({{"quantity", d.quantity},
+                     {"value", json_number_or_null(d.value_mm)},
+                     {"U", d.u_mm},
+                     {"limit", d.limit_mm},
+                     {"decision", d.decision ? json(std::string(decision_words(*d.decision)))
+                                             : json("not measured")}});
+  }
+  return {{"rule", kDecisionRule}, {"items", items}, {"pass", all_pass(decisions)}};
+}
+
+bool add_limit_verdicts(const Evaluation& ev, const ResultLimits& limits, std::string* text,
+                        nlohmann::ordered_json* doc) {
+  const auto decisions = decide_limits(ev, uncertainty_budget(ev, ev.uncertainty_options), limits);
+  if (text) *text += limits_text(decisions);
+  if (doc && doc->is_object()) (*doc)["verdicts"] = limits_json(decisions);
+  return all_pass(decisions);
+}
+
 std::string text_report(const Evaluation& ev) {
   std::string s;
   auto out = std::back_inserter(s);
+  const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
+  const std::string u_g = fmt::format(", U = {} (k = 2)", um_abs(budget.u_g_mm));
+  const std::string u_f = fmt::format("  U = {} (k = 2)", um_abs(budget.u_f_mm));
   fmt::format_to(out, "ISO 230-4 / JIS B 6194 circular test: {}\n", ev.source);
   for (const ReportSection& section : header_sections(ev)) {
     s += section.title + "\n";
@@ -182,16 +244,18 @@ std::string text_report(const Evaluation& ev) {
             ? feed_text(ccw.feed_mm_per_min)
             : feed_text(ccw.feed_mm_per_min) + " / " + feed_text(cw.feed_mm_per_min);
     fmt::format_to(out,
-                   "a) Circular hysteresis H_{} = {}  at {}  (largest at {:.1f} deg, runs {}/{})\n",
-                   ccw.label, um_abs(h.h_mm), feeds, h.at_angle_deg, h.run_ccw + 1, h.run_cw + 1);
+                   "a) Circular hysteresis H_{} = {}  at {}  (largest at {:.1f} deg, runs {}/{}), "
+                   "U = {} (k = 2)\n",
+                   ccw.label, um_abs(h.h_mm), feeds, h.at_angle_deg, h.run_ccw + 1, h.run_cw + 1,
+                   um_abs(budget.u_h_mm));
   }
   if (ev.hysteresis.empty()) s += "a) Circular hysteresis H: not available\n";
   fmt::format_to(out, "b) Circular deviation G ({})\n", g_method_name(ev.g_method));
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
     const auto& r = ev.runs[i];
-    fmt::format_to(out, "   run {} {:>3} {:>12} G_{} = {}   (other method: {})\n", i + 1,
+    fmt::format_to(out, "   run {} {:>3} {:>12} G_{} = {}{}   (other method: {})\n", i + 1,
                    direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
-                   um_abs(r.g_mm(ev.g_method)),
+                   um_abs(r.g_mm(ev.g_method)), u_g,
                    um_abs(r.g_mm(ev.g_method == GMethod::min_zone ? GMethod::least_squares
                                                                   : GMethod::min_zone)));
   }
@@ -199,9 +263,9 @@ std::string text_report(const Evaluation& ev) {
   for (std::size_t i = 0; i < ev.runs.size(); ++i) {
     const auto& r = ev.runs[i];
     if (r.f_max_mm) {
-      fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}  (centre: {})\n",
+      fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}{}  (centre: {})\n",
                      i + 1, direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
-                     um(*r.f_max_mm), r.label, um(*r.f_min_mm),
+                     um(*r.f_max_mm), r.label, um(*r.f_min_mm), u_f,
                      f_centre_method_name(r.f_centre_method));
     } else {
       fmt::format_to(out, "   run {} {:>3} F: not available\n", i + 1,
@@ -220,6 +284,7 @@ std::string text_report(const Evaluation& ev) {
     if (r.feed_mm_per_min) fmt::format_to(out, ", feed {:.0f} mm/min", *r.feed_mm_per_min);
     s += ", no smoothing\n";
   }
+  s += uncertainty_text(budget);
   for (const auto& n : ev.notes) fmt::format_to(out, "Note: {}\n", n);
   return s;
 }

@@ -41,7 +41,66 @@ class Reader : public JsonReader<json> {
   }
 };
 
+// The stated inputs of the budget, as given (null: the profile's default or measured).
+json options_json(const UncertaintyOptions& o) {
+  return {{"profile", instrument_profile_name(o.profile)},
+          {"calibration_mm", json_number_or_null(o.calibration_mm)},
+          {"resolution_mm", json_number_or_null(o.resolution_mm)},
+          {"centring_mm", json_number_or_null(o.centring_mm)},
+          {"unseen_mm", json_number_or_null(o.unseen_mm)},
+          {"thermometer_K", o.thermometer_K},
+          {"assumed_temperature_half_width_K", o.assumed_temperature_half_width_K},
+          {"expansion_relative", o.expansion_relative},
+          {"repeatability_G_mm", json_number_or_null(o.repeatability_g_mm)},
+          {"repeatability_F_mm", json_number_or_null(o.repeatability_f_mm)},
+          {"repeatability_H_mm", json_number_or_null(o.repeatability_h_mm)}};
+}
+
+UncertaintyOptions options_from_json(const Reader& rd, const json& j) {
+  const std::string path = "uncertainty.options";
+  UncertaintyOptions o;
+  const auto profile = parse_instrument_profile(rd.text(j, "profile", path));
+  if (!profile) rd.fail(path + ".profile", "auto, ballbar, grid-encoder or scales");
+  o.profile = *profile;
+  o.calibration_mm = rd.optional_number(j, "calibration_mm", path);
+  o.resolution_mm = rd.optional_number(j, "resolution_mm", path);
+  o.centring_mm = rd.optional_number(j, "centring_mm", path);
+  o.unseen_mm = rd.optional_number(j, "unseen_mm", path);
+  o.thermometer_K = rd.number(j, "thermometer_K", path);
+  o.assumed_temperature_half_width_K = rd.number(j, "assumed_temperature_half_width_K", path);
+  o.expansion_relative = rd.number(j, "expansion_relative", path);
+  o.repeatability_g_mm = rd.optional_number(j, "repeatability_G_mm", path);
+  o.repeatability_f_mm = rd.optional_number(j, "repeatability_F_mm", path);
+  o.repeatability_h_mm = rd.optional_number(j, "repeatability_H_mm", path);
+  return o;
+}
+
 }  // namespace
+
+json uncertainty_json(const UncertaintyBudget& b, const UncertaintyOptions& options) {
+  json contributions = json::array();
+  for (const auto& c : b.contributions) {
+    contributions.push_back({{"name", c.name},
+                             {"value_mm", c.value_mm},
+                             {"distribution", distribution_name(c.distribution)},
+                             {"standard_mm", c.standard_mm()},
+                             {"source", c.source},
+                             {"c_G", c.c_g},
+                             {"c_H", c.c_h},
+                             {"c_F", c.c_f},
+                             {"note", c.note}});
+  }
+  return {{"method", "ISO/TR 230-9 (GUM): root sum of squares, expanded"},
+          {"k", b.k},
+          {"profile", instrument_profile_name(b.profile)},
+          {"profile_note", b.profile_note},
+          {"U_G", b.u_g_mm},
+          {"U_H", b.u_h_mm},
+          {"U_F", b.u_f_mm},
+          {"decision_rule", kDecisionRule},
+          {"contributions", contributions},
+          {"options", options_json(options)}};
+}
 
 const char* g_method_name(GMethod method) noexcept {
   return method == GMethod::min_zone ? "min-zone" : "least-squares";
@@ -117,6 +176,16 @@ json to_json(const Evaluation& ev) {
     conditions.emplace_back(k, v);
   }
   j["conditions"] = std::move(conditions);
+  // The uncertainty (k = 2), after every other key: a reader of the keys above sees them as
+  // they were.
+  const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
+  for (auto& r : j["runs"]) {
+    r["U_G"] = budget.u_g_mm;
+    r["U_F"] = r["F_max"].is_null() ? json(nullptr) : json(budget.u_f_mm);
+  }
+  for (auto& p : j["pairs"]) p["U_H"] = budget.u_h_mm;
+  j["U_H"] = ev.hysteresis.empty() ? json(nullptr) : json(budget.u_h_mm);
+  j["uncertainty"] = uncertainty_json(budget, ev.uncertainty_options);
   return j;
 }
 
@@ -252,6 +321,11 @@ Evaluation evaluation_from_json(const json& j, const std::string& source) {
   for (const auto& [k, v] : conditions.items()) {
     if (!v.is_string()) rd.fail("conditions." + k, "a string");
     ev.conditions.set(k, v.get<std::string>());
+  }
+  // A document written before the budget has none: the defaults.
+  if (j.contains("uncertainty")) {
+    const json& u = rd.at(j, "uncertainty", "");
+    ev.uncertainty_options = options_from_json(rd, rd.at(u, "options", "uncertainty"));
   }
   return ev;
 }

@@ -8,6 +8,7 @@
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/analysis/input_checks.hpp"
 #include "circtest/analysis/segmentation.hpp"
+#include "circtest/analysis/uncertainty.hpp"
 #include "circtest/core/plane.hpp"
 #include "circtest/core/trace.hpp"
 
@@ -53,6 +54,8 @@ struct EvaluationOptions {
   std::vector<std::pair<std::string, std::string>> conditions;
   // Refusals of inconsistent inputs and their overrides (docs/input-checks.md).
   InputCheckOptions input_checks;
+  // The stated inputs of the uncertainty budget (uncertainty.hpp).
+  UncertaintyOptions uncertainty;
   // Threads for the runs of a large trace (each run, each H pair's profiles): 0 one per
   // core, 1 the calling thread only. The results are the same either way.
   unsigned threads = 0;
@@ -104,6 +107,7 @@ struct Evaluation {
   std::vector<HysteresisResult> hysteresis;  // one per adjacent CCW/CW pair
   std::vector<std::string> notes;            // warnings worth showing the user
   TraceMetadata conditions;                  // the trace's metadata: clause 4.4 conditions
+  UncertaintyOptions uncertainty_options;    // as given; uncertainty_budget(*this, them)
 };
 
 // Runs the whole evaluation. Options left empty are taken from the trace's metadata

@@ -13,6 +13,15 @@
 namespace circtest {
 
 std::string text_report(const Evaluation& evaluation);
+// The uncertainty budget as the text report's table, its U and each contribution's note.
+std::string uncertainty_text(const UncertaintyBudget& budget);
+// The decisions against --limits as text (the rule first) and as the `verdicts` object.
+std::string limits_text(const std::vector<LimitDecision>& decisions);
+nlohmann::ordered_json limits_json(const std::vector<LimitDecision>& decisions);
+// The verdicts of an evaluation against `limits` appended to `text` and put into `doc` (an
+// object) as `verdicts`, each when given; false unless every limit passes.
+bool add_limit_verdicts(const Evaluation& evaluation, const ResultLimits& limits, std::string* text,
+                        nlohmann::ordered_json* doc);
 
 // The clause 6 (test) and clause 4.4 (conditions) items of a report in order, each with its
 // value or "not recorded": the text and the HTML report list the same items.

@@ -23,6 +23,10 @@ nlohmann::ordered_json to_json(const Evaluation& evaluation);
 Evaluation evaluation_from_json(const nlohmann::ordered_json& document,
                                 const std::string& source = "<json>");
 
+// The budget as the document's `uncertainty` object (docs/result-json.md).
+nlohmann::ordered_json uncertainty_json(const UncertaintyBudget& budget,
+                                        const UncertaintyOptions& options);
+
 const char* g_method_name(GMethod method) noexcept;  // "min-zone", "least-squares"
 
 }  // namespace circtest

@@ -1,6 +1,7 @@
 #pragma once
 // The circana commands as library calls: main.cpp only parses options.
 #include <cstddef>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -70,7 +71,13 @@ struct AnalyzeRequest {
   bool radial = false;
   bool store = false;  // also keep the test in the history (--store)
   std::string db_url;  // the history: empty for the default SQLite file
+  // --limits H=..,G=..,F=..: each judged with its U by ISO 14253-1 (uncertainty.hpp); the
+  // exit code is ExitCode::tolerance unless every one passes. None: no verdict.
+  std::optional<ResultLimits> limits;
 };
+// The H, G and F limits of --limits in the history's syntax (history::parse_limits, defined in
+// history_record.cpp); UsageError for backlash and squareness, which need the diagnosis.
+ResultLimits result_limits(const std::string& text);
 // Reads, evaluates and prints the report (text or JSON) to `out` in one write, so that
 // nothing reaches stdout when an error is thrown. Returns the exit code. A test set: each
 // plane's report in program order (JSON: {"test_set": [planes], "planes": [evaluations]}),

@@ -1,0 +1,84 @@
+// circana analyze's uncertainty and --limits as a user runs them: U beside each result, the
+// ISO 14253-1 verdicts and their exit code, and the refusals of bad budget inputs.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "scratch.hpp"
+
+namespace {
+
+using circtest::testing::CommandResult;
+using circtest::testing::run_command;
+using circtest::testing::words;
+
+class UncertaintyCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    trace_ = (scratch_.dir() / "t.csv").string();
+    ASSERT_EQ(run_command({SIMTRACE_PATH, "-o", trace_, "--d", "100", "--f", "2000", "--backlash-x",
+                           "0.004", "--period", "0.004"})
+                  .exit_code,
+              0);
+  }
+  CommandResult circana(const std::string& args) {
+    std::vector<std::string> argv{CIRCANA_PATH, "analyze", trace_};
+    for (auto& w : words(args)) argv.push_back(std::move(w));
+    return run_command(argv);
+  }
+  circtest::testing::ScratchDir scratch_;
+  std::string trace_;
+};
+
+TEST_F(UncertaintyCli, LimitsAreJudgedWithTheUncertainty) {
+  const CommandResult doc = circana("--json");
+  ASSERT_EQ(doc.exit_code, 0) << doc.err;
+  const auto j = nlohmann::json::parse(doc.out);
+  const double g = std::max(j["runs"][0]["G"].get<double>(), j["runs"][1]["G"].get<double>());
+  const double u = j["runs"][0]["U_G"].get<double>();
+  ASSERT_GT(u, 0.0);
+  // A limit between G and G + U: not decided, exit 9, the rule printed.
+  CommandResult r = circana("--limits G=" + std::to_string(g + u / 2));
+  EXPECT_EQ(r.exit_code, 9) << r.err;
+  EXPECT_NE(r.out.find("pass when value + U <= limit, fail when value - U > limit"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("not decided: within the uncertainty"), std::string::npos) << r.out;
+  // Above G + U: a pass, exit 0.
+  r = circana("--limits G=" + std::to_string(g + 1.05 * u) + " --json");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  const auto v = nlohmann::json::parse(r.out)["verdicts"];
+  EXPECT_EQ(v["items"][0]["decision"], "pass");
+  EXPECT_TRUE(v["pass"].get<bool>());
+  // Below G - U: a fail.
+  r = circana("--limits G=" + std::to_string(g - 1.05 * u));
+  EXPECT_EQ(r.exit_code, 9);
+  EXPECT_NE(r.out.find(": fail"), std::string::npos) << r.out;
+}
+
+TEST_F(UncertaintyCli, StatedInputsEnterTheBudget) {
+  const CommandResult r =
+      circana("--json --instrument-profile ballbar --uncertainty repeat-G=0.002");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["uncertainty"]["profile"], "ballbar");
+  // 2 um of repeatability dominates U_G: 2 x 0.002 and a little more.
+  EXPECT_NEAR(j["runs"][0]["U_G"].get<double>(), 0.004, 0.0002);
+}
+
+TEST_F(UncertaintyCli, BadInputsAreRefused) {
+  for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {"--uncertainty foo=1", "--uncertainty: expected KEY=VALUE items"},
+           {"--uncertainty calibration=5", "--uncertainty calibration: expected a length in mm"},
+           {"--instrument-profile laser", "--instrument-profile: expected auto, ballbar"},
+           {"--limits backlash=0.01", "--limits of circana analyze: H, G and F only"}}) {
+    const CommandResult r = circana(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(r.out, "") << args;
+    EXPECT_EQ(r.err.rfind("circana: error: " + message, 0), 0u) << args << "\n" << r.err;
+  }
+}
+
+}  // namespace
