@@ -1,6 +1,7 @@
 // The diagnosis as JSON (diagnosis_keys.hpp, docs/diagnosis-json.md; read by the compensation
 // part) and as text.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <iterator>
@@ -172,6 +173,7 @@ json to_json(const Diagnosis& d) {
   j[K::samples] = d.samples;
   j[K::ini_sha256] = d.ini_sha256 ? json(*d.ini_sha256) : json(nullptr);
   j[K::source] = d.source;
+  j[K::unseparable] = d.unseparable;
   j[K::notes] = d.notes;
   return j;
 }
@@ -262,6 +264,10 @@ std::string text_report(const Diagnosis& d) {
       }
       s += '\n';
     }
+  }
+  if (!d.unseparable.empty()) {
+    fmt::format_to(out, "  cannot be separated by this trace (not reported): {}\n",
+                   fmt::join(d.unseparable, ", "));
   }
   fmt::format_to(out, "  set-up centre offset {}, {}\n", pm_um(d.centre_offset_mm[0]),
                  pm_um(d.centre_offset_mm[1]));

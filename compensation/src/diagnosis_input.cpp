@@ -131,6 +131,35 @@ void check_schema(const json& doc, const Reader& r) {
   }
 }
 
+// The terms the diagnosis could not tell apart ("unseparable": ["backlash_mm.X", ...]) give
+// the planner no number, whatever value stands beside them.
+void clear_unseparable(const json& doc, const Reader& r, DiagnosisInput& d) {
+  const json& list = r.member(doc, K::unseparable, K::unseparable);
+  if (list.is_null()) return;
+  if (!list.is_array()) r.fail(K::unseparable, "expected an array of keys or null");
+  for (const json& item : list) {
+    const auto name = r.text(item, K::unseparable);
+    if (!name) r.fail(K::unseparable, "expected an array of keys");
+    d.unseparable.push_back(*name);
+    const std::string& key = *name;
+    for (int k = 0; k < 2; ++k) {
+      const std::string a = std::string(".") + d.axes[k];
+      if (key == K::backlash_mm + a) d.backlash_mm[k] = {};
+      if (key == K::reversal_spike_mm + a) {
+        d.reversal_spike_mm[k] = {};
+        d.reversal_spike_ms[k] = std::nullopt;
+        d.reversal_spike_se_ms[k] = std::nullopt;
+        d.reversal_spike_peak_ms[k] = std::nullopt;
+      }
+      if (key == K::scale_ppm + a) d.scale_ppm[k] = {};
+      if (key == K::cyclic + a) d.cyclic[k] = std::nullopt;
+    }
+    if (key == K::scale_mismatch_ppm) d.scale_mismatch_ppm = {};
+    if (key == K::squareness_urad) d.squareness_urad = {};
+    if (key == K::servo_mismatch_ms) d.servo_mismatch_ms = {};
+  }
+}
+
 // One plane's document, its schema checked.
 DiagnosisInput parse_plane_document(const json& doc, const Reader& r) {
   const std::string& source = r.source;
@@ -226,6 +255,7 @@ DiagnosisInput parse_plane_document(const json& doc, const Reader& r) {
     }
   }
   d.ini_sha256 = r.text(r.member(doc, K::ini_sha256, K::ini_sha256), K::ini_sha256);
+  clear_unseparable(doc, r, d);
   return d;
 }
 

@@ -132,6 +132,25 @@ TEST(DiagnosisJsonSpikePeak, ReadAsWrittenAbsentWhenOlderRefusedWhenNotANumber) 
                "\"reversal_spike_peak_ms.X\": expected a number or null");
 }
 
+// A term the diagnosis lists as unseparable gives the planner no number, whatever value
+// stands beside it; the others are read as written.
+TEST(DiagnosisJsonUnseparable, AListedTermHasNoValue) {
+  const Diagnosis d = round_trip(Plane::XY).written;
+  json doc = to_json(d);
+  ASSERT_TRUE(d.backlash_mm[0].value && d.servo_mismatch_ms.value);
+  doc["unseparable"] = {"backlash_mm.X", "servo_mismatch_ms"};
+  const auto in = compensation::parse_diagnosis(doc.dump(), "d.json");
+  EXPECT_FALSE(in.backlash_mm[0].value);
+  EXPECT_FALSE(in.backlash_mm[0].standard_error);
+  EXPECT_FALSE(in.servo_mismatch_ms.value);
+  expect_same(d.backlash_mm[1], in.backlash_mm[1], "backlash Y");
+  expect_same(d.squareness_urad, in.squareness_urad, "squareness");
+  EXPECT_EQ(in.unseparable, (std::vector<std::string>{"backlash_mm.X", "servo_mismatch_ms"}));
+  doc["unseparable"] = "backlash_mm.X";
+  EXPECT_ERROR(compensation::parse_diagnosis(doc.dump(), "d.json"), ExitCode::parse,
+               "\"unseparable\": expected an array");
+}
+
 // A machine without errors: the values the trace cannot separate are written as null and read
 // back as absent, never as zeros.
 TEST(DiagnosisJsonNulls, WhatTheTraceCannotSeparateStaysAbsent) {
@@ -174,7 +193,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   sim::CircleProgram p;
   p.radius_mm = 50.0;
   const auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
-  EXPECT_EQ(j.at("version"), "1.2");
+  EXPECT_EQ(j.at("version"), "1.3");
   EXPECT_EQ(j.at("schema"), "circtest.diagnosis/1");
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.0")), "d.json"));
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.99")), "d.json"));
@@ -191,7 +210,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   for (const char* bad : {"2", "1.", ".1", "1.1.1", "v1.1", "-1.0", "1.x", "99999999.0", ""}) {
     EXPECT_ERROR(
         compensation::parse_diagnosis(with_version(quoted(bad)), "d.json"), ExitCode::parse,
-        "d.json: \"version\": expected MAJOR.MINOR (\"1.2\"), got '" + std::string(bad) + "'");
+        "d.json: \"version\": expected MAJOR.MINOR (\"1.3\"), got '" + std::string(bad) + "'");
   }
   EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("\\u0001\\u00ff.1")), "d.json"),
                ExitCode::parse, "got '\\x01\\xc3\\xbf.1'");

@@ -12,7 +12,7 @@ namespace {
 // the reversals keep their sums against dr and against this, so a new mismatch needs no pass.
 double servo_offset_per_s2(const Samples& S, std::size_t i) {
   const RunInfo& r = S.runs[S.run[i]];
-  const double w = r.speed_mm_s / S.radius;
+  const double w = r.ellipse_speed_mm_s / S.radius;
   const double c2 = S.c[i] * S.c[i] - S.s[i] * S.s[i], s2 = 2.0 * S.c[i] * S.s[i];
   return -S.radius * w * w * (3.0 / 16.0) * (c2 * c2 - s2 * s2);
 }
@@ -102,7 +102,7 @@ bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
   for (std::size_t k = 0; k < S.runs.size(); ++k) {
     const RunInfo& r = S.runs[k];
     const double shift =
-        std::abs(r.speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
+        std::abs(r.ellipse_speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
     if (!(shift + r.eps_rad < ss.before_rad[k]) ||
         !(shift + std::max(r.eps_rad, need_b) < ss.after_rad[k]))
       return false;
@@ -119,7 +119,7 @@ SteadySums take_steady(const Samples& S, const State& st, const std::vector<Colu
   const double play =
       std::max({2.0 * std::abs(st.backlash_a), 2.0 * std::abs(st.backlash_b), 1e-3 * S.radius});
   for (const RunInfo& r : S.runs) {
-    const double w = r.speed_mm_s / S.radius;
+    const double w = r.ellipse_speed_mm_s / S.radius;
     // Room for the reversals to move with the lag mismatch, and for the excluded samples.
     const double room = std::max(
         {2.0 * r.eps_rad, kPi / 180.0, 2.0 * w * std::max(std::abs(st.servo_mismatch_s), 2e-3)});

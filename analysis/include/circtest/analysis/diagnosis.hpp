@@ -125,6 +125,9 @@ struct Diagnosis {
   double residual_rms_mm = 0.0;
   double residual_g_mm = 0.0;
   std::optional<std::string> ini_sha256;  // from the trace's metadata, when recorded
+  // The terms this trace cannot tell apart, by where their values would be in the document
+  // ("backlash_mm.X", "servo_mismatch_ms"): their values are not reported.
+  std::vector<std::string> unseparable;
   std::vector<std::string> notes;
 };
 

@@ -43,6 +43,9 @@ struct DiagnosisInput {
   std::array<std::string, 2> axis_lag_source;
   std::array<std::optional<Cyclic>, 2> cyclic;
   std::optional<std::string> ini_sha256;
+  // The terms the diagnosis could not tell apart ("backlash_mm.X", "servo_mismatch_ms"): their
+  // values above are empty whatever the document holds beside them.
+  std::vector<std::string> unseparable;
   // A test set's plane: its axis k is corrected from an earlier plane of the set (its
   // per-axis values here are null).
   std::array<bool, 2> axis_in_earlier_plane{false, false};
