@@ -725,3 +725,40 @@ TEST_F(CircanaCli, InchTracesAreResolvedFromTheirCircle) {
   EXPECT_NEAR(nlohmann::json::parse(forced.out)["H"].get<double>(), ja["H"].get<double>(), 1e-6);
   expect_error("analyze " + mm + " --units feet", 2, "--units: expected mm or inch, got 'feet'");
 }
+
+// `circana COMMAND --help` lists that command's usage and only the options it accepts: an
+// option it lists is one it takes (never refused afterwards), and no other command's usage.
+TEST_F(CircanaCli, EachCommandsHelpListsOnlyWhatItAccepts) {
+  const std::vector<std::string> commands = {"analyze", "diagnose",     "report", "fit",
+                                             "import",  "export-polar", "store",  "history"};
+  for (const std::string& command : commands) {
+    const CommandResult r = run({command, "--help"});
+    ASSERT_EQ(r.exit_code, 0) << command;
+    EXPECT_NE(r.out.find("usage: circana " + command), std::string::npos) << r.out;
+    const std::string usage = r.out.substr(0, r.out.find("(man circana"));
+    for (const std::string& other : commands) {
+      if (other == command) continue;
+      EXPECT_EQ(usage.find("circana " + other + " "), std::string::npos)
+          << command << " --help shows " << other << "'s usage:\n"
+          << r.out;
+    }
+  }
+  // The options these commands refuse are not offered.
+  for (const auto& [command, refused] :
+       std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"store", {"--svg", "--json", "--scale-um-per-div", "--compare"}},
+           {"export-polar", {"--svg", "--json", "--scale-um-per-div", "--compare"}},
+           {"diagnose", {"--compare"}},
+           {"report", {"--json", "--svg"}}}) {
+    const CommandResult r = run({command, "--help"});
+    const std::string options = r.out.substr(r.out.find("(man circana"));
+    for (const std::string& o : refused) {
+      EXPECT_EQ(options.find(o + " "), std::string::npos) << command << " lists " << o << "\n"
+                                                          << options;
+    }
+  }
+  // The top-level help still shows every command.
+  const CommandResult all = run(std::vector<std::string>{"--help"});
+  for (const std::string& command : commands)
+    EXPECT_NE(all.out.find("circana " + command), std::string::npos) << command;
+}
