@@ -65,6 +65,9 @@ constexpr Usage kUsages[] = {
     {"store",
      "usage: circana store RESULT.json|TRACE [--db URL] [the analyze options but --json, --svg,\n"
      "                     --scale-um-per-div, --compare]\n"},
+    {"summary",
+     "usage: circana summary --name NAME --result RESULT.json --diagnosis DIAG.json\n"
+     "                       [--name ... --result ... --diagnosis ...]... [--json SUMMARY.json]\n"},
     {"history",
      "usage: circana history --machine NAME [--since DATE] [--json] [--svg TREND.svg]\n"
      "                       [--limits H=MM,G=MM,F=MM,backlash=MM,squareness=URAD] [--db URL]\n"},
@@ -102,9 +105,9 @@ void answer_info(std::string_view command, const po::options_description& desc,
 // Options whose values are file names or URLs: any bytes the file system allows. Every other
 // value goes into a JSON document, a plot or the history, so it must be UTF-8 text.
 bool names_a_file(const std::string& option) {
-  static const char* const kFileOptions[] = {"trace",  "before",  "diagnosis", "output",
-                                             "svg",    "compare", "db",        "input",
-                                             "points", "ini",     "changes",   "limits-file"};
+  static const char* const kFileOptions[] = {"trace",   "before",      "diagnosis", "output", "svg",
+                                             "compare", "db",          "input",     "points", "ini",
+                                             "changes", "limits-file", "result",    "json"};
   return std::find(std::begin(kFileOptions), std::end(kFileOptions), option) !=
          std::end(kFileOptions);
 }
@@ -512,6 +515,29 @@ int import_export(const std::vector<std::string>& args) {
   return run_import(req, std::cout);
 }
 
+int summary(const std::vector<std::string>& args) {
+  po::options_description desc("summary");
+  desc.add_options()("name", po::value<std::vector<std::string>>()->required(),
+                     "a run's column title, in order")(
+      "result", po::value<std::vector<std::string>>()->required(),
+      "its evaluation (circana analyze --json)")("diagnosis",
+                                                 po::value<std::vector<std::string>>()->required(),
+                                                 "its diagnosis (circana diagnose --json)")(
+      "json", po::value<std::string>(), "also write the table as JSON here");
+  const auto vm = parse("summary", desc, {}, args);
+  const auto& names = vm["name"].as<std::vector<std::string>>();
+  const auto& results = vm["result"].as<std::vector<std::string>>();
+  const auto& diagnoses = vm["diagnosis"].as<std::vector<std::string>>();
+  if (results.size() != names.size() || diagnoses.size() != names.size()) {
+    throw UsageError("--name, --result, --diagnosis: one of each per run");
+  }
+  SummaryRequest req;
+  for (std::size_t k = 0; k < names.size(); ++k)
+    req.runs.push_back({names[k], results[k], diagnoses[k]});
+  if (vm.count("json")) req.json_path = vm["json"].as<std::string>();
+  return run_summary(req, std::cout);
+}
+
 int export_polar(const std::vector<std::string>& args) {
   Parsed p = analyze_options(args, "export-polar",
                              [](po::options_description& d) {
@@ -561,17 +587,17 @@ int main(int argc, char** argv) {
       if (command == "export-polar") return export_polar(args);
       if (command == "store") return store(args);
       if (command == "history") return history(args);
+      if (command == "summary") return summary(args);
       if (command == "report") return report(args);
     } catch (const InfoShown&) {
       return 0;
     }
     std::string message = "unknown command '" + command +
                           "': expected analyze, diagnose, report, fit, import, export-polar, "
-                          "store or "
-                          "history";
-    const std::vector<std::string> commands = {"analyze",      "diagnose", "report",
-                                               "fit",          "import",   "import-polar",
-                                               "export-polar", "store",    "history"};
+                          "store, history or summary";
+    const std::vector<std::string> commands = {"analyze", "diagnose",     "report",       "fit",
+                                               "import",  "import-polar", "export-polar", "store",
+                                               "history", "summary"};
     if (const std::string guess = closest_name(command, commands); !guess.empty()) {
       message += "; did you mean " + guess + "?";
     }

@@ -263,7 +263,8 @@ int run_report(const ReportRequest& request, std::ostream& out) {
   }
   std::vector<ReportPage> pages(tests.size());
   for (const auto& path : request.diagnosis_paths) {
-    DiagnosisChart chart = diagnosis_chart_from_json(read_json_file(path), path);
+    DiagnosisChart chart =
+        diagnosis_chart_from_document(read_diagnosis_document(path, "circana"), path);
     const std::size_t i = page_of(tests, chart.plane, path, "a diagnosis");
     // A diagnosis of the before trace (its source names that file) goes with the before test.
     const bool of_before = befores[i] && same_file(chart.source, befores[i]->evaluation.source);

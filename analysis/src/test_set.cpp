@@ -8,13 +8,13 @@
 #include <iterator>
 #include <map>
 
+#include "circtest/core/diagnosis_document.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
-#include "diagnosis_document.hpp"
 
 namespace circtest {
 
@@ -468,7 +468,7 @@ constexpr std::pair<const char*, Member> kAxisKeys[] = {
 json to_json(const SetDiagnosis& s) {
   std::vector<char> axes;
   for (const AxisJoint& a : s.axes) axes.push_back(a.axis);
-  json j = detail::diagnosis_document_head(plane_list(s.planes), axes, s.feeds_mm_per_min);
+  json j = diagnosis_document_head(plane_list(s.planes), axes, s.feeds_mm_per_min);
   json se = json::object();
   for (const auto& [key, member] : kAxisKeys) {
     json v = json::object(), e = json::object();

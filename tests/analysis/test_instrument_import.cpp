@@ -42,6 +42,16 @@ class Import : public ::testing::Test {
     EXPECT_EQ(run_command(args).exit_code, 0);
     return path;
   }
+  // A copy of configs/sim-mill in the scratch folder: its INI.
+  std::string sim_mill_ini() {
+    const fs::path cfg = dir_.dir() / "cfg";
+    fs::create_directories(cfg);
+    for (const auto& e :
+         fs::directory_iterator(fs::path(CIRCTEST_SOURCE_DIR) / "configs/sim-mill")) {
+      fs::copy(e.path(), cfg / e.path().filename());
+    }
+    return (cfg / "sim-mill.ini").string();
+  }
   ScratchDir dir_{"circtest-import"};
 };
 
@@ -56,12 +66,7 @@ std::vector<double> h_and_g(const nlohmann::json& j) {
 }  // namespace
 
 TEST_F(Import, ALoggedTraceExportedAndImportedEvaluatesTheSameAndApplyNeedsNoForce) {
-  const fs::path cfg = dir_.dir() / "cfg";
-  fs::create_directories(cfg);
-  for (const auto& e : fs::directory_iterator(fs::path(CIRCTEST_SOURCE_DIR) / "configs/sim-mill")) {
-    fs::copy(e.path(), cfg / e.path().filename());
-  }
-  const std::string ini = (cfg / "sim-mill.ini").string();
+  const std::string ini = sim_mill_ini();
   const std::string logged =
       simtrace("run.csv", {"--backlash-x", "0.008", "--squareness", "40e-6", "--f", "1500"});
 
@@ -293,12 +298,7 @@ TEST_F(Import, AnExportOfTwoFeedsUsesTheFeedsItStates) {
 #ifdef CIRCCOMP_PATH
 // circcomp gives an unseparable term no correction, whatever number stands beside it.
 TEST_F(Import, CirccompPlansNothingForAnUnseparableTerm) {
-  const fs::path cfg = dir_.dir() / "cfg";
-  fs::create_directories(cfg);
-  for (const auto& e : fs::directory_iterator(fs::path(CIRCTEST_SOURCE_DIR) / "configs/sim-mill")) {
-    fs::copy(e.path(), cfg / e.path().filename());
-  }
-  const std::string ini = (cfg / "sim-mill.ini").string();
+  const std::string ini = sim_mill_ini();
   const std::string logged = simtrace("run.csv", {"--backlash-x", "0.008", "--f", "1500"});
   CommandResult r = circana({"diagnose", logged, "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;

@@ -1,6 +1,7 @@
-// The diagnosis JSON has one definition (core/diagnosis_keys.hpp): circana writes a diagnosis
-// of a simulated machine, circcomp's reader reads it back, and every field it reads comes
-// back with the same value and the same presence (a number stays a number, a null a null).
+// The diagnosis JSON is one unit (core/diagnosis_document.hpp): circana writes a diagnosis of
+// a simulated machine, the one reader reads it back (the whole document written again from it
+// is the same), and circcomp's and the report's views of it come back with the same value and
+// the same presence (a number stays a number, a null a null).
 // A key renamed on one side only, or a value written in another type, fails here.
 #include <gtest/gtest.h>
 
@@ -8,6 +9,7 @@
 #include <string>
 
 #include "circtest/analysis/diagnosis.hpp"
+#include "circtest/analysis/html_report.hpp"
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -112,6 +114,41 @@ TEST_P(DiagnosisJson, EveryFieldCirccompReadsComesBackAsCircanaWroteIt) {
   expect_same(d.servo_mismatch_ms, in.servo_mismatch_ms, "servo mismatch");
   expect_same(d.kv_per_s.value, in.kv_per_s, "kv");
   EXPECT_EQ(d.ini_sha256, in.ini_sha256);
+}
+
+// Every reader of the document goes through one reader (core/diagnosis_document.hpp): read back,
+// the diagnosis writes the same document again, key for key; the report's chart and circcomp's
+// view are taken from it.
+TEST_P(DiagnosisJson, TheOneReaderGivesBackTheWholeDocument) {
+  const Diagnosis d = round_trip(GetParam()).written;
+  const auto written = to_json(d);
+  const DiagnosisDocument doc = parse_diagnosis_document(written.dump(), "d.json", "circcomp");
+  ASSERT_EQ(doc.planes.size(), 1u);
+  EXPECT_FALSE(doc.test_set);
+  EXPECT_EQ(to_json(doc.planes.front()), written);
+  // The report's reader: the same chart as from the diagnosis itself.
+  const DiagnosisChart from_file = diagnosis_chart_from_document(doc, "d.json");
+  const DiagnosisChart direct = diagnosis_chart(d);
+  EXPECT_EQ(from_file.plane, direct.plane);
+  EXPECT_EQ(from_file.source, direct.source);
+  EXPECT_EQ(from_file.model_g_mm, direct.model_g_mm);
+  EXPECT_EQ(from_file.residual_g_mm, direct.residual_g_mm);
+  EXPECT_EQ(from_file.backlash_mm, direct.backlash_mm);
+  EXPECT_EQ(from_file.squareness_urad, direct.squareness_urad);
+  ASSERT_EQ(from_file.contributions.size(), direct.contributions.size());
+  for (std::size_t i = 0; i < direct.contributions.size(); ++i) {
+    EXPECT_EQ(from_file.contributions[i].source, direct.contributions[i].source);
+    EXPECT_EQ(from_file.contributions[i].g_mm, direct.contributions[i].g_mm);
+    EXPECT_EQ(from_file.contributions[i].percent, direct.contributions[i].percent);
+    EXPECT_EQ(from_file.contributions[i].share_mm, direct.contributions[i].share_mm);
+  }
+  // A term listed as unseparable: no value for any reader.
+  auto listed = written;
+  listed["unseparable"] = {"squareness_urad"};
+  const DiagnosisDocument u = parse_diagnosis_document(listed.dump(), "d.json", "circana");
+  EXPECT_FALSE(u.planes.front().squareness_urad.value);
+  EXPECT_FALSE(diagnosis_chart_from_document(u, "d.json").squareness_urad);
+  EXPECT_FALSE(compensation::parse_diagnosis(listed.dump(), "d.json").squareness_urad.value);
 }
 
 INSTANTIATE_TEST_SUITE_P(Planes, DiagnosisJson, ::testing::Values(Plane::XY, Plane::YZ, Plane::ZX));

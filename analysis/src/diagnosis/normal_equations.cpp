@@ -257,9 +257,8 @@ Solution solve(const Normal& N) {
   return sol;
 }
 
-// 1 - R^2 of column j regressed on the columns in `set` (all normalised to unit diagonal).
-double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set, Eigen::Index j) {
-  if (set.empty()) return 1.0;
+Eigen::VectorXd regression(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set,
+                           Eigen::Index j) {
   const auto k = static_cast<Eigen::Index>(set.size());
   Eigen::MatrixXd A(k, k);
   Eigen::VectorXd b(k);
@@ -268,8 +267,17 @@ double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& se
     for (Eigen::Index w = 0; w < k; ++w)
       A(u, w) = C(set[static_cast<std::size_t>(u)], set[static_cast<std::size_t>(w)]);
   }
-  const Eigen::VectorXd x = A.ldlt().solve(b);
-  return C(j, j) - b.dot(x);
+  return A.ldlt().solve(b);
+}
+
+// 1 - R^2 of column j regressed on the columns in `set` (all normalised to unit diagonal).
+double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set, Eigen::Index j) {
+  if (set.empty()) return 1.0;
+  const Eigen::VectorXd x = regression(C, set, j);
+  double explained = 0.0;
+  for (std::size_t u = 0; u < set.size(); ++u)
+    explained += C(set[u], j) * x[static_cast<Eigen::Index>(u)];
+  return C(j, j) - explained;
 }
 
 }  // namespace circtest::diagnosis_detail

@@ -79,14 +79,7 @@ std::vector<Kind> partners(const Eigen::MatrixXd& C, const std::vector<Eigen::In
   std::vector<Kind> out;
   if (kept.empty()) return out;
   const auto k = static_cast<Eigen::Index>(kept.size());
-  Eigen::MatrixXd A(k, k);
-  Eigen::VectorXd b(k);
-  for (Eigen::Index u = 0; u < k; ++u) {
-    b[u] = C(kept[static_cast<std::size_t>(u)], j);
-    for (Eigen::Index w = 0; w < k; ++w)
-      A(u, w) = C(kept[static_cast<std::size_t>(u)], kept[static_cast<std::size_t>(w)]);
-  }
-  const Eigen::VectorXd x = A.ldlt().solve(b);
+  const Eigen::VectorXd x = regression(C, kept, j);
   for (Eigen::Index u = 0; u < k; ++u) {
     const Kind kind = in[static_cast<std::size_t>(kept[static_cast<std::size_t>(u)])].kind;
     if (std::abs(x[u]) >= kPartnerWeight && !term_key(kind, {'A', 'B'}).empty())
