@@ -653,6 +653,11 @@ DiagnosisChart diagnosis_chart_from_document(const DiagnosisDocument& document,
                                  "plane (circana diagnose --plane P --json)",
                                  diagnosis_json::key::plane, document.planes.size()));
   }
+  if (!document.absent.empty()) {
+    throw ParseError(
+        path, 0,
+        fmt::format("diagnosis JSON '{}': expected a value (missing)", document.absent.front()));
+  }
   const Diagnosis& d = document.planes.front();
   // A bar of the chart is at most as long as the page: a percentage beyond +-1000 or a G of
   // more than a metre is no diagnosis of a circular test.

@@ -540,6 +540,11 @@ DiagnosisDocument parse_diagnosis_document(const std::string& text, const std::s
     read_set(doc, r, reader, *plane, out);
   } else {
     out.planes.push_back(read_plane(doc, r));
+    for (const char* key : {K::contributions, K::model_g_mm}) {
+      if (r.member(doc, key, key).is_null()) out.absent.emplace_back(key);
+    }
+    if (r.member(r.member(doc, K::residual, K::residual), K::g_mm, K::residual).is_null())
+      out.absent.push_back(std::string(K::residual) + "." + K::g_mm);
   }
   return out;
 }

@@ -262,7 +262,7 @@ TEST(HostileHistory, DocumentsOverTheSizeLimitAreRefusedUnread) {
                  {big_json, "larger than the limit of 16 MiB"});
   expect_refusal(run_command({CIRCANA_PATH, "report", kExample, "-o", dir.file("r.html"),
                               "--diagnosis", big_json}),
-                 3, {big_json, "larger than the limit of 16 MiB"});
+                 3, {big_json, "larger than the limit of 4 MiB"});
   const std::string big_polar = dir.file("big.txt");
   spit(big_polar, "0 1\n");
   std::filesystem::resize_file(big_polar, (std::uintmax_t{64} << 20) + 1);

@@ -126,6 +126,9 @@ struct DiagnosisDocument {
   std::map<char, JointAxisValues> joint;            // a set's, by axis letter ('X')
   std::map<Plane, Estimate> joint_squareness_urad;  // a set's test_set.squareness_urad
   std::optional<std::string> ini_sha256;            // the document's own
+  // Keys every circana diagnosis holds that a plane's document lacks (a hand-made one):
+  // "contributions", "model_G_mm", "residual.G_mm"; a reader that needs them refuses.
+  std::vector<std::string> absent;
 };
 
 // The reader's limits: a diagnosis is a few kB (a test set's some tens), objects four levels
