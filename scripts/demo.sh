@@ -136,79 +136,15 @@ for suffix in "" $(seq -f -%g 2 $((${#runs[@]} - 1))); do
   grep '^# ' "$out/plan$suffix.diff" || true
   echo
 done
-# The side-by-side table, also kept as summary.json (the figures the e2e test checks).
-python3 - "$out" "${runs[@]}" <<'EOF'
-import json, sys
-out, names = sys.argv[1], sys.argv[2:]
-res = [json.load(open(f"{out}/{n}.json")) for n in names]
-dia = [json.load(open(f"{out}/{'diagnosis' if n == 'before' else n + '-diagnosis'}.json"))
-       for n in names]
-def geometric_g(d):  # the modelled G less the shares of the servo and friction terms
-    g = d.get("model_G_mm")
-    if g is None:
-        return None
-    for c in d.get("contributions", []):
-        if c["source"] in ("servo mismatch", "radius change") or \
-                c["source"].startswith("reversal spike"):
-            g -= c["share_mm"]
-    return g
-def per_axis(d, key):
-    v = d.get(key)
-    return v if isinstance(v, dict) else {}
-axes = dia[0]["axes"]
-rows = []  # (label, unit, [value per run], format)
-rows.append(("H", "um", [r["H"] for r in res], 1e3))
-for i, r0 in enumerate(res[0]["runs"]):
-    lab = r0["label"]
-    rows.append((f"G {lab}", "um", [r["runs"][i]["G"] for r in res], 1e3))
-rows.append(("G worst", "um", [max(x["G"] for x in r["runs"]) for r in res], 1e3))
-for a in axes:
-    rows.append((f"backlash {a}", "um", [per_axis(d, "backlash_mm").get(a) for d in dia], 1e3))
-for a in axes:
-    rows.append((f"reversal spike {a}", "um",
-                 [per_axis(d, "reversal_spike_mm").get(a) for d in dia], 1e3))
-for a in axes:
-    rows.append((f"scale {a}", "ppm", [per_axis(d, "scale_ppm").get(a) for d in dia], 1))
-for a in axes:
-    rows.append((f"cyclic {a}", "um", [(per_axis(d, "cyclic").get(a) or {}).get("amplitude_mm")
-                                       for d in dia], 1e3))
-rows.append(("squareness", "urad", [d.get("squareness_urad") for d in dia], 1))
-# The servo: the mean following lag and the mismatch (X lags Y by ...), and per axis the lag
-# wherever the diagnosis has a per-axis lag object (its key names "lag"); without one, the
-# mean +- half the mismatch, which is what diagnose's model of two first-order loops fits.
-rows.append(("servo: mean lag", "ms", [d.get("lag_ms") for d in dia], 1))
-rows.append(("servo: mismatch", "ms", [d.get("servo_mismatch_ms") for d in dia], 1))
-rows.append(("servo: Kv", "1/s", [d.get("kv_per_s") for d in dia], 1))
-lag_keys = sorted(k for k in dia[0] if "lag" in k and isinstance(dia[0][k], dict)
-                  and set(dia[0][k]) & set(axes))
-for a in axes:
-    if lag_keys:
-        for k in lag_keys:
-            vals = [per_axis(d, k).get(a) for d in dia]
-            unit = "ms" if k.endswith("_ms") else ""
-            rows.append((f"servo: lag {a} ({k})", unit,
-                         [v if isinstance(v, (int, float)) else None for v in vals], 1))
-    else:
-        sign = 0.5 if a == axes[0] else -0.5
-        vals = [None if d.get("lag_ms") is None or d.get("servo_mismatch_ms") is None
-                else d["lag_ms"] + sign * d["servo_mismatch_ms"] for d in dia]
-        rows.append((f"servo: lag {a} (model)", "ms", vals, 1))
-rows.append(("modelled G", "um", [d.get("model_G_mm") for d in dia], 1e3))
-rows.append(("  without servo and friction", "um", [geometric_g(d) for d in dia], 1e3))
-def fmt(v, scale, unit):
-    if v is None:
-        return "-"
-    return f"{v * scale:.3f}" if unit in ("ms",) else f"{v * scale:.2f}"
-print(f"{'':30}" + "".join(f"{n:>14}" for n in names))
-for label, unit, vals, scale in rows:
-    name = f"{label} ({unit})" if unit else label
-    print(f"{name:30}" + "".join(f"{fmt(v, scale, unit):>14}" for v in vals))
-json.dump({"runs": names,
-           "rows": [{"label": l, "unit": u, "values": [None if v is None else v * s
-                                                       for v in vals]}
-                    for l, u, vals, s in rows]},
-          open(f"{out}/summary.json", "w"), indent=1)
-EOF
+# The side-by-side table, also kept as summary.json (the figures the e2e test checks), read
+# from the runs' documents by circana itself (no key of them spelled here).
+summary=()
+for name in "${runs[@]}"; do
+  diag=$out/$name-diagnosis.json
+  [ "$name" != before ] || diag=$out/diagnosis.json
+  summary+=(--name "$name" --result "$out/$name.json" --diagnosis "$diag")
+done
+"$circana" summary "${summary[@]}" --json "$out/summary.json"
 
 echo
 printf 'circtest: where the time went (s):'

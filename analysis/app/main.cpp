@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "circtest/circana/commands.hpp"
@@ -25,39 +26,71 @@ using namespace circtest;
 
 namespace {
 
-const char* kUsage =
-    "usage: circana analyze TRACE [--radius MM] [--centre A,B] [--plane XY|YZ|ZX]\n"
-    "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
-    "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
-    "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
-    "                     [--svg PLOT.svg] [--compare EARLIER_TRACE] [--scale-um-per-div UM]\n"
-    "                     [--radial] [--limits H=MM,G=MM,F=MM]\n"
-    "                     [--instrument-profile auto|ballbar|grid-encoder|scales]\n"
-    "                     [--uncertainty calibration=MM,resolution=MM,...]\n"
-    "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
-    "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
-    "                     [--units mm|inch] [--radius-tolerance MM] [--warn-inconsistent]\n"
-    "       circana diagnose TRACE [the analyze options] [--pitch A=P,B=P] [--json] [--svg F]\n"
-    "                        [--store [--db URL]]\n"
-    "       circana report TRACE [BEFORE] -o REPORT.html [the analyze options]\n"
-    "                      [--trace TRACE]... [--before TRACE]... [--diagnosis DIAG.json]...\n"
-    "                      [--db URL] [--limits H=MM,... | --limits-file FILE]\n"
-    "                      [--changes PLAN.json]... [--tested-by NAME] [--accepted-by NAME]\n"
-    "       circana fit POINTS.csv [--columns A,B] [--json]\n"
-    "       circana import EXPORT.txt -o TRACE.csv [--columns angle_deg,dev_um|t_s,x_mm,y_mm|...]\n"
-    "                      [--radius MM] [--plane XY|YZ|ZX] [--feed MM_PER_MIN]\n"
-    "                      [--direction ccw|cw] [--date YYYY-MM-DD[THH:MM[:SS]Z]] [--ini INI]\n"
-    "                      [--instrument TEXT]        (import-polar: the same)\n"
-    "       circana export-polar TRACE -o EXPORT.txt [the analyze options]\n"
-    "       circana store RESULT.json|TRACE [--db URL] [the analyze options]\n"
-    "       circana history --machine NAME [--since DATE] [--json] [--svg TREND.svg]\n"
-    "                       [--limits H=MM,G=MM,F=MM,backlash=MM,squareness=URAD] [--db URL]\n";
+// Each command's usage lines: `circana --help` shows them all, `circana COMMAND --help` its own.
+struct Usage {
+  const char* command;
+  const char* text;
+};
+constexpr Usage kUsages[] = {
+    {"analyze",
+     "usage: circana analyze TRACE [--radius MM] [--centre A,B] [--plane XY|YZ|ZX]\n"
+     "                     [--g-method min-zone|least-squares] [--f-centre auto|nominal|lsc]\n"
+     "                     [--columns A,B] [--t-machine C] [--t-instrument C]\n"
+     "                     [--alpha-machine PER_K] [--alpha-instrument PER_K] [--json]\n"
+     "                     [--svg PLOT.svg] [--compare EARLIER_TRACE] [--scale-um-per-div UM]\n"
+     "                     [--radial] [--limits H=MM,G=MM,F=MM]\n"
+     "                     [--instrument-profile auto|ballbar|grid-encoder|scales]\n"
+     "                     [--uncertainty calibration=MM,resolution=MM,...]\n"
+     "                     [--machine NAME] [--serial TEXT] [--instrument TEXT]\n"
+     "                     [--operator NAME] [--location TEXT] [--notes TEXT]\n"
+     "                     [--units mm|inch] [--radius-tolerance MM] [--warn-inconsistent]\n"
+     "                     [--store [--db URL]]\n"},
+    {"diagnose",
+     "usage: circana diagnose TRACE [the analyze options but --compare] [--pitch A=P,B=P]\n"
+     "                        [--json] [--svg F] [--store [--db URL]]\n"},
+    {"report",
+     "usage: circana report TRACE [BEFORE] -o REPORT.html [the analyze options but --json,\n"
+     "                      --svg] [--trace TRACE]... [--before TRACE]...\n"
+     "                      [--diagnosis DIAG.json]... [--db URL]\n"
+     "                      [--limits H=MM,... | --limits-file FILE]\n"
+     "                      [--changes PLAN.json]... [--tested-by NAME] [--accepted-by NAME]\n"},
+    {"fit", "usage: circana fit POINTS.csv [--columns A,B] [--json]\n"},
+    {"import",
+     "usage: circana import EXPORT.txt -o TRACE.csv [--columns "
+     "angle_deg,dev_um|t_s,x_mm,y_mm|...]\n"
+     "                      [--radius MM] [--plane XY|YZ|ZX] [--feed MM_PER_MIN]\n"
+     "                      [--direction ccw|cw] [--date YYYY-MM-DD[THH:MM[:SS]Z]] [--ini INI]\n"
+     "                      [--instrument TEXT]        (import-polar: the same)\n"},
+    {"export-polar",
+     "usage: circana export-polar TRACE -o EXPORT.txt [the analyze options but --json, --svg,\n"
+     "                            --scale-um-per-div, --compare]\n"},
+    {"store",
+     "usage: circana store RESULT.json|TRACE [--db URL] [the analyze options but --json, --svg,\n"
+     "                     --scale-um-per-div, --compare]\n"},
+    {"summary",
+     "usage: circana summary --name NAME --result RESULT.json --diagnosis DIAG.json\n"
+     "                       [--name ... --result ... --diagnosis ...]... [--json SUMMARY.json]\n"},
+    {"history",
+     "usage: circana history --machine NAME [--since DATE] [--json] [--svg TREND.svg]\n"
+     "                       [--limits H=MM,G=MM,F=MM,backlash=MM,squareness=URAD] [--db URL]\n"},
+};
+
+// The usage of COMMAND ("import-polar" is import's), or of every command.
+std::string usage(std::string_view command = {}) {
+  if (command == "import-polar") command = "import";
+  std::string out;
+  for (const Usage& u : kUsages) {
+    if (command.empty() || command == u.command) out += u.text;
+  }
+  return out;
+}
 
 // Thrown once `circana COMMAND --help|--version` has printed its text: exit 0, no work.
 struct InfoShown {};
 
 // --help and --version are answered by every command before its options are checked.
-void answer_info(const po::options_description& desc, const std::vector<std::string>& args) {
+void answer_info(std::string_view command, const po::options_description& desc,
+                 const std::vector<std::string>& args) {
   for (const auto& arg : args) {
     if (arg == "--") break;
     if (arg == "--version") {
@@ -65,7 +98,7 @@ void answer_info(const po::options_description& desc, const std::vector<std::str
       throw InfoShown{};
     }
     if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "(man circana for the details)\n\n" << desc;
+      std::cout << usage(command) << "(man circana for the details)\n\n" << desc;
       throw InfoShown{};
     }
   }
@@ -74,17 +107,20 @@ void answer_info(const po::options_description& desc, const std::vector<std::str
 // Options whose values are file names or URLs: any bytes the file system allows. Every other
 // value goes into a JSON document, a plot or the history, so it must be UTF-8 text.
 bool names_a_file(const std::string& option) {
-  static const char* const kFileOptions[] = {"trace",  "before",  "diagnosis", "output",
-                                             "svg",    "compare", "db",        "input",
-                                             "points", "ini",     "changes",   "limits-file"};
+  static const char* const kFileOptions[] = {"trace",   "before",      "diagnosis", "output", "svg",
+                                             "compare", "db",          "input",     "points", "ini",
+                                             "changes", "limits-file", "result",    "json"};
   return std::find(std::begin(kFileOptions), std::end(kFileOptions), option) !=
          std::end(kFileOptions);
 }
 
-po::variables_map parse(const po::options_description& desc,
+// `shown`: the options --help lists, when the parser knows more (options a command refuses
+// with its own message).
+po::variables_map parse(std::string_view command, const po::options_description& desc,
                         const po::positional_options_description& pos,
-                        const std::vector<std::string>& args) {
-  answer_info(desc, args);
+                        const std::vector<std::string>& args,
+                        const po::options_description* shown = nullptr) {
+  answer_info(command, shown ? *shown : desc, args);
   po::variables_map vm;
   try {
     refuse_option_placeholders(args);
@@ -189,9 +225,10 @@ struct Parsed {
   AnalyzeRequest request;
 };
 // `several`: --trace may be repeated and a second argument is the before trace (report).
+// `refused`: the shared options this command refuses with its own message (left out of --help).
 Parsed analyze_options(const std::vector<std::string>& args, const char* command,
                        const std::function<void(po::options_description&)>& extra,
-                       bool several = false) {
+                       bool several = false, std::initializer_list<std::string_view> refused = {}) {
   po::options_description desc(command);
   desc.add_options()("trace", po::value<std::vector<std::string>>()->required(), "trace file")(
       "radius", po::value<std::string>(), "nominal radius, mm")("centre", po::value<std::string>(),
@@ -219,8 +256,13 @@ Parsed analyze_options(const std::vector<std::string>& args, const char* command
   po::positional_options_description pos;
   pos.add("trace", 1);
   if (several) pos.add("before", 1);
+  po::options_description shown(command);
+  for (const auto& option : desc.options()) {
+    if (std::find(refused.begin(), refused.end(), option->long_name()) == refused.end())
+      shown.add(option);
+  }
   Parsed parsed;
-  parsed.vm = parse(desc, pos, args);
+  parsed.vm = parse(command, desc, pos, args, &shown);
   const auto& vm = parsed.vm;
 
   // A numeric option's value within its plausible range, when given.
@@ -328,10 +370,13 @@ int analyze(const std::vector<std::string>& args) {
 }
 
 int store(const std::vector<std::string>& args) {
-  const Parsed p = analyze_options(args, "store", [](po::options_description& d) {
-    d.add_options()("db", po::value<std::string>(),
-                    "the history: SQLite file or postgresql:// URL");
-  });
+  const Parsed p =
+      analyze_options(args, "store",
+                      [](po::options_description& d) {
+                        d.add_options()("db", po::value<std::string>(),
+                                        "the history: SQLite file or postgresql:// URL");
+                      },
+                      false, {"svg", "scale-um-per-div", "json", "compare"});
   if (!p.request.compare_path.empty()) throw UsageError("--compare: only for circana analyze");
   // store only writes the history, and a RESULT.json has no points to draw: refused rather
   // than ignored (analyze --svg --store plots and stores in one call).
@@ -357,7 +402,7 @@ int history(const std::vector<std::string>& args) {
       "json", "JSON on stdout")("svg", po::value<std::string>(), "write the trend as SVG")(
       "limits", po::value<std::string>(), "H=MM,G=MM,...: pass/fail of the latest test")(
       "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
-  const auto vm = parse(desc, {}, args);
+  const auto vm = parse("history", desc, {}, args);
   HistoryRequest req;
   req.machine = vm["machine"].as<std::string>();
   if (vm.count("since")) req.since = vm["since"].as<std::string>();
@@ -390,11 +435,14 @@ std::map<char, double> pitch_list(const std::string& text) {
 }
 
 int diagnose(const std::vector<std::string>& args) {
-  const Parsed p = analyze_options(args, "diagnose", [](po::options_description& d) {
-    d.add_options()("pitch", po::value<std::string>(), "cyclic-error pitch per axis, X=5,Y=5")(
-        "store", "also keep the test and its diagnosis in the history")(
-        "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
-  });
+  const Parsed p = analyze_options(
+      args, "diagnose",
+      [](po::options_description& d) {
+        d.add_options()("pitch", po::value<std::string>(), "cyclic-error pitch per axis, X=5,Y=5")(
+            "store", "also keep the test and its diagnosis in the history")(
+            "db", po::value<std::string>(), "the history: SQLite file or postgresql:// URL");
+      },
+      false, {"compare"});
   if (!p.request.compare_path.empty()) throw UsageError("--compare: only for circana analyze");
   DiagnoseRequest req;
   req.svg_path = p.request.svg_path;
@@ -429,7 +477,7 @@ int report(const std::vector<std::string>& args) {
             "tested-by", po::value<std::string>(), "the name for the signature block")(
             "accepted-by", po::value<std::string>(), "the customer's name for the signature");
       },
-      true);
+      true, {"json", "svg"});
   if (p.request.json) throw UsageError("--json: not for circana report (it writes HTML)");
   if (!p.request.svg_path.empty()) throw UsageError("--svg: only for circana analyze");
   ReportRequest req;
@@ -459,7 +507,7 @@ int fit(const std::vector<std::string>& args) {
       "columns", po::value<std::string>(), "coordinate columns A,B (default x,y)")("json", "");
   po::positional_options_description pos;
   pos.add("points", 1);
-  const auto vm = parse(desc, pos, args);
+  const auto vm = parse("fit", desc, pos, args);
   FitRequest req;
   req.points_path = vm["points"].as<std::string>();
   req.json = vm.count("json") > 0;
@@ -485,7 +533,7 @@ int import_export(const std::vector<std::string>& args) {
       "instrument", po::value<std::string>(), "what measured it");
   po::positional_options_description pos;
   pos.add("input", 1);
-  const auto vm = parse(desc, pos, args);
+  const auto vm = parse("import", desc, pos, args);
   ImportRequest req;
   req.input_path = vm["input"].as<std::string>();
   req.output_path = vm["output"].as<std::string>();
@@ -531,10 +579,36 @@ int import_export(const std::vector<std::string>& args) {
   return run_import(req, std::cout);
 }
 
+int summary(const std::vector<std::string>& args) {
+  po::options_description desc("summary");
+  desc.add_options()("name", po::value<std::vector<std::string>>()->required(),
+                     "a run's column title, in order")(
+      "result", po::value<std::vector<std::string>>()->required(),
+      "its evaluation (circana analyze --json)")("diagnosis",
+                                                 po::value<std::vector<std::string>>()->required(),
+                                                 "its diagnosis (circana diagnose --json)")(
+      "json", po::value<std::string>(), "also write the table as JSON here");
+  const auto vm = parse("summary", desc, {}, args);
+  const auto& names = vm["name"].as<std::vector<std::string>>();
+  const auto& results = vm["result"].as<std::vector<std::string>>();
+  const auto& diagnoses = vm["diagnosis"].as<std::vector<std::string>>();
+  if (results.size() != names.size() || diagnoses.size() != names.size()) {
+    throw UsageError("--name, --result, --diagnosis: one of each per run");
+  }
+  SummaryRequest req;
+  for (std::size_t k = 0; k < names.size(); ++k)
+    req.runs.push_back({names[k], results[k], diagnoses[k]});
+  if (vm.count("json")) req.json_path = vm["json"].as<std::string>();
+  return run_summary(req, std::cout);
+}
+
 int export_polar(const std::vector<std::string>& args) {
-  Parsed p = analyze_options(args, "export-polar", [](po::options_description& d) {
-    d.add_options()("output,o", po::value<std::string>()->required(), "polar export to write");
-  });
+  Parsed p = analyze_options(args, "export-polar",
+                             [](po::options_description& d) {
+                               d.add_options()("output,o", po::value<std::string>()->required(),
+                                               "polar export to write");
+                             },
+                             false, {"svg", "scale-um-per-div", "json", "compare"});
   for (const char* o : {"svg", "scale-um-per-div", "json", "compare"}) {
     if (p.vm.count(o)) {
       throw UsageError(std::string("--") + o +
@@ -562,7 +636,7 @@ int main(int argc, char** argv) {
     const std::string command = argv[1];
     const std::vector<std::string> args(argv + 2, argv + argc);
     if (command == "--help" || command == "-h" || command == "help") {
-      std::cout << kUsage;
+      std::cout << usage();
       return 0;
     }
     if (command == "--version") {
@@ -577,17 +651,17 @@ int main(int argc, char** argv) {
       if (command == "export-polar") return export_polar(args);
       if (command == "store") return store(args);
       if (command == "history") return history(args);
+      if (command == "summary") return summary(args);
       if (command == "report") return report(args);
     } catch (const InfoShown&) {
       return 0;
     }
     std::string message = "unknown command '" + command +
                           "': expected analyze, diagnose, report, fit, import, export-polar, "
-                          "store or "
-                          "history";
-    const std::vector<std::string> commands = {"analyze",      "diagnose", "report",
-                                               "fit",          "import",   "import-polar",
-                                               "export-polar", "store",    "history"};
+                          "store, history or summary";
+    const std::vector<std::string> commands = {"analyze", "diagnose",     "report",       "fit",
+                                               "import",  "import-polar", "export-polar", "store",
+                                               "history", "summary"};
     if (const std::string guess = closest_name(command, commands); !guess.empty()) {
       message += "; did you mean " + guess + "?";
     }

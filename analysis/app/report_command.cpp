@@ -57,7 +57,8 @@ void trend(ReportPage& page, history::Store& store, const Evaluation& ev) {
 }
 
 // The limits of a file: NAME=VALUE items as --limits takes them, one or more a line (commas
-// between), '#' starts a comment. A ParseError names the file and line of a bad item, of a
+// between), '#' starts a comment; a byte-order mark, CRLF or CR line ends and blanks are
+// allowed. A ParseError names the file and line of a bad item, of a
 // quantity given twice, or a file with no limit at all (a check against nothing is no check).
 history::Limits read_limits_file(const std::string& path) {
   using L = history::Limits;
@@ -67,7 +68,17 @@ history::Limits read_limits_file(const std::string& path) {
       {"F", &L::f_mm},
       {"backlash", &L::backlash_mm},
       {"squareness", &L::squareness_urad}};
-  const std::string text = read_file(path);
+  // As common editors write it: a UTF-8 byte-order mark, CRLF or CR line ends, blank lines,
+  // blanks and tabs anywhere.
+  std::string text = read_file(path);
+  if (text.starts_with("\xEF\xBB\xBF")) text.erase(0, 3);
+  for (std::size_t p = text.find('\r'); p != std::string::npos; p = text.find('\r', p)) {
+    if (p + 1 < text.size() && text[p + 1] == '\n') {
+      text.erase(p, 1);
+    } else {
+      text[p] = '\n';
+    }
+  }
   L limits;
   std::size_t given_on[std::size(kFields)] = {};
   std::istringstream in(text);
@@ -77,7 +88,7 @@ history::Limits read_limits_file(const std::string& path) {
     line = line.substr(0, line.find('#'));
     std::string items;
     for (const char c : line) {
-      if (c != ' ' && c != '\t' && c != '\r') items += c;
+      if (c != ' ' && c != '\t' && c != '\v' && c != '\f') items += c;
     }
     if (items.empty()) continue;
     L one;
@@ -252,7 +263,8 @@ int run_report(const ReportRequest& request, std::ostream& out) {
   }
   std::vector<ReportPage> pages(tests.size());
   for (const auto& path : request.diagnosis_paths) {
-    DiagnosisChart chart = diagnosis_chart_from_json(read_json_file(path), path);
+    DiagnosisChart chart =
+        diagnosis_chart_from_document(read_diagnosis_document(path, "circana"), path);
     const std::size_t i = page_of(tests, chart.plane, path, "a diagnosis");
     // A diagnosis of the before trace (its source names that file) goes with the before test.
     const bool of_before = befores[i] && same_file(chart.source, befores[i]->evaluation.source);

@@ -1,29 +1,15 @@
-// The diagnosis as JSON (diagnosis_keys.hpp, docs/diagnosis-json.md; read by the compensation
-// part) and as text.
+// The diagnosis as text (its JSON: core/diagnosis_document.hpp).
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <iterator>
 
 #include "circtest/analysis/diagnosis.hpp"
-#include "circtest/core/diagnosis_keys.hpp"
-#include "circtest/core/json_text.hpp"
-#include "diagnosis_document.hpp"
 
 namespace circtest {
 
 namespace {
-
-using json = nlohmann::ordered_json;
-namespace K = diagnosis_json::key;
-
-json per_axis(const Diagnosis& d, const std::array<Estimate, 2>& e, bool se = false) {
-  json j = json::object();
-  for (std::size_t k = 0; k < 2; ++k) {
-    j[std::string(1, d.axes[k])] = json_number_or_null(se ? e[k].standard_error : e[k].value);
-  }
-  return j;
-}
 
 std::string um(double mm) {
   return fmt::format("{:.2f} um", mm * 1e3);
@@ -65,116 +51,6 @@ void servo_axis_lines(const Diagnosis& d, std::string& s) {
 }
 
 }  // namespace
-
-json to_json(const Diagnosis& d) {
-  json j = detail::diagnosis_document_head(std::string(plane_name(d.plane)), {d.axes[0], d.axes[1]},
-                                           d.feeds_mm_per_min);
-  j[K::backlash_mm] = per_axis(d, d.backlash_mm);
-  // The step at each end of the axis' travel on its own (added in circtest.diagnosis/1).
-  json ends = json::object();
-  for (std::size_t k = 0; k < 2; ++k) {
-    const auto& e = d.backlash_reversals_mm[k];
-    ends[std::string(1, d.axes[k])] =
-        e ? json{{K::positive_end, (*e)[0]}, {K::negative_end, (*e)[1]}} : json(nullptr);
-  }
-  j[K::backlash_reversals_mm] = ends;
-  j[K::reversal_spike_mm] = per_axis(d, d.spike_mm);
-  j[K::reversal_spike_ms] = per_axis(d, d.spike_ms);
-  j[K::reversal_spike_peak_ms] = per_axis(d, d.spike_peak_ms);
-  j[K::scale_ppm] = per_axis(d, d.scale_ppm);
-  j[K::scale_mismatch_ppm] = json_number_or_null(d.scale_mismatch_ppm.value);
-  j[K::squareness_urad] = json_number_or_null(d.squareness_urad.value);
-  j[K::servo_mismatch_ms] = json_number_or_null(d.servo_mismatch_ms.value);
-  json rc = json::array();
-  for (const auto& fr : d.radius_change) {
-    rc.push_back(
-        {{K::feed_mm_per_min, fr.feed_mm_per_min}, {K::dr, json_number_or_null(fr.dr_mm.value)}});
-  }
-  j[K::radius_change_mm] = rc;
-  j[K::kv_per_s] = json_number_or_null(d.kv_per_s.value);
-  json cyc = json::object();
-  for (std::size_t k = 0; k < 2; ++k) {
-    const auto& c = d.cyclic[k];
-    cyc[std::string(1, d.axes[k])] =
-        c ? json{{K::amplitude_mm, c->amplitude_mm},
-                 {K::pitch_mm, c->pitch_mm},
-                 {K::phase_rad, c->phase_rad},
-                 {K::pitch_source, c->pitch_source},
-                 {K::peak_to_median_power, json_number_or_null(c->peak_to_median_power)}}
-          : json(nullptr);
-  }
-  j[K::cyclic] = cyc;
-  j[K::centre_offset_mm] = {json_number_or_null(d.centre_offset_mm[0].value),
-                            json_number_or_null(d.centre_offset_mm[1].value)};
-  json con = json::array();
-  for (const auto& c : d.contributions) {
-    con.push_back({{K::source, c.source},
-                   {K::g_mm, c.g_mm},
-                   {K::percent, c.percent},
-                   {K::share_mm, c.share_mm}});
-  }
-  j[K::contributions] = con;
-  j[K::model_g_mm] = d.model_g_mm;
-  j[K::residual] = {{K::rms_mm, d.residual_rms_mm}, {K::g_mm, d.residual_g_mm}};
-  json se;
-  se[K::backlash_mm] = per_axis(d, d.backlash_mm, true);
-  se[K::reversal_spike_mm] = per_axis(d, d.spike_mm, true);
-  se[K::reversal_spike_ms] = per_axis(d, d.spike_ms, true);
-  se[K::scale_ppm] = per_axis(d, d.scale_ppm, true);
-  se[K::scale_mismatch_ppm] = json_number_or_null(d.scale_mismatch_ppm.standard_error);
-  se[K::squareness_urad] = json_number_or_null(d.squareness_urad.standard_error);
-  se[K::servo_mismatch_ms] = json_number_or_null(d.servo_mismatch_ms.standard_error);
-  json rcs = json::array();
-  for (const auto& fr : d.radius_change) {
-    rcs.push_back({{K::feed_mm_per_min, fr.feed_mm_per_min},
-                   {K::dr, json_number_or_null(fr.dr_mm.standard_error)}});
-  }
-  se[K::radius_change_mm] = rcs;
-  se[K::kv_per_s] = json_number_or_null(d.kv_per_s.standard_error);
-  json cse = json::object();
-  for (std::size_t k = 0; k < 2; ++k) {
-    cse[std::string(1, d.axes[k])] =
-        d.cyclic[k] ? json{{K::amplitude_mm, d.cyclic[k]->amplitude_se_mm}} : json(nullptr);
-  }
-  se[K::cyclic] = cse;
-  se[K::centre_offset_mm] = {json_number_or_null(d.centre_offset_mm[0].standard_error),
-                             json_number_or_null(d.centre_offset_mm[1].standard_error)};
-  j[K::standard_error] = se;
-  j[K::kv_source] = d.kv_source.empty() ? json(nullptr) : json(d.kv_source);
-  j[K::lag_ms] = json_number_or_null(d.lag_ms.value);
-  json lag = json::object(), kv = json::object(), src = json::object(), lag_se = json::object();
-  for (std::size_t k = 0; k < 2; ++k) {
-    const std::string a(1, d.axes[k]);
-    const AxisLag& al = d.axis_lag[k];
-    lag[a] = json_number_or_null(al.lag_ms.value);
-    lag_se[a] = json_number_or_null(al.lag_ms.standard_error);
-    kv[a] = json_number_or_null(al.kv_per_s);
-    src[a] = al.source.empty() ? json(nullptr) : json(al.source);
-  }
-  j[K::axis_lag_ms] = lag;
-  j[K::axis_kv_per_s] = kv;
-  j[K::axis_lag_source] = src;
-  j[K::axis_lag_mismatch_ms] = json_number_or_null(d.axis_lag_mismatch_ms.value);
-  j[K::standard_error][K::axis_lag_ms] = lag_se;
-  j[K::standard_error][K::axis_lag_mismatch_ms] =
-      json_number_or_null(d.axis_lag_mismatch_ms.standard_error);
-  json shares = json::array();
-  for (const ServoShare& sh : d.servo_share) {
-    shares.push_back({{K::feed_mm_per_min, sh.feed_mm_per_min},
-                      {K::g_mm, sh.g_mm},
-                      {K::measured_g_mm, json_number_or_null(sh.measured_g_mm)},
-                      {K::percent, json_number_or_null(sh.percent)}});
-  }
-  j[K::servo_share] = shares;
-  j[K::nominal_radius_mm] = d.radius_mm;
-  j[K::absolute_channels] = d.absolute_channels;
-  j[K::runs] = d.runs;
-  j[K::samples] = d.samples;
-  j[K::ini_sha256] = d.ini_sha256 ? json(*d.ini_sha256) : json(nullptr);
-  j[K::source] = d.source;
-  j[K::notes] = d.notes;
-  return j;
-}
 
 std::string text_report(const Diagnosis& d) {
   std::string s;
@@ -262,6 +138,10 @@ std::string text_report(const Diagnosis& d) {
       }
       s += '\n';
     }
+  }
+  if (!d.unseparable.empty()) {
+    fmt::format_to(out, "  cannot be separated by this trace (not reported): {}\n",
+                   fmt::join(d.unseparable, ", "));
   }
   fmt::format_to(out, "  set-up centre offset {}, {}\n", pm_um(d.centre_offset_mm[0]),
                  pm_um(d.centre_offset_mm[1]));

@@ -645,54 +645,43 @@ DiagnosisChart diagnosis_chart(const Diagnosis& d) {
   return c;
 }
 
-DiagnosisChart diagnosis_chart_from_json(const nlohmann::json& j, const std::string& path) {
+DiagnosisChart diagnosis_chart_from_document(const DiagnosisDocument& document,
+                                             const std::string& path) {
+  if (document.planes.size() != 1) {
+    throw ParseError(path, 0,
+                     fmt::format("\"{}\": a test set ({} planes): give the diagnosis of each "
+                                 "plane (circana diagnose --plane P --json)",
+                                 diagnosis_json::key::plane, document.planes.size()));
+  }
+  if (!document.absent.empty()) {
+    throw ParseError(
+        path, 0,
+        fmt::format("diagnosis JSON '{}': expected a value (missing)", document.absent.front()));
+  }
+  const Diagnosis& d = document.planes.front();
   // A bar of the chart is at most as long as the page: a percentage beyond +-1000 or a G of
   // more than a metre is no diagnosis of a circular test.
   constexpr double kMaxPercent = 1000.0, kMaxGmm = 1000.0;
-  const JsonReader<nlohmann::json> rd(path, "diagnosis JSON", kMaxGmm);
-  const JsonReader<nlohmann::json> percent(path, "diagnosis JSON", kMaxPercent);
+  const auto bounded = [&path](double v, double max, const std::string& key) {
+    if (std::abs(v) <= max) return;
+    throw DataError(path, 0,
+                    fmt::format("diagnosis JSON '{}': {:g} is not a usable number (at most {:g} "
+                                "in size)",
+                                key, v, max));
+  };
   namespace K = diagnosis_json::key;
-  if (!j.is_object() || !j.contains(K::schema) || !j[K::schema].is_string() ||
-      j[K::schema].get<std::string>() != diagnosis_json::kSchema) {
-    throw ParseError(
-        path, 0,
-        fmt::format("expected a {} document (circana diagnose --json)", diagnosis_json::kSchema));
+  for (std::size_t i = 0; i < d.contributions.size(); ++i) {
+    const std::string at = fmt::format("{}[{}].", K::contributions, i);
+    bounded(d.contributions[i].g_mm, kMaxGmm, at + K::g_mm);
+    bounded(d.contributions[i].share_mm, kMaxGmm, at + K::share_mm);
+    bounded(d.contributions[i].percent, kMaxPercent, at + K::percent);
   }
-  if (j.contains(K::version))
-    diagnosis_json::check_version(rd.text(j, K::version, ""), path, "circana");
-  DiagnosisChart d;
-  if (j.contains(K::source)) d.source = rd.text(j, K::source, "");
-  const auto plane = parse_plane(rd.text(j, K::plane, ""));
-  if (!plane) rd.fail(K::plane, "XY, YZ or ZX");
-  d.plane = *plane;
-  const auto& contributions = rd.array(j, K::contributions, "");
-  for (std::size_t i = 0; i < contributions.size(); ++i) {
-    const std::string at = fmt::format("{}[{}]", K::contributions, i);
-    const auto& c = contributions[i];
-    Contribution k;
-    k.source = rd.text(c, K::source, at);
-    k.g_mm = rd.number(c, K::g_mm, at);
-    k.percent = percent.number(c, K::percent, at);
-    if (c.is_object() && c.contains(K::share_mm)) k.share_mm = rd.number(c, K::share_mm, at);
-    d.contributions.push_back(std::move(k));
+  bounded(d.model_g_mm, kMaxGmm, K::model_g_mm);
+  bounded(d.residual_g_mm, kMaxGmm, std::string(K::residual) + "." + K::g_mm);
+  for (const Estimate& b : d.backlash_mm) {
+    if (b.value) bounded(*b.value, kMaxGmm, K::backlash_mm);
   }
-  d.model_g_mm = rd.number(j, K::model_g_mm, "");
-  d.residual_g_mm = rd.number(rd.at(j, K::residual, ""), K::g_mm, K::residual);
-  // Backlash and squareness for the verdict's limits; a document without them judges neither.
-  if (j.contains(K::backlash_mm)) {
-    const auto& b = rd.at(j, K::backlash_mm, "");
-    if (!b.is_object()) rd.fail(K::backlash_mm, "an object of axis: mm or null");
-    for (const auto& [axis, v] : b.items()) {
-      if (v.is_null()) continue;
-      const double mm = rd.number(v, std::string(K::backlash_mm) + "." + axis);
-      d.backlash_mm = std::max(d.backlash_mm.value_or(0.0), std::abs(mm));
-    }
-  }
-  if (j.contains(K::squareness_urad)) {
-    const JsonReader<nlohmann::json> urad(path, "diagnosis JSON", 1e7);
-    d.squareness_urad = urad.optional_number(j, K::squareness_urad, "");
-  }
-  return d;
+  return diagnosis_chart(d);
 }
 
 std::string html_report(const std::vector<ReportPage>& pages, const HandOver& handover,

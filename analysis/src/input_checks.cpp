@@ -280,9 +280,10 @@ std::optional<std::string> check_time_column(const Trace& trace, const std::vect
 namespace {
 
 struct Announced {
-  std::string key;                // the metadata key they came from
-  std::vector<long> ids;          // run ids, when `segments` gives them
-  std::vector<std::string> dirs;  // each run's direction as announced
+  std::string key;                           // the metadata key they came from
+  std::vector<long> ids;                     // run ids, when `segments` gives them
+  std::vector<std::string> dirs;             // each run's direction as announced
+  std::vector<std::optional<double>> feeds;  // each run's feed as announced (mm/min)
 };
 
 std::vector<std::string> split_list(std::string_view text) {
@@ -313,6 +314,14 @@ std::optional<Announced> announced_runs(const Trace& trace) {
                                         ? std::string_view()
                                         : std::string_view(item).substr(colon + 1);
       a.dirs.emplace_back(rest.substr(0, rest.find(':')));
+      // The feed after the direction: "F300" (mm/min).
+      std::optional<double> feed;
+      if (const auto f = rest.find(":F"); f != std::string_view::npos) {
+        const std::string_view v = rest.substr(f + 2);
+        feed = parse_finite(v.substr(0, v.find(':')));
+        if (feed && !(*feed > 0)) feed.reset();
+      }
+      a.feeds.push_back(feed);
     }
     return a.ids.empty() ? std::nullopt : std::optional<Announced>(a);
   }
@@ -320,12 +329,21 @@ std::optional<Announced> announced_runs(const Trace& trace) {
   if (!directions) return std::nullopt;
   a.key = meta_key::directions;
   const std::vector<std::string> dirs = split_list(*directions);
-  std::size_t feeds = 1;
+  std::vector<std::optional<double>> feeds{std::nullopt};
   if (const std::string* f = trace.metadata.find(meta_key::feeds_mm_per_min)) {
-    feeds = std::max<std::size_t>(1, split_list(*f).size());
+    feeds.clear();
+    for (const std::string& item : split_list(*f)) {
+      std::optional<double> feed = parse_finite(item);
+      if (feed && !(*feed > 0)) feed.reset();
+      feeds.push_back(feed);
+    }
+    if (feeds.empty()) feeds.emplace_back();
     a.key += " x feeds_mm_per_min";
   }
-  for (std::size_t k = 0; k < feeds; ++k) a.dirs.insert(a.dirs.end(), dirs.begin(), dirs.end());
+  for (const std::optional<double>& feed : feeds) {
+    a.dirs.insert(a.dirs.end(), dirs.begin(), dirs.end());
+    a.feeds.insert(a.feeds.end(), dirs.size(), feed);
+  }
   return a.dirs.empty() ? std::nullopt : std::optional<Announced>(a);
 }
 
@@ -360,6 +378,32 @@ std::optional<std::string> check_announced_runs(const Trace& trace, const std::v
                   announced->dirs.size(), announced->key, trace.metadata.line_of(first_key),
                   runs.size(), missing.find(',') == std::string::npos ? "" : "s", missing),
       options);
+}
+
+std::vector<std::optional<double>> announced_run_feeds(const Trace& trace,
+                                                       const std::vector<Run>& runs) {
+  std::vector<std::optional<double>> out(runs.size());
+  const std::optional<Announced> announced = announced_runs(trace);
+  if (!announced) return out;
+  const bool by_id =
+      !announced->ids.empty() && trace.column(column_name::segment) &&
+      std::all_of(runs.begin(), runs.end(), [](const Run& r) { return r.segment_id != 0; });
+  if (by_id) {
+    for (std::size_t k = 0; k < runs.size(); ++k) {
+      const auto it = std::find(announced->ids.begin(), announced->ids.end(), runs[k].segment_id);
+      if (it != announced->ids.end())
+        out[k] = announced->feeds[static_cast<std::size_t>(it - announced->ids.begin())];
+    }
+    return out;
+  }
+  // In order: only when the runs found are the runs announced, each in its direction.
+  if (runs.size() != announced->dirs.size()) return out;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    if (announced->dirs[k] != direction_name(runs[k].direction))
+      return std::vector<std::optional<double>>(runs.size());
+  }
+  for (std::size_t k = 0; k < runs.size(); ++k) out[k] = announced->feeds[k];
+  return out;
 }
 
 std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,

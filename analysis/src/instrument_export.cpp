@@ -151,7 +151,8 @@ std::string title_column_name(std::string_view field) {
   std::string role;
   if (has({"angle", "theta"})) {
     role = "angle";
-  } else if (has({"ccw", "counterclockwise"}) || (has({"counter"}) && has({"clockwise"}))) {
+  } else if (has({"ccw", "counterclockwise", "anticlockwise", "acw"}) ||
+             (has({"counter", "anti"}) && has({"clockwise"}))) {
     role = "ccw";
   } else if (has({"cw", "clockwise"})) {
     role = "cw";
@@ -161,6 +162,9 @@ std::string title_column_name(std::string_view field) {
     role = "t";
   } else if (has({"run", "segment"})) {
     return "run";
+  } else if (has({"centre", "center", "nominal", "target"})) {
+    // "Centre X", "Center X": a coordinate of the centre, not the axis's position.
+    return {};
   } else if (const auto axes = std::count_if(
                  words.begin(), words.end(),
                  [](const std::string& w) { return w == "x" || w == "y" || w == "z"; });
@@ -174,10 +178,15 @@ std::string title_column_name(std::string_view field) {
   std::string unit;
   for (const std::string& w : words) {
     std::string u = w;
-    if (u == "degree" || u == "degrees") u = "deg";
-    if (u == "radian" || u == "radians") u = "rad";
-    if (u == "micron" || u == "microns") u = "um";
-    if (u == "sec" || u == "seconds") u = "s";
+    // British and American spellings alike (metre, meter), singular and plural.
+    if (u.size() > 3 && u.back() == 's' && u != "ms") u.pop_back();
+    if (u == "degree") u = "deg";
+    if (u == "radian") u = "rad";
+    if (u == "micron" || u == "micrometre" || u == "micrometer") u = "um";
+    if (u == "millimetre" || u == "millimeter") u = "mm";
+    if (u == "nanometre" || u == "nanometer") u = "nm";
+    if (u == "millisecond" || u == "msec") u = "ms";
+    if (u == "sec" || u == "second") u = "s";
     if (u == "deg" || u == "rad" || u == "um" || u == "mm" || u == "nm" || u == "ms" ||
         (u == "s" && role == "t")) {
       if (!unit.empty() && unit != u) return {};  // two units: not for us to pick one

@@ -8,13 +8,13 @@
 #include <iterator>
 #include <map>
 
+#include "circtest/core/diagnosis_document.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
-#include "diagnosis_document.hpp"
 
 namespace circtest {
 
@@ -322,6 +322,50 @@ std::string disagreement(const AxisJoint& a, const JointEstimate& j, const char*
 
 }  // namespace
 
+std::optional<std::string> take_joint_value(const AxisJoint& axis, JointEstimate& j,
+                                            const Estimate& value, const char* what,
+                                            const char* unit, double factor) {
+  if (!value.value) return std::nullopt;
+  j.joint = value;
+  const double v = *value.value;
+  std::size_t weighted = 0;
+  double chi2 = 0, lo = v, hi = v;
+  bool any = false;
+  for (const PlaneEstimate& p : j.planes) {
+    if (!p.estimate.value) continue;
+    lo = any ? std::min(lo, *p.estimate.value) : *p.estimate.value;
+    hi = any ? std::max(hi, *p.estimate.value) : *p.estimate.value;
+    any = true;
+    if (!p.estimate.standard_error || !(*p.estimate.standard_error > 0)) continue;
+    const double d = (*p.estimate.value - v) / *p.estimate.standard_error;
+    chi2 += d * d;
+    ++weighted;
+  }
+  if (!any) return std::nullopt;
+  if (weighted > 0) {
+    j.chi2 = chi2;
+    j.dof = static_cast<int>(weighted);
+    j.consistent = chi2 <= chi2_999(j.dof);
+    if (!j.consistent && j.joint.standard_error) *j.joint.standard_error *= std::sqrt(chi2 / j.dof);
+  } else {
+    const double margin = 0.1 * std::abs(v);
+    j.consistent = v >= lo - margin && v <= hi + margin;
+  }
+  if (j.consistent) return std::nullopt;
+  std::string s = fmt::format("the joint {} {} {:.3f} {} is not what the planes found:", axis.axis,
+                              what, v * factor, unit);
+  for (const PlaneEstimate& p : j.planes) {
+    if (!p.estimate.value) continue;
+    s += p.estimate.standard_error
+             ? fmt::format(" {} {:.3f} {} (+- {:.3f})", plane_name(p.plane),
+                           *p.estimate.value * factor, unit, *p.estimate.standard_error * factor)
+             : fmt::format(" {} {:.3f} {}", plane_name(p.plane), *p.estimate.value * factor, unit);
+  }
+  if (!j.chi2) return s + " (more than 10 % outside their range)";
+  return s + fmt::format(" (chi2 {:.1f} on {} dof); its standard error is widened by {:.1f}",
+                         *j.chi2, j.dof, std::sqrt(*j.chi2 / j.dof));
+}
+
 SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> planes) {
   SetDiagnosis s;
   s.source = std::move(source);
@@ -337,16 +381,9 @@ SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> plane
         add(a.spike_mm, d.plane, d.spike_mm[k]);
         add(a.spike_ms, d.plane, d.spike_ms[k]);
         add(a.scale_ppm, d.plane, d.scale_ppm[k]);
-        if (d.lag_ms.value && d.servo_mismatch_ms.value) {
-          const double half = (k == 0 ? 0.5 : -0.5) * *d.servo_mismatch_ms.value;
-          Estimate lag;
-          lag.value = *d.lag_ms.value + half;
-          if (d.lag_ms.standard_error && d.servo_mismatch_ms.standard_error) {
-            lag.standard_error =
-                std::hypot(*d.lag_ms.standard_error, 0.5 * *d.servo_mismatch_ms.standard_error);
-          }
-          add(a.lag_ms, d.plane, lag);
-        }
+        // The plane's own lag of the axis, in the convention the plane reports it (and the
+        // joint fit's): following error over velocity as the trace logs it.
+        add(a.lag_ms, d.plane, d.axis_lag[k].lag_ms);
       }
     }
     if (!covered) continue;
@@ -431,7 +468,7 @@ constexpr std::pair<const char*, Member> kAxisKeys[] = {
 json to_json(const SetDiagnosis& s) {
   std::vector<char> axes;
   for (const AxisJoint& a : s.axes) axes.push_back(a.axis);
-  json j = detail::diagnosis_document_head(plane_list(s.planes), axes, s.feeds_mm_per_min);
+  json j = diagnosis_document_head(plane_list(s.planes), axes, s.feeds_mm_per_min);
   json se = json::object();
   for (const auto& [key, member] : kAxisKeys) {
     json v = json::object(), e = json::object();

@@ -61,7 +61,8 @@ std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, Sharing sh) {
       if (sh.scale) return {{kScale, 0, 1.0}, {kScale, 1, -1.0}};
       break;
     case Kind::servo:
-      if (sh.lag) return {{kLag, 0, 1.0}, {kLag, 1, -1.0}};
+      // Without the feed the column's coefficient is a phase, not a lag (runs.cpp).
+      if (sh.lag && ds.speed_known) return {{kLag, 0, 1.0}, {kLag, 1, -1.0}};
       break;
     default:
       break;
@@ -173,9 +174,12 @@ Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const L
     }
     const int la = shared_index(L, ds, 0, kLag), lb = shared_index(L, ds, 1, kLag);
     if (ds.lag_s && la >= 0 && lb >= 0) {
+      // In the convention of each plane's own axis lag (servo_axes.cpp): the following error
+      // over velocity as the trace logs it, without the half sample the continuous loop lags
+      // more (servo.cpp adds it to the mean lag).
       Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
       a[la] = a[lb] = 0.5;
-      observe(J, a, *ds.lag_s, kMeanLagSpreadS);
+      observe(J, a, *ds.lag_s - ds.period / 2.0, kMeanLagSpreadS);
     }
   }
   return J;
@@ -216,13 +220,11 @@ bool take_state(std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layo
   return changed;
 }
 
-// A value and standard error of the joint fit into an axis's joint estimate. Planes that
-// disagree beyond their standard errors widen it by sqrt(chi2 / dof), as the note says.
-void take_joint(JointEstimate& j, const Estimate& e) {
-  if (!e.value) return;
-  j.joint = e;
-  if (!j.consistent && j.chi2 && j.dof > 0 && j.joint.standard_error)
-    *j.joint.standard_error *= std::sqrt(*j.chi2 / j.dof);
+// A value and standard error of the joint fit into an axis's joint estimate, judged against
+// the planes' own (test_set.cpp); a note when they do not agree with it.
+void take_joint(const AxisJoint& a, JointEstimate& j, const Estimate& e, const char* what,
+                const char* unit, double factor, std::vector<std::string>& notes) {
+  if (auto note = take_joint_value(a, j, e, what, unit, factor)) notes.push_back(std::move(*note));
 }
 
 }  // namespace
@@ -272,10 +274,15 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   s.joint_fit = true;
   for (AxisJoint& a : s.axes) {
     const auto& g = L.shared[static_cast<std::size_t>(a.axis - 'X')];
-    take_joint(a.backlash_mm, estimate_at(sol, g[kBacklash], 1.0));
-    take_joint(a.spike_mm, estimate_at(sol, g[kSpike], 1.0));
-    take_joint(a.scale_ppm, estimate_at(sol, g[kScale], 1e6));
-    if (g[kLag] >= 0) take_joint(a.lag_ms, Estimate{sol.x[g[kLag]] * 1e3, std::nullopt});
+    take_joint(a, a.backlash_mm, estimate_at(sol, g[kBacklash], 1.0), "backlash", "um", 1e3,
+               s.notes);
+    take_joint(a, a.spike_mm, estimate_at(sol, g[kSpike], 1.0), "reversal spike", "um", 1e3,
+               s.notes);
+    take_joint(a, a.scale_ppm, estimate_at(sol, g[kScale], 1e6), "scale", "ppm", 1.0, s.notes);
+    if (g[kLag] >= 0) {
+      take_joint(a, a.lag_ms, Estimate{sol.x[g[kLag]] * 1e3, std::nullopt}, "following lag", "ms",
+                 1.0, s.notes);
+    }
   }
   // Each plane's squareness: its own unknown in the joint model, reported where the plane
   // reports it (not confounded with the servo mismatch).

@@ -255,7 +255,7 @@ TEST_F(CircanaCli, BadOptions) {
   expect_error("fit --json", 2, "missing the points argument: expected a file name");
   expect_error("frobnicate", 2,
                "unknown command 'frobnicate': expected analyze, diagnose, report, fit, import, "
-               "export-polar, store or history");
+               "export-polar, store, history or summary");
 }
 
 TEST_F(CircanaCli, JsonDocumentOfASimulatedMachine) {
@@ -723,4 +723,74 @@ TEST_F(CircanaCli, InchTracesAreResolvedFromTheirCircle) {
   ASSERT_EQ(forced.exit_code, 0) << forced.err;
   EXPECT_NEAR(nlohmann::json::parse(forced.out)["H"].get<double>(), ja["H"].get<double>(), 1e-6);
   expect_error("analyze " + mm + " --units feet", 2, "--units: expected mm or inch, got 'feet'");
+}
+
+// `circana COMMAND --help` lists that command's usage and only the options it accepts: an
+// option it lists is one it takes (never refused afterwards), and no other command's usage.
+TEST_F(CircanaCli, EachCommandsHelpListsOnlyWhatItAccepts) {
+  const std::vector<std::string> commands = {"analyze", "diagnose", "report",
+                                             "fit",     "import",   "export-polar",
+                                             "store",   "history",  "summary"};
+  for (const std::string& command : commands) {
+    const CommandResult r = run({command, "--help"});
+    ASSERT_EQ(r.exit_code, 0) << command;
+    EXPECT_NE(r.out.find("usage: circana " + command), std::string::npos) << r.out;
+    const std::string usage = r.out.substr(0, r.out.find("(man circana"));
+    for (const std::string& other : commands) {
+      if (other == command) continue;
+      EXPECT_EQ(usage.find("circana " + other + " "), std::string::npos)
+          << command << " --help shows " << other << "'s usage:\n"
+          << r.out;
+    }
+  }
+  // The options these commands refuse are not offered.
+  for (const auto& [command, refused] :
+       std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"store", {"--svg", "--json", "--scale-um-per-div", "--compare"}},
+           {"export-polar", {"--svg", "--json", "--scale-um-per-div", "--compare"}},
+           {"diagnose", {"--compare"}},
+           {"report", {"--json", "--svg"}}}) {
+    const CommandResult r = run({command, "--help"});
+    const std::string options = r.out.substr(r.out.find("(man circana"));
+    for (const std::string& o : refused) {
+      EXPECT_EQ(options.find(o + " "), std::string::npos) << command << " lists " << o << "\n"
+                                                          << options;
+    }
+  }
+  // The top-level help still shows every command.
+  const CommandResult all = run(std::vector<std::string>{"--help"});
+  for (const std::string& command : commands)
+    EXPECT_NE(all.out.find("circana " + command), std::string::npos) << command;
+}
+
+// circana summary: the runs' figures side by side from their documents, as the demo prints
+// them: the injected backlash, and H as analyze reports it.
+TEST_F(CircanaCli, SummaryReadsTheRunsDocuments) {
+  const std::string trace = (dir_ / "b.csv").string();
+  ASSERT_EQ(simtrace("-o " + trace + " --backlash-x 0.008"), 0);
+  const CommandResult analyzed = run({"analyze", trace, "--json"});
+  const CommandResult diagnosed = run({"diagnose", trace, "--json"});
+  ASSERT_EQ(analyzed.exit_code, 0);
+  ASSERT_EQ(diagnosed.exit_code, 0);
+  const std::string result = write("b.json", analyzed.out);
+  const std::string diagnosis = write("b-diagnosis.json", diagnosed.out);
+  const std::string out = (dir_ / "summary.json").string();
+  const CommandResult r =
+      run({"summary", "--name", "before", "--result", result, "--diagnosis", diagnosis, "--name",
+           "again", "--result", result, "--diagnosis", diagnosis, "--json", out});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("backlash X (um)"), std::string::npos) << r.out;
+  const nlohmann::json j = nlohmann::json::parse(circtest::testing::slurp(out));
+  EXPECT_EQ(j["runs"], nlohmann::json({"before", "again"}));
+  const auto row = [&j](const std::string& label) {
+    for (const auto& row : j["rows"]) {
+      if (row["label"] == label) return row["values"];
+    }
+    return nlohmann::json();
+  };
+  EXPECT_NEAR(row("backlash X")[0].get<double>(), 8.0, 0.1);
+  EXPECT_EQ(row("H")[0].get<double>(),
+            nlohmann::json::parse(analyzed.out)["H"].get<double>() * 1e3);
+  EXPECT_EQ(row("H")[1], row("H")[0]);
+  EXPECT_EQ(run({"summary", "--name", "x", "--result", result}).exit_code, 2);
 }

@@ -4,6 +4,7 @@
 // 2 urad, 3 ppm, 0.05 ms), whichever is larger.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -355,6 +356,9 @@ TEST(DiagnoseBadInput, OneRunLeavesSquarenessAndServoOpen) {
   bool said = false;
   for (const auto& n : d.notes) said = said || n.find("sin 2theta") != std::string::npos;
   EXPECT_TRUE(said);
+  // ... and the document lists them as terms the trace cannot separate.
+  EXPECT_EQ(d.unseparable, (std::vector<std::string>{"squareness_urad", "servo_mismatch_ms"}));
+  EXPECT_EQ(to_json(d)["unseparable"].get<std::vector<std::string>>(), d.unseparable);
   // What it does report is right.
   ASSERT_TRUE(d.backlash_mm[0].value);
   EXPECT_NEAR(*d.backlash_mm[0].value, t.backlash_a, 0.05 * t.backlash_a);
@@ -418,6 +422,48 @@ TEST(DiagnoseBadInput, NoTimeColumn) {
   ASSERT_TRUE(d.backlash_mm[0].value);
   EXPECT_NEAR(*d.backlash_mm[0].value, t.backlash_a, 0.05 * t.backlash_a);
   EXPECT_FALSE(d.spike_ms[0].value);
+}
+
+// The trace without its feed: no time column and no feed metadata, as a ball bar's polar
+// export often is.
+Trace without_feed(Trace trace) {
+  const auto ti = static_cast<std::ptrdiff_t>(trace.column_index("t").value());
+  trace.columns.erase(trace.columns.begin() + ti);
+  trace.values.erase(trace.values.begin() + ti);
+  TraceMetadata kept;
+  for (const auto& [key, value] : trace.metadata.entries()) {
+    if (key != "feed_mm_per_min" && key != "feeds_mm_per_min" && key != "sample_period_s")
+      kept.set(key, value);
+  }
+  trace.metadata = kept;
+  return trace;
+}
+
+// Unequal position loops make a direction-dependent ellipse whether the feed is known or not:
+// without the feed it is still fitted (as a phase), so it does not go into the backlash.
+TEST(DiagnoseBadInput, WithoutTheFeedTheServoEllipseStaysOutOfTheBacklash) {
+  Truth t;
+  t.backlash_a = 8 * kUm;
+  t.kv_a = 30;
+  t.kv_b = 40;
+  const Diagnosis known = diagnose(simulate(t, program(Plane::XY, 360)));
+  const Diagnosis d = diagnose(without_feed(simulate(t, program(Plane::XY, 360))));
+  ASSERT_TRUE(known.backlash_mm[0].value);
+  EXPECT_NEAR(*known.backlash_mm[0].value, t.backlash_a, 0.05 * t.backlash_a);
+  EXPECT_TRUE(d.feeds_mm_per_min.empty());
+  // Never a confident wrong number: the truth within 5 %, or not reported and said so.
+  if (d.backlash_mm[0].value) {
+    EXPECT_NEAR(*d.backlash_mm[0].value, t.backlash_a, 0.05 * t.backlash_a);
+  } else {
+    EXPECT_NE(std::find(d.unseparable.begin(), d.unseparable.end(), "backlash_mm.X"),
+              d.unseparable.end());
+  }
+  if (d.backlash_mm[1].value) EXPECT_NEAR(*d.backlash_mm[1].value, 0.0, 0.4 * kUm);
+  // The ellipse needs the feed for a lag: no number in ms, a note with its phase.
+  EXPECT_FALSE(d.servo_mismatch_ms.value);
+  bool said = false;
+  for (const auto& n : d.notes) said = said || n.find("fitted as a phase") != std::string::npos;
+  EXPECT_TRUE(said);
 }
 
 TEST(DiagnoseJson, ContractKeys) {

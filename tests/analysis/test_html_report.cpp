@@ -521,6 +521,19 @@ TEST_F(HtmlReport, BadRequests) {
   expect({"report", xy, "-o", out, "--limits-file", lim}, 4, lim + ": no limit in the file");
   expect({"report", xy, "-o", out, "--limits-file", (dir_ / "none.limits").string()}, 3,
          "none.limits");
+  // As common editors write it: a byte-order mark, CRLF and a lone CR, blank lines, blanks.
+  circtest::testing::spit(lim,
+                          "\xEF\xBB\xBFH=0.01 \r\n\r\n  G = 0.02\t\r\nF=0.1\rbacklash=0.004\r\n");
+  {
+    const CommandResult r = circana({"report", xy, "-o", out, "--limits-file", lim});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const std::string html = circtest::testing::slurp(out);
+    EXPECT_NE(html.find("Against the limits of the file " + lim), std::string::npos);
+    for (const char* q : {"H", "G", "F"}) {
+      EXPECT_NE(html.find(std::string("data-quantity=\"") + q + "\""), std::string::npos) << q;
+    }
+    fs::remove(out);
+  }
   expect({"report", xy, "-o", out, "--limits", "H=0.01", "--limits-file", lim}, 2,
          "--limits and --limits-file: give the limits one way");
   // Changes: only a circtest.plan/1 document whose changes have words.

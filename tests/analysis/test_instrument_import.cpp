@@ -42,6 +42,16 @@ class Import : public ::testing::Test {
     EXPECT_EQ(run_command(args).exit_code, 0);
     return path;
   }
+  // A copy of configs/sim-mill in the scratch folder: its INI.
+  std::string sim_mill_ini() {
+    const fs::path cfg = dir_.dir() / "cfg";
+    fs::create_directories(cfg);
+    for (const auto& e :
+         fs::directory_iterator(fs::path(CIRCTEST_SOURCE_DIR) / "configs/sim-mill")) {
+      fs::copy(e.path(), cfg / e.path().filename());
+    }
+    return (cfg / "sim-mill.ini").string();
+  }
   ScratchDir dir_{"circtest-import"};
 };
 
@@ -56,12 +66,7 @@ std::vector<double> h_and_g(const nlohmann::json& j) {
 }  // namespace
 
 TEST_F(Import, ALoggedTraceExportedAndImportedEvaluatesTheSameAndApplyNeedsNoForce) {
-  const fs::path cfg = dir_.dir() / "cfg";
-  fs::create_directories(cfg);
-  for (const auto& e : fs::directory_iterator(fs::path(CIRCTEST_SOURCE_DIR) / "configs/sim-mill")) {
-    fs::copy(e.path(), cfg / e.path().filename());
-  }
-  const std::string ini = (cfg / "sim-mill.ini").string();
+  const std::string ini = sim_mill_ini();
   const std::string logged =
       simtrace("run.csv", {"--backlash-x", "0.008", "--squareness", "40e-6", "--f", "1500"});
 
@@ -210,4 +215,158 @@ TEST_F(Import, TitlesNameTheColumnsAndTheirUnits) {
   EXPECT_NE(trace.find("\nt,x,y\n0.000000,50.000000,0.000000\n0.010000,"), std::string::npos)
       << trace.substr(0, 400);
   EXPECT_EQ(slurp(out).substr(slurp(out).find("\nt,x,y\n")), trace.substr(trace.find("\nt,x,y\n")));
+}
+
+namespace {
+
+// The text without its lines that start with PREFIX.
+std::string without_lines(const std::string& text, const std::string& prefix) {
+  std::string out;
+  for (std::size_t p = 0; p < text.size();) {
+    std::size_t end = text.find('\n', p);
+    end = end == std::string::npos ? text.size() : end + 1;
+    if (text.compare(p, prefix.size(), prefix) != 0) out += text.substr(p, end - p);
+    p = end;
+  }
+  return out;
+}
+
+bool lists(const nlohmann::json& j, const std::string& term) {
+  for (const auto& t : j["unseparable"]) {
+    if (t == term) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+// A ball bar's polar export of a trace with X backlash 8 um and unequal position loops,
+// its feed line removed: the backlash is the injected one (or not reported and listed as
+// unseparable), never the servo ellipse taken for play; the import's synthesised commanded
+// columns give no lag; circcomp plans no backlash from an unseparable term.
+TEST_F(Import, AnExportWithoutItsFeedGivesTheInjectedBacklashOrNone) {
+  const std::string logged =
+      simtrace("run.csv", {"--backlash-x", "0.008", "--kv-x", "30", "--kv-y", "40", "--f", "1500"});
+  const std::string polar = dir_.file("polar.txt");
+  ASSERT_EQ(circana({"export-polar", logged, "-o", polar}).exit_code, 0);
+  const std::string bare = dir_.write("bare.txt", without_lines(slurp(polar), "# feed_mm_per_min"));
+  const std::string imported = dir_.file("imported.csv");
+  CommandResult r = circana({"import", bare, "-o", imported});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = circana({"diagnose", imported, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_TRUE(j["feeds_mm_per_min"].empty());
+  const nlohmann::json& x = j["backlash_mm"]["X"];
+  if (x.is_null()) {
+    EXPECT_TRUE(lists(j, "backlash_mm.X")) << j.dump(1);
+  } else {
+    EXPECT_NEAR(x.get<double>(), 0.008, 0.0004) << j.dump(1);  // 5 % of the truth
+  }
+  const nlohmann::json& y = j["backlash_mm"]["Y"];
+  if (!y.is_null()) EXPECT_NEAR(y.get<double>(), 0.0, 0.0004) << j.dump(1);
+  // The synthesised x_cmd, y_cmd only give each reading's angle: no lag from them.
+  for (const char* axis : {"X", "Y"}) {
+    EXPECT_NE(j["axis_lag_source"][axis], "instrument") << j.dump(1);
+  }
+  EXPECT_TRUE(j["lag_ms"].is_null()) << j.dump(1);
+}
+
+// A two-feed export that states its feeds: each run diagnosed at its own feed.
+TEST_F(Import, AnExportOfTwoFeedsUsesTheFeedsItStates) {
+  const std::string logged =
+      simtrace("set.csv", {"--set", "XY", "--feeds", "500,1500", "--backlash-x", "0.008", "--kv-x",
+                           "30", "--kv-y", "40"});
+  const std::string polar = dir_.file("polar2.txt");
+  CommandResult r = circana({"export-polar", logged, "-o", polar});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(slurp(polar).find("# feeds_mm_per_min: 500,1500\n"), std::string::npos);
+  const std::string imported = dir_.file("imported2.csv");
+  r = circana({"import", polar, "-o", imported});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = circana({"diagnose", imported, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["feeds_mm_per_min"], nlohmann::json({500.0, 1500.0})) << j.dump(1);
+  ASSERT_FALSE(j["backlash_mm"]["X"].is_null()) << j.dump(1);
+  EXPECT_NEAR(j["backlash_mm"]["X"].get<double>(), 0.008, 0.0004);
+  // The ellipse grows with the feed: its lag mismatch is 1/30 - 1/40 s.
+  ASSERT_FALSE(j["servo_mismatch_ms"].is_null()) << j.dump(1);
+  EXPECT_NEAR(j["servo_mismatch_ms"].get<double>(), (1.0 / 30 - 1.0 / 40) * 1e3, 0.3);
+}
+
+#ifdef CIRCCOMP_PATH
+// circcomp gives an unseparable term no correction, whatever number stands beside it.
+TEST_F(Import, CirccompPlansNothingForAnUnseparableTerm) {
+  const std::string ini = sim_mill_ini();
+  const std::string logged = simtrace("run.csv", {"--backlash-x", "0.008", "--f", "1500"});
+  CommandResult r = circana({"diagnose", logged, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  nlohmann::json j = nlohmann::json::parse(r.out);
+  ASSERT_FALSE(j["backlash_mm"]["X"].is_null());
+  const std::vector<std::string> env = {"CIRCTEST_KINS_MODULE=" + dir_.write("kins.so", ""),
+                                        "CIRCTEST_FRIC_MODULE=" + dir_.write("fric.so", "")};
+  const auto plan = [&](const nlohmann::json& doc) {
+    const std::string path = dir_.write("diagnosis.json", doc.dump());
+    return run_command({CIRCCOMP_PATH, "plan", "--ini", ini, "--force", path}, env);
+  };
+  r = plan(j);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("BACKLASH"), std::string::npos) << r.out;  // the control: it would
+  j["unseparable"] = {"backlash_mm.X"};
+  r = plan(j);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.find("BACKLASH"), std::string::npos) << r.out;
+  EXPECT_NE((r.out + r.err).find("X backlash: not in the diagnosis"), std::string::npos)
+      << r.out << r.err;
+}
+#endif
+
+// Titles in British and American usage alike: anticlockwise and counterclockwise, metre and
+// meter, singular and plural units; a centre's (center's) coordinate is no position.
+TEST_F(Import, TitlesInBritishAndAmericanUsage) {
+  const auto polar = [](const std::string& title) {
+    std::string text = title + "\n";
+    for (int i = 0; i < 360; ++i) {
+      text += fmt::format("{};{};{}\n", i, i < 180 ? 3 : -3, i < 180 ? -3 : 3);
+    }
+    return text;
+  };
+  for (const std::string title :
+       {"Angle (degrees);Anticlockwise deviation (micrometres);Clockwise deviation (micrometres)",
+        "Angle (degree);Counterclockwise deviation (micrometers);Clockwise deviation "
+        "(micrometers)",
+        "Angle [deg];Anti-clockwise [microns];Clockwise [microns]",
+        "Angle (deg);Counter-clockwise (micrometer);Clockwise (micrometre)"}) {
+    const std::string in = dir_.write("titled.csv", polar(title));
+    const std::string out = dir_.file("titled-trace.csv");
+    const CommandResult r = circana({"import", in, "-o", out, "--radius", "100"});
+    ASSERT_EQ(r.exit_code, 0) << title << "\n" << r.err;
+    const nlohmann::json j = analyze(out);
+    ASSERT_EQ(j["runs"].size(), 2u) << title;
+    EXPECT_EQ(j["runs"][0]["direction"], "CCW") << title;
+    EXPECT_NEAR(j["H"].get<double>(), 0.006, 1e-4) << title;
+  }
+  // Millimetres and millimeters, milliseconds: the same trace.
+  for (const std::string title : {"Time (milliseconds);X (millimetres);Y (millimetres)",
+                                  "Time (millisecond);X (millimeters);Y (millimeters)"}) {
+    std::string text = title + "\n";
+    for (int i = 0; i <= 400; ++i) {
+      const double a = 2 * std::numbers::pi * i / 400.0;
+      text += fmt::format("{};{:.6f};{:.6f}\n", i * 10, 50.0 * std::cos(a), 50.0 * std::sin(a));
+    }
+    const std::string out = dir_.file("xy-trace.csv");
+    const CommandResult r = circana({"import", dir_.write("xy.csv", text), "-o", out});
+    ASSERT_EQ(r.exit_code, 0) << title << "\n" << r.err;
+    EXPECT_NE(slurp(out).find("\nt,x,y\n0.000000,50.000000,0.000000\n0.010000,"), std::string::npos)
+        << title;
+  }
+  // A centre's coordinate in either spelling is not taken for the axis's position.
+  for (const std::string title :
+       {"Time (ms);Centre X (mm);X (mm);Y (mm)", "Time (ms);Center X (mm);X (mm);Y (mm)"}) {
+    const std::string in = dir_.write("c.csv", title + "\n0;0;50;0\n10;0;0;50\n20;0;-50;0\n");
+    const CommandResult r = circana({"import", in, "-o", dir_.file("c-trace.csv")});
+    EXPECT_EQ(r.exit_code, 4) << title;
+    EXPECT_NE(r.err.find("cannot tell what 'Cent"), std::string::npos) << r.err;
+  }
 }

@@ -161,8 +161,8 @@ std::string check_trace(const std::string& text) {
 }  // namespace
 
 // The case of the report: 8 samples at 45 deg steps on R25, marker and segment 1. The
-// diagnosis segfaulted in the periodogram; it is refused, naming the samples it needs (7
-// terms: 1 ms apart the samples give no plausible feed, so no servo term).
+// diagnosis segfaulted in the periodogram; it is refused, naming the samples it needs (8
+// terms: the servo ellipse is a term with or without a plausible feed).
 TEST(ShortRuns, EightSamplesAtFortyFiveDegreesAreNotMeasurableForTheDiagnosis) {
   const std::string text = trace_text({{8, 315.0, true, 0.0, 0.0}}, 25.0, 1, false);
   const Trace trace = parse_trace(text, kSource);
@@ -170,7 +170,7 @@ TEST(ShortRuns, EightSamplesAtFortyFiveDegreesAreNotMeasurableForTheDiagnosis) {
   ASSERT_EQ(ev.runs.size(), 1u);
   EXPECT_NEAR(ev.runs[0].g_mzc_mm, 0.0, 1e-6);
   EXPECT_ERROR(diagnose(trace, ev), ExitCode::data,
-               "short-runs.csv:4: diagnosis not measurable (8 samples, needs 21");
+               "short-runs.csv:4: diagnosis not measurable (8 samples, needs 24");
 }
 
 TEST(ShortRuns, EverySizeFromTwoToTwentyIsFiniteOrRefused) {

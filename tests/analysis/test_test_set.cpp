@@ -343,12 +343,22 @@ TEST(TestSetJointFit, OneModelRecoversEachAxisAndTheThreeSquarenesses) {
       expect_root_two_gain(*e);
       EXPECT_TRUE(e->consistent);
     }
-    // The following lag (none on this machine: the half sample the loop lags more than the
-    // trace shows) shared too, from the planes' lag mismatches and mean lags; the mean lags
-    // have no standard error, so neither has the joint lag.
+    // The following lag (none on this machine) shared too, from the planes' lag mismatches and
+    // mean lags; the mean lags have no standard error, so neither has the joint lag. It is in
+    // the convention of each plane's own axis lag (as the trace logs it): the same number.
     ASSERT_TRUE(j.lag_ms.joint.value);
-    EXPECT_NEAR(*j.lag_ms.joint.value, 0.5, 0.01);
+    EXPECT_NEAR(*j.lag_ms.joint.value, 0.0, 0.01);
     EXPECT_FALSE(j.lag_ms.joint.standard_error);
+    ASSERT_EQ(j.lag_ms.planes.size(), 2u);
+    for (const PlaneEstimate& p : j.lag_ms.planes) {
+      EXPECT_NEAR(*p.estimate.value, *j.lag_ms.joint.value, 0.01) << plane_name(p.plane);
+      for (const Diagnosis& d : s.plane_diagnoses) {
+        if (d.plane != p.plane) continue;
+        const std::size_t k = d.axes[0] == a ? 0 : 1;
+        EXPECT_EQ(*p.estimate.value, *d.axis_lag[k].lag_ms.value) << plane_name(p.plane);
+      }
+    }
+    EXPECT_TRUE(j.lag_ms.consistent);
     EXPECT_LT(*j.spike_mm.joint.standard_error,
               std::min(plane_se(j.spike_mm, j.spike_mm.planes[0].plane),
                        plane_se(j.spike_mm, j.spike_mm.planes[1].plane)));
@@ -415,4 +425,48 @@ TEST(TestSetJointFit, WithoutCommandedColumnsTheLagMismatchesStayThePlanes) {
     EXPECT_FALSE(j.lag_ms.joint.standard_error);
   }
   EXPECT_NEAR(*axis(s, 'X').backlash_mm.joint.value, 0.010, 1e-4);
+}
+
+// A joint value outside every plane's own is never called agreeing (the probe's case: X
+// reversal spike joint 5.25 +- 0.03 um, planes XY 9.08 +- 0.44 and ZX 9.17 +- 0.44).
+TEST(TestSetJointFit, AJointValueOutsideThePlanesIsNeverAgreement) {
+  AxisJoint x;
+  x.axis = 'X';
+  x.spike_mm.planes = {{Plane::XY, Estimate{9.08e-3, 0.44e-3}},
+                       {Plane::ZX, Estimate{9.17e-3, 0.44e-3}}};
+  // Planes that agree with each other, as the join finds them.
+  x.spike_mm.chi2 = 0.02;
+  x.spike_mm.dof = 1;
+  x.spike_mm.consistent = true;
+  const auto note =
+      take_joint_value(x, x.spike_mm, Estimate{5.25e-3, 0.03e-3}, "reversal spike", "um", 1e3);
+  EXPECT_FALSE(x.spike_mm.consistent);
+  ASSERT_TRUE(note);
+  EXPECT_NE(note->find("the joint X reversal spike 5.250 um is not what the planes found: XY "
+                       "9.080 um (+- 0.440) ZX 9.170 um (+- 0.440)"),
+            std::string::npos)
+      << *note;
+  // Widened by sqrt(chi2 / dof): chi2 of the planes about it on one dof per plane.
+  const double chi2 = std::pow((9.08 - 5.25) / 0.44, 2) + std::pow((9.17 - 5.25) / 0.44, 2);
+  ASSERT_TRUE(x.spike_mm.chi2);
+  EXPECT_NEAR(*x.spike_mm.chi2, chi2, 1e-6);
+  EXPECT_EQ(x.spike_mm.dof, 2);
+  EXPECT_NEAR(*x.spike_mm.joint.standard_error, 0.03e-3 * std::sqrt(chi2 / 2), 1e-12);
+  SetDiagnosis s;
+  s.axes.push_back(x);
+  EXPECT_NE(text_report(s).find("DISAGREE"), std::string::npos);
+  EXPECT_EQ(text_report(s).find(" agree"), std::string::npos);
+
+  // A joint value among the planes' agrees; one without standard errors far outside disagrees.
+  AxisJoint y;
+  y.axis = 'Y';
+  y.backlash_mm.planes = {{Plane::XY, Estimate{9.08e-3, 0.44e-3}},
+                          {Plane::YZ, Estimate{9.17e-3, 0.44e-3}}};
+  EXPECT_FALSE(take_joint_value(y, y.backlash_mm, Estimate{9.1e-3, 0.3e-3}, "backlash", "um", 1e3));
+  EXPECT_TRUE(y.backlash_mm.consistent);
+  y.lag_ms.planes = {{Plane::XY, Estimate{2.0, std::nullopt}},
+                     {Plane::YZ, Estimate{2.1, std::nullopt}}};
+  EXPECT_TRUE(
+      take_joint_value(y, y.lag_ms, Estimate{2.6, std::nullopt}, "following lag", "ms", 1.0));
+  EXPECT_FALSE(y.lag_ms.consistent);
 }

@@ -1,6 +1,7 @@
-// The diagnosis JSON has one definition (core/diagnosis_keys.hpp): circana writes a diagnosis
-// of a simulated machine, circcomp's reader reads it back, and every field it reads comes
-// back with the same value and the same presence (a number stays a number, a null a null).
+// The diagnosis JSON is one unit (core/diagnosis_document.hpp): circana writes a diagnosis of
+// a simulated machine, the one reader reads it back (the whole document written again from it
+// is the same), and circcomp's and the report's views of it come back with the same value and
+// the same presence (a number stays a number, a null a null).
 // A key renamed on one side only, or a value written in another type, fails here.
 #include <gtest/gtest.h>
 
@@ -8,6 +9,7 @@
 #include <string>
 
 #include "circtest/analysis/diagnosis.hpp"
+#include "circtest/analysis/html_report.hpp"
 #include "circtest/compensation/diagnosis_input.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -114,6 +116,41 @@ TEST_P(DiagnosisJson, EveryFieldCirccompReadsComesBackAsCircanaWroteIt) {
   EXPECT_EQ(d.ini_sha256, in.ini_sha256);
 }
 
+// Every reader of the document goes through one reader (core/diagnosis_document.hpp): read back,
+// the diagnosis writes the same document again, key for key; the report's chart and circcomp's
+// view are taken from it.
+TEST_P(DiagnosisJson, TheOneReaderGivesBackTheWholeDocument) {
+  const Diagnosis d = round_trip(GetParam()).written;
+  const auto written = to_json(d);
+  const DiagnosisDocument doc = parse_diagnosis_document(written.dump(), "d.json", "circcomp");
+  ASSERT_EQ(doc.planes.size(), 1u);
+  EXPECT_FALSE(doc.test_set);
+  EXPECT_EQ(to_json(doc.planes.front()), written);
+  // The report's reader: the same chart as from the diagnosis itself.
+  const DiagnosisChart from_file = diagnosis_chart_from_document(doc, "d.json");
+  const DiagnosisChart direct = diagnosis_chart(d);
+  EXPECT_EQ(from_file.plane, direct.plane);
+  EXPECT_EQ(from_file.source, direct.source);
+  EXPECT_EQ(from_file.model_g_mm, direct.model_g_mm);
+  EXPECT_EQ(from_file.residual_g_mm, direct.residual_g_mm);
+  EXPECT_EQ(from_file.backlash_mm, direct.backlash_mm);
+  EXPECT_EQ(from_file.squareness_urad, direct.squareness_urad);
+  ASSERT_EQ(from_file.contributions.size(), direct.contributions.size());
+  for (std::size_t i = 0; i < direct.contributions.size(); ++i) {
+    EXPECT_EQ(from_file.contributions[i].source, direct.contributions[i].source);
+    EXPECT_EQ(from_file.contributions[i].g_mm, direct.contributions[i].g_mm);
+    EXPECT_EQ(from_file.contributions[i].percent, direct.contributions[i].percent);
+    EXPECT_EQ(from_file.contributions[i].share_mm, direct.contributions[i].share_mm);
+  }
+  // A term listed as unseparable: no value for any reader.
+  auto listed = written;
+  listed["unseparable"] = {"squareness_urad"};
+  const DiagnosisDocument u = parse_diagnosis_document(listed.dump(), "d.json", "circana");
+  EXPECT_FALSE(u.planes.front().squareness_urad.value);
+  EXPECT_FALSE(diagnosis_chart_from_document(u, "d.json").squareness_urad);
+  EXPECT_FALSE(compensation::parse_diagnosis(listed.dump(), "d.json").squareness_urad.value);
+}
+
 INSTANTIATE_TEST_SUITE_P(Planes, DiagnosisJson, ::testing::Values(Plane::XY, Plane::YZ, Plane::ZX));
 
 // The spike's peak time (circfric's rise is set from it): read as written, absent in a file
@@ -130,6 +167,25 @@ TEST(DiagnosisJsonSpikePeak, ReadAsWrittenAbsentWhenOlderRefusedWhenNotANumber) 
   doc["reversal_spike_peak_ms"] = {{"X", "61 ms"}, {"Y", nullptr}};
   EXPECT_ERROR(compensation::parse_diagnosis(doc.dump(), "d.json"), ExitCode::parse,
                "\"reversal_spike_peak_ms.X\": expected a number or null");
+}
+
+// A term the diagnosis lists as unseparable gives the planner no number, whatever value
+// stands beside it; the others are read as written.
+TEST(DiagnosisJsonUnseparable, AListedTermHasNoValue) {
+  const Diagnosis d = round_trip(Plane::XY).written;
+  json doc = to_json(d);
+  ASSERT_TRUE(d.backlash_mm[0].value && d.servo_mismatch_ms.value);
+  doc["unseparable"] = {"backlash_mm.X", "servo_mismatch_ms"};
+  const auto in = compensation::parse_diagnosis(doc.dump(), "d.json");
+  EXPECT_FALSE(in.backlash_mm[0].value);
+  EXPECT_FALSE(in.backlash_mm[0].standard_error);
+  EXPECT_FALSE(in.servo_mismatch_ms.value);
+  expect_same(d.backlash_mm[1], in.backlash_mm[1], "backlash Y");
+  expect_same(d.squareness_urad, in.squareness_urad, "squareness");
+  EXPECT_EQ(in.unseparable, (std::vector<std::string>{"backlash_mm.X", "servo_mismatch_ms"}));
+  doc["unseparable"] = "backlash_mm.X";
+  EXPECT_ERROR(compensation::parse_diagnosis(doc.dump(), "d.json"), ExitCode::parse,
+               "\"unseparable\": expected an array");
 }
 
 // A machine without errors: the values the trace cannot separate are written as null and read
@@ -174,7 +230,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   sim::CircleProgram p;
   p.radius_mm = 50.0;
   const auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
-  EXPECT_EQ(j.at("version"), "1.2");
+  EXPECT_EQ(j.at("version"), "1.3");
   EXPECT_EQ(j.at("schema"), "circtest.diagnosis/1");
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.0")), "d.json"));
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.99")), "d.json"));
@@ -191,7 +247,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   for (const char* bad : {"2", "1.", ".1", "1.1.1", "v1.1", "-1.0", "1.x", "99999999.0", ""}) {
     EXPECT_ERROR(
         compensation::parse_diagnosis(with_version(quoted(bad)), "d.json"), ExitCode::parse,
-        "d.json: \"version\": expected MAJOR.MINOR (\"1.2\"), got '" + std::string(bad) + "'");
+        "d.json: \"version\": expected MAJOR.MINOR (\"1.3\"), got '" + std::string(bad) + "'");
   }
   EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("\\u0001\\u00ff.1")), "d.json"),
                ExitCode::parse, "got '\\x01\\xc3\\xbf.1'");

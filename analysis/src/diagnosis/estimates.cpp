@@ -2,6 +2,7 @@
 // trace cannot report left out.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "stages.hpp"
@@ -15,6 +16,7 @@ Estimate estimate(const DiagnosisState& ds, Kind k, double scale, int group = 0)
   const std::vector<Column>& cols = ds.cols;
   const Solution& sol = ds.sol;
   Estimate e;
+  if (std::find(ds.unseparable.begin(), ds.unseparable.end(), k) != ds.unseparable.end()) return e;
   if (auto j = find(cols, k, group)) {
     const auto ji = static_cast<Eigen::Index>(*j);
     e.value = sol.x[ji] * scale;
@@ -79,6 +81,14 @@ void report_estimates(DiagnosisState& ds) {
   if (!ds.squareness_servo_confounded) {
     D.squareness_urad = est(Kind::squareness, 1e6);
     D.servo_mismatch_ms = est(Kind::servo, 1e3);
+    if (!speed_known && D.servo_mismatch_ms.value) {
+      // The coefficient is the phase difference w dtau (runs.cpp): a lag needs the feed.
+      D.notes.push_back(fmt::format(
+          "servo mismatch ellipse fitted as a phase of {:+.4f} mrad (+- {:.4f}) between {} and "
+          "{}: its lag in ms needs the feed (state feed_mm_per_min or --feed)",
+          *D.servo_mismatch_ms.value, D.servo_mismatch_ms.standard_error.value_or(0.0), A, B));
+      D.servo_mismatch_ms = {};
+    }
   }
   for (std::size_t g = 0; g < ds.group_feed.size(); ++g) {
     FeedRadius fr;

@@ -1,6 +1,8 @@
 // The diagnosis model's shared helpers that need no inlining.
 #include "model.hpp"
 
+#include "circtest/core/diagnosis_keys.hpp"
+
 namespace circtest::diagnosis_detail {
 
 unsigned diagnosis_threads() {
@@ -42,6 +44,42 @@ std::string kind_name(Kind k, const std::array<char, 2>& axes) {
       return "spike decay";
   }
   return "?";
+}
+
+std::string term_key(Kind k, const std::array<char, 2>& axes) {
+  namespace K = diagnosis_json::key;
+  const auto axis = [&axes](const char* key, int ax) {
+    return std::string(key) + "." + axes[static_cast<std::size_t>(ax)];
+  };
+  switch (k) {
+    case Kind::scale_mismatch:
+      return K::scale_mismatch_ppm;
+    case Kind::squareness:
+      return K::squareness_urad;
+    case Kind::servo:
+      return K::servo_mismatch_ms;
+    case Kind::backlash_a:
+      return axis(K::backlash_mm, 0);
+    case Kind::backlash_b:
+      return axis(K::backlash_mm, 1);
+    case Kind::spike_a:
+      return axis(K::reversal_spike_mm, 0);
+    case Kind::spike_b:
+      return axis(K::reversal_spike_mm, 1);
+    case Kind::cyclic_a_sin:
+    case Kind::cyclic_a_cos:
+      return axis(K::cyclic, 0);
+    case Kind::cyclic_b_sin:
+    case Kind::cyclic_b_cos:
+      return axis(K::cyclic, 1);
+    case Kind::centre_a:
+    case Kind::centre_b:
+    case Kind::radius:
+    case Kind::spike_tau_a:
+    case Kind::spike_tau_b:
+      return {};
+  }
+  return {};
 }
 
 std::optional<std::size_t> find(const std::vector<Column>& cols, Kind k, int group) {

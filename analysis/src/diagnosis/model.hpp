@@ -60,6 +60,10 @@ struct RunInfo {
   std::size_t trace_begin = 0;     // the trace row of sample `begin`
   double dir = 1.0;                // +1 CCW, -1 CW
   double speed_mm_s = 0.0;         // 0 when unknown
+  // The speed the direction-dependent (servo mismatch) ellipse scales with: the run's speed, or
+  // with the feed unknown the radius per second, so that the servo column's coefficient is the
+  // phase difference w dtau in rad (docs/diagnosis.md, "Without a feed").
+  double ellipse_speed_mm_s = 0.0;
   // About a sample period in angle: samples this close to a reversal are left out of the fit
   // and the residual's G, since the reversal instant is known only to a sample.
   double eps_rad = 0.0;
@@ -161,7 +165,7 @@ class Reversals {
   Reversals(const Samples& S, double servo_mismatch_s) : S_(&S), trig_(S.runs.size()) {
     for (std::size_t k = 0; k < S.runs.size(); ++k) {
       const RunInfo& r = S.runs[k];
-      const double w = r.dir * r.speed_mm_s / S.radius * servo_mismatch_s;
+      const double w = r.dir * r.ellipse_speed_mm_s / S.radius * servo_mismatch_s;
       RunTrig& t = trig_[k];
       t.rev_a = w;
       t.rev_b = kPi / 2 - w;
@@ -238,7 +242,7 @@ double term(const Samples& S, const State& st, const Column& col, std::size_t i,
   } else if constexpr (K == Kind::squareness) {
     return R * s * c;
   } else if constexpr (K == Kind::servo) {
-    return r.dir * r.speed_mm_s * s * c;
+    return r.dir * r.ellipse_speed_mm_s * s * c;
   } else if constexpr (K == Kind::backlash_a) {
     return backlash_terms(rv.dir_a, rv.trav_a, st.backlash_a).first * c;
   } else if constexpr (K == Kind::backlash_b) {
@@ -349,7 +353,7 @@ inline double offset(const Samples& S, const State& st, const std::vector<Column
     // Second order of unequal lags (phase difference d = w dtau) at the measured angle:
     // dr = -R d^2 (5/16 + 3/16 cos 4theta); the constant part stays in the radius change.
     const RunInfo& r = S.runs[S.run[i]];
-    const double d = r.speed_mm_s / S.radius * st.servo_mismatch_s;
+    const double d = r.ellipse_speed_mm_s / S.radius * st.servo_mismatch_s;
     const double c2 = S.c[i] * S.c[i] - S.s[i] * S.s[i], s2 = 2.0 * S.c[i] * S.s[i];
     o += -S.radius * d * d * (3.0 / 16.0) * (c2 * c2 - s2 * s2);
   }
@@ -365,6 +369,9 @@ inline double offset(const Samples& S, const State& st, const std::vector<Column
 
 // The name of a term as the report gives it ("backlash X", "squareness", ...).
 std::string kind_name(Kind k, const std::array<char, 2>& axes);
+// Where a term's value goes in the diagnosis document ("backlash_mm.X", "squareness_urad");
+// empty for the set-up's terms (centre offset, radius change) and the decay derivatives.
+std::string term_key(Kind k, const std::array<char, 2>& axes);
 // The place of the column of kind k (of feed group `group` for a radius column) in cols.
 std::optional<std::size_t> find(const std::vector<Column>& cols, Kind k, int group = 0);
 

@@ -12,7 +12,7 @@ namespace {
 // the reversals keep their sums against dr and against this, so a new mismatch needs no pass.
 double servo_offset_per_s2(const Samples& S, std::size_t i) {
   const RunInfo& r = S.runs[S.run[i]];
-  const double w = r.speed_mm_s / S.radius;
+  const double w = r.ellipse_speed_mm_s / S.radius;
   const double c2 = S.c[i] * S.c[i] - S.s[i] * S.s[i], s2 = 2.0 * S.c[i] * S.s[i];
   return -S.radius * w * w * (3.0 / 16.0) * (c2 * c2 - s2 * s2);
 }
@@ -102,7 +102,7 @@ bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
   for (std::size_t k = 0; k < S.runs.size(); ++k) {
     const RunInfo& r = S.runs[k];
     const double shift =
-        std::abs(r.speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
+        std::abs(r.ellipse_speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
     if (!(shift + r.eps_rad < ss.before_rad[k]) ||
         !(shift + std::max(r.eps_rad, need_b) < ss.after_rad[k]))
       return false;
@@ -119,7 +119,7 @@ SteadySums take_steady(const Samples& S, const State& st, const std::vector<Colu
   const double play =
       std::max({2.0 * std::abs(st.backlash_a), 2.0 * std::abs(st.backlash_b), 1e-3 * S.radius});
   for (const RunInfo& r : S.runs) {
-    const double w = r.speed_mm_s / S.radius;
+    const double w = r.ellipse_speed_mm_s / S.radius;
     // Room for the reversals to move with the lag mismatch, and for the excluded samples.
     const double room = std::max(
         {2.0 * r.eps_rad, kPi / 180.0, 2.0 * w * std::max(std::abs(st.servo_mismatch_s), 2e-3)});
@@ -257,9 +257,8 @@ Solution solve(const Normal& N) {
   return sol;
 }
 
-// 1 - R^2 of column j regressed on the columns in `set` (all normalised to unit diagonal).
-double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set, Eigen::Index j) {
-  if (set.empty()) return 1.0;
+Eigen::VectorXd regression(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set,
+                           Eigen::Index j) {
   const auto k = static_cast<Eigen::Index>(set.size());
   Eigen::MatrixXd A(k, k);
   Eigen::VectorXd b(k);
@@ -268,8 +267,17 @@ double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& se
     for (Eigen::Index w = 0; w < k; ++w)
       A(u, w) = C(set[static_cast<std::size_t>(u)], set[static_cast<std::size_t>(w)]);
   }
-  const Eigen::VectorXd x = A.ldlt().solve(b);
-  return C(j, j) - b.dot(x);
+  return A.ldlt().solve(b);
+}
+
+// 1 - R^2 of column j regressed on the columns in `set` (all normalised to unit diagonal).
+double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set, Eigen::Index j) {
+  if (set.empty()) return 1.0;
+  const Eigen::VectorXd x = regression(C, set, j);
+  double explained = 0.0;
+  for (std::size_t u = 0; u < set.size(); ++u)
+    explained += C(set[u], j) * x[static_cast<Eigen::Index>(u)];
+  return C(j, j) - explained;
 }
 
 }  // namespace circtest::diagnosis_detail

@@ -76,6 +76,9 @@ Normal accumulate(const Samples& S, const State& st, const std::vector<Column>& 
                   std::size_t stride, NormalMemo& memo);
 // The least-squares solution, its (J^T J)^-1, residual sum of squares and variance.
 Solution solve(const Normal& N);
+// The coefficients of column j regressed on the columns in `set` (normalised to unit diagonal).
+Eigen::VectorXd regression(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set,
+                           Eigen::Index j);
 // 1 - R^2 of column j regressed on the columns in `set` (all normalised to unit diagonal).
 double unexplained(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& set, Eigen::Index j);
 

@@ -8,6 +8,7 @@
 
 #include "../radial_profile.hpp"
 #include "../rows_context.hpp"
+#include "circtest/analysis/input_checks.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/memory.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -74,6 +75,14 @@ void reserve_samples(DiagnosisState& ds) {
 // The runs' bookkeeping in order: their range of the samples, direction, speed, feed group and
 // sample period in angle.
 void run_bookkeeping(DiagnosisState& ds, const std::optional<double>& meta_feed) {
+  const std::vector<Run> runs = [&ds] {
+    std::vector<Run> r;
+    for (const RunResult& rr : ds.ev.runs) r.push_back(rr.run);
+    return r;
+  }();
+  // Each run's feed: measured (the time column), else as the program announced it, else the
+  // trace's one feed.
+  const std::vector<std::optional<double>> announced = announced_run_feeds(ds.trace, runs);
   const Trace& trace = ds.trace;
   const Evaluation& ev = ds.ev;
   Samples& S = ds.S;
@@ -89,7 +98,8 @@ void run_bookkeeping(DiagnosisState& ds, const std::optional<double>& meta_feed)
     info.dir = rr.run.direction == Direction::CCW ? 1.0 : -1.0;
     (info.dir > 0 ? have_ccw : have_cw) = true;
     min_sweep = std::min(min_sweep, rr.run.sweep_deg);
-    const std::optional<double> feed = rr.feed_mm_per_min ? rr.feed_mm_per_min : meta_feed;
+    const std::optional<double> feed =
+        rr.feed_mm_per_min ? rr.feed_mm_per_min : (announced[k] ? announced[k] : meta_feed);
     if (feed && *feed > 0) {
       info.speed_mm_s = *feed / 60.0;
       std::size_t g = 0;
@@ -101,6 +111,7 @@ void run_bookkeeping(DiagnosisState& ds, const std::optional<double>& meta_feed)
       if (group_feed.empty()) group_feed.push_back(0.0);
       info.group = 0;
     }
+    info.ellipse_speed_mm_s = info.speed_mm_s;
     info.begin = S.runs.empty() ? 0 : S.runs.back().end;
     info.end = info.begin + rr.run.size();
     info.trace_begin = rr.run.begin;
@@ -112,6 +123,11 @@ void run_bookkeeping(DiagnosisState& ds, const std::optional<double>& meta_feed)
       info.eps_rad = 1.5 * dt * info.speed_mm_s / R;
     }
     S.runs.push_back(info);
+  }
+  // Without every run's feed the direction-dependent ellipse is still fitted, as a phase
+  // (one radius per second for every run: runs of unknown feed are taken as one feed).
+  if (!speed_known) {
+    for (RunInfo& info : S.runs) info.ellipse_speed_mm_s = R;
   }
 }
 
@@ -184,8 +200,9 @@ void sample_notes(DiagnosisState& ds) {
   if (!speed_known) {
     D.feeds_mm_per_min.clear();
     D.notes.push_back(
-        "feed unknown (no time column or feed_mm_per_min metadata): servo mismatch and "
-        "reversal spikes not fitted");
+        "feed unknown (no time column, feed_mm_per_min or feeds the runs can be matched to): "
+        "the servo mismatch ellipse is fitted as a phase (no lag in ms), reversal spikes are "
+        "not fitted");
   }
   if (!have_ccw || !have_cw) {
     D.notes.push_back(fmt::format(
@@ -212,6 +229,8 @@ void describe_trace(DiagnosisState& ds) {
   ds.la = pa.first;
   ds.lb = pa.second;
   D.axes = {static_cast<char>(ds.la - 'a' + 'A'), static_cast<char>(ds.lb - 'a' + 'A')};
+  ds.radial = ev.channel_a == column_name::from_radial(ds.la) ||
+              ev.channel_b == column_name::from_radial(ds.lb);
   ds.A = std::string(1, D.axes[0]);
   ds.B = std::string(1, D.axes[1]);
   if (const std::string* h = trace.metadata.find(meta_key::ini_sha256)) D.ini_sha256 = *h;

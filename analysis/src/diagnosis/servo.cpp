@@ -1,8 +1,12 @@
 // The servo: the mean following lag from the commanded columns, and the part of the fitted
 // scale mismatch that unequal position loops make.
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
 
 #include "../radial_profile.hpp"
+#include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "stages.hpp"
 
@@ -12,6 +16,16 @@ namespace {
 
 const std::vector<double>* cmd_column(const Trace& trace, char axis) {
   return trace.column(column_name::commanded(axis));
+}
+
+// Whether the fitted servo mismatch ellipse (in s, or a phase without the feed) stands out of
+// its noise: more than three standard errors.
+bool servo_ellipse_stands_out(const DiagnosisState& ds) {
+  const auto j = find(ds.cols, Kind::servo);
+  if (!j) return false;
+  const auto ji = static_cast<Eigen::Index>(*j);
+  const double se = std::sqrt(std::max(0.0, ds.sol.sigma2 * ds.sol.inv(ji, ji)));
+  return std::abs(ds.sol.x[ji]) > 3.0 * se;
 }
 
 }  // namespace
@@ -31,7 +45,7 @@ void measure_following_lag(DiagnosisState& ds) {
   const char la = ds.la, lb = ds.lb;
   const std::vector<double>* cmd_a = cmd_column(trace, la);
   const std::vector<double>* cmd_b = cmd_column(trace, lb);
-  if (cmd_a && cmd_b && speed_known) {
+  if (cmd_a && cmd_b && speed_known && !ds.radial) {
     const double oa = D.centre_offset_mm[0].value.value_or(0.0);
     const double ob = D.centre_offset_mm[1].value.value_or(0.0);
     const double alpha = D.squareness_urad.value.value_or(0.0) * 1e-6;
@@ -123,6 +137,20 @@ void measure_following_lag(DiagnosisState& ds) {
     w2 /= static_cast<double>(S.size());
     ds.scale_servo_per_s = w2 * *lag_s;
     *D.scale_mismatch_ppm.value += ds.scale_servo_per_s * *D.servo_mismatch_ms.value * 1e-3 * 1e6;
+  } else if ((!ds.speed_known || ds.radial) && D.scale_mismatch_ppm.value &&
+             servo_ellipse_stands_out(ds)) {
+    // The ellipse's cos 2theta part w^2 lag dtau is in the scale mismatch column, and the lag
+    // is not known (no command to measure it against; without the feed not even w): the
+    // mismatch is not reported rather than reported with the servo in it.
+    D.unseparable.emplace_back(diagnosis_json::key::scale_mismatch_ppm);
+    D.scale_mismatch_ppm = {};
+    D.notes.push_back(fmt::format(
+        "scale mismatch cannot be separated from the servo mismatch ellipse by this trace: "
+        "unequal lags make a cos 2theta term w^2 lag (lag_{} - lag_{}) like it, and {}: not "
+        "reported",
+        ds.A, ds.B,
+        ds.radial ? "a radial trace has no command to measure the lag against"
+                  : "without the feed and a command the lag is not known"));
   } else if (D.servo_mismatch_ms.value && D.scale_mismatch_ppm.value) {
     D.notes.push_back(
         "no commanded columns: the scale mismatch includes the cos 2theta part of the servo "

@@ -181,7 +181,13 @@ void measure_axis_lags(DiagnosisState& ds) {
     return;
   }
   const Trace& trace = ds.trace;
-  if (trace.column(column_name::commanded(ds.la)) || trace.column(column_name::commanded(ds.lb))) {
+  if (ds.radial) {
+    D.notes.push_back(
+        "servo per axis: a radial trace's commanded columns give each length reading's angle, "
+        "not a command the axes follow: no lag is measured against them");
+    lags_from_feeds(ds);
+  } else if (trace.column(column_name::commanded(ds.la)) ||
+             trace.column(column_name::commanded(ds.lb))) {
     lags_from_columns(ds);
   } else {
     lags_from_feeds(ds);

@@ -34,6 +34,10 @@ struct DiagnosisState {
   // The plane's axes: lowercase letters (column names) and uppercase (report).
   char la = 'x', lb = 'y';
   std::string A, B;
+  // The positions are a radial instrument's (runs.cpp): its commanded columns give the angle
+  // of each length reading (synthesised by an import), never a command to measure a lag
+  // against.
+  bool radial = false;
 
   // Runs and samples (runs.cpp). The linearisation point: deviations are taken from the
   // circle of centre (ca, cb) and radius R.
@@ -52,6 +56,10 @@ struct DiagnosisState {
   std::size_t stride = 1;  // the normal equations are summed over every stride-th sample
   double vif_floor = 0.0;
   bool squareness_servo_confounded = false;
+  // A rejected reported term and a kept one its effect goes into; the reported terms that
+  // therefore cannot be told apart (their values are not reported).
+  std::vector<std::pair<Kind, Kind>> confounded;
+  std::vector<Kind> unseparable;
 
   // The fit (fit.cpp): the nonlinear state, the normal equations built so far, the solution.
   State st;

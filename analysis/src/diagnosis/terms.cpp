@@ -1,6 +1,9 @@
 // The model's terms: the candidates in order of priority, and those the trace identifies.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "circtest/core/error.hpp"
 #include "stages.hpp"
 
@@ -14,7 +17,7 @@ void candidates(DiagnosisState& ds) {
   Diagnosis& D = ds.D;
   std::vector<Column>& cand = ds.cand;
   const std::vector<double>& group_feed = ds.group_feed;
-  const bool speed_known = ds.speed_known, reversal_a = ds.reversal_a, reversal_b = ds.reversal_b;
+  const bool reversal_a = ds.reversal_a, reversal_b = ds.reversal_b;
   const std::string &A = ds.A, &B = ds.B;
   cand.push_back({Kind::centre_a});
   cand.push_back({Kind::centre_b});
@@ -22,7 +25,9 @@ void candidates(DiagnosisState& ds) {
     cand.push_back({Kind::radius, static_cast<int>(g)});
   cand.push_back({Kind::scale_mismatch});
   cand.push_back({Kind::squareness});
-  if (speed_known) cand.push_back({Kind::servo});
+  // The direction-dependent ellipse of unequal lags is fitted with or without the feed
+  // (without it as a phase, runs.cpp): left out, it would go into the backlash.
+  cand.push_back({Kind::servo});
   // Without a reversal the play still shifts the runs of the two directions apart: it is
   // fitted (so it does not bias the rest) but not reported as backlash.
   cand.push_back({Kind::backlash_a});
@@ -65,6 +70,24 @@ void refuse_too_few_samples(const DiagnosisState& ds) {
   }
 }
 
+// The reported terms a rejected column's effect goes into: the kept columns its regression
+// on them leans on (a normalised coefficient of at least kPartnerWeight).
+constexpr double kPartnerWeight = 0.1;
+
+std::vector<Kind> partners(const Eigen::MatrixXd& C, const std::vector<Eigen::Index>& kept,
+                           const std::vector<Column>& in, Eigen::Index j) {
+  std::vector<Kind> out;
+  if (kept.empty()) return out;
+  const auto k = static_cast<Eigen::Index>(kept.size());
+  const Eigen::VectorXd x = regression(C, kept, j);
+  for (Eigen::Index u = 0; u < k; ++u) {
+    const Kind kind = in[static_cast<std::size_t>(kept[static_cast<std::size_t>(u)])].kind;
+    if (std::abs(x[u]) >= kPartnerWeight && !term_key(kind, {'A', 'B'}).empty())
+      out.push_back(kind);
+  }
+  return out;
+}
+
 // Identifiability: forward selection on the normalised normal matrix.
 void select(DiagnosisState& ds) {
   const std::vector<Column>& in = ds.cand;
@@ -83,6 +106,9 @@ void select(DiagnosisState& ds) {
       out.push_back(in[j]);
     } else {
       rejected.emplace_back(in[j], u);
+      if (!term_key(in[j].kind, {'A', 'B'}).empty()) {
+        for (const Kind p : partners(C, kept, in, ji)) ds.confounded.emplace_back(in[j].kind, p);
+      }
     }
   }
 }
@@ -95,16 +121,39 @@ void rejected_notes(DiagnosisState& ds) {
   const std::vector<double>& group_feed = ds.group_feed;
   bool& squareness_servo_confounded = ds.squareness_servo_confounded;
   const std::vector<std::pair<Column, double>>& rejected = ds.rejected;
+  const auto unseparable = [&ds](Kind k) {
+    if (std::find(ds.unseparable.begin(), ds.unseparable.end(), k) != ds.unseparable.end()) return;
+    ds.unseparable.push_back(k);
+    ds.D.unseparable.push_back(term_key(k, ds.D.axes));
+  };
   for (const auto& [col, u] : rejected) {
     const std::string name = kind_name(col.kind, D.axes);
-    if (col.kind == Kind::servo && find(cols, Kind::squareness)) {
+    std::vector<Kind> with;
+    for (const auto& [k, p] : ds.confounded) {
+      if (k == col.kind) with.push_back(p);
+    }
+    if ((col.kind == Kind::backlash_a && !reversal_a) ||
+        (col.kind == Kind::backlash_b && !reversal_b)) {
+      // Already said: no reversal.
+    } else if (col.kind == Kind::servo && find(cols, Kind::squareness)) {
       squareness_servo_confounded = true;
+      unseparable(Kind::squareness);
+      unseparable(Kind::servo);
       D.notes.push_back(
           "squareness and servo mismatch both make a sin 2theta term here (one direction at one "
-          "feed): neither is reported; both directions or two feeds separate them");
-    } else if ((col.kind == Kind::backlash_a && !reversal_a) ||
-               (col.kind == Kind::backlash_b && !reversal_b)) {
-      // Already said: no reversal.
+          "feed): they cannot be separated and neither is reported; both directions or two "
+          "feeds separate them");
+    } else if (!with.empty()) {
+      std::string names;
+      unseparable(col.kind);
+      for (const Kind p : with) {
+        names += (names.empty() ? "" : ", ") + kind_name(p, D.axes);
+        unseparable(p);
+      }
+      D.notes.push_back(fmt::format(
+          "{} cannot be separated from {} by this trace (its term is {:.2f} % explained by "
+          "theirs): none of them is reported",
+          name, names, 100.0 * (1.0 - u)));
     } else if (col.kind == Kind::radius) {
       D.notes.push_back(fmt::format("radius change at {:.0f} mm/min not identifiable",
                                     group_feed[static_cast<std::size_t>(col.group)]));

@@ -29,9 +29,10 @@ struct DiagnosisChart {
   std::optional<double> squareness_urad;  // as measured (signed)
 };
 DiagnosisChart diagnosis_chart(const Diagnosis& diagnosis);
-// From a circtest.diagnosis/1 document (circana diagnose --json); ParseError naming `path`
-// when it is another document or its contributions are malformed.
-DiagnosisChart diagnosis_chart_from_json(const nlohmann::json& document, const std::string& path);
+// From a plane's diagnosis document (read_diagnosis_document: circana diagnose --json);
+// ParseError naming `path` for a test set's, DataError for a G or percentage no page holds.
+DiagnosisChart diagnosis_chart_from_document(const DiagnosisDocument& document,
+                                             const std::string& path);
 
 // One plane's page.
 struct ReportPage {

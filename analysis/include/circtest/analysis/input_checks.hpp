@@ -78,6 +78,12 @@ std::optional<std::string> check_time_column(const Trace& trace, const std::vect
 std::optional<std::string> check_announced_runs(const Trace& trace, const std::vector<Run>& runs,
                                                 const InputCheckOptions& options);
 
+// Each run's feed as the program announced it (mm/min): by run id from `segments`
+// ("1:CCW:F300"), else in order from `directions` times `feeds_mm_per_min` when the runs found
+// are the runs announced in their directions; none where the trace does not say.
+std::vector<std::optional<double>> announced_run_feeds(const Trace& trace,
+                                                       const std::vector<Run>& runs);
+
 // The run's least-squares radius (`fitted_mm`, at 20 deg C) against the nominal radius.
 std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t run_number,
                                                 const Run& run, double fitted_mm, double nominal_mm,

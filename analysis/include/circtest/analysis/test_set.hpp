@@ -64,8 +64,8 @@ struct AxisJoint {
   JointEstimate spike_mm;
   JointEstimate spike_ms;
   JointEstimate scale_ppm;
-  // The axis's own following lag: a plane's mean lag plus (first axis) or minus (second) half
-  // its servo mismatch.
+  // The axis's own following lag, each plane's as it reports it (Diagnosis::axis_lag: the
+  // following error over velocity as the trace logs it); the joint fit's in that convention.
   JointEstimate lag_ms;
 };
 
@@ -83,6 +83,15 @@ struct SetDiagnosis {
 // Joins the planes' diagnoses (in the set's order): each axis's joint values are the inverse-
 // variance means of the planes' own (joint_fit false).
 SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> planes);
+
+// A joint value found otherwise (the joint fit) into J, judged against the planes' own: chi2
+// of the planes about it on one degree of freedom per plane (99.9 % point), or without
+// standard errors more than 10 % of it outside the planes' range, makes it not consistent
+// (never "agree" for a joint value outside every plane's), widens its standard error by
+// sqrt(chi2 / dof) and returns the note that says so; nothing when it is consistent.
+std::optional<std::string> take_joint_value(const AxisJoint& axis, JointEstimate& j,
+                                            const Estimate& value, const char* what,
+                                            const char* unit, double factor);
 
 // One plane of a set for diagnose_set: its trace, its evaluation and the options its diagnosis
 // runs with (a ball bar's plane has no absolute channels).

@@ -1,26 +1,21 @@
 #pragma once
-// The part of a `circtest.diagnosis/1` document (circana diagnose --json, keys in
-// core/diagnosis_keys.hpp, docs/diagnosis-json.md) that compensation reads. Keys are the
-// plane's axis letters; a null is a value the diagnosis could not fit.
+// The part of a `circtest.diagnosis/1` document (circana diagnose --json) that the planner
+// reads, taken from the one reader of the document (core/diagnosis_document.hpp,
+// docs/diagnosis-json.md). Keys are the plane's axis letters; a null is a value the diagnosis
+// could not fit, or a term it lists as unseparable.
 #include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "circtest/core/diagnosis_document.hpp"
+
 namespace circtest::compensation {
 
-struct Measured {
-  std::optional<double> value;
-  std::optional<double> standard_error;
-};
-
-struct Cyclic {
-  double amplitude_mm = 0.0;
-  double pitch_mm = 0.0;
-  double phase_rad = 0.0;  // error = amplitude * sin(2 pi position / pitch + phase)
-  std::optional<double> amplitude_se_mm;
-};
+// A value and its standard error, and a cyclic error, as the document holds them.
+using Measured = Estimate;
+using Cyclic = CyclicEstimate;  // error = amplitude * sin(2 pi position / pitch + phase)
 
 struct DiagnosisInput {
   std::string source;  // the JSON file, for messages
@@ -43,15 +38,15 @@ struct DiagnosisInput {
   std::array<std::string, 2> axis_lag_source;
   std::array<std::optional<Cyclic>, 2> cyclic;
   std::optional<std::string> ini_sha256;
+  // The terms the diagnosis could not tell apart ("backlash_mm.X", "servo_mismatch_ms"): their
+  // values above are empty whatever the document holds beside them.
+  std::vector<std::string> unseparable;
   // A test set's plane: its axis k is corrected from an earlier plane of the set (its
   // per-axis values here are null).
   std::array<bool, 2> axis_in_earlier_plane{false, false};
 };
 
-// The largest diagnosis read (a real one is a few kB).
-inline constexpr std::size_t kMaxDiagnosisBytes = std::size_t{4} << 20;
-
-// Throws IoError (missing, a device, larger than kMaxDiagnosisBytes), ParseError (not JSON,
+// Throws IoError (missing, a device, larger than kMaxDiagnosisBytes (core)), ParseError (not JSON,
 // nested deeper than 16 levels, a number beyond a double, not schema circtest.diagnosis/1 or
 // a newer version of it, a "version" that is not MAJOR.MINOR or of a newer major, a key of
 // the wrong type: file and key named), DataError (a cyclic

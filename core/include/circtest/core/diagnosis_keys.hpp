@@ -18,8 +18,8 @@ inline constexpr const char* kSchemaFamily = "circtest.diagnosis/";
 // "MAJOR.MINOR": the major is the schema's; a minor adds keys, never renames or retypes one,
 // so a reader reads every minor of its major and refuses a newer major.
 inline constexpr int kVersionMajor = 1;
-inline constexpr int kVersionMinor = 2;
-inline constexpr const char* kVersion = "1.2";
+inline constexpr int kVersionMinor = 3;
+inline constexpr const char* kVersion = "1.3";
 
 namespace key {
 inline constexpr const char* units = "units";    // "mm"
@@ -80,6 +80,9 @@ inline constexpr const char* runs = "runs";
 inline constexpr const char* samples = "samples";
 inline constexpr const char* ini_sha256 = "ini_sha256";
 inline constexpr const char* notes = "notes";
+// The terms the trace cannot tell apart, each by the key (and ".AXIS" for a per-axis one) its
+// value would have: ["backlash_mm.X", "servo_mismatch_ms"]; those values are null (added in 1.3).
+inline constexpr const char* unseparable = "unseparable";
 // A test set's document (several planes in one trace): `plane` lists the planes ("XY,YZ,ZX"),
 // `axes` every axis they cover, the per-axis objects above hold the joint values, and
 // `test_set` holds the planes, their squarenesses, each axis's per-plane values with their

@@ -84,6 +84,21 @@ ResultLimits result_limits(const std::string& text);
 // its plot to svg_path with the plane before the extension (plot-XY.svg).
 int run_analyze(const AnalyzeRequest& request, std::ostream& out);
 
+// circana summary: several runs of one machine side by side (scripts/demo.sh's table).
+struct SummaryRun {
+  std::string name;            // the column's title ("before", "after")
+  std::string result_path;     // circana analyze --json
+  std::string diagnosis_path;  // circana diagnose --json of the same run
+};
+struct SummaryRequest {
+  std::vector<SummaryRun> runs;
+  std::string json_path;  // also the table as JSON ({"runs", "rows": [{label, unit, values}]})
+};
+// Reads each run's documents through their readers and prints one row per figure (H, G per
+// run, backlash, spike, scale, cyclic, squareness, servo, modelled G), one column per run;
+// lengths in um, "-" where a document has no value.
+int run_summary(const SummaryRequest& request, std::ostream& out);
+
 struct DiagnoseRequest {
   std::string trace_path;
   DiagnosisOptions options;
