@@ -30,7 +30,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "rows_context.hpp"
+#include "evaluation/rows_context.hpp"
 
 namespace circtest {
 

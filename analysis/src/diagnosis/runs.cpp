@@ -6,8 +6,8 @@
 #include <cctype>
 #include <span>
 
-#include "../radial_profile.hpp"
-#include "../rows_context.hpp"
+#include "../evaluation/radial_profile.hpp"
+#include "../evaluation/rows_context.hpp"
 #include "circtest/analysis/input_checks.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/memory.hpp"

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "../radial_profile.hpp"
+#include "../evaluation/radial_profile.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "stages.hpp"

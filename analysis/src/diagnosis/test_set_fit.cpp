@@ -8,7 +8,7 @@
 #include <memory>
 
 #include "circtest/analysis/test_set.hpp"
-#include "diagnosis/stages.hpp"
+#include "stages.hpp"
 
 namespace circtest {
 

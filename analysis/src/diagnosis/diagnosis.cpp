@@ -2,7 +2,7 @@
 // model and its signs, docs/architecture.md where a new stage goes).
 #include "circtest/analysis/diagnosis.hpp"
 
-#include "diagnosis/stages.hpp"
+#include "stages.hpp"
 
 namespace circtest {
 
