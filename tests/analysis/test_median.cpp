@@ -1,7 +1,7 @@
-// detail::median_of (analysis/src/evaluation/median.hpp): the upper median found from a sample's bracket
-// must be exactly the element nth_element puts at rank n/2, whatever the order of the values:
-// random, sorted, reversed, arranged against the sample's stride, with ties, and with a value
-// that is not a number (then the whole array is taken, as before).
+// detail::median_of (analysis/src/evaluation/median.hpp): the upper median found from a sample's
+// bracket must be exactly the element nth_element puts at rank n/2, whatever the order of the
+// values: random, sorted, reversed, arranged against the sample's stride, with ties, and with a
+// value that is not a number (then the whole array is taken, as before).
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,5 +1,6 @@
-// The polar form of a path (analysis/src/evaluation/radial_profile): angles taken by small steps between
-// exact ones must match std::atan2 of every sample, unwrapped, in both directions, across the
+// The polar form of a path (analysis/src/evaluation/radial_profile): angles taken by small steps
+// between exact ones must match std::atan2 of every sample, unwrapped, in both directions, across
+// the
 // +-pi seam, through noise, dwells and gaps.
 #include <gtest/gtest.h>
 

@@ -5,9 +5,9 @@
 #include <sstream>
 #include <string>
 
+#include "circtest/circgen/commands.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/gcode/annex_c.hpp"
-#include "circtest/circgen/commands.hpp"
 #include "circtest/gcode/generator.hpp"
 #include "circtest/gcode/machine_limits.hpp"
 #include "circtest/gcode/plausible_ranges.hpp"
