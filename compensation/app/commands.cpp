@@ -112,7 +112,8 @@ int run_revert(const CirccompRequest& request) {
 
 int run_circcomp(const CirccompRequest& r) {
   if (r.command == CirccompCommand::revert) return run_revert(r);
-  // A named FIFO without a writer would block the read: a pipe is given as - (or <(...)).
+  check_plan_options(r.plan_options);  // a usage error before any file is read
+  // A named FIFO without a writer would block the read: a pipe is given as -.
   struct stat st {};
   if (::lstat(r.diagnosis.c_str(), &st) == 0 && S_ISFIFO(st.st_mode)) {
     throw IoError(r.diagnosis,

@@ -698,3 +698,18 @@ TEST_F(Hostile, EachCommandsHelpListsOnlyItsOptions) {
       2, "--only: only for plan and apply");
   expect_refused([&] { return revert({"--gain", "0.5"}); }, 2, "--gain: only for plan and apply");
 }
+
+// An option out of its range is a usage error before any file is read: a bad --gain with a
+// diagnosis that is not there says the gain (exit 2), not the missing file (exit 3).
+TEST_F(Hostile, AGainOutOfRangeIsRefusedBeforeAnyFileIsRead) {
+  for (const char* command : {"plan", "apply"}) {
+    for (const char* gain : {"0", "1.5", "-1"}) {
+      SCOPED_TRACE(std::string(command) + " --gain " + gain);
+      const CommandResult r =
+          circcomp({command, "--ini", ini_, (top() / "nope.json").string(), "--gain", gain});
+      EXPECT_EQ(r.exit_code, 2) << r.err;
+      EXPECT_NE(r.err.find("--gain: expected 0 < F <= 1"), std::string::npos) << r.err;
+    }
+  }
+  EXPECT_EQ(slurp(ini_), kMachineIni);
+}

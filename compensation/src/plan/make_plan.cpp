@@ -27,12 +27,6 @@ constexpr std::array<std::pair<Correction, std::string_view>, 6> kCorrectionName
     {Correction::servo, "servo"},
 }};
 
-void require_gain(const PlanOptions& o) {
-  if (!(o.gain > 0.0 && o.gain <= 1.0)) {
-    throw UsageError(fmt::format("{}: expected 0 < F <= 1", o.setting_words(PlanSetting::gain)));
-  }
-}
-
 // The steps of one plane's plan, in order.
 constexpr PlanStep kPlaneSteps[] = {
     axes_step,         accept_squareness_step, write_squareness_step, servo_step,
@@ -44,6 +38,12 @@ constexpr PlanStep kSetPlaneSteps[] = {axes_step, accept_squareness_step, servo_
                                        spike_advice_step};
 
 }  // namespace
+
+void check_plan_options(const PlanOptions& o) {
+  if (!(o.gain > 0.0 && o.gain <= 1.0)) {
+    throw UsageError(fmt::format("{}: expected 0 < F <= 1", o.setting_words(PlanSetting::gain)));
+  }
+}
 
 std::string_view correction_name(Correction c) noexcept {
   for (const auto& [correction, name] : kCorrectionNames) {
@@ -159,7 +159,7 @@ void collect_files_step(PlanContext& c) {
 }
 
 Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanOptions& o) {
-  require_gain(o);
+  check_plan_options(o);
   PlanContext c(ini_path, d, o);
   c.plan.ini_sha256 = sha256_hex(ini_text(ini_path));
   c.plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == c.plan.ini_sha256;
@@ -171,7 +171,7 @@ Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& p
                const PlanOptions& o) {
   if (planes.size() == 1) return make_plan(ini_path, planes.front(), o);
   if (planes.empty()) throw DataError(ini_path, 0, "no plane's diagnosis to plan from");
-  require_gain(o);
+  check_plan_options(o);
   for (const auto& [requested, what] :
        {std::pair{o.friction_requested, "friction"}, std::pair{o.servo_requested, "servo"}}) {
     if (requested && o.only.size() == 1) {

@@ -96,6 +96,8 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& diagnosis,
 // correction asked for).
 Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& planes,
                const PlanOptions& options);
+// The options' own ranges (the gain: 0 < F <= 1), before any file is read: UsageError.
+void check_plan_options(const PlanOptions& options);
 // Throws StaleError unless the diagnosis's ini_sha256 is the INI's SHA-256 now (or force).
 void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force,
                    PlanSettingWords words = library_setting_words);
