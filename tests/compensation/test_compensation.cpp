@@ -325,6 +325,33 @@ TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   EXPECT_LT(worst, 0.002 * 0.03);  // under 3 % of the amplitude left
 }
 
+// On an inch machine a length is said in inch too (the diagnosis is in mm): the refusal and the
+// note name both (0.3 mm = 0.011811 in; the note's bound 0.0001 mm = 0.0000039 in).
+TEST(Compensation, RefusalsOnAnInchMachineSayInch) {
+  Scratch s;
+  std::string text = machine();
+  const auto at = text.find("LINEAR_UNITS = mm");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, std::string("LINEAR_UNITS = mm").size(), "LINEAR_UNITS = inch");
+  const std::string ini = s.write("m.ini", text);
+  try {
+    make_plan(ini, diag(0.3), {});
+    FAIL() << "no error for 0.3 mm of backlash";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("X backlash = 0.011811 in (0.3 mm) is implausible"),
+              std::string::npos)
+        << e.what();
+  }
+  const Plan small = make_plan(ini, diag(0.0001), {});
+  const bool said = std::any_of(small.notes.begin(), small.notes.end(), [](const std::string& n) {
+    return n.find("Y backlash: 0.0 in (0.0 mm) is below 0.0000039 in (0.0001 mm)") !=
+           std::string::npos;
+  });
+  std::string notes;
+  for (const std::string& n : small.notes) notes += n + " / ";
+  EXPECT_TRUE(said) << notes;
+}
+
 TEST(Compensation, Refusals) {
   Scratch s;
   const std::string ini = s.write("m.ini", machine());

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "circtest/compensation/comp_table.hpp"
@@ -34,33 +35,43 @@ constexpr double kMinCyclicMm = 1e-4;
 // checked before use.
 constexpr double kMaxTravelMm = 1e5;
 // Checks one measured value; returns it when it is to be applied.
+std::string quantity_text(double v, const char* unit, double units_per_mm) {
+  if (std::string_view(unit) != "mm" || std::fabs(units_per_mm - 1.0) < 1e-12) {
+    return fmt::format("{} {}", number_text(v), unit);
+  }
+  if (std::fabs(units_per_mm * 25.4 - 1.0) < 1e-9) {
+    return fmt::format("{} in ({} mm)", number_text(v * units_per_mm), number_text(v));
+  }
+  return fmt::format("{} mm ({} machine units)", number_text(v), number_text(v * units_per_mm));
+}
+
 std::optional<double> accepted(const Measured& m, const std::string& what, double min_abs,
                                double max_abs, const char* unit, const PlanOptions& o,
-                               std::vector<std::string>& notes) {
+                               std::vector<std::string>& notes, double units_per_mm) {
   const bool force = o.force;
+  const auto text = [&](double x) { return quantity_text(x, unit, units_per_mm); };
   if (!m.value) {
     notes.push_back(what + ": not in the diagnosis (null), not changed");
     return std::nullopt;
   }
   const double v = *m.value;
   if (std::fabs(v) < min_abs) {
-    notes.push_back(fmt::format("{}: {} {} is below {} {}, nothing to correct", what,
-                                number_text(v), unit, number_text(min_abs), unit));
+    notes.push_back(
+        fmt::format("{}: {} is below {}, nothing to correct", what, text(v), text(min_abs)));
     return std::nullopt;
   }
   if (!force && std::fabs(v) > max_abs) {
     throw DataError("", 0,
-                    fmt::format("{} = {} {} is implausible (more than {} {}); check the "
+                    fmt::format("{} = {} is implausible (more than {}); check the "
                                 "measurement, or {}",
-                                what, number_text(v), unit, number_text(max_abs), unit,
-                                o.setting_words(PlanSetting::force)));
+                                what, text(v), text(max_abs), o.setting_words(PlanSetting::force)));
   }
   if (!force && m.standard_error && *m.standard_error > std::fabs(v)) {
-    throw DataError("", 0,
-                    fmt::format("{} = {} {} has a standard error of {} {}, larger than the "
-                                "value: measure again, or {}",
-                                what, number_text(v), unit, number_text(*m.standard_error), unit,
-                                o.setting_words(PlanSetting::force)));
+    throw DataError(
+        "", 0,
+        fmt::format("{} = {} has a standard error of {}, larger than the "
+                    "value: measure again, or {}",
+                    what, text(v), text(*m.standard_error), o.setting_words(PlanSetting::force)));
   }
   return v;
 }
@@ -84,7 +95,7 @@ AxisCorrection accepted_correction(PlanContext& c, int k) {
   try {
     if (c.wants(Correction::backlash)) {
       corr.backlash_mm = accepted(c.d().backlash_mm[k], fmt::format("{} backlash", letter),
-                                  kMinBacklashMm, kMaxBacklashMm, "mm", c.o, c.plan.notes);
+                                  kMinBacklashMm, kMaxBacklashMm, "mm", c.o, c.plan.notes, c.upm);
     }
     if (c.wants(Correction::scale)) {
       if (!c.d().scale_ppm[k].value && c.d().scale_mismatch_ppm.value) {
@@ -100,7 +111,7 @@ AxisCorrection accepted_correction(PlanContext& c, int k) {
     if (c.wants(Correction::cyclic) && c.d().cyclic[k]) {
       const Cyclic& cy = *c.d().cyclic[k];
       if (accepted({cy.amplitude_mm, cy.amplitude_se_mm}, fmt::format("{} cyclic", letter),
-                   kMinCyclicMm, kMaxCyclicMm, "mm", c.o, c.plan.notes)) {
+                   kMinCyclicMm, kMaxCyclicMm, "mm", c.o, c.plan.notes, c.upm)) {
         corr.cyclic = cy;
       }
     }

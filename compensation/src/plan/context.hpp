@@ -111,9 +111,14 @@ std::string ini_text(const std::string& ini_path);
 // One measured value checked against its plausibility bounds; returned when it is to be
 // applied, else nullopt with a note (below MIN_ABS, null) or DataError (above MAX_ABS, or
 // a standard error above the value) unless the force setting.
+// A length (UNIT "mm") is said in the machine's units too: "0.0118 in (0.3 mm)" on an inch
+// machine (UNITS_PER_MM 1/25.4); other units as they are.
 std::optional<double> accepted(const Measured& m, const std::string& what, double min_abs,
                                double max_abs, const char* unit, const PlanOptions& o,
-                               std::vector<std::string>& notes);
+                               std::vector<std::string>& notes, double units_per_mm = 1.0);
+// V in UNIT as the user reads it: a length in mm also in the machine's units when they are
+// not mm (see accepted).
+std::string quantity_text(double v, const char* unit, double units_per_mm);
 
 }  // namespace detail
 
