@@ -252,7 +252,7 @@ double chi2_999(int dof) {
   return k * a * a * a;
 }
 
-void join(JointEstimate& j) {
+void join_planes(JointEstimate& j) {
   std::vector<const PlaneEstimate*> have;
   for (const PlaneEstimate& p : j.planes) {
     if (p.estimate.value) have.push_back(&p);
@@ -394,7 +394,7 @@ SetDiagnosis join_set_diagnoses(std::string source, std::vector<Diagnosis> plane
         {&a.scale_ppm, {"scale", "ppm"}},
         {&a.lag_ms, {"following lag", "ms"}}};
     for (const auto& [j, words] : params) {
-      join(*j);
+      join_planes(*j);
       if (!j->consistent) {
         const double factor = std::string_view(words[1]) == "um" ? 1e3 : 1.0;
         s.notes.push_back(disagreement(a, *j, words[0], words[1], factor));

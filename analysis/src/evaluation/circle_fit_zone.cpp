@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "angle_constants.hpp"
 #include "circle_fit_detail.hpp"
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/core/error.hpp"
@@ -28,8 +29,8 @@
 namespace circtest {
 namespace {
 
+using evaluation_detail::kPi;
 using fit_detail::Vec2;
-constexpr double kPi = std::numbers::pi;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Inputs up to this size are solved directly (every point is a candidate).

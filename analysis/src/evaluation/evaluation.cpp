@@ -8,6 +8,7 @@
 #include <numbers>
 #include <numeric>
 
+#include "angle_constants.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/remedy.hpp"
 #include "circtest/core/error.hpp"
@@ -21,8 +22,7 @@ namespace circtest {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kRadToDeg = 180.0 / kPi;
+using evaluation_detail::kRadToDeg;
 constexpr double kMaxFeedMmPerMin = 1e6;  // as the feed_mm_per_min metadata is checked
 
 std::span<const double> slice(const std::vector<double>& v, const Run& r) {

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <utility>
 
+#include "angle_constants.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/core/memory.hpp"
 #include "circtest/core/parallel.hpp"
@@ -14,8 +15,8 @@ namespace circtest::detail {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-constexpr double kRadToDeg = 180.0 / kPi;
+using evaluation_detail::kPi;
+using evaluation_detail::kRadToDeg;
 
 double wrap_deg(double rad) {
   double d = std::fmod(rad * kRadToDeg, 360.0);

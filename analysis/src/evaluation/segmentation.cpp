@@ -7,6 +7,7 @@
 #include <exception>
 #include <numbers>
 
+#include "angle_constants.hpp"
 #include "circtest/analysis/circle_fit.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/parallel.hpp"
@@ -19,7 +20,7 @@ namespace circtest {
 
 namespace {
 
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+using evaluation_detail::kRadToDeg;
 
 std::size_t find_column(const Trace& trace, const std::string& name) {
   const auto i = trace.column_index(name);
