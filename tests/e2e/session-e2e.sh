@@ -41,6 +41,11 @@ if [ "${SESSION_E2E_INSIDE:-}" != 1 ]; then
 fi
 
 work=$SESSION_WORK
+# LinuxCNC's realtime threads SCHED_FIFO, as configs/circtest-run makes them (scripts/rt-boost
+# says why: at normal priority, builds and tests beside this one stall its servo thread).
+"$top/scripts/rt-boost" &
+boost_pid=$!
+trap 'kill "$boost_pid" 2>/dev/null || true' EXIT
 export HOME=$work/home CIRCTEST_BIN=$build
 mkdir -p "$HOME"
 # circcomp apply checks that the modules a plan loads are where this LinuxCNC loads them.
