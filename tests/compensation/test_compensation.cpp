@@ -21,6 +21,7 @@
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
 #include "circtest/core/sha256.hpp"
+#include "sanitizer.hpp"
 #include "scratch.hpp"
 
 namespace fs = std::filesystem;
@@ -627,14 +628,6 @@ TEST(Compensation, CyclicPhaseIsInMachineCoordinatesFromDiagnoseToTable) {
 // A 50,000-line INI with changes at both ends (the kinematics near the top, [CIRCTEST_COMP]
 // appended): circcomp plan runs within 256 MB of address space (the LCS table of the whole
 // file was 10 GB) and its diff, applied by patch(1) to a copy, gives the plan's new INI.
-#if defined(__SANITIZE_ADDRESS__)
-#define CIRCTEST_UNDER_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define CIRCTEST_UNDER_ASAN 1
-#endif
-#endif
-
 TEST(Compensation, LargeIniIsPlannedInBoundedMemoryAndItsDiffApplies) {
 #ifdef CIRCTEST_UNDER_ASAN
   // ASan reserves terabytes of address space for its shadow: no address-space limit can be set.

@@ -17,6 +17,7 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/sha256.hpp"
+#include "sanitizer.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -347,14 +348,6 @@ TEST_F(CrashSafety, StandardOutputFailingAfterTheCommitSaysTheChangeIsMade) {
 // Eight applies of one diagnosis started at once: exactly one changes the configuration, every
 // other is refused (exit 10: the lock is held, or the INI is no longer the one measured or
 // planned) and says why; the configuration is then the one apply's.
-#if defined(__SANITIZE_ADDRESS__)
-#define CIRCTEST_UNDER_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define CIRCTEST_UNDER_ASAN 1
-#endif
-#endif
-
 TEST_F(CrashSafety, ConcurrentAppliesOfOneDiagnosisOneWins) {
 #ifdef CIRCTEST_UNDER_ASAN
   // KNOWN DEFECT, open: under ASan (slow applies) 2 or 3 of 8 concurrent applies won in the
