@@ -57,9 +57,13 @@ int report_after_commit(const std::string& done, const std::string& undo) {
 }
 
 // The plan; for an apply (CHECKED) also refused as stale when the INI it read is not the one
-// measured: another apply committed between the freshness check and the plan (apply_plan
-// checks the INI against the plan again under the configuration's lock). A plan that fails
-// while the INI is changing under it is refused as stale, not as what the torn read showed.
+// measured, or is no longer there when the plan is made: another apply committed between the
+// freshness check and the end of the plan, and the plan may mix files read before it with
+// files read after (one such plan found "nothing to change" and exited 0). apply_plan checks
+// the INI and every file against the plan again under the configuration's lock; an apply
+// writes its INI first, so an INI unchanged after the plan means no file read was newer. A plan
+// that fails while the INI is changing under it is refused as stale, not as what the torn read
+// showed.
 Plan plan_for(const std::string& ini, const std::vector<DiagnosisInput>& planes,
               const PlanOptions& options, bool checked) {
   const auto changed = [&] {
@@ -70,7 +74,13 @@ Plan plan_for(const std::string& ini, const std::vector<DiagnosisInput>& planes,
   };
   try {
     Plan plan = make_plan(ini, planes, options);
-    if (checked && !plan.provenance_checked) throw StaleError(changed());
+    if (!checked) return plan;
+    if (!plan.provenance_checked) throw StaleError(changed());
+    try {
+      require_fresh(ini, planes.front(), false);  // the INI read again: still the measured one
+    } catch (const StaleError&) {
+      throw StaleError(changed());
+    }
     return plan;
   } catch (const StaleError&) {
     throw;

@@ -172,10 +172,12 @@ ConfigLock::ConfigLock(const std::string& ini_path) {
   root_ = dir.root();
   if (held_locks()[root_]++ > 0) return;  // held by an outer one of this process
   try {
-    dir.state_folder(kState, true);
     path_ = dir.path(in_state("lock"));
     for (int attempt = 0; attempt < 16 && fd_ < 0; ++attempt) {
+      // The holder before removes the state folder when it is done and nothing else is in it.
+      dir.state_folder(kState, true);
       const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+      if (fd < 0 && errno == ENOENT) continue;
       if (fd < 0) {
         throw IoError(path_, fmt::format("cannot open the lock: {}", std::strerror(errno)));
       }

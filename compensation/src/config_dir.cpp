@@ -128,6 +128,8 @@ bool ConfigDir::state_folder(const std::string& name, bool create) const {
   if (errno != ENOENT) throw IoError(full, std::string("cannot inspect: ") + std::strerror(errno));
   if (!create) return false;
   if (::mkdir(full.c_str(), 0755) != 0) {
+    // Another circcomp made it meanwhile: what is there now is checked as above.
+    if (errno == EEXIST) return state_folder(name, false);
     throw IoError(full, std::string("cannot create: ") + std::strerror(errno));
   }
   return true;

@@ -17,7 +17,6 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/sha256.hpp"
-#include "sanitizer.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
@@ -349,11 +348,6 @@ TEST_F(CrashSafety, StandardOutputFailingAfterTheCommitSaysTheChangeIsMade) {
 // other is refused (exit 10: the lock is held, or the INI is no longer the one measured or
 // planned) and says why; the configuration is then the one apply's.
 TEST_F(CrashSafety, ConcurrentAppliesOfOneDiagnosisOneWins) {
-#ifdef CIRCTEST_UNDER_ASAN
-  // KNOWN DEFECT, open: under ASan (slow applies) 2 or 3 of 8 concurrent applies won in the
-  // fresh-Debian run; the lock does not yet hold for applies that do not overlap in time.
-  GTEST_SKIP() << "known defect under AddressSanitizer's timing: 2-3 of 8 applies win";
-#endif
   const Applied ref = applied_machine("ref", 100.0, true);
   ASSERT_FALSE(HasFailure());
   for (int round = 0; round < 3; ++round) {
