@@ -6,12 +6,24 @@
 # Only the unit-test programs (CIRCTEST_UNIT_TESTS=ONLY, their own sources at -O0 and without
 # ASan's instrumentation: cmake/Sanitize.cmake), the HAL kernels without the realtime modules
 # (a sanitized module cannot go into rtapi_app), no benchmarks (docs/fuzzing.md).
+# CIRCTEST_SANITIZE_SCOPE: all (default) every part; inputs only the parts that read what
+# users and other programs hand over and write the configuration (core: traces, INI, JSON,
+# input files; compensation and session: HAL files, comp tables, the manifest, the diagnosis
+# JSON, the configuration writer; the HAL kernels and the recorder), without analysis and
+# circgen: scripts/test.sh's full run, whose main build runs every unit test.
 #   scripts/sanitize.sh [all|build|test] [CTEST ARGS...]   (default all: build, then test)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 phase=all
 case "${1:-}" in all|build|test) phase=$1; shift ;; esac
 SAN_DIR=${CIRCTEST_SANITIZE_DIR:-build-sanitize}
+scope=()
+case "${CIRCTEST_SANITIZE_SCOPE:-all}" in
+  all) scope=(-DCIRCTEST_BUILD_ANALYSIS=ON -DCIRCTEST_BUILD_GCODE=ON) ;;
+  inputs) scope=(-DCIRCTEST_BUILD_ANALYSIS=OFF -DCIRCTEST_BUILD_GCODE=OFF) ;;
+  *) echo "sanitize.sh: CIRCTEST_SANITIZE_SCOPE: expected all or inputs, got '$CIRCTEST_SANITIZE_SCOPE'" >&2
+     exit 2 ;;
+esac
 launcher=()
 if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
@@ -28,7 +40,7 @@ if [ "$phase" != test ]; then
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 $debug -DNDEBUG" \
     -DCIRCTEST_HAL_MODULES=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
     -DCIRCTEST_FUZZ_SECONDS="${CIRCTEST_FUZZ_SECONDS:-4}" -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS=ONLY \
-    "${launcher[@]}"
+    "${scope[@]}" "${launcher[@]}"
   cmake --build "$SAN_DIR" -j"$(nproc)"
 fi
 [ "$phase" != build ] || exit 0

@@ -13,12 +13,15 @@ full_run=0
 # The full run leaves out the label soak (circlog for 10 minutes: `scripts/test.sh -L soak`).
 if [ $# -eq 0 ]; then full_run=1; set -- -LE soak; fi
 # The full run (CI) builds twice: the main build (Release, gcc: the programs, the realtime
-# modules and every test but the unit tests) and the sanitizer build (scripts/sanitize.sh:
-# clang, ASan/UBSan, libFuzzer), where the unit tests run, once, under the sanitizers, and
-# each fuzz harness for CIRCTEST_FUZZ_SECONDS. CIRCTEST_SANITIZE_PASS=0 leaves the sanitizer
-# build out and builds and runs the unit tests in the main build instead. The sanitizer pass
-# starts right after the packages are in, at nice 19: it takes the CPU the main build and
-# then its suite leave (the LinuxCNC runs wait on real-time motion for most of their time).
+# modules and every test, the unit tests too) and the sanitizer build (scripts/sanitize.sh:
+# clang, ASan/UBSan, libFuzzer) of the parts that read users' files and write the
+# configuration (CIRCTEST_SANITIZE_SCOPE=inputs: core, compensation, session, the HAL kernels
+# and the recorder), whose unit tests run there once more under the sanitizers, and each of
+# their fuzz harnesses for CIRCTEST_FUZZ_SECONDS. CIRCTEST_SANITIZE_SCOPE=all sanitizes every
+# part (analysis and circgen too: about 10 minutes more on 2 cores); CIRCTEST_SANITIZE_PASS=0
+# leaves the sanitizer build out. The sanitizer pass starts right after the packages are in,
+# at nice 19: it takes the CPU the main build and then its suite leave (the LinuxCNC runs wait
+# on real-time motion for most of their time).
 sanitize=0
 [ $full_run = 1 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ] && sanitize=1
 san_log=$BUILD_DIR/sanitize-build.log san_test_log=$BUILD_DIR/sanitize-test.log
@@ -30,6 +33,7 @@ if [ $sanitize = 1 ]; then
   rm -f "$san_mark" "$san_test_mark"
   set -m  # the pass in a process group of its own: stopped whole if this script ends first
   (
+    export CIRCTEST_SANITIZE_SCOPE=${CIRCTEST_SANITIZE_SCOPE:-inputs}
     nice -n 19 scripts/sanitize.sh build >"$san_log" 2>&1 || { echo build >"$san_mark"; exit 1; }
     echo "$((SECONDS - start))" >"$san_mark"
     rc=0
@@ -39,7 +43,7 @@ if [ $sanitize = 1 ]; then
   san_pass=$!
   set +m
   trap 'kill -- -"$san_pass" 2>/dev/null || true' EXIT
-  CIRCTEST_UNIT_TESTS=OFF scripts/setup.sh build
+  scripts/setup.sh build
   phase "main build"
 else
   scripts/setup.sh
@@ -52,17 +56,17 @@ rm -rf "$CIRCTEST_RUN_CACHE"
 export CIRCTEST_RUN_CACHE
 scripts/lint.sh "$BUILD_DIR"
 phase "lint"
-# Two LinuxCNC side by side (tests/e2e/CMakeLists.txt: each e2e test takes one slot of the
+# Three LinuxCNC side by side (tests/e2e/CMakeLists.txt: each e2e test takes one slot of the
 # resource linuxcnc for its whole time; configs/circtest-run then takes one of its own
 # CIRCTEST_RUN_SLOTS, each run in its own sandbox with its realtime threads SCHED_FIFO).
-# Twice as many tests as cores: the LinuxCNC runs wait on the machine's motion, in real time,
-# most of their minute, and the other tests use that CPU meanwhile.
-export CIRCTEST_RUN_SLOTS=${CIRCTEST_RUN_SLOTS:-2}
+# Four times as many tests as cores: the LinuxCNC runs wait on the machine's motion, in real
+# time, most of their minute, and the other tests (the unit tests among them) use that CPU.
+export CIRCTEST_RUN_SLOTS=${CIRCTEST_RUN_SLOTS:-3}
 slots_file=$(cd "$BUILD_DIR" && pwd)/linuxcnc-slots.json
 printf '{"version": {"major": 1, "minor": 0},\n "local": [{"linuxcnc": [{"id": "0", "slots": %d}]}]}\n' \
   "$CIRCTEST_RUN_SLOTS" >"$slots_file"
 suite_rc=0
-ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 2))" \
+ctest --test-dir "$BUILD_DIR" --output-on-failure -j"$(($(nproc) * 4))" \
   --resource-spec-file "$slots_file" "$@" || suite_rc=$?
 phase "test suite"
 san_rc=0
