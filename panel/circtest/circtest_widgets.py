@@ -1,0 +1,480 @@
+"""The circtest panel's Qt part: it shows what circtest_logic and circtest_live give it.
+Every program runs in a QProcess (the GUI thread only receives its output); LinuxCNC's status
+is polled by a timer, never waited on; its error channel is never read."""
+import math
+import os
+import tempfile
+
+from PyQt5.QtCore import QObject, QPointF, QProcess, Qt, QTimer, QUrl, pyqtSignal
+from PyQt5.QtGui import QColor, QDesktopServices, QPainter, QPen, QPolygonF
+from PyQt5.QtWidgets import (QCheckBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel,
+                             QLineEdit, QListWidget, QMessageBox, QPlainTextEdit, QPushButton,
+                             QTableWidget, QTableWidgetItem, QTabWidget, QVBoxLayout, QWidget)
+
+import circtest_live as live
+import circtest_logic as logic
+
+RUN_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf")
+
+
+class ProgramRunner(QObject):
+    """One program in a QProcess: `line` for each line it prints, then `done` with its stdout
+    or `failed` with its one-line error."""
+
+    line = pyqtSignal(str)
+    done = pyqtSignal(str)
+    failed = pyqtSignal(str)
+
+    def __init__(self, argv, parent=None):
+        super().__init__(parent)
+        self.argv = argv
+        self.stdout = ""
+        self.stderr = ""
+        self._pending = ""
+        self.process = QProcess(self)
+        self.process.readyReadStandardOutput.connect(self._read_stdout)
+        self.process.readyReadStandardError.connect(self._read_stderr)
+        self.process.finished.connect(self._finished)
+        self.process.errorOccurred.connect(self._error)
+
+    def start(self):
+        self.process.start(self.argv[0], self.argv[1:])
+
+    def _read_stdout(self):
+        text = bytes(self.process.readAllStandardOutput()).decode("utf-8", "replace")
+        self.stdout += text
+        self._pending += text
+        *lines, self._pending = self._pending.split("\n")
+        for line in lines:
+            self.line.emit(line)
+
+    def _read_stderr(self):
+        self.stderr += bytes(self.process.readAllStandardError()).decode("utf-8", "replace")
+
+    def _finished(self, exit_code, exit_status):
+        self._read_stdout()
+        self._read_stderr()
+        if exit_status == QProcess.CrashExit:
+            exit_code = -15
+        try:
+            self.done.emit(logic.finish(self.argv, exit_code, self.stdout, self.stderr))
+        except logic.ProgramError as exc:
+            self.failed.emit(exc.message)
+
+    def _error(self, error):
+        if error == QProcess.FailedToStart:
+            self.failed.emit("%s: could not be started" % self.argv[0])
+
+
+class PolarPlot(QWidget):
+    """The live polar plot: the nominal circle, rings every `um_per_division` µm (fixed, so
+    two runs compare), each run's lowest and highest deviation per angle bin."""
+
+    DIVISIONS = 4  # rings inside and outside the nominal circle
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.polar = None
+        self.um_per_division = logic.DEFAULT_UM_PER_DIVISION
+        self.setMinimumSize(240, 240)
+
+    def set_polar(self, polar):
+        self.polar = polar
+        self.update()
+
+    def set_scale(self, um_per_division):
+        self.um_per_division = um_per_division
+        self.update()
+
+    def paintEvent(self, _event):
+        painter = QPainter(self)
+        painter.setRenderHint(QPainter.Antialiasing)
+        painter.fillRect(self.rect(), QColor("white"))
+        cx, cy = self.width() / 2.0, self.height() / 2.0
+        outer = 0.45 * min(self.width(), self.height())
+        division_px = outer / (2.0 * self.DIVISIONS)
+        nominal_px = outer / 2.0
+        grid = QPen(QColor("#c0c0c0"))
+        for k in range(-self.DIVISIONS + 1, self.DIVISIONS + 1):
+            painter.setPen(QPen(QColor("#606060"), 1.5) if k == 0 else grid)
+            r = nominal_px + k * division_px
+            painter.drawEllipse(QPointF(cx, cy), r, r)
+        painter.setPen(QColor("black"))
+        painter.drawText(6, 16, "%g µm/div" % self.um_per_division)
+        if self.polar is None:
+            return
+        px_per_um = division_px / self.um_per_division
+        step = 2.0 * math.pi / self.polar.bins
+        for i, run in enumerate(self.polar.runs):
+            pen = QPen(QColor(RUN_COLOURS[i % len(RUN_COLOURS)]), 1.2)
+            painter.setPen(pen)
+            for values in (run.low_um, run.high_um):
+                line = QPolygonF()
+                for k, dev in enumerate(values):
+                    if math.isinf(dev):
+                        continue
+                    r = max(0.0, nominal_px + dev * px_per_um)
+                    a = (k + 0.5) * step
+                    line.append(QPointF(cx + r * math.cos(a), cy - r * math.sin(a)))
+                painter.drawPolyline(line)
+        if self.polar.runs and self.polar.runs[-1].last:
+            angle, dev = self.polar.runs[-1].last
+            r = max(0.0, nominal_px + dev * px_per_um)
+            painter.setBrush(QColor("black"))
+            painter.drawEllipse(QPointF(cx + r * math.cos(angle), cy - r * math.sin(angle)), 3, 3)
+
+
+class PathPreview(QWidget):
+    """The nominal path in the plane, from circgen's program header, before anything moves."""
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.points = []
+        self.setMinimumSize(160, 160)
+
+    def set_points(self, points):
+        self.points = points
+        self.update()
+
+    def paintEvent(self, _event):
+        painter = QPainter(self)
+        painter.setRenderHint(QPainter.Antialiasing)
+        painter.fillRect(self.rect(), QColor("white"))
+        if not self.points:
+            painter.drawText(self.rect(), Qt.AlignCenter, "Preview: the path appears here")
+            return
+        xs = [p[0] for p in self.points]
+        ys = [p[1] for p in self.points]
+        span = max(max(xs) - min(xs), max(ys) - min(ys), 1e-9)
+        scale = 0.85 * min(self.width(), self.height()) / span
+        mx, my = (max(xs) + min(xs)) / 2.0, (max(ys) + min(ys)) / 2.0
+        line = QPolygonF([QPointF(self.width() / 2.0 + (x - mx) * scale,
+                                  self.height() / 2.0 - (y - my) * scale) for x, y in self.points])
+        painter.setPen(QPen(QColor("#1f77b4"), 2))
+        painter.drawPolyline(line)
+        painter.setBrush(QColor("#2ca02c"))
+        painter.drawEllipse(line[0], 4, 4)
+
+
+class CircTestPanel(QWidget):
+    """The steps: set up, run, results, compensation, report. `status` shows the one line of
+    the last thing that happened (a program's error as it printed it)."""
+
+    def __init__(self, programs=None, linuxcnc_module=None, ini="", parent=None):
+        super().__init__(parent)
+        self.programs = programs or logic.Programs(logic.find_programs())
+        self.linuxcnc = linuxcnc_module
+        self.runners = []
+        self.session_dir = None
+        self.source = None
+        self.tabs = QTabWidget()
+        self.status = QLabel("")
+        self.status.setWordWrap(True)
+        self.machine = QLabel("")
+        layout = QVBoxLayout(self)
+        layout.addWidget(self.machine)
+        layout.addWidget(self.tabs)
+        layout.addWidget(self.status)
+        self._build_setup(ini)
+        self._build_run()
+        self._build_results()
+        self._build_compensation()
+        self._build_report()
+        self.live_timer = QTimer(self)
+        self.live_timer.setInterval(100)  # 10 frames/s
+        self.live_timer.timeout.connect(self.poll_live)
+        self.machine_timer = QTimer(self)
+        self.machine_timer.setInterval(1000)
+        self.machine_timer.timeout.connect(self.poll_machine)
+        self.machine_timer.start()
+        self.poll_machine()
+
+    # ---- building ----------------------------------------------------------------------------
+
+    def _build_setup(self, ini):
+        page = QWidget()
+        form = QFormLayout()
+        self.ini_edit = QLineEdit(ini or os.environ.get("INI_FILE_NAME", ""))
+        form.addRow("Machine INI", self.ini_edit)
+        planes = QHBoxLayout()
+        self.plane_boxes = {p: QCheckBox(p) for p in logic.PLANES}
+        self.plane_boxes["XY"].setChecked(True)
+        for box in self.plane_boxes.values():
+            planes.addWidget(box)
+        form.addRow("Planes", planes)
+        self.diameter = QDoubleSpinBox()
+        self.diameter.setRange(1.0, 2000.0)
+        self.diameter.setValue(logic.DEFAULT_DIAMETER_MM)
+        self.diameter.setSuffix(" mm")
+        form.addRow("Diameter", self.diameter)
+        self.feeds = QLineEdit("%g" % logic.DEFAULT_FEED_MM_PER_MIN)
+        form.addRow("Feed(s), mm/min", self.feeds)
+        self.start_box = QCheckBox("The panel presses cycle start (simulators, unattended cells)")
+        form.addRow("", self.start_box)
+        self.preview_button = QPushButton("Preview (circgen checks the machine's limits)")
+        self.preview_button.clicked.connect(self.preview)
+        self.preview = PathPreview()
+        box = QVBoxLayout(page)
+        box.addLayout(form)
+        box.addWidget(self.preview_button)
+        box.addWidget(self.preview, 1)
+        self.tabs.addTab(page, "Set up")
+
+    def _build_run(self):
+        page = QWidget()
+        self.run_button = QPushButton("Run the test")
+        self.run_button.clicked.connect(self.run_test)
+        self.verify_button = QPushButton("Verify (after the restart)")
+        self.verify_button.clicked.connect(self.verify)
+        self.scale = QDoubleSpinBox()
+        self.scale.setRange(0.1, 1000.0)
+        self.scale.setValue(logic.DEFAULT_UM_PER_DIVISION)
+        self.scale.setSuffix(" µm/div")
+        self.plot = PolarPlot()
+        self.scale.valueChanged.connect(self.plot.set_scale)
+        self.run_label = QLabel("")
+        self.log = QPlainTextEdit()
+        self.log.setReadOnly(True)
+        self.log.setMaximumBlockCount(2000)
+        buttons = QHBoxLayout()
+        for w in (self.run_button, self.verify_button, self.scale, self.run_label):
+            buttons.addWidget(w)
+        box = QVBoxLayout(page)
+        box.addLayout(buttons)
+        box.addWidget(self.plot, 3)
+        box.addWidget(self.log, 1)
+        self.tabs.addTab(page, "Run")
+
+    def _build_results(self):
+        page = QWidget()
+        self.results = QTableWidget(0, 6)
+        self.results.setHorizontalHeaderLabels(
+            ["Plane", "Direction", "Feed mm/min", "G µm", "F µm", "H µm"])
+        self.sources = QTableWidget(0, 3)
+        self.sources.setHorizontalHeaderLabels(["Source", "G µm", "Share of G %"])
+        box = QVBoxLayout(page)
+        box.addWidget(QLabel("circana analyze (results.json)"))
+        box.addWidget(self.results)
+        box.addWidget(QLabel("circana diagnose (diagnosis.json)"))
+        box.addWidget(self.sources)
+        self.tabs.addTab(page, "Results")
+
+    def _build_compensation(self):
+        page = QWidget()
+        self.plan_list = QListWidget()
+        self.diff = QPlainTextEdit()
+        self.diff.setReadOnly(True)
+        self.apply_button = QPushButton("Apply the corrections…")
+        self.apply_button.setEnabled(False)
+        self.apply_button.clicked.connect(self.apply)
+        box = QVBoxLayout(page)
+        box.addWidget(QLabel("circcomp plan"))
+        box.addWidget(self.plan_list, 1)
+        box.addWidget(self.diff, 1)
+        box.addWidget(self.apply_button)
+        self.tabs.addTab(page, "Compensation")
+
+    def _build_report(self):
+        page = QWidget()
+        self.report_button = QPushButton("Open the report")
+        self.report_button.setEnabled(False)
+        self.report_button.clicked.connect(self.open_report)
+        self.report_label = QLabel("")
+        box = QVBoxLayout(page)
+        box.addWidget(self.report_button)
+        box.addWidget(self.report_label)
+        box.addStretch(1)
+        self.tabs.addTab(page, "Report")
+
+    # ---- running programs --------------------------------------------------------------------
+
+    def say(self, text):
+        self.status.setText(text)
+
+    def launch(self, argv, on_done, on_line=None):
+        """Starts ARGV in the background; a failure is said in its one line."""
+        runner = ProgramRunner(argv, self)
+        self.runners.append(runner)
+
+        def forget():
+            if runner in self.runners:
+                self.runners.remove(runner)
+
+        runner.done.connect(lambda out: (forget(), on_done(out)))
+        runner.failed.connect(lambda line: (forget(), self.say(line), self._idle()))
+        if on_line:
+            runner.line.connect(on_line)
+        runner.start()
+        return runner
+
+    def setup(self):
+        planes = [p for p, box in self.plane_boxes.items() if box.isChecked()]
+        s = logic.Setup(self.ini_edit.text().strip(), planes, self.diameter.value(),
+                        logic.parse_feeds(self.feeds.text()), self.start_box.isChecked())
+        s.check()
+        return s
+
+    def _guarded(self, action):
+        try:
+            action()
+        except logic.ProgramError as exc:
+            self.say(exc.message)
+            self._idle()
+
+    def _idle(self):
+        self.run_button.setEnabled(True)
+        self.verify_button.setEnabled(True)
+
+    def preview(self):
+        def go():
+            out = os.path.join(tempfile.mkdtemp(prefix="circtest-panel-"), "preview.ngc")
+            self.launch(logic.circgen_command(self.programs, self.setup(), out),
+                        lambda _out: self._show_preview(out))
+        self._guarded(go)
+
+    def _show_preview(self, program):
+        header = logic.program_header(program)
+        self.preview.set_points(logic.preview_path(header))
+        self.say("circgen: the program is within the machine's limits (%s)" % program)
+
+    def run_test(self):
+        self._start_session(logic.circtest_run_command)
+
+    def verify(self):
+        self._start_session(logic.circtest_verify_command)
+
+    def _start_session(self, command):
+        def go():
+            argv = command(self.programs, self.setup())
+            self.run_button.setEnabled(False)
+            self.verify_button.setEnabled(False)
+            self.log.clear()
+            self.session_dir = None
+            self.source = None
+            self.plot.set_polar(None)
+            self.launch(argv, self._session_done, self._session_line)
+            self.tabs.setCurrentIndex(1)
+            self.say("running: " + " ".join(os.path.basename(a) for a in argv[:2]))
+        self._guarded(go)
+
+    def _session_line(self, line):
+        self.log.appendPlainText(line)
+        folder = logic.session_folder(line)
+        if folder:
+            self.session_dir = folder
+            self.live_timer.start()
+
+    def _session_done(self, _stdout):
+        self.live_timer.stop()
+        self.poll_live()
+        self._idle()
+        self.say("the test ended: results below")
+        self.load_session()
+
+    # ---- live plot ---------------------------------------------------------------------------
+
+    def poll_live(self):
+        if not self.session_dir:
+            return
+        if self.source is None or self.source.rows == 0:
+            for name in ("live.csv", "verify-trace.csv", "trace.csv"):
+                path = os.path.join(self.session_dir, name)
+                if os.path.exists(path):
+                    if self.source is None or self.source.tail.path != path:
+                        self.source = live.LiveSource(path)
+                    break
+        if self.source is None:
+            return
+        self.source.poll()
+        self.plot.set_polar(self.source.polar)
+        self.run_label.setText(self.source.status)
+
+    # ---- results and compensation ------------------------------------------------------------
+
+    def load_session(self, session_dir=None):
+        """Results, diagnosis, plan and report of a session folder (circtest run's files)."""
+        self.session_dir = session_dir or self.session_dir
+        if not self.session_dir:
+            return
+        d = self.session_dir
+        try:
+            results = os.path.join(d, "results.json")
+            if os.path.exists(results):
+                with open(results) as f:
+                    self.show_results(logic.parse_json(["circana"], f.read()))
+            diagnosis = os.path.join(d, "diagnosis.json")
+            if os.path.exists(diagnosis):
+                with open(diagnosis) as f:
+                    self.show_sources(logic.parse_json(["circana"], f.read()))
+                self.request_plan()
+        except logic.ProgramError as exc:
+            self.say(exc.message)
+        for name in ("report.html",):
+            if os.path.exists(os.path.join(d, name)):
+                self.report_button.setEnabled(True)
+                self.report_label.setText(os.path.join(d, name))
+
+    def _fill(self, table, rows, keys):
+        table.setRowCount(len(rows))
+        for i, row in enumerate(rows):
+            for j, key in enumerate(keys):
+                v = row.get(key)
+                text = "" if v is None else ("%.1f" % v if isinstance(v, float) else str(v))
+                table.setItem(i, j, QTableWidgetItem(text))
+
+    def show_results(self, document):
+        self._fill(self.results, logic.result_rows(document),
+                   ["plane", "direction", "feed_mm_per_min", "G_um", "F_um", "H_um"])
+
+    def show_sources(self, diagnosis):
+        self._fill(self.sources, logic.contribution_rows(diagnosis), ["source", "G_um",
+                                                                      "percent"])
+
+    def request_plan(self):
+        def go():
+            ini, diag = self.setup().ini, os.path.join(self.session_dir, "diagnosis.json")
+            self.launch(logic.circcomp_plan_command(self.programs, ini, diag), self._show_plan)
+            self.launch(logic.circcomp_diff_command(self.programs, ini, diag),
+                        self.diff.setPlainText)
+        self._guarded(go)
+
+    def _show_plan(self, stdout):
+        try:
+            plan = logic.parse_json(["circcomp"], stdout)
+        except logic.ProgramError as exc:
+            self.say(exc.message)
+            return
+        self.plan_list.clear()
+        self.plan_list.addItems(logic.plan_lines(plan))
+        self.apply_button.setEnabled(bool(plan.get("changes")))
+
+    def confirm_apply(self):
+        return QMessageBox.question(
+            self, "Apply the corrections",
+            "circcomp writes the corrections into the machine's configuration (the originals "
+            "kept; circcomp revert undoes it). LinuxCNC must then restart. Apply?",
+            QMessageBox.Yes | QMessageBox.No, QMessageBox.No) == QMessageBox.Yes
+
+    def apply(self):
+        if not self.session_dir or not self.confirm_apply():
+            self.say("nothing applied")
+            return
+
+        def go():
+            diag = os.path.join(self.session_dir, "diagnosis.json")
+            self.apply_button.setEnabled(False)
+            self.launch(logic.circcomp_apply_command(self.programs, self.setup().ini, diag),
+                        self._applied)
+        self._guarded(go)
+
+    def _applied(self, stdout):
+        logic.write_apply_record(self.session_dir, stdout)
+        self.say("applied: restart LinuxCNC, then press Verify")
+
+    def open_report(self):
+        QDesktopServices.openUrl(QUrl.fromLocalFile(self.report_label.text()))
+
+    # ---- LinuxCNC ----------------------------------------------------------------------------
+
+    def poll_machine(self):
+        self.machine.setText(logic.machine_state(self.linuxcnc))
