@@ -166,6 +166,7 @@ class CircTestPanel(QWidget):
         self.linuxcnc = linuxcnc_module
         self.runners = []
         self.session_dir = None
+        self.session_running = False
         self.source = None
         self.tabs = QTabWidget()
         self.status = QLabel("")
@@ -350,6 +351,7 @@ class CircTestPanel(QWidget):
             self.verify_button.setEnabled(False)
             self.log.clear()
             self.session_dir = None
+            self.session_running = True
             self.source = None
             self.plot.set_polar(None)
             self.launch(argv, self._session_done, self._session_line)
@@ -365,8 +367,8 @@ class CircTestPanel(QWidget):
             self.live_timer.start()
 
     def _session_done(self, _stdout):
-        self.live_timer.stop()
-        self.poll_live()
+        self.session_running = False  # the timer reads on until the trace is read whole
+        self.live_timer.start()
         self._idle()
         self.say("the test ended: results below")
         self.load_session()
@@ -385,7 +387,8 @@ class CircTestPanel(QWidget):
                     break
         if self.source is None:
             return
-        self.source.poll()
+        if self.source.poll() == 0 and not self.session_running:
+            self.live_timer.stop()
         self.plot.set_polar(self.source.polar)
         self.run_label.setText(self.source.status)
 
