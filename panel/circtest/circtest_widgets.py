@@ -6,7 +6,7 @@ import os
 import tempfile
 
 from PyQt5.QtCore import QObject, QPointF, QProcess, Qt, QTimer, QUrl, pyqtSignal
-from PyQt5.QtGui import QColor, QDesktopServices, QPainter, QPen, QPolygonF
+from PyQt5.QtGui import QColor, QDesktopServices, QImage, QPainter, QPen, QPolygonF
 from PyQt5.QtWidgets import (QCheckBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel,
                              QLineEdit, QListWidget, QMessageBox, QPlainTextEdit, QPushButton,
                              QTableWidget, QTableWidgetItem, QTabWidget, QVBoxLayout, QWidget)
@@ -67,8 +67,9 @@ class ProgramRunner(QObject):
 
 
 class PolarPlot(QWidget):
-    """The live polar plot: the nominal circle, rings every `um_per_division` µm (fixed, so
-    two runs compare), each run's lowest and highest deviation per angle bin."""
+    """The live plot: the nominal circle, rings every `um_per_division` µm (fixed, so two runs
+    compare), each run's lowest and highest deviation per angle bin. The grid and the finished
+    runs are drawn once into a cached image; a frame draws only the run in progress."""
 
     DIVISIONS = 4  # rings inside and outside the nominal circle
 
@@ -76,6 +77,9 @@ class PolarPlot(QWidget):
         super().__init__(parent)
         self.polar = None
         self.um_per_division = logic.DEFAULT_UM_PER_DIVISION
+        self._cache = None
+        self._cache_key = None
+        self._unit = []
         self.setMinimumSize(240, 240)
 
     def set_polar(self, polar):
@@ -84,16 +88,44 @@ class PolarPlot(QWidget):
 
     def set_scale(self, um_per_division):
         self.um_per_division = um_per_division
+        self._cache_key = None
         self.update()
 
-    def paintEvent(self, _event):
-        painter = QPainter(self)
-        painter.setRenderHint(QPainter.Antialiasing)
-        painter.fillRect(self.rect(), QColor("white"))
+    def _geometry(self):
         cx, cy = self.width() / 2.0, self.height() / 2.0
         outer = 0.45 * min(self.width(), self.height())
         division_px = outer / (2.0 * self.DIVISIONS)
-        nominal_px = outer / 2.0
+        return cx, cy, outer / 2.0, division_px
+
+    def _run_lines(self, run, colour):
+        """The run's two polylines (lowest, highest per bin) with their pen."""
+        cx, cy, nominal_px, division_px = self._geometry()
+        px_per_um = division_px / self.um_per_division
+        if len(self._unit) != self.polar.bins:
+            step = 2.0 * math.pi / self.polar.bins
+            self._unit = [(math.cos((k + 0.5) * step), math.sin((k + 0.5) * step))
+                          for k in range(self.polar.bins)]
+        lines = []
+        for values in (run.low_um, run.high_um):
+            line = QPolygonF()
+            for (c, s), dev in zip(self._unit, values):
+                if dev != math.inf and dev != -math.inf:
+                    r = max(0.0, nominal_px + dev * px_per_um)
+                    line.append(QPointF(cx + r * c, cy - r * s))
+            lines.append(line)
+        return QPen(QColor(colour), 1.2), lines
+
+    def _background(self):
+        """The grid and the finished runs, redrawn only when they change."""
+        finished = len(self.polar.runs) - 1 if self.polar and self.polar.runs else 0
+        key = (self.width(), self.height(), self.um_per_division, id(self.polar), finished)
+        if key == self._cache_key:
+            return self._cache
+        image = QImage(self.size(), QImage.Format_RGB32)
+        image.fill(QColor("white"))
+        painter = QPainter(image)
+        painter.setRenderHint(QPainter.Antialiasing)
+        cx, cy, nominal_px, division_px = self._geometry()
         grid = QPen(QColor("#c0c0c0"))
         for k in range(-self.DIVISIONS + 1, self.DIVISIONS + 1):
             painter.setPen(QPen(QColor("#606060"), 1.5) if k == 0 else grid)
@@ -101,25 +133,32 @@ class PolarPlot(QWidget):
             painter.drawEllipse(QPointF(cx, cy), r, r)
         painter.setPen(QColor("black"))
         painter.drawText(6, 16, "%g µm/div" % self.um_per_division)
-        if self.polar is None:
-            return
-        px_per_um = division_px / self.um_per_division
-        step = 2.0 * math.pi / self.polar.bins
-        for i, run in enumerate(self.polar.runs):
-            pen = QPen(QColor(RUN_COLOURS[i % len(RUN_COLOURS)]), 1.2)
+        for i in range(finished):
+            pen, lines = self._run_lines(self.polar.runs[i], RUN_COLOURS[i % len(RUN_COLOURS)])
             painter.setPen(pen)
-            for values in (run.low_um, run.high_um):
-                line = QPolygonF()
-                for k, dev in enumerate(values):
-                    if math.isinf(dev):
-                        continue
-                    r = max(0.0, nominal_px + dev * px_per_um)
-                    a = (k + 0.5) * step
-                    line.append(QPointF(cx + r * math.cos(a), cy - r * math.sin(a)))
+            for line in lines:
                 painter.drawPolyline(line)
-        if self.polar.runs and self.polar.runs[-1].last:
-            angle, dev = self.polar.runs[-1].last
-            r = max(0.0, nominal_px + dev * px_per_um)
+        painter.end()
+        self._cache, self._cache_key = image, key
+        return image
+
+    def paintEvent(self, _event):
+        painter = QPainter(self)
+        painter.drawImage(0, 0, self._background())
+        if self.polar is None or not self.polar.runs:
+            return
+        # The run in progress without antialiasing (a third of the cost); it is redrawn
+        # smooth into the cached image once the next run starts.
+        i = len(self.polar.runs) - 1
+        run = self.polar.runs[i]
+        pen, lines = self._run_lines(run, RUN_COLOURS[i % len(RUN_COLOURS)])
+        painter.setPen(pen)
+        for line in lines:
+            painter.drawPolyline(line)
+        if run.last:
+            cx, cy, nominal_px, division_px = self._geometry()
+            angle, dev = run.last
+            r = max(0.0, nominal_px + dev * division_px / self.um_per_division)
             painter.setBrush(QColor("black"))
             painter.drawEllipse(QPointF(cx + r * math.cos(angle), cy - r * math.sin(angle)), 3, 3)
 
