@@ -22,7 +22,7 @@ class TraceTail:
     waits for the next poll; a file that was replaced or shortened is read again from its
     start (reset() is then called on the consumer through `restarted`)."""
 
-    def __init__(self, path, max_bytes_per_poll=1 << 18):
+    def __init__(self, path, max_bytes_per_poll=1 << 16):
         self.path = path
         self.max_bytes_per_poll = max_bytes_per_poll
         self._reset()
@@ -34,6 +34,7 @@ class TraceTail:
         self.columns = None
         self.inode = None
         self.restarted = False
+        self.behind = False  # more was written than the last poll read
 
     def poll(self):
         """The rows appended since the last call (lists of floats), at most about
@@ -53,6 +54,7 @@ class TraceTail:
             trace.seek(self.offset)
             data = trace.read(self.max_bytes_per_poll)
         self.offset += len(data)
+        self.behind = self.offset < st.st_size
         data = self.partial + data
         cut = data.rfind(b"\n") + 1
         self.partial = data[cut:]

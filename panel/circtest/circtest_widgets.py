@@ -79,6 +79,7 @@ class PolarPlot(QWidget):
         self.um_per_division = logic.DEFAULT_UM_PER_DIVISION
         self._cache = None
         self._cache_key = None
+        self._cached_runs = 0
         self._unit = []
         self.setMinimumSize(240, 240)
 
@@ -116,11 +117,26 @@ class PolarPlot(QWidget):
         return QPen(QColor(colour), 1.2), lines
 
     def _background(self):
-        """The grid and the finished runs, redrawn only when they change."""
+        """The grid and the finished runs: a run is drawn into it once, when it finishes."""
         finished = len(self.polar.runs) - 1 if self.polar and self.polar.runs else 0
-        key = (self.width(), self.height(), self.um_per_division, id(self.polar), finished)
-        if key == self._cache_key:
-            return self._cache
+        key = (self.width(), self.height(), self.um_per_division, id(self.polar))
+        if key != self._cache_key or finished < self._cached_runs:
+            self._cache = self._grid()
+            self._cache_key, self._cached_runs = key, 0
+        if finished > self._cached_runs:
+            painter = QPainter(self._cache)
+            painter.setRenderHint(QPainter.Antialiasing)
+            for i in range(self._cached_runs, finished):
+                pen, lines = self._run_lines(self.polar.runs[i],
+                                             RUN_COLOURS[i % len(RUN_COLOURS)])
+                painter.setPen(pen)
+                for line in lines:
+                    painter.drawPolyline(line)
+            painter.end()
+            self._cached_runs = finished
+        return self._cache
+
+    def _grid(self):
         image = QImage(self.size(), QImage.Format_RGB32)
         image.fill(QColor("white"))
         painter = QPainter(image)
@@ -133,13 +149,7 @@ class PolarPlot(QWidget):
             painter.drawEllipse(QPointF(cx, cy), r, r)
         painter.setPen(QColor("black"))
         painter.drawText(6, 16, "%g µm/div" % self.um_per_division)
-        for i in range(finished):
-            pen, lines = self._run_lines(self.polar.runs[i], RUN_COLOURS[i % len(RUN_COLOURS)])
-            painter.setPen(pen)
-            for line in lines:
-                painter.drawPolyline(line)
         painter.end()
-        self._cache, self._cache_key = image, key
         return image
 
     def paintEvent(self, _event):
@@ -429,6 +439,10 @@ class CircTestPanel(QWidget):
         if self.source.poll() == 0 and not self.session_running:
             self.live_timer.stop()
         self.plot.set_polar(self.source.polar)
+        if self.source.tail.behind:
+            # Catching up (the panel opened mid-run): the next read once the events waiting
+            # are handled, so the screen never waits for more than one read.
+            QTimer.singleShot(0, self.poll_live)
         self.run_label.setText(self.source.status)
 
     # ---- results and compensation ------------------------------------------------------------
