@@ -6,6 +6,8 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+from PyQt5.QtCore import QTimer  # noqa: E402
+
 import circtest_logic  # noqa: E402
 import circtest_widgets  # noqa: E402
 
@@ -27,6 +29,10 @@ class HandlerClass:
             circtest_logic.Programs(circtest_logic.find_programs()), linuxcnc,
             os.environ.get("INI_FILE_NAME", ""))
         self.w.panel_layout.addWidget(self.panel)
+        # For tests and the documentation's pictures: the window as a PNG once it is shown.
+        shot = os.environ.get("CIRCTEST_PANEL_SCREENSHOT")
+        if shot:
+            QTimer.singleShot(1500, lambda: self.w.grab().save(shot))
 
     def __getitem__(self, item):
         return getattr(self, item)
