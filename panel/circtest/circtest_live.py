@@ -90,6 +90,7 @@ class RunPolar:
         self.low_um = [math.inf] * bins
         self.high_um = [-math.inf] * bins
         self.samples = 0
+        self.plane = None
         self.last = None  # (angle rad, deviation µm) of the latest sample
 
     def extremes_um(self):
@@ -109,54 +110,75 @@ class LivePolar:
         self.centre_ab = None
         self.radius_mm = None
         self._index = None
+        self._planes = {}  # plane -> (column a, column b, centre a, centre b)
+        self._segment_plane = {}
         self._announced = 0
 
     def reset(self):
         self.__init__(self.bins)
 
     def configure(self, metadata, columns):
-        """Plane, centre, radius and column indices from the trace's metadata and header;
-        None when ready, else what is missing (the plot then waits)."""
-        plane = metadata.get("plane", "XY").split(",")[0].strip().upper()
-        if plane not in PLANE_AXES:
-            return "the trace's plane '%s' is not XY, YZ or ZX" % plane
+        """Planes, centre, radius and column indices from the trace's metadata and header;
+        None when ready, else what is missing (the plot then waits). A test set's trace
+        (`plane: XY,YZ,ZX`) names each run's plane in `segments` (1:CCW:F500:XY,...)."""
+        planes = [p.strip().upper() for p in metadata.get("plane", "XY").split(",")]
+        for plane in planes:
+            if plane not in PLANE_AXES:
+                return "the trace's plane '%s' is not XY, YZ or ZX" % plane
         try:
             if "radius_mm" in metadata:
                 radius = float(metadata["radius_mm"])
             else:
                 radius = float(metadata["diameter_mm"]) / 2.0
             centre = [float(v) for v in metadata.get("centre_mm", "0,0,0").split(",")]
+            if len(centre) != 3:
+                raise ValueError
         except (KeyError, ValueError):
-            return "the trace names no nominal radius (radius_mm) or centre (centre_mm)"
-        a, b = PLANE_AXES[plane]
-        if a not in columns or b not in columns:
-            a, b = a + "_fb", b + "_fb"
-        if a not in columns or b not in columns:
-            return "the trace has no %s columns" % "/".join(PLANE_AXES[plane])
+            return "the trace names no nominal radius (radius_mm) or centre (centre_mm x,y,z)"
         axis = {"x": 0, "y": 1, "z": 2}
-        self.plane = plane
+        self._planes = {}
+        for plane in planes:
+            a, b = PLANE_AXES[plane]
+            if a not in columns or b not in columns:
+                a, b = a + "_fb", b + "_fb"
+            if a not in columns or b not in columns:
+                return "the trace has no %s columns" % "/".join(PLANE_AXES[plane])
+            self._planes[plane] = (columns.index(a), columns.index(b), centre[axis[a[0]]],
+                                   centre[axis[b[0]]])
+        segments = [e.split(":") for e in metadata.get("segments", "").split(",") if e]
+        self._segment_plane = {}
+        for entry in segments:
+            if len(entry) == 4 and entry[0].strip().isdigit():
+                self._segment_plane[int(entry[0])] = entry[3].strip().upper()
+        self.plane = planes[0]
         self.radius_mm = radius
-        self.centre_ab = (centre[axis[a[0]]], centre[axis[b[0]]])
-        self._index = (columns.index(a), columns.index(b),
-                       columns.index("marker") if "marker" in columns else None,
+        self.centre_ab = self._planes[self.plane][2:]
+        self._index = (columns.index("marker") if "marker" in columns else None,
                        columns.index("segment") if "segment" in columns else None)
-        self._announced = len(metadata.get("segments", "").split(",")) if metadata.get(
-            "segments") else 0
+        self._announced = len(segments)
         return None
 
     @property
     def runs_announced(self):
         return self._announced
 
+    def _new_run(self, segment):
+        run = RunPolar(segment, self.bins)
+        run.plane = self._segment_plane.get(segment, self.plane)
+        if run.plane not in self._planes:
+            run.plane = self.plane
+        self.runs.append(run)
+        return run
+
     def add(self, rows):
         """Adds rows; only those inside a measured run (marker 1) when the trace marks runs."""
         if self._index is None:
             return
-        ia, ib, im, iseg = self._index
-        ca, cb = self.centre_ab
+        im, iseg = self._index
         radius = self.radius_mm
         scale = self.bins / (2.0 * math.pi)
         run = self.runs[-1] if self.runs else None
+        ia, ib, ca, cb = self._planes[run.plane] if run else (0, 0, 0.0, 0.0)
         for row in rows:
             if im is not None and row[im] != 1.0:
                 if run is not None and iseg is None:
@@ -164,8 +186,8 @@ class LivePolar:
                 continue
             segment = int(row[iseg]) if iseg is not None else len(self.runs) + (run is None)
             if run is None or run.segment != segment:
-                run = RunPolar(segment, self.bins)
-                self.runs.append(run)
+                run = self._new_run(segment)
+                ia, ib, ca, cb = self._planes[run.plane]
             da, db = row[ia] - ca, row[ib] - cb
             angle = math.atan2(db, da)
             dev_um = (math.hypot(da, db) - radius) * 1000.0

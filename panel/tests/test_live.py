@@ -142,3 +142,20 @@ def test_partial_line_waits(tmp_path):
     assert source.poll() == 1
     assert source.polar.runs[0].high_um[0] == pytest.approx(1.0)  # 1.001 mm on R1
     assert math.isinf(source.polar.runs[0].low_um[1])
+
+
+def test_a_test_set_takes_each_runs_plane(tmp_path):
+    # circgen --plane XY,YZ: one trace, each run's plane in `segments`; the centre x,y,z.
+    path = tmp_path / "t.csv"
+    path.write_text("# plane: XY,YZ\n# radius_mm: 10\n# centre_mm: 1,2,3\n"
+                    "# segments: 1:CCW:F500:XY,2:CCW:F500:YZ\n"
+                    "t,x,y,z,marker,segment\n"
+                    "0,11.002,2,3,1,1\n"      # XY: 2 µm at 0°
+                    "1,1,2,13.004,1,2\n")     # YZ: (y, z) = (2, 13.004): 4 µm at 90°
+    source = live.LiveSource(str(path))
+    assert source.poll() == 2
+    xy, yz = source.polar.runs
+    assert (xy.plane, yz.plane) == ("XY", "YZ")
+    assert xy.high_um[0] == pytest.approx(2.0)
+    assert yz.high_um[180] == pytest.approx(4.0)
+    assert source.status == "run 2 of 2"
