@@ -297,13 +297,13 @@ class CircTestPanel(QWidget):
 
     def _build_results(self):
         page = QWidget()
-        self.results = QTableWidget(0, 6)
+        self.results = QTableWidget(0, 7)
         self.results.setHorizontalHeaderLabels(
-            ["Plane", "Direction", "Feed mm/min", "G µm", "F µm", "H µm"])
+            ["Test", "Plane", "Direction", "Feed mm/min", "G µm", "F µm", "H µm"])
         self.sources = QTableWidget(0, 3)
         self.sources.setHorizontalHeaderLabels(["Source", "G µm", "Share of G %"])
         box = QVBoxLayout(page)
-        box.addWidget(QLabel("circana analyze (results.json)"))
+        box.addWidget(QLabel("circana analyze (results.json; verify-results.json after Verify)"))
         box.addWidget(self.results)
         box.addWidget(QLabel("circana diagnose (diagnosis.json)"))
         box.addWidget(self.sources)
@@ -454,15 +454,22 @@ class CircTestPanel(QWidget):
             return
         d = self.session_dir
         try:
-            results = os.path.join(d, "results.json")
-            if os.path.exists(results):
-                with open(results) as f:
-                    self.show_results(logic.parse_json(["circana"], f.read()))
+            tests = []
+            for name, label in (("results.json", "run"), ("verify-results.json", "verify")):
+                if os.path.exists(os.path.join(d, name)):
+                    with open(os.path.join(d, name)) as f:
+                        tests.append((label, logic.parse_json(["circana"], f.read())))
+            self.show_results(tests)
             diagnosis = os.path.join(d, "diagnosis.json")
             if os.path.exists(diagnosis):
                 with open(diagnosis) as f:
                     self.show_sources(logic.parse_json(["circana"], f.read()))
-                self.request_plan()
+                if os.path.exists(os.path.join(d, "apply.txt")):
+                    self.plan_list.clear()
+                    self.plan_list.addItem("applied (apply.txt): restart LinuxCNC, then Verify")
+                    self.apply_button.setEnabled(False)
+                else:
+                    self.request_plan()
         except logic.ProgramError as exc:
             self.say(exc.message)
         for name in ("report.html",):
@@ -478,9 +485,12 @@ class CircTestPanel(QWidget):
                 text = "" if v is None else ("%.1f" % v if isinstance(v, float) else str(v))
                 table.setItem(i, j, QTableWidgetItem(text))
 
-    def show_results(self, document):
-        self._fill(self.results, logic.result_rows(document),
-                   ["plane", "direction", "feed_mm_per_min", "G_um", "F_um", "H_um"])
+    def show_results(self, tests):
+        """TESTS: (label, circana analyze --json document), the run's and the verify's."""
+        rows = [dict(row, test=label) for label, document in tests
+                for row in logic.result_rows(document)]
+        self._fill(self.results, rows,
+                   ["test", "plane", "direction", "feed_mm_per_min", "G_um", "F_um", "H_um"])
 
     def show_sources(self, diagnosis):
         self._fill(self.sources, logic.contribution_rows(diagnosis), ["source", "G_um",

@@ -117,8 +117,9 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     # Results: circana's G, F and H in µm, one decimal.
     results = logic.parse_json(["circana"], (d / "results.json").read_text())
     for i, r in enumerate(results["runs"]):
-        assert panel.results.item(i, 3).text() == "%.1f" % (r["G"] * 1000.0)
-        assert panel.results.item(i, 5).text() == "%.1f" % (results["pairs"][0]["H"] * 1000)
+        assert panel.results.item(i, 0).text() == "run"
+        assert panel.results.item(i, 4).text() == "%.1f" % (r["G"] * 1000.0)
+        assert panel.results.item(i, 6).text() == "%.1f" % (results["pairs"][0]["H"] * 1000)
     assert panel.sources.item(0, 0).text() == "backlash X"
     assert panel.plan_list.item(0).text() == "[JOINT_0] X backlash 0 → 10.0 µm"
     assert "+BACKLASH = 0.01" in panel.diff.toPlainText()
@@ -137,6 +138,22 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     qtbot.waitUntil(lambda: panel.status.text().startswith("applied"), timeout=15000)
     assert "BACKLASH = 0.01" in open(sim_servo).read()
     assert (d / "apply.txt").read_text().strip() != ""
+
+    # Verify: the same session folder with verify-results.json (circana's JSON of the run
+    # after the corrections) beside the run's; the plan is not offered again.
+    trace = simulate(d / "verify-trace.csv", "--d", "100", "--f", "1000", "--backlash-x",
+                     "0.002")
+    (d / "verify-results.json").write_text(
+        logic.run([programs.path("circana"), "analyze", trace, "--json"]))
+    qtbot.mouseClick(panel.verify_button, widgets.Qt.LeftButton)
+    qtbot.waitUntil(lambda: panel.results.rowCount() == 4, timeout=15000)
+    after = logic.parse_json(["circana"], (d / "verify-results.json").read_text())
+    assert [panel.results.item(i, 0).text() for i in range(4)] == ["run", "run", "verify",
+                                                                   "verify"]
+    assert panel.results.item(2, 6).text() == "%.1f" % (after["pairs"][0]["H"] * 1000)
+    assert panel.results.item(2, 6).text() == "2.0"  # the 2 µm backlash left
+    assert not panel.apply_button.isEnabled()
+    assert panel.plan_list.item(0).text().startswith("applied (apply.txt)")
 
     # Applying again: circcomp's refusal shows as its line.
     monkeypatch.setattr(panel, "confirm_apply", lambda: True)
