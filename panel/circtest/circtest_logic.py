@@ -79,8 +79,11 @@ class Setup:
     """What the operator chose on the set-up step."""
 
     def __init__(self, ini="", planes=("XY",), diameter_mm=DEFAULT_DIAMETER_MM,
-                 feeds_mm_per_min=(DEFAULT_FEED_MM_PER_MIN,), start=False):
+                 feeds_mm_per_min=(DEFAULT_FEED_MM_PER_MIN,), start=False, annex_c=None):
         self.ini = ini
+        # ISO 230-4 Annex C: (reference diameter D2 mm, reference feed V2 mm/min); circgen
+        # then computes the feed (circgen --ref-d/--ref-f), and the preview takes it over.
+        self.annex_c = annex_c
         self.planes = tuple(planes)
         self.diameter_mm = float(diameter_mm)
         self.feeds_mm_per_min = tuple(float(f) for f in feeds_mm_per_min)
@@ -100,6 +103,13 @@ class Setup:
             raise ProgramError("circtest panel: error: each feed must be a number above 0 "
                                "mm/min", 2)
 
+    def circgen_feed_options(self):
+        if self.annex_c:
+            return ["--d", _number_text(self.diameter_mm), "--ref-d",
+                    _number_text(self.annex_c[0]), "--ref-f", _number_text(self.annex_c[1]),
+                    "--plane", ",".join(self.planes)]
+        return self.program_options()
+
     def program_options(self):
         """The options circgen and `circtest run` share."""
         options = ["--d", _number_text(self.diameter_mm)]
@@ -109,6 +119,12 @@ class Setup:
             options += ["--feeds", ",".join(_number_text(f) for f in self.feeds_mm_per_min)]
         options += ["--plane", ",".join(self.planes)]
         return options
+
+
+def program_feeds(header):
+    """The feeds a circgen program runs at (its header), mm/min."""
+    return [float(f) for f in header.get("feeds_mm_per_min", header.get(
+        "feed_mm_per_min", "")).split(",") if f]
 
 
 def parse_feeds(text):
@@ -124,7 +140,7 @@ def parse_feeds(text):
 # ---- command lines ------------------------------------------------------------------------
 
 def circgen_command(programs, setup, output):
-    argv = [programs.path("circgen")] + setup.program_options() + ["-o", output]
+    argv = [programs.path("circgen")] + setup.circgen_feed_options() + ["-o", output]
     if setup.ini:
         argv += ["--ini", setup.ini]
     return argv

@@ -259,6 +259,10 @@ class CircTestPanel(QWidget):
         form.addRow("Diameter", self.diameter)
         self.feeds = QLineEdit("%g" % logic.DEFAULT_FEED_MM_PER_MIN)
         form.addRow("Feed(s), mm/min", self.feeds)
+        self.annex_c = QLineEdit("")
+        self.annex_c.setPlaceholderText("D2,V2: the feed of Annex C from a reference test "
+                                        "(circgen --ref-d/--ref-f; Preview sets the feed)")
+        form.addRow("Annex C reference", self.annex_c)
         self.start_box = QCheckBox("The panel presses cycle start (simulators, unattended cells)")
         form.addRow("", self.start_box)
         self.preview_button = QPushButton("Preview (circgen checks the machine's limits)")
@@ -364,6 +368,18 @@ class CircTestPanel(QWidget):
         s.check()
         return s
 
+    def preview_setup(self):
+        """The set-up with Annex C's reference when one is given (circgen computes the feed)."""
+        s = self.setup()
+        text = self.annex_c.text().strip()
+        if text:
+            values = logic.parse_feeds(text)
+            if len(values) != 2 or not all(math.isfinite(v) and v > 0 for v in values):
+                raise logic.ProgramError("circtest panel: error: Annex C reference: expected "
+                                         "D2,V2 (mm, mm/min), got '%s'" % text, 2)
+            s.annex_c = tuple(values)
+        return s
+
     def _guarded(self, action):
         try:
             action()
@@ -378,13 +394,15 @@ class CircTestPanel(QWidget):
     def preview(self):
         def go():
             out = os.path.join(tempfile.mkdtemp(prefix="circtest-panel-"), "preview.ngc")
-            self.launch(logic.circgen_command(self.programs, self.setup(), out),
+            self.launch(logic.circgen_command(self.programs, self.preview_setup(), out),
                         lambda _out: self._show_preview(out))
         self._guarded(go)
 
     def _show_preview(self, program):
         header = logic.program_header(program)
         self.preview.set_points(logic.preview_path(header))
+        # The feed(s) circgen wrote (Annex C's when a reference was given) go to circtest run.
+        self.feeds.setText(",".join("%g" % f for f in logic.program_feeds(header)))
         self.say("circgen: the program is within the machine's limits (%s)" % program)
 
     def run_test(self):

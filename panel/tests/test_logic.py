@@ -184,3 +184,13 @@ def test_test_set_rows():
     assert len(rows) == 4 and rows[2]["plane"] == "YZ"
     assert rows[1]["F_um"] is None and rows[1]["H_um"] == pytest.approx(2.0)
     json.dumps(rows)
+
+
+def test_annex_c_feed_is_circgens(programs, tmp_path):
+    out = str(tmp_path / "p.ngc")
+    setup = logic.Setup(diameter_mm=150.0, annex_c=(100.0, 1000.0))
+    argv = logic.circgen_command(programs, setup, out)
+    assert "--f" not in argv and argv[argv.index("--ref-d") + 1] == "100"
+    logic.run(argv)
+    # V1 = V2 sqrt(D1 / D2) (ISO 230-4 Annex C), programmed in whole mm/min
+    assert logic.program_feeds(logic.program_header(out)) == [round(1000 * math.sqrt(1.5))]

@@ -2,6 +2,7 @@
 circana/circcomp and a stand-in for `circtest run` (LinuxCNC is not running here), LinuxCNC's
 status through a fake `linuxcnc` module, errors as the programs' one line."""
 import hashlib
+import math
 import os
 import stat
 
@@ -99,6 +100,18 @@ def test_preview_runs_circgen(qtbot, programs, tmp_path):
     qtbot.waitUntil(lambda: bool(panel.preview.points), timeout=10000)
     assert max(x for x, _ in panel.preview.points) == pytest.approx(30.0)
     assert panel.status.text().startswith("circgen: the program is within")
+    # Annex C: circgen's feed for D60 from a D100 F1000 reference, 1000 * sqrt(0.6) = 774.6,
+    # programmed in whole mm/min; the feed field takes it over for circtest run.
+    panel.preview.set_points([])
+    panel.annex_c.setText("100,1000")
+    qtbot.mouseClick(panel.preview_button, widgets.Qt.LeftButton)
+    qtbot.waitUntil(lambda: bool(panel.preview.points), timeout=10000)
+    assert panel.feeds.text() == "%g" % round(1000 * math.sqrt(0.6))
+    assert panel.setup().program_options()[2:4] == ["--f", "775"]
+    panel.annex_c.setText("100")
+    qtbot.mouseClick(panel.preview_button, widgets.Qt.LeftButton)
+    assert panel.status.text().startswith("circtest panel: error: Annex C reference: expected")
+    panel.annex_c.setText("")
     panel.diameter.setValue(1.0)
     panel.feeds.setText("1e9")
     qtbot.mouseClick(panel.preview_button, widgets.Qt.LeftButton)
