@@ -7,6 +7,7 @@ import tempfile
 
 from PyQt5.QtCore import QObject, QPointF, QProcess, Qt, QTimer, QUrl, pyqtSignal
 from PyQt5.QtGui import QColor, QDesktopServices, QImage, QPainter, QPen, QPolygonF
+from PyQt5.QtSvg import QSvgWidget
 from PyQt5.QtWidgets import (QCheckBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel,
                              QLineEdit, QListWidget, QMessageBox, QPlainTextEdit, QPushButton,
                              QTableWidget, QTableWidgetItem, QTabWidget, QVBoxLayout, QWidget)
@@ -311,6 +312,10 @@ class CircTestPanel(QWidget):
         box.addWidget(self.results)
         box.addWidget(QLabel("circana diagnose (diagnosis.json)"))
         box.addWidget(self.sources)
+        # circana's own plot of the runs (plot.svg, as in the report)
+        self.svg = QSvgWidget()
+        self.svg.setMinimumHeight(240)
+        box.addWidget(self.svg, 1)
         self.tabs.addTab(page, "Results")
 
     def _build_compensation(self):
@@ -478,6 +483,8 @@ class CircTestPanel(QWidget):
                     with open(os.path.join(d, name)) as f:
                         tests.append((label, logic.parse_json(["circana"], f.read())))
             self.show_results(tests)
+            if os.path.exists(os.path.join(d, "plot.svg")):
+                self.svg.load(os.path.join(d, "plot.svg"))
             diagnosis = os.path.join(d, "diagnosis.json")
             if os.path.exists(diagnosis):
                 with open(diagnosis) as f:

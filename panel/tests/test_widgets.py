@@ -39,6 +39,7 @@ def session_folder(tmp_path, programs, ini):
     open(trace, "w").write("# ini_sha256: %s\n%s" % (digest, text))
     circana = programs.path("circana")
     (d / "results.json").write_text(logic.run([circana, "analyze", trace, "--json"]))
+    logic.run([circana, "analyze", trace, "--svg", str(d / "plot.svg")])
     (d / "diagnosis.json").write_text(logic.run([circana, "diagnose", trace, "--json"]))
     (d / "report.html").write_text("<html></html>")
     return d
@@ -140,6 +141,7 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     qtbot.waitUntil(lambda: not panel.live_timer.isActive(), timeout=15000)
     assert [r.segment for r in panel.plot.polar.runs] == [1, 2]
     assert panel.report_button.isEnabled()
+    assert panel.svg.renderer().isValid()  # circana's plot.svg shown
 
     # Apply: declined, nothing; confirmed, circcomp apply and the session's apply.txt.
     before = open(sim_servo).read()
