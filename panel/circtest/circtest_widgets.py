@@ -218,6 +218,7 @@ class CircTestPanel(QWidget):
         self.session_dir = None
         self.session_running = False
         self.source = None
+        self.traces = self.RUN_TRACES
         self.tabs = QTabWidget()
         self.status = QLabel("")
         self.status.setWordWrap(True)
@@ -410,14 +411,20 @@ class CircTestPanel(QWidget):
         self.feeds.setText(",".join("%g" % f for f in logic.program_feeds(header)))
         self.say("circgen: the program is within the machine's limits (%s)" % program)
 
+    # The traces a recording writes in the session folder: a live output while it records
+    # (when the recorder has one), the trace when it is complete.
+    RUN_TRACES = ("live.csv", "trace.csv")
+    VERIFY_TRACES = ("verify-live.csv", "verify-trace.csv")
+
     def run_test(self):
-        self._start_session(logic.circtest_run_command)
+        self._start_session(logic.circtest_run_command, self.RUN_TRACES)
 
     def verify(self):
-        self._start_session(logic.circtest_verify_command)
+        self._start_session(logic.circtest_verify_command, self.VERIFY_TRACES)
 
-    def _start_session(self, command):
+    def _start_session(self, command, traces):
         def go():
+            self.traces = traces
             argv = command(self.programs, self.setup())
             self.run_button.setEnabled(False)
             self.verify_button.setEnabled(False)
@@ -451,7 +458,7 @@ class CircTestPanel(QWidget):
         if not self.session_dir:
             return
         if self.source is None or self.source.rows == 0:
-            for name in ("live.csv", "verify-trace.csv", "trace.csv"):
+            for name in self.traces:
                 path = os.path.join(self.session_dir, name)
                 if os.path.exists(path):
                     if self.source is None or self.source.tail.path != path:

@@ -122,7 +122,11 @@ def test_preview_runs_circgen(qtbot, programs, tmp_path):
 def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_servo,
                                              monkeypatch):
     d = session_folder(tmp_path, programs, sim_servo)
-    run = script(tmp_path / "circtest", "echo 'circtest: session folder %s'\n" % d)
+    # The stand-in announces the folder; as verify, its recording appears a moment later.
+    run = script(tmp_path / "circtest",
+                 "echo 'circtest: session folder {0}'\nsleep 0.5\n"
+                 "if [ -f {0}/pending.csv ]; then mv {0}/pending.csv {0}/verify-trace.csv; fi\n"
+                 .format(d))
     panel = panel_with(qtbot, programs, run, ini=sim_servo)
     qtbot.mouseClick(panel.run_button, widgets.Qt.LeftButton)
     qtbot.waitUntil(lambda: panel.plan_list.count() > 0, timeout=15000)
@@ -156,8 +160,7 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
 
     # Verify: the same session folder with verify-results.json (circana's JSON of the run
     # after the corrections) beside the run's; the plan is not offered again.
-    trace = simulate(d / "verify-trace.csv", "--d", "100", "--f", "1000", "--backlash-x",
-                     "0.002")
+    trace = simulate(d / "pending.csv", "--d", "100", "--f", "1000", "--backlash-x", "0.002")
     (d / "verify-results.json").write_text(
         logic.run([programs.path("circana"), "analyze", trace, "--json"]))
     qtbot.mouseClick(panel.verify_button, widgets.Qt.LeftButton)
@@ -169,6 +172,9 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     assert panel.results.item(2, 6).text() == "2.0"  # the 2 µm backlash left
     assert not panel.apply_button.isEnabled()
     assert panel.plan_list.item(0).text().startswith("applied (apply.txt)")
+    # the plot shows the verify's recording, not the run's trace.csv beside it
+    qtbot.waitUntil(lambda: not panel.live_timer.isActive(), timeout=15000)
+    assert panel.source.tail.path == str(d / "verify-trace.csv")
 
     # Applying again: circcomp's refusal shows as its line.
     monkeypatch.setattr(panel, "confirm_apply", lambda: True)
