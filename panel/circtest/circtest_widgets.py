@@ -219,6 +219,7 @@ class CircTestPanel(QWidget):
         self.session_running = False
         self.source = None
         self.traces = self.RUN_TRACES
+        self.scratch = tempfile.TemporaryDirectory(prefix="circtest-panel-")  # the preview
         self.tabs = QTabWidget()
         self.status = QLabel("")
         self.status.setWordWrap(True)
@@ -351,7 +352,7 @@ class CircTestPanel(QWidget):
     def say(self, text):
         self.status.setText(text)
 
-    def launch(self, argv, on_done, on_line=None):
+    def launch(self, argv, on_done, on_line=None, on_failed=None):
         """Starts ARGV in the background; a failure is said in its one line."""
         runner = ProgramRunner(argv, self)
         self.runners.append(runner)
@@ -361,7 +362,8 @@ class CircTestPanel(QWidget):
                 self.runners.remove(runner)
 
         runner.done.connect(lambda out: (forget(), on_done(out)))
-        runner.failed.connect(lambda line: (forget(), self.say(line), self._idle()))
+        runner.failed.connect(lambda line: (forget(), self.say(line), self._idle(),
+                                             on_failed and on_failed()))
         if on_line:
             runner.line.connect(on_line)
         runner.start()
@@ -399,7 +401,7 @@ class CircTestPanel(QWidget):
 
     def preview(self):
         def go():
-            out = os.path.join(tempfile.mkdtemp(prefix="circtest-panel-"), "preview.ngc")
+            out = os.path.join(self.scratch.name, "preview.ngc")
             self.launch(logic.circgen_command(self.programs, self.preview_setup(), out),
                         lambda _out: self._show_preview(out))
         self._guarded(go)
@@ -433,7 +435,7 @@ class CircTestPanel(QWidget):
             self.session_running = True
             self.source = None
             self.plot.set_polar(None)
-            self.launch(argv, self._session_done, self._session_line)
+            self.launch(argv, self._session_done, self._session_line, self._session_failed)
             self.tabs.setCurrentIndex(1)
             self.say("running: " + " ".join(os.path.basename(a) for a in argv[:2]))
         self._guarded(go)
@@ -451,6 +453,13 @@ class CircTestPanel(QWidget):
         self._idle()
         self.say("the test ended: results below")
         self.load_session()
+
+    def _session_failed(self):
+        """A test that ended otherwise (refused, incomplete): the plot reads what was
+        recorded; nothing is analysed, so no results are shown."""
+        self.session_running = False
+        if self.session_dir:
+            self.live_timer.start()
 
     # ---- live plot ---------------------------------------------------------------------------
 

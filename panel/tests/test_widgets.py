@@ -74,6 +74,24 @@ def test_a_refusal_is_its_one_line(qtbot, programs, tmp_path):
     assert panel.log.toPlainText() == "circtest: checking LinuxCNC"
 
 
+def test_an_incomplete_test_keeps_its_plot(qtbot, programs, tmp_path):
+    # circtest run's exit 5: the session folder and the recorded trace stay, nothing analysed
+    d = tmp_path / "session"
+    d.mkdir()
+    simulate(d / "trace.csv", "--d", "100", "--f", "1000")
+    incomplete = script(tmp_path / "circtest",
+                        "echo 'circtest: session folder %s'\n"
+                        "echo 'circtest: error: the test is incomplete (E-stop)' >&2\nexit 5\n"
+                        % d)
+    panel = panel_with(qtbot, programs, incomplete)
+    qtbot.mouseClick(panel.run_button, widgets.Qt.LeftButton)
+    qtbot.waitUntil(lambda: panel.run_button.isEnabled(), timeout=10000)
+    assert panel.status.text() == "circtest: error: the test is incomplete (E-stop)"
+    qtbot.waitUntil(lambda: not panel.live_timer.isActive(), timeout=15000)
+    assert len(panel.plot.polar.runs) == 2
+    assert panel.results.rowCount() == 0
+
+
 def test_a_program_that_is_not_there(qtbot, programs, tmp_path):
     panel = panel_with(qtbot, programs, str(tmp_path / "absent"))
     qtbot.mouseClick(panel.run_button, widgets.Qt.LeftButton)
