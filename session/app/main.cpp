@@ -21,7 +21,7 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: circtest install   --ini MACHINE.ini [--yes] [--feedback JOINT=PIN]...\n"
-    "                          [--command JOINT=PIN]... [--instrument NAME=PIN]...\n"
+    "                          [--command JOINT=PIN]... [--instrument NAME=PIN]... [--panel]\n"
     "       circtest uninstall --ini MACHINE.ini\n"
     "       circtest run    --ini MACHINE.ini [--d MM] [--f F | --feeds F1,F2,...]\n"
     "                       [--plane XY|YZ|ZX|XY,YZ,ZX] [--centre X,Y,Z] [--clearance P]\n"
@@ -97,7 +97,7 @@ int run(int argc, char** argv) {
                      "' (expected install, uninstall, run or verify)");
   }
   std::string ini, d_text, f_text, timeout_text;
-  bool yes = false, start = false;
+  bool yes = false, start = false, panel = false;
   std::vector<std::string> feedback, commanded, instruments;
   RunRequest run_request;
   po::options_description opts;
@@ -108,7 +108,7 @@ int run(int argc, char** argv) {
       "plane", po::value(&run_request.program.planes))("centre",
                                                        po::value(&run_request.program.centre_mm))(
       "clearance", po::value(&run_request.program.clearance_mm))("start", po::bool_switch(&start))(
-      "timeout", po::value(&timeout_text))("help,h", "");
+      "panel", po::bool_switch(&panel))("timeout", po::value(&timeout_text))("help,h", "");
   po::variables_map vm;
   try {
     refuse_option_placeholders(argc, argv);
@@ -122,6 +122,7 @@ int run(int argc, char** argv) {
     return 0;
   }
   if (ini.empty()) throw UsageError("--ini: expected the machine's LinuxCNC INI file");
+  if (panel && command != "install") throw UsageError("--panel is install's option");
   Console console;
   console.yes = yes;
   if (command == "run" || command == "verify") {
@@ -155,6 +156,7 @@ int run(int argc, char** argv) {
   for (const std::string& v : instruments) {
     request.instrument_pins.push_back(split_assignment("--instrument", v));
   }
+  request.panel = panel;
   request.words = install_option_words;
   return install_command(request, console);
 }

@@ -239,6 +239,13 @@ InstallPlan plan_install(const InstallRequest& request) {
   edited.set("CIRCTEST", "COLUMNS", join(columns, ","));
   edited.set("CIRCTEST", "MARKER_OUTPUT", std::to_string(plan.marker_output));
   edited.set("CIRCTEST", "SEGMENT_OUTPUT", std::to_string(plan.segment_output));
+  if (request.panel) {
+    const PanelTab tab = panel_tab(edited, request.ini_path);
+    add_panel_tab(edited, tab);
+    plan.notes.push_back(fmt::format(
+        "the circtest panel: a tab of {} ([DISPLAY] EMBED_TAB_*, docs/panel.md), after the restart",
+        tab.screen));
+  }
 
   plan.plan.ini_path = request.ini_path;
   for (std::size_t i = 0; i < edited.file_count(); ++i) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "circtest/compensation/plan.hpp"
+#include "circtest/core/ini.hpp"
 #include "circtest/core/setting_words.hpp"
 
 namespace circtest::session {
@@ -35,8 +36,23 @@ struct InstallRequest {
   std::map<int, std::string> command_pins;   // joint -> pin
   // column name (x, y, z: the table position an instrument measures) -> pin
   std::vector<std::pair<std::string, std::string>> instrument_pins;
+  bool panel = false;  // also the circtest QtVCP panel as a tab of the screen (panel_tab)
   InstallSettingWords words = library_setting_words;
 };
+
+// The circtest QtVCP panel (docs/panel.md) as a tab of the machine's screen: the
+// [DISPLAY] EMBED_TAB_* lines for the screen that DISPLAY names.
+struct PanelTab {
+  std::string screen;    // "AXIS", "gmoccapy", or the qtvcp screen ("qtdragon")
+  std::string command;   // EMBED_TAB_COMMAND
+  std::string location;  // EMBED_TAB_LOCATION; empty for AXIS, which reads none
+};
+// Throws DataError (with the INI's file and line) for a screen that takes no tabs, a tab
+// named circtest already there, and EMBED_TAB_* lists of different lengths (the screens pair
+// them by order).
+PanelTab panel_tab(const IniDocument& ini, const std::string& ini_path);
+// Appends the tab's lines to [DISPLAY], each after the last line of its key.
+void add_panel_tab(IniDocument& ini, const PanelTab& tab);
 
 // One circlog channel: its column, the signal it joins (or the pin it links to a new signal)
 // and what it is.

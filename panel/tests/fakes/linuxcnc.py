@@ -1,0 +1,20 @@
+"""A stand-in for LinuxCNC's `linuxcnc` module: the status channel in the state MODE says
+("gone": no LinuxCNC runs; "ready": on, homed, idle; "estop")."""
+MODE = "gone"
+
+STATE_ESTOP, STATE_ESTOP_RESET, STATE_OFF, STATE_ON = 1, 2, 3, 4
+INTERP_IDLE, INTERP_READING, INTERP_PAUSED, INTERP_WAITING = 1, 2, 3, 4
+
+
+class error(Exception):
+    pass
+
+
+class stat:
+    def poll(self):
+        if MODE == "gone":
+            raise error("emcStatusBuffer invalid err=3")
+        self.joints = 3
+        self.homed = (1, 1, 1, 0, 0, 0, 0, 0, 0)
+        self.interp_state = INTERP_IDLE
+        self.task_state = STATE_ESTOP if MODE == "estop" else STATE_ON
