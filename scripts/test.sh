@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The README's test command: set up, build, lint (clang-format on every C/C++ file, clang-tidy
 # on the last commit's C++ files: scripts/lint.sh), run every test (labels unit, hal, e2e, db,
-# report (headless Chromium), package, tools, hostile, fuzz; soak only when asked).
+# report (headless Chromium), package, tools, hostile, panel (pytest-qt offscreen), fuzz; soak
+# only when asked).
 # Extra arguments go to ctest, e.g. `scripts/test.sh -L unit`: then only the main build and
 # those tests.
 set -euo pipefail
