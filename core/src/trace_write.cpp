@@ -1,14 +1,19 @@
 // Writing a trace, text or binary (.ctb), through an atomic output.
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <iterator>
 #include <memory>
 #include <string>
 
 #include "circtest/core/atomic_file.hpp"
+#include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "trace_binary.hpp"
@@ -40,6 +45,7 @@ TraceWriter::TraceWriter(std::string path, const TraceMetadata& header,
     fmt::format_to(out, "{}{}", i ? "," : "", columns_[i].name);
   }
   text += '\n';
+  header_text_ = text;
   buffer_.reserve(1u << 20);
   if (binary_) {
     const auto bytes = static_cast<std::uint32_t>(text.size());
@@ -49,18 +55,14 @@ TraceWriter::TraceWriter(std::string path, const TraceMetadata& header,
   buffer_ += text;
 }
 
-TraceWriter::~TraceWriter() = default;
+TraceWriter::~TraceWriter() {
+  if (live_fd_ >= 0) ::close(live_fd_);
+}
 
-void TraceWriter::write_row(const double* values) {
-  if (binary_) {
-    buffer_.append(reinterpret_cast<const char*>(values), columns_.size() * sizeof(double));
-    ++rows_;
-    if (buffer_.size() >= (1u << 20)) flush_buffer();
-    return;
-  }
-  auto out = std::back_inserter(buffer_);
+void TraceWriter::append_text_row(std::string& to, const double* values) const {
+  auto out = std::back_inserter(to);
   for (std::size_t i = 0; i < columns_.size(); ++i) {
-    if (i) buffer_ += ',';
+    if (i) to += ',';
     // An integer column holding something no integer can say (a glitch on a HAL pin) is
     // written as it is rather than as a made-up integer.
     if (columns_[i].kind == ColumnKind::integer && std::abs(values[i]) < 0x1p53) {
@@ -71,9 +73,54 @@ void TraceWriter::write_row(const double* values) {
       fmt::format_to(out, "{:.{}f}", values[i], columns_[i].decimals);
     }
   }
-  buffer_ += '\n';
+  to += '\n';
+}
+
+void TraceWriter::write_row(const double* values) {
+  if (live_fd_ >= 0) append_text_row(live_buffer_, values);
+  if (binary_) {
+    buffer_.append(reinterpret_cast<const char*>(values), columns_.size() * sizeof(double));
+  } else {
+    append_text_row(buffer_, values);
+  }
   ++rows_;
   if (buffer_.size() >= (1u << 20)) flush_buffer();
+}
+
+void TraceWriter::live_copy(const std::string& live_path) {
+  if (rows_ > 0 || live_fd_ >= 0) {
+    throw IoError(live_path, "a live copy is started before the first row, once");
+  }
+  const std::string target = checked_output_target(live_path);
+  const int fd =
+      ::open(target.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
+  if (fd < 0) throw IoError(live_path, std::string("cannot open: ") + std::strerror(errno));
+  live_fd_ = fd;
+  live_path_ = live_path;
+  write_live(header_text_);
+}
+
+void TraceWriter::write_live(std::string_view bytes) {
+  while (live_fd_ >= 0 && !bytes.empty()) {
+    const ssize_t n = ::write(live_fd_, bytes.data(), bytes.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      live_error_ =
+          fmt::format("{}: write failed ({}): the live copy stops here, the trace goes on",
+                      live_path_, n < 0 ? std::strerror(errno) : "nothing written");
+      ::close(live_fd_);
+      live_fd_ = -1;
+      live_buffer_.clear();
+      return;
+    }
+    bytes.remove_prefix(static_cast<std::size_t>(n));
+  }
+}
+
+void TraceWriter::flush_live() {
+  if (live_fd_ < 0 || live_buffer_.empty()) return;
+  write_live(live_buffer_);
+  live_buffer_.clear();
 }
 
 void TraceWriter::add_trailer(std::string key, std::string value) {
@@ -88,12 +135,13 @@ void TraceWriter::flush_buffer() {
 
 void TraceWriter::commit() {
   if (committed_) return;
-  const std::size_t trailer_at = buffer_.size();
-  auto out = std::back_inserter(buffer_);
+  std::string trailer;
+  auto out = std::back_inserter(trailer);
   for (const auto& [k, v] : trailer_.entries()) fmt::format_to(out, "# {}: {}\n", k, one_line(v));
+  buffer_ += trailer;
   if (binary_) {
     const std::uint64_t rows = rows_;
-    const auto trailer_bytes = static_cast<std::uint32_t>(buffer_.size() - trailer_at);
+    const auto trailer_bytes = static_cast<std::uint32_t>(trailer.size());
     buffer_.append(reinterpret_cast<const char*>(&rows), sizeof rows);
     buffer_.append(reinterpret_cast<const char*>(&trailer_bytes), sizeof trailer_bytes);
     buffer_.append(kBinaryEnd, sizeof kBinaryEnd);
@@ -101,6 +149,12 @@ void TraceWriter::commit() {
   flush_buffer();
   out_->commit();
   committed_ = true;
+  if (live_fd_ >= 0) {
+    live_buffer_ += trailer;
+    flush_live();
+    if (live_fd_ >= 0) ::close(live_fd_);
+    live_fd_ = -1;
+  }
 }
 
 void write_trace(const std::string& path, const Trace& trace) {

@@ -123,8 +123,20 @@ class TraceWriter {
   std::size_t rows_written() const { return rows_; }
   const std::string& path() const { return path_; }
 
+  // A live copy for a reader that follows the recording as it goes (the QtVCP panel's live
+  // plot): the text form of the trace, header first, at LIVE_PATH (an output path by the rules
+  // of atomic_file.hpp, but written in place, not atomically: it grows). Rows reach it at each
+  // flush_live(); commit() adds the trailer. The trace itself is still the committed output.
+  // A write to the live copy that fails stops the live copy, never the trace: live_error()
+  // says why (empty while it works). Call before the first row.
+  void live_copy(const std::string& live_path);
+  void flush_live();
+  const std::string& live_error() const { return live_error_; }
+
  private:
   void flush_buffer();
+  void append_text_row(std::string& to, const double* values) const;
+  void write_live(std::string_view bytes);
   std::string path_;
   std::unique_ptr<AtomicOutput> out_;  // nothing at path_ until commit()
   std::vector<TraceColumn> columns_;
@@ -133,6 +145,10 @@ class TraceWriter {
   std::size_t rows_ = 0;
   bool committed_ = false;
   bool binary_ = false;
+  std::string header_text_;  // the text form's header: metadata lines and the column names
+  int live_fd_ = -1;
+  std::string live_buffer_;  // rows not yet in the live copy
+  std::string live_path_, live_error_;
 };
 
 // Writes a whole trace with TraceWriter.
