@@ -38,7 +38,7 @@ std::size_t page_of(const std::vector<EvaluatedTrace>& tests, Plane plane, const
 void trend(ReportPage& page, history::Store& store, const Evaluation& ev) {
   const std::string* m = ev.conditions.find(meta_key::machine);
   if (!m || m->empty()) {
-    page.trend_note = "no trend: the trace names no machine (--machine NAME or # machine:)";
+    page.trend_note = "not shown: the test names no machine";
     return;
   }
   std::vector<history::TestRecord> tests;
@@ -46,13 +46,13 @@ void trend(ReportPage& page, history::Store& store, const Evaluation& ev) {
     if (t.plane == plane_name(ev.plane)) tests.push_back(std::move(t));
   }
   if (tests.empty()) {
-    page.trend_note = fmt::format("no tests of machine {} in plane {} in {}", *m,
-                                  plane_name(ev.plane), store.name());
+    page.trend_note = fmt::format("not shown: the history holds no test of machine {} in plane {}",
+                                  *m, plane_name(ev.plane));
     return;
   }
   page.trend_svg =
       history::history_svg(fmt::format("{}, plane {}", *m, plane_name(ev.plane)), tests, {});
-  page.trend_note = fmt::format("{} test(s) from {}, {} to {}", tests.size(), store.name(),
+  page.trend_note = fmt::format("{} test(s) of this machine, {} to {}", tests.size(),
                                 tests.front().tested_at, tests.back().tested_at);
 }
 
@@ -122,7 +122,8 @@ std::pair<history::Limits, std::string> limits_of(const ReportRequest& request) 
     throw UsageError("--limits and --limits-file: give the limits one way");
   }
   if (!request.limits.empty()) {
-    return {history::parse_limits(request.limits, "--limits"), "--limits " + request.limits};
+    return {history::parse_limits(request.limits, "--limits"),
+            "given on the command line as " + request.limits};
   }
   if (!request.limits_file.empty()) {
     return {read_limits_file(request.limits_file), "the file " + request.limits_file};
@@ -189,10 +190,12 @@ void add_verdict(const ReportPage& page, const history::Limits& limits,
     l.unit = std::string_view(v.unit) == "urad" ? "µrad" : "µm";
     if (!before.empty()) l.before = before[i].value;
     l.now = v.value;
+    l.u = v.u;
     l.limit = v.limit;
     using R = history::Verdict::Result;
     l.result = v.result == R::pass           ? VerdictLine::Result::pass
                : v.result == R::fail         ? VerdictLine::Result::fail
+               : v.result == R::not_decided  ? VerdictLine::Result::not_decided
                : v.result == R::not_measured ? VerdictLine::Result::not_measured
                                              : VerdictLine::Result::no_limit;
     lines.push_back(std::move(l));
@@ -297,7 +300,7 @@ int run_report(const ReportRequest& request, std::ostream& out) {
     if (store) {
       trend(page, *store, tests[i].evaluation);
     } else {
-      page.trend_note = "not shown: give the history with --db (circana store, docs/history.md)";
+      page.trend_note = "not shown: no history of this machine's tests was given";
     }
   }
   write_file_atomic(request.output_path, html_report(pages, handover, request.plot));
