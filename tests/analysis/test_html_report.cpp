@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
@@ -204,6 +205,9 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
   EXPECT_NE(d.find("VMC-3"), std::string::npos);
   EXPECT_NE(d.find("data-verdict=\"NONE\""), std::string::npos);
   EXPECT_EQ(count(d, "class=\"verdict-line\""), 9u);  // H, G, F of each plane
+  for (const char* hint : {"--db", "--limits", "--changes", "--machine"}) {
+    EXPECT_EQ(d.find(hint), std::string::npos) << "a command-line hint in the report: " << hint;
+  }
   EXPECT_EQ(count(d, "<td class=\"result NONE\">no limit set</td>"), 9u);
   // Conditions not recorded: one grey line a plane, never red on every line.
   EXPECT_EQ(count(d, "class=\"grey unrecorded\">Not recorded: "), 3u);
@@ -234,7 +238,37 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
             << trace << " " << k;
       }
     }
+    // U (k = 2) of H, G and F beside each on page 1, as analyze --json states it, and the same
+    // in the plane's line of U and in the budget's expanded rows.
+    const std::string plane = j["plane"].get<std::string>();
+    const std::map<std::string, double> u = {{"H", j["U_H"].get<double>()},
+                                             {"G", j["runs"][0]["U_G"].get<double>()},
+                                             {"F", j["runs"][0]["U_F"].get<double>()}};
+    for (const auto& [q, u_mm] : u) {
+      const auto p = d.find("data-plane=\"" + plane + "\" data-quantity=\"" + q + "\"");
+      ASSERT_NE(p, std::string::npos) << plane << q;
+      const std::string line = d.substr(p, d.find("</tr>", p) - p);
+      char cell[160];
+      std::snprintf(cell, sizeof cell,
+                    "<td class=\"num u\"><span class=\"u\" data-mm=\"%s\">%.1f</span> µm</td>",
+                    mm(u_mm).c_str(), u_mm * 1000.0);
+      EXPECT_NE(line.find(cell), std::string::npos) << line << "\n" << cell;
+      const auto e = d.find("<tr class=\"expanded\" data-quantity=\"" + q + "\"");
+      ASSERT_NE(e, std::string::npos) << q;
+      EXPECT_NE(d.substr(e, d.find("</tr>", e) - e).find("data-mm=\"" + mm(u_mm) + "\""),
+                std::string::npos)
+          << plane << " U_" << q << " in the budget";
+    }
+    const auto up = d.find("<section class=\"plane\" data-plane=\"" + plane + "\"");
+    const std::string u_line = d.substr(d.find("<p class=\"uncertainty\">", up));
+    EXPECT_NE(u_line.substr(0, u_line.find("</p>")).find("data-mm=\"" + mm(u.at("G")) + "\""),
+              std::string::npos)
+        << plane;
   }
+  // One budget table for the three alike tests, a column of each.
+  EXPECT_EQ(count(d, "<table class=\"budget\">"), 1u);
+  EXPECT_NE(d.find("<th class=\"num\">XY</th><th class=\"num\">YZ</th><th class=\"num\">ZX</th>"),
+            std::string::npos);
   // The diagnosis ran: its ranked contributions are bars.
   r = circana({"diagnose", xy, "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -246,12 +280,14 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
 
   // Summary, one page per plane, appendix.
   const std::string pdf = (dir_ / "report.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), 5);
+  EXPECT_EQ(printed_pages(html, pdf), 6);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: no limit set"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY: the measurement"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 3).find("Plane YZ: the measurement"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 4).find("Plane ZX: the measurement"), std::string::npos);
-  EXPECT_NE(pdf_page_text(pdf, 5).find("Appendix"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 5).find("Appendix: the uncertainty of H, G and F"),
+            std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 6).find("Appendix: for the service engineer"), std::string::npos);
   std::string which;
   EXPECT_LE(widest_px(html, which), 794.0) << which;
 
@@ -322,7 +358,7 @@ TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
   ASSERT_NE(h_panel, std::string::npos);
   const std::string panel = d.substr(h_panel, d.find("</g>", h_panel) - h_panel);
   EXPECT_EQ(count(panel, "class=\"point\""), 3u);
-  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 3);
+  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 4);
 }
 
 // The hand-over of a before/after visit: the verdict against a limits file, what circcomp
@@ -332,7 +368,8 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   const std::string before = simtrace("before.csv", "--backlash-x 0.008 --seed 4");
   const std::string after = simtrace("after.csv", "--backlash-x 0.002 --seed 5");
   const std::string limits = (dir_ / "shop.limits").string();
-  // H passes after (2 um), F cannot pass at 0.1 um, G is judged against a wide limit.
+  // H passes after (2 um + U 1.4 um), F at 0.1 um is within its U (not decided), G is judged
+  // against a wide limit.
   circtest::testing::spit(limits, "# the shop's limits\nH=0.004, G=0.05\n\nF=0.0001  # tight\n");
   const std::string plan = (dir_ / "plan.json").string();
   circtest::testing::spit(plan,
@@ -350,7 +387,8 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   EXPECT_EQ(console_messages(), "");
 
   auto analyzed = [&](const std::string& trace) {
-    const CommandResult a = circana({"analyze", trace, "--json"});
+    const CommandResult a =
+        circana({"analyze", trace, "--json", "--instrument", "grid encoder KGM 182"});
     EXPECT_EQ(a.exit_code, 0) << a.err;
     return nlohmann::json::parse(a.out);
   };
@@ -363,19 +401,32 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   char cells[200];
   const double h_after = ja["pairs"][0]["H"].get<double>() * 1000.0;
   const double h_before = jb["pairs"][0]["H"].get<double>() * 1000.0;
+  const double u_h = ja["U_H"].get<double>();
   std::snprintf(cells, sizeof cells,
                 "<td class=\"num\">%.1f µm</td><td class=\"num\">%.1f µm</td>"
+                "<td class=\"num u\"><span class=\"u\" data-mm=\"%s\">%.1f</span> µm</td>"
                 "<td class=\"num\">4.0 µm</td><td class=\"result PASS\">PASS</td>",
-                h_before, h_after);
+                h_before, h_after, mm(u_h).c_str(), u_h * 1000.0);
   EXPECT_NE(row("H").find(cells), std::string::npos) << row("H") << "\n" << cells;
-  EXPECT_NE(row("F").find("<td class=\"num\">0.1 µm</td><td class=\"result FAIL\">FAIL</td>"),
+  ASSERT_LE(h_after + u_h * 1000.0, 4.0) << "the case is no pass by ISO 14253-1";
+  const double f_after = ja["runs"][0]["F_max"].get<double>(),
+               u_f = ja["runs"][0]["U_F"].get<double>();
+  ASSERT_LT(f_after - u_f, 0.0001) << "the case is no undecided F";
+  EXPECT_NE(row("F").find("<td class=\"num\">0.1 µm</td><td class=\"result OPEN\">not decided: "
+                          "within the uncertainty</td>"),
             std::string::npos)
       << row("F");
   EXPECT_NE(row("G").find("<td class=\"num\">50.0 µm</td><td class=\"result PASS\">PASS</td>"),
             std::string::npos)
       << row("G");
-  EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
-  EXPECT_NE(d.find("Against the limits of the file " + limits), std::string::npos);
+  // Not decided is not shown to conform: the overall verdict is open, the rule stated.
+  EXPECT_NE(d.find("data-verdict=\"OPEN\""), std::string::npos);
+  EXPECT_NE(d.find("Against the agreed acceptance limits (H 4.0 µm, G 50.0 µm, F 0.1 µm)"),
+            std::string::npos);
+  EXPECT_NE(d.find("Decision rule (ISO 14253-1): pass when value + U ≤ limit, fail when value − U "
+                   "&gt; limit"),
+            std::string::npos);
+  EXPECT_EQ(d.find("--limits"), std::string::npos) << "a command-line option on a customer's page";
   EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
 
   // The diagnosis of both tests, each source with its share of G.
@@ -390,18 +441,19 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   }
 
   const std::string pdf = (dir_ / "report.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), 3);
+  EXPECT_EQ(printed_pages(html, pdf), 4);
   const std::string page1 = pdf_page_text(pdf, 1);
-  for (const char* text : {"Verdict: FAIL", "VMC-3", "grid encoder KGM 182", "XY", "1000 mm/min",
-                           "X backlash 0 → 10.2 µm", "squareness XY correction 0 → 100.0 µrad",
-                           "FF1 X 0 → 1.0", "servo mismatch: X lags Y by 1.08 ms", "Tested by",
-                           "A. Sato", "Accepted by", "B. Kunde", "Signature", "Date"}) {
+  for (const char* text : {"Verdict: not decided: within the uncertainty", "U (k = 2)", "VMC-3",
+                           "grid encoder KGM 182", "XY", "1000 mm/min", "X backlash 0 → 10.2 µm",
+                           "squareness XY correction 0 → 100.0 µrad", "FF1 X 0 → 1.0",
+                           "servo mismatch: X lags Y by 1.08 ms", "Tested by", "A. Sato",
+                           "Accepted by", "B. Kunde", "Signature", "Date"}) {
     EXPECT_NE(page1.find(text), std::string::npos) << text << "\n" << page1;
   }
   EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY"), std::string::npos);
   const CommandResult sum = run_command({"/usr/bin/sha256sum", after});
   ASSERT_EQ(sum.exit_code, 0);
-  EXPECT_NE(pdf_page_text(pdf, 3).find(sum.out.substr(0, 64)), std::string::npos)
+  EXPECT_NE(pdf_page_text(pdf, 4).find(sum.out.substr(0, 64)), std::string::npos)
       << "the appendix holds the trace's SHA-256";
   std::string which;
   EXPECT_LE(widest_px(html, which), 794.0) << which;
@@ -427,7 +479,7 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
   }
   ASSERT_FALSE(planes.empty()) << "no plane page: not a circana report";
   const std::string pdf = (dir_ / "given.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), static_cast<int>(planes.size()) + 2);
+  EXPECT_EQ(printed_pages(html, pdf), static_cast<int>(planes.size()) + 3);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: "), std::string::npos);
   for (std::size_t k = 0; k < planes.size(); ++k) {
     EXPECT_NE(pdf_page_text(pdf, static_cast<int>(k) + 2).find("Plane " + planes[k] + ": "),
@@ -435,6 +487,8 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
         << planes[k];
   }
   EXPECT_NE(pdf_page_text(pdf, static_cast<int>(planes.size()) + 2).find("Appendix"),
+            std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, static_cast<int>(planes.size()) + 3).find("Appendix"),
             std::string::npos);
   EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
   std::string which;
@@ -460,8 +514,8 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
   };
   char cells[160];
   std::snprintf(cells, sizeof cells,
-                "<td class=\"num\">%.1f µm</td><td class=\"num\">4.0 µm</td>"
-                "<td class=\"result FAIL\">FAIL</td>",
+                "<td class=\"num\">%.1f µm</td><td class=\"num u\">–</td><td class=\"num\">4.0 "
+                "µm</td><td class=\"result FAIL\">FAIL</td>",
                 b_um);
   EXPECT_NE(row("backlash").find(cells), std::string::npos) << row("backlash") << "\n" << cells;
   EXPECT_NE(row("squareness").find("<td class=\"num\">50.0 µrad</td><td class=\"result PASS\">"),
@@ -470,6 +524,9 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
   // H, G, F have no limit here: listed, not judged.
   EXPECT_NE(row("H").find("no limit set"), std::string::npos);
   EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
+  // Judged without U, and the page says so.
+  EXPECT_NE(d.find("Without U (backlash, squareness): the value alone against the limit."),
+            std::string::npos);
 
   // A diagnosis that does not state the squareness: that limit cannot pass.
   diag["squareness_urad"] = nullptr;
@@ -482,6 +539,68 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
             std::string::npos)
       << row("squareness");
   EXPECT_EQ(row("backlash"), "") << "no backlash limit, no backlash line";
+}
+
+// Verdicts by ISO 14253-1 against analyze --json of the same trace: a limit just above
+// value + U passes, just below it is not decided, just below value - U fails (1e-9 mm off:
+// two evaluations of a trace may differ in a double's last bits; the exact boundaries are
+// tested on the history's verdicts, which the report uses: history_test_history). Any fail
+// makes the report FAIL; a not decided without a fail makes it OPEN, never PASS.
+TEST_F(HtmlReport, VerdictsFollowIso14253WithU) {
+  const std::string xy = simtrace("xy.csv", "--backlash-x 0.020 --seed 7");
+  CommandResult r = circana({"analyze", xy, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const double h = j["pairs"][0]["H"].get<double>(), u_h = j["U_H"].get<double>();
+  double g = 0, f = 0;
+  for (const auto& run : j["runs"]) {
+    g = std::max(g, run["G"].get<double>());
+    f = std::max({f, std::abs(run["F_max"].get<double>()), std::abs(run["F_min"].get<double>())});
+  }
+  const double u_g = j["runs"][0]["U_G"].get<double>(), u_f = j["runs"][0]["U_F"].get<double>();
+  ASSERT_GT(f - u_f, 0.001) << "F must stand clear of its U for a failing limit";
+  const double e = 1e-9;
+  char limits[200];
+  std::snprintf(limits, sizeof limits, "H=%.12g,G=%.12g,F=%.12g", h + u_h + e, g + u_g - e,
+                f - u_f - e);
+  const std::string html = (dir_ / "report.html").string();
+  r = circana({"report", xy, "-o", html, "--limits", limits});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::string d = dom(html);
+  auto result = [&d](const std::string& q) {
+    const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
+    if (p == std::string::npos) return std::string("no line");
+    const std::string line = d.substr(p, d.find("</tr>", p) - p);
+    const auto c = line.find("<td class=\"result ");
+    return c == std::string::npos ? line : line.substr(c);
+  };
+  EXPECT_EQ(result("H"), "<td class=\"result PASS\">PASS</td>");
+  EXPECT_EQ(result("G"), "<td class=\"result OPEN\">not decided: within the uncertainty</td>");
+  EXPECT_EQ(result("F"), "<td class=\"result FAIL\">FAIL</td>");
+  EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
+  // analyze --limits on the trace decides each the same.
+  r = circana({"analyze", xy, "--json", "--limits", limits});
+  EXPECT_EQ(r.exit_code, 9);
+  const auto items = nlohmann::json::parse(r.out)["verdicts"]["items"];
+  ASSERT_EQ(items.size(), 3u);
+  EXPECT_EQ(items[0]["decision"], "pass");
+  EXPECT_EQ(items[1]["decision"], "not decided: within the uncertainty");
+  EXPECT_EQ(items[2]["decision"], "fail");
+
+  // Without the failing F: open, not pass.
+  std::snprintf(limits, sizeof limits, "H=%.12g,G=%.12g", h + u_h + e, g + u_g - e);
+  r = circana({"report", xy, "-o", html, "--limits", limits});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  d = dom(html);
+  EXPECT_NE(d.find("data-verdict=\"OPEN\">Verdict: not decided: within the uncertainty"),
+            std::string::npos);
+  // G just above value + U: every limit passes.
+  std::snprintf(limits, sizeof limits, "H=%.12g,G=%.12g", h + u_h + e, g + u_g + e);
+  r = circana({"report", xy, "-o", html, "--limits", limits});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  d = dom(html);
+  EXPECT_NE(d.find("data-verdict=\"PASS\""), std::string::npos);
+  EXPECT_EQ(d.find("--limits"), std::string::npos) << "a command-line option in the report";
 }
 
 // Bad requests: one clear line, the documented exit code, no file left behind.
@@ -528,7 +647,11 @@ TEST_F(HtmlReport, BadRequests) {
     const CommandResult r = circana({"report", xy, "-o", out, "--limits-file", lim});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string html = circtest::testing::slurp(out);
-    EXPECT_NE(html.find("Against the limits of the file " + lim), std::string::npos);
+    EXPECT_NE(html.find("Against the agreed acceptance limits (H 10.0 µm, G 20.0 µm, F 100.0 µm, "
+                        "backlash 4.0 µm)"),
+              std::string::npos);
+    EXPECT_NE(html.find("acceptance limits: the file " + lim), std::string::npos)
+        << "the appendix names where they came from";
     for (const char* q : {"H", "G", "F"}) {
       EXPECT_NE(html.find(std::string("data-quantity=\"") + q + "\""), std::string::npos) << q;
     }

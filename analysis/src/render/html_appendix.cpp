@@ -18,65 +18,99 @@ namespace circtest::html {
 
 namespace {
 
-// The budget of one evaluation as a table: each contribution with its stated value, its
-// distribution, its standard uncertainty, its sensitivities and where it came from; then U.
-std::string budget_table(const UncertaintyBudget& b) {
-  std::string s;
-  auto out = std::back_inserter(s);
-  fmt::format_to(out, "<p class=\"profile\">Instrument profile {}: {}</p>\n",
-                 xml_escape(std::string(instrument_profile_name(b.profile))),
-                 xml_escape(units_shown(b.profile_note)));
-  s += "<table class=\"budget\">\n<tr><th style=\"width: 30%\">Contribution</th>"
-       "<th class=\"num\">value µm</th><th>distribution</th><th class=\"num\">standard u µm</th>"
-       "<th class=\"num\">c<sub>G</sub></th><th class=\"num\">c<sub>H</sub></th>"
-       "<th class=\"num\">c<sub>F</sub></th><th>source</th></tr>\n";
-  for (const UncertaintyContribution& c : b.contributions) {
-    fmt::format_to(out,
-                   "<tr class=\"contribution\"><td>{}</td><td class=\"num\"><span "
-                   "data-mm=\"{:.12g}\">{:.3f}</span></td><td>{}</td><td class=\"num\"><span "
-                   "data-mm=\"{:.12g}\">{:.3f}</span></td><td class=\"num\">{:.3g}</td>"
-                   "<td class=\"num\">{:.3g}</td><td class=\"num\">{:.3g}</td><td>{}</td></tr>\n",
-                   xml_escape(units_shown(c.name)), c.value_mm, c.value_mm * 1000.0,
-                   distribution_name(c.distribution), c.standard_mm(), c.standard_mm() * 1000.0,
-                   c.c_g, c.c_h, c.c_f, xml_escape(c.source));
+// The tests whose budgets have the same contributions (names, distributions, sources and
+// sensitivities) and profile: one table, a column of standard uncertainties per test.
+struct BudgetGroup {
+  std::vector<std::string> tests;  // "XY", "XY before"
+  std::vector<UncertaintyBudget> budgets;
+};
+
+bool same_shape(const UncertaintyBudget& a, const UncertaintyBudget& b) {
+  if (a.profile != b.profile || a.profile_note != b.profile_note || a.k != b.k ||
+      a.contributions.size() != b.contributions.size())
+    return false;
+  for (std::size_t i = 0; i < a.contributions.size(); ++i) {
+    const auto &x = a.contributions[i], &y = b.contributions[i];
+    if (x.name != y.name || x.distribution != y.distribution || x.source != y.source ||
+        x.c_g != y.c_g || x.c_h != y.c_h || x.c_f != y.c_f)
+      return false;
   }
-  fmt::format_to(out,
-                 "<tr class=\"expanded\"><th colspan=\"8\">Expanded uncertainty (k = {:g}): "
-                 "U<sub>G</sub> = {} µm, U<sub>H</sub> = {} µm, U<sub>F</sub> = {} µm</th></tr>\n"
-                 "</table>\n",
-                 b.k, u_span(b.u_g_mm), u_span(b.u_h_mm), u_span(b.u_f_mm));
-  return s;
+  return true;
 }
 
-// The budgets of the report's tests, each distinct one once with the tests it holds for.
-void budgets_html(std::string& s, const std::vector<ReportPage>& pages) {
+// A micrometre cell of a number in mm, with the exact millimetres in data-mm.
+std::string um_cell(double mm, const char* css = "num") {
+  return fmt::format("<td class=\"{}\"><span data-mm=\"{:.12g}\">{:.3f}</span></td>", css, mm,
+                     mm * 1000.0);
+}
+
+// One group's table: each contribution with its distribution, sensitivities and source, and
+// its standard uncertainty in each test; then U (k = 2) of G, H and F of each test.
+void group_table(std::string& s, const BudgetGroup& g) {
   auto out = std::back_inserter(s);
+  const UncertaintyBudget& first = g.budgets.front();
+  fmt::format_to(out, "<p class=\"profile\">{}: instrument profile {}: {}</p>\n",
+                 xml_escape(join(g.tests, ", ")),
+                 xml_escape(std::string(instrument_profile_name(first.profile))),
+                 xml_escape(units_shown(first.profile_note)));
+  s += "<table class=\"budget\">\n<tr><th rowspan=\"2\" style=\"width: 26%\">Contribution</th>"
+       "<th rowspan=\"2\" style=\"width: 12%\">distribution</th><th rowspan=\"2\" "
+       "class=\"num\">c<sub>G</sub></th><th rowspan=\"2\" class=\"num\">c<sub>H</sub></th><th "
+       "rowspan=\"2\" class=\"num\">c<sub>F</sub></th><th rowspan=\"2\" style=\"width: "
+       "17%\">source</th>";
+  fmt::format_to(out, "<th colspan=\"{}\" class=\"num\">standard uncertainty u, µm</th></tr>\n<tr>",
+                 g.tests.size());
+  for (const auto& t : g.tests) fmt::format_to(out, "<th class=\"num\">{}</th>", xml_escape(t));
+  s += "</tr>\n";
+  for (std::size_t i = 0; i < first.contributions.size(); ++i) {
+    const UncertaintyContribution& c = first.contributions[i];
+    fmt::format_to(out,
+                   "<tr class=\"contribution\"><td>{}</td><td>{}</td><td class=\"num\">{:.3g}</td>"
+                   "<td class=\"num\">{:.3g}</td><td class=\"num\">{:.3g}</td><td>{}</td>",
+                   xml_escape(units_shown(c.name)), distribution_name(c.distribution), c.c_g, c.c_h,
+                   c.c_f, xml_escape(c.source));
+    for (const auto& b : g.budgets) s += um_cell(b.contributions[i].standard_mm());
+    s += "</tr>\n";
+  }
+  for (const auto& [name, field] : {std::pair{"G", &UncertaintyBudget::u_g_mm},
+                                    {"H", &UncertaintyBudget::u_h_mm},
+                                    {"F", &UncertaintyBudget::u_f_mm}}) {
+    fmt::format_to(out,
+                   "<tr class=\"expanded\" data-quantity=\"{0}\"><th colspan=\"6\">Expanded "
+                   "uncertainty U<sub>{0}</sub> (k = {1:g}), µm</th>",
+                   name, first.k);
+    for (const auto& b : g.budgets) s += um_cell(b.*field, "num u");
+    s += "</tr>\n";
+  }
+  s += "</table>\n";
+}
+
+// The budgets of the report's tests: one table per group of tests alike.
+void budgets_html(std::string& s, const std::vector<ReportPage>& pages) {
   s += "<section class=\"appendix budgets\">\n<h1>Appendix: the uncertainty of H, G and F</h1>\n"
-       "<p>Each contribution's standard uncertainty u (a stated value, or a half-width a of a "
-       "range: u = a/&#8730;3) enters G, H and F with its sensitivity c; the combined standard "
-       "uncertainty is the root sum of squares of c&#160;u, and U = k u with k = 2 (ISO/TR "
-       "230-9, GUM). Verdicts follow ISO 14253-1: pass when value + U &#8804; limit, fail when "
-       "value &#8722; U &gt; limit, otherwise not decided.</p>\n";
-  std::vector<std::pair<std::string, std::vector<std::string>>> tables;  // table, its tests
+       "<p>Each contribution's standard uncertainty u (a stated standard uncertainty, or the "
+       "half-width a of a range: u = a/&#8730;3) enters G, H and F with its sensitivity c; the "
+       "combined standard uncertainty is the root sum of squares of c&#160;u, and U = k u with "
+       "k = 2 (ISO/TR 230-9, GUM). Verdicts follow ISO 14253-1: pass when value + U &#8804; "
+       "limit, fail when value &#8722; U &gt; limit, otherwise not decided.</p>\n";
+  std::vector<BudgetGroup> groups;
   for (const auto& p : pages) {
-    for (const auto& [ev, what] :
-         {std::pair{p.evaluation, p.before ? "after (this test)" : "this test"},
-          std::pair{p.before, "before"}}) {
+    for (const auto& [ev, suffix] : {std::pair{p.evaluation, ""}, std::pair{p.before, " before"}}) {
       if (!ev) continue;
-      const std::string table = budget_table(uncertainty_budget(*ev, ev->uncertainty_options));
-      const std::string name = fmt::format("plane {}, {}", plane_name(ev->plane), what);
-      auto same = std::find_if(tables.begin(), tables.end(),
-                               [&table](const auto& t) { return t.first == table; });
-      if (same == tables.end()) {
-        tables.push_back({table, {name}});
+      UncertaintyBudget b = uncertainty_budget(*ev, ev->uncertainty_options);
+      const std::string name = std::string(plane_name(ev->plane)) + suffix;
+      auto g = std::find_if(groups.begin(), groups.end(), [&b](const BudgetGroup& x) {
+        return same_shape(x.budgets.front(), b);
+      });
+      if (g == groups.end()) {
+        groups.push_back({{name}, {std::move(b)}});
       } else {
-        same->second.push_back(name);
+        g->tests.push_back(name);
+        g->budgets.push_back(std::move(b));
       }
     }
   }
-  for (const auto& [table, names] : tables) {
-    fmt::format_to(out, "<h2>Budget of {}</h2>\n{}", xml_escape(join(names, "; ")), table);
-  }
+  for (const auto& g : groups) group_table(s, g);
   s += "</section>\n";
 }
 

@@ -89,6 +89,7 @@ ul.legend .swatch { display: inline-block; width: 4mm; height: 1.2mm; margin-rig
 .bar { display: inline-block; height: 2mm; background: #1f5fbf; vertical-align: middle;
        margin-left: 1mm; }
 .appendix td, .appendix th { font-size: 8pt; word-break: break-all; }
+.appendix table.budget td, .appendix table.budget th { word-break: normal; }
 .appendix .raw { columns: 2; column-gap: 6mm; font-size: 7.5pt; }
 .appendix .raw p { break-inside: avoid; }
 .appendix .raw b { font-weight: 600; }
@@ -556,8 +557,9 @@ void verdict_table(std::string& s, const HandOver& h, bool with_before) {
       xml_escape(!judged ? "No acceptance limits were agreed: the values are reported, not judged."
                          : "Against the agreed acceptance limits (" + limits_words(h.verdict) +
                                "), each value with its expanded uncertainty U (k = 2)."));
-  s += "<table class=\"verdict\"><caption>Results against the agreed acceptance limits</caption>\n"
-       "<tr><th>Plane</th><th>Quantity</th>";
+  fmt::format_to(
+      out, "<table class=\"verdict\"><caption>{}</caption>\n<tr><th>Plane</th><th>Quantity</th>",
+      judged ? "Results against the agreed acceptance limits" : "Results");
   if (with_before) s += "<th class=\"num\">before</th>";
   s += "<th class=\"num\">this test</th><th class=\"num\">U (k = 2)</th><th "
        "class=\"num\">limit</th><th>result</th></tr>\n";
