@@ -9,6 +9,7 @@
 #include "circtest/analysis/html_report.hpp"
 #include "circtest/circana/commands.hpp"
 #include "circtest/circana/history_record.hpp"
+#include "circtest/circana/plan_changes.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
@@ -131,39 +132,6 @@ std::pair<history::Limits, std::string> limits_of(const ReportRequest& request) 
   return {};
 }
 
-// What circcomp changed (circcomp plan --json, circtest.plan/1): each change's words, appended
-// round after round; the advice is the last plan's (what is still left). A ParseError names the
-// file and the key of anything else.
-void read_changes(const std::string& path, HandOver& h) {
-  // The schema circcomp writes (compensation/plan_json.hpp); circana reads it as data only.
-  constexpr const char* kPlanSchema = "circtest.plan/1";
-  const nlohmann::json j = read_json_file(path);
-  const JsonReader<nlohmann::json> rd(path, "plan JSON", 1e12);
-  if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
-      j["schema"].get<std::string>() != kPlanSchema) {
-    throw ParseError(path, 0,
-                     fmt::format("expected a {} document (circcomp plan --json)", kPlanSchema));
-  }
-  const auto& changes = rd.array(j, "changes", "");
-  for (std::size_t i = 0; i < changes.size(); ++i) {
-    const std::string at = fmt::format("changes[{}]", i);
-    std::string words = rd.text(changes[i], "words", at);
-    // A setting written without effect (0 where there was none) is no news to the customer.
-    if (changes[i].contains("effective") && !rd.boolean(changes[i], "effective", at)) continue;
-    const bool wiring = changes[i].contains("kind") && rd.text(changes[i], "kind", at) == "wiring";
-    (wiring ? h.wiring : h.changes).push_back(std::move(words));
-  }
-  h.advice.clear();
-  if (j.contains("advice")) {
-    const auto& advice = rd.array(j, "advice", "");
-    for (std::size_t i = 0; i < advice.size(); ++i) {
-      if (!advice[i].is_string()) rd.fail(fmt::format("advice[{}]", i), "a string");
-      h.advice.push_back(advice[i].get<std::string>());
-    }
-  }
-  h.changes_source += (h.changes_source.empty() ? "" : ", ") + path;
-}
-
 // The verdict of one plane: H, G, F always, backlash and squareness when a limit is set for
 // them, each of this test and (when there is one) of the before test.
 void add_verdict(const ReportPage& page, const history::Limits& limits,
@@ -237,7 +205,14 @@ int run_report(const ReportRequest& request, std::ostream& out) {
   handover.limits_source = limits_source;
   handover.tested_by = request.tested_by;
   handover.accepted_by = request.accepted_by;
-  for (const std::string& path : request.changes_paths) read_changes(path, handover);
+  std::vector<PlanChange> plan_changes;
+  for (const std::string& path : request.changes_paths) {
+    read_plan_changes(path, plan_changes, handover.advice);
+    handover.changes_source += (handover.changes_source.empty() ? "" : ", ") + path;
+  }
+  NetChanges net = net_changes(plan_changes);
+  handover.changes = std::move(net.settings);
+  handover.wiring = std::move(net.wiring);
   auto eval = [&request](const std::string& path) {
     return evaluate_file(path, request.options, request.radial);
   };

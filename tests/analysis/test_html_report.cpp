@@ -603,6 +603,83 @@ TEST_F(HtmlReport, VerdictsFollowIso14253WithU) {
   EXPECT_EQ(d.find("--limits"), std::string::npos) << "a command-line option in the report";
 }
 
+// Two apply rounds' plans (circcomp plan --json, as plan_json writes them) give one net line
+// per item on page 1: the backlash from its value before the first round to its value after
+// the last, the compensation table once with its final values, the friction compensator as
+// its pulse height and timing (not its five INI keys), a gain the second round undid not at
+// all, the wiring once.
+TEST_F(HtmlReport, ChangedBetweenTheTestsIsOneNetLinePerItem) {
+  const std::string before = simtrace("before.csv", "--backlash-x 0.008 --seed 4");
+  const std::string after = simtrace("after.csv", "--backlash-x 0.002 --seed 5");
+  auto key = [](const char* section, const char* k, const char* b, const char* a,
+                const std::string& words, const char* kind = "setting") {
+    return nlohmann::json{{"file", "/m/mill.ini"},
+                          {"section", section},
+                          {"key", k},
+                          {"before", b ? nlohmann::json(b) : nlohmann::json(nullptr)},
+                          {"after", a ? nlohmann::json(a) : nlohmann::json(nullptr)},
+                          {"words", words},
+                          {"kind", kind},
+                          {"effective", true}};
+  };
+  auto table = [](const std::string& words) {
+    return nlohmann::json{{"file", "/m/xcomp.txt"}, {"section", nullptr}, {"key", nullptr},
+                          {"before", nullptr},      {"after", nullptr},   {"words", words},
+                          {"kind", "setting"},      {"effective", true}};
+  };
+  const nlohmann::json round1 = {
+      {"schema", "circtest.plan/1"},
+      {"changes",
+       {key("JOINT_0", "BACKLASH", nullptr, "0.0102", "X backlash 0 → 10.2 µm"),
+        key("JOINT_0", "FF1", "0", "1.0", "FF1 X 0 → 1.0"),
+        table("X compensation table xcomp.txt created: backlash 0 → 10.2 µm, scale correction "
+              "0 → 35.0 ppm"),
+        key("FRICTION_X", "AMPLITUDE", nullptr, "0.003", "[FRICTION_X] AMPLITUDE (none) → 0.003"),
+        key("FRICTION_X", "AMPLITUDE_MAX", nullptr, "0.006",
+            "[FRICTION_X] AMPLITUDE_MAX (none) → 0.006"),
+        key("FRICTION_X", "DECAY_MS", nullptr, "25", "[FRICTION_X] DECAY_MS (none) → 25"),
+        key("FRICTION_X", "RISE_MS", nullptr, "12", "[FRICTION_X] RISE_MS (none) → 12"),
+        key("FRICTION_X", "SPIKE_MM", nullptr, "0.003", "[FRICTION_X] SPIKE_MM (none) → 0.003"),
+        key("HAL", "HALFILE", nullptr, "circtest-fric.hal", "HAL file circtest-fric.hal added",
+            "wiring")}},
+      {"advice", {"first advice"}}};
+  const nlohmann::json round2 = {
+      {"schema", "circtest.plan/1"},
+      {"changes",
+       {key("JOINT_0", "BACKLASH", "0.0102", "0.0105", "X backlash 10.2 → 10.5 µm"),
+        key("JOINT_0", "FF1", "1.0", "0", "FF1 X 1.0 → 0"),
+        table("X compensation table xcomp.txt changed: backlash 10.2 → 10.5 µm, scale correction "
+              "35.0 → 36.1 ppm"),
+        key("FRICTION_X", "AMPLITUDE", "0.003", "0.0035", "[FRICTION_X] AMPLITUDE 0.003 → 0.0035"),
+        key("FRICTION_X", "DECAY_MS", "25", "30", "[FRICTION_X] DECAY_MS 25 → 30")}},
+      {"advice", {"servo mismatch: X lags Y by 1.08 ms"}}};
+  const std::string p1 = (dir_ / "plan1.json").string(), p2 = (dir_ / "plan2.json").string();
+  circtest::testing::spit(p1, round1.dump());
+  circtest::testing::spit(p2, round2.dump());
+  const std::string html = (dir_ / "report.html").string();
+  const CommandResult r =
+      circana({"report", after, before, "-o", html, "--changes", p1, "--changes", p2});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string d = dom(html);
+  const auto p = d.find("<ul class=\"changes\">");
+  ASSERT_NE(p, std::string::npos);
+  const std::string list = d.substr(p, d.find("</ul>", p) - p);
+  std::vector<std::string> lines;
+  for (auto q = list.find("<li>"); q != std::string::npos; q = list.find("<li>", q + 1)) {
+    lines.push_back(list.substr(q + 4, list.find("</li>", q) - q - 4));
+  }
+  EXPECT_EQ(lines, (std::vector<std::string>{
+                       "X backlash 0 → 10.5 µm",
+                       "X compensation table xcomp.txt created: backlash 0 → 10.5 µm, scale "
+                       "correction 0 → 36.1 ppm",
+                       "X friction compensation added: pulse height 0.0035 (machine units) at "
+                       "each reversal, rising over 12 ms, decaying over 30 ms"}));
+  EXPECT_EQ(count(d, "circtest-fric.hal added"), 1u);
+  EXPECT_EQ(d.find("AMPLITUDE"), std::string::npos) << "an INI key on the customer's page";
+  EXPECT_NE(d.find("servo mismatch: X lags Y by 1.08 ms"), std::string::npos);
+  EXPECT_EQ(d.find("first advice"), std::string::npos) << "the last plan's advice only";
+}
+
 // Bad requests: one clear line, the documented exit code, no file left behind.
 TEST_F(HtmlReport, BadRequests) {
   const std::string xy = simtrace("xy.csv", "--backlash-x 0.005");
