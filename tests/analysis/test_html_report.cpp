@@ -742,6 +742,10 @@ TEST_F(HtmlReport, BadRequests) {
   const std::string plan = (dir_ / "plan.json").string();
   circtest::testing::spit(plan, R"({"schema": "circtest.plan/1", "changes": [{"words": 3}]})");
   expect({"report", xy, "-o", out, "--changes", plan}, 4, "'changes[0].words': expected a string");
+  // What names a change (to net it over the rounds) is a string or null.
+  circtest::testing::spit(
+      plan, R"({"schema": "circtest.plan/1", "changes": [{"words": "a", "before": 3}]})");
+  expect({"report", xy, "-o", out, "--changes", plan}, 4, "'changes[0].before': expected a string");
   // A directory in the output's place is never replaced.
   fs::create_directory(dir_ / "dir.html");
   const CommandResult r = circana({"report", xy, "-o", (dir_ / "dir.html").string()});
