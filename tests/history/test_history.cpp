@@ -272,6 +272,12 @@ TEST_P(History, StoresListsAndTrendsTestsOfAMachine) {
     ++points;
   }
   EXPECT_EQ(points, 9u);  // H, G, F of three tests; no backlash or squareness without diagnosis
+  std::size_t u_bars = 0;
+  for (auto p = svg.find("class=\"u-bar\""); p != std::string::npos;
+       p = svg.find("class=\"u-bar\"", p + 1)) {
+    ++u_bars;
+  }
+  EXPECT_EQ(u_bars, 9u);  // each of them with its U (k = 2)
   EXPECT_NE(svg.find("data-quantity=\"squareness\""), std::string::npos);
 }
 
