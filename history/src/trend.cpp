@@ -1,5 +1,6 @@
-// `circana history`: the trend of H, G, F, backlash and squareness of one machine, and the
-// pass/fail check of its latest test against limits.
+// `circana history`: the trend of H, G, F (each with its stored U, k = 2), backlash and
+// squareness of one machine, and the check of its latest test against limits by ISO 14253-1
+// (the value alone where no U is stored).
 #include <fmt/format.h>
 
 #include <algorithm>
