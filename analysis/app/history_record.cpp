@@ -7,6 +7,7 @@
 
 #include "circtest/analysis/result_checks.hpp"
 #include "circtest/analysis/result_json.hpp"
+#include "circtest/analysis/uncertainty.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
 #include "circtest/core/strings.hpp"
@@ -54,20 +55,25 @@ void require_usable_numbers(const history::TestRecord& r, const std::string& sou
 }  // namespace
 
 void add_measures(const Evaluation& ev, history::TestRecord& r) {
+  // One budget for every run of the trace, as circana analyze states it.
+  const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
   for (const auto& h : ev.hysteresis) {
     const RunResult& ccw = ev.runs[h.run_ccw];
-    r.measures.push_back({"H", ccw.label, "CCW/CW", ccw.feed_mm_per_min, h.h_mm});
+    r.measures.push_back({"H", ccw.label, "CCW/CW", ccw.feed_mm_per_min, h.h_mm, budget.u_h_mm});
     keep_max(r.h_mm, h.h_mm);
+    r.u_h_mm = budget.u_h_mm;
   }
   for (const auto& run : ev.runs) {
     const std::string dir(direction_name(run.run.direction));
     const double g = run.g_mm(ev.g_method);
-    r.measures.push_back({"G", run.label, dir, run.feed_mm_per_min, g});
+    r.measures.push_back({"G", run.label, dir, run.feed_mm_per_min, g, budget.u_g_mm});
     keep_max(r.g_mm, g);
+    r.u_g_mm = budget.u_g_mm;
     for (const auto& [kind, f] : {std::pair{"F_max", run.f_max_mm}, {"F_min", run.f_min_mm}}) {
       if (!f) continue;
-      r.measures.push_back({kind, run.label, dir, run.feed_mm_per_min, *f});
+      r.measures.push_back({kind, run.label, dir, run.feed_mm_per_min, *f, budget.u_f_mm});
       keep_max(r.f_mm, std::abs(*f));
+      r.u_f_mm = budget.u_f_mm;
     }
   }
 }

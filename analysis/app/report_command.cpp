@@ -9,6 +9,7 @@
 #include "circtest/analysis/html_report.hpp"
 #include "circtest/circana/commands.hpp"
 #include "circtest/circana/history_record.hpp"
+#include "circtest/circana/plan_changes.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
@@ -38,7 +39,7 @@ std::size_t page_of(const std::vector<EvaluatedTrace>& tests, Plane plane, const
 void trend(ReportPage& page, history::Store& store, const Evaluation& ev) {
   const std::string* m = ev.conditions.find(meta_key::machine);
   if (!m || m->empty()) {
-    page.trend_note = "no trend: the trace names no machine (--machine NAME or # machine:)";
+    page.trend_note = "not shown: the test names no machine";
     return;
   }
   std::vector<history::TestRecord> tests;
@@ -46,13 +47,13 @@ void trend(ReportPage& page, history::Store& store, const Evaluation& ev) {
     if (t.plane == plane_name(ev.plane)) tests.push_back(std::move(t));
   }
   if (tests.empty()) {
-    page.trend_note = fmt::format("no tests of machine {} in plane {} in {}", *m,
-                                  plane_name(ev.plane), store.name());
+    page.trend_note = fmt::format("not shown: the history holds no test of machine {} in plane {}",
+                                  *m, plane_name(ev.plane));
     return;
   }
   page.trend_svg =
       history::history_svg(fmt::format("{}, plane {}", *m, plane_name(ev.plane)), tests, {});
-  page.trend_note = fmt::format("{} test(s) from {}, {} to {}", tests.size(), store.name(),
+  page.trend_note = fmt::format("{} test(s) of this machine, {} to {}", tests.size(),
                                 tests.front().tested_at, tests.back().tested_at);
 }
 
@@ -122,45 +123,13 @@ std::pair<history::Limits, std::string> limits_of(const ReportRequest& request) 
     throw UsageError("--limits and --limits-file: give the limits one way");
   }
   if (!request.limits.empty()) {
-    return {history::parse_limits(request.limits, "--limits"), "--limits " + request.limits};
+    return {history::parse_limits(request.limits, "--limits"),
+            "given on the command line as " + request.limits};
   }
   if (!request.limits_file.empty()) {
     return {read_limits_file(request.limits_file), "the file " + request.limits_file};
   }
   return {};
-}
-
-// What circcomp changed (circcomp plan --json, circtest.plan/1): each change's words, appended
-// round after round; the advice is the last plan's (what is still left). A ParseError names the
-// file and the key of anything else.
-void read_changes(const std::string& path, HandOver& h) {
-  // The schema circcomp writes (compensation/plan_json.hpp); circana reads it as data only.
-  constexpr const char* kPlanSchema = "circtest.plan/1";
-  const nlohmann::json j = read_json_file(path);
-  const JsonReader<nlohmann::json> rd(path, "plan JSON", 1e12);
-  if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
-      j["schema"].get<std::string>() != kPlanSchema) {
-    throw ParseError(path, 0,
-                     fmt::format("expected a {} document (circcomp plan --json)", kPlanSchema));
-  }
-  const auto& changes = rd.array(j, "changes", "");
-  for (std::size_t i = 0; i < changes.size(); ++i) {
-    const std::string at = fmt::format("changes[{}]", i);
-    std::string words = rd.text(changes[i], "words", at);
-    // A setting written without effect (0 where there was none) is no news to the customer.
-    if (changes[i].contains("effective") && !rd.boolean(changes[i], "effective", at)) continue;
-    const bool wiring = changes[i].contains("kind") && rd.text(changes[i], "kind", at) == "wiring";
-    (wiring ? h.wiring : h.changes).push_back(std::move(words));
-  }
-  h.advice.clear();
-  if (j.contains("advice")) {
-    const auto& advice = rd.array(j, "advice", "");
-    for (std::size_t i = 0; i < advice.size(); ++i) {
-      if (!advice[i].is_string()) rd.fail(fmt::format("advice[{}]", i), "a string");
-      h.advice.push_back(advice[i].get<std::string>());
-    }
-  }
-  h.changes_source += (h.changes_source.empty() ? "" : ", ") + path;
 }
 
 // The verdict of one plane: H, G, F always, backlash and squareness when a limit is set for
@@ -189,10 +158,12 @@ void add_verdict(const ReportPage& page, const history::Limits& limits,
     l.unit = std::string_view(v.unit) == "urad" ? "µrad" : "µm";
     if (!before.empty()) l.before = before[i].value;
     l.now = v.value;
+    l.u = v.u;
     l.limit = v.limit;
     using R = history::Verdict::Result;
     l.result = v.result == R::pass           ? VerdictLine::Result::pass
                : v.result == R::fail         ? VerdictLine::Result::fail
+               : v.result == R::not_decided  ? VerdictLine::Result::not_decided
                : v.result == R::not_measured ? VerdictLine::Result::not_measured
                                              : VerdictLine::Result::no_limit;
     lines.push_back(std::move(l));
@@ -234,7 +205,14 @@ int run_report(const ReportRequest& request, std::ostream& out) {
   handover.limits_source = limits_source;
   handover.tested_by = request.tested_by;
   handover.accepted_by = request.accepted_by;
-  for (const std::string& path : request.changes_paths) read_changes(path, handover);
+  std::vector<PlanChange> plan_changes;
+  for (const std::string& path : request.changes_paths) {
+    read_plan_changes(path, plan_changes, handover.advice);
+    handover.changes_source += (handover.changes_source.empty() ? "" : ", ") + path;
+  }
+  NetChanges net = net_changes(plan_changes);
+  handover.changes = std::move(net.settings);
+  handover.wiring = std::move(net.wiring);
   auto eval = [&request](const std::string& path) {
     return evaluate_file(path, request.options, request.radial);
   };
@@ -297,7 +275,7 @@ int run_report(const ReportRequest& request, std::ostream& out) {
     if (store) {
       trend(page, *store, tests[i].evaluation);
     } else {
-      page.trend_note = "not shown: give the history with --db (circana store, docs/history.md)";
+      page.trend_note = "not shown: no history of this machine's tests was given";
     }
   }
   write_file_atomic(request.output_path, html_report(pages, handover, request.plot));

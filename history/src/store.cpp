@@ -40,6 +40,13 @@ const std::vector<std::vector<std::string>>& migrations() {
           "direction TEXT NOT NULL, feed_mm_per_min DOUBLE PRECISION, "
           "value_mm DOUBLE PRECISION NOT NULL, PRIMARY KEY (test_id, seq))",
       },
+      // The expanded uncertainty (k = 2) of H, G and F: NULL in the tests stored before.
+      {
+          "ALTER TABLE tests ADD COLUMN u_h_mm DOUBLE PRECISION",
+          "ALTER TABLE tests ADD COLUMN u_g_mm DOUBLE PRECISION",
+          "ALTER TABLE tests ADD COLUMN u_f_mm DOUBLE PRECISION",
+          "ALTER TABLE measures ADD COLUMN u_mm DOUBLE PRECISION",
+      },
   };
   return m;
 }
@@ -110,12 +117,14 @@ class SqlStore final : public Store {
     const auto rows = c_->query(
         "INSERT INTO tests (machine, tested_at, stored_at, plane, channels, trace_path, "
         "trace_sha256, h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, "
-        "diagnosis) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        "diagnosis, u_h_mm, u_g_mm, u_f_mm) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, "
+        "?, ?, ?) RETURNING id",
         {r.machine, r.tested_at.empty() ? now : r.tested_at,
          r.stored_at.empty() ? now : r.stored_at, r.plane, r.channels, r.trace_path,
          r.trace_sha256.empty() ? Value() : Value(r.trace_sha256), number(r.h_mm), number(r.g_mm),
          number(r.f_mm), number(r.backlash_mm), number(r.squareness_urad), json_text(r.conditions),
-         json_text(r.result), r.diagnosis.is_null() ? Value() : Value(json_text(r.diagnosis))});
+         json_text(r.result), r.diagnosis.is_null() ? Value() : Value(json_text(r.diagnosis)),
+         number(r.u_h_mm), number(r.u_g_mm), number(r.u_f_mm)});
     if (rows.size() != 1 || !rows[0][0]) {
       throw DatabaseError(c_->name() + ": the new test got no id");
     }
@@ -124,9 +133,9 @@ class SqlStore final : public Store {
       const Measure& m = r.measures[i];
       c_->query(
           "INSERT INTO measures (test_id, seq, kind, label, direction, feed_mm_per_min, "
-          "value_mm) VALUES (?, ?, ?, ?, ?, ?, ?)",
+          "value_mm, u_mm) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
           {std::to_string(id), std::to_string(i), m.kind, m.label, m.direction,
-           number(m.feed_mm_per_min), number(m.value_mm)});
+           number(m.feed_mm_per_min), number(m.value_mm), number(m.u_mm)});
     }
     tx.commit();
     return id;
@@ -135,8 +144,9 @@ class SqlStore final : public Store {
   std::vector<TestRecord> tests(const std::string& machine, const std::string& since) override {
     const auto rows = c_->query(
         "SELECT id, machine, tested_at, stored_at, plane, channels, trace_path, trace_sha256, "
-        "h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, diagnosis "
-        "FROM tests WHERE machine = ? AND tested_at >= ? ORDER BY tested_at, id",
+        "h_mm, g_mm, f_mm, backlash_mm, squareness_urad, conditions, result, diagnosis, "
+        "u_h_mm, u_g_mm, u_f_mm FROM tests WHERE machine = ? AND tested_at >= ? ORDER BY "
+        "tested_at, id",
         {machine, since});
     std::vector<TestRecord> out;
     for (const Row& row : rows) {
@@ -157,10 +167,13 @@ class SqlStore final : public Store {
       r.conditions = parse(row[13], r.id);
       r.result = parse(row[14], r.id);
       r.diagnosis = row[15] ? parse(row[15], r.id) : json(nullptr);
+      r.u_h_mm = stored_number(row[16], r.id);
+      r.u_g_mm = stored_number(row[17], r.id);
+      r.u_f_mm = stored_number(row[18], r.id);
       out.push_back(std::move(r));
     }
     const auto mrows = c_->query(
-        "SELECT m.test_id, m.kind, m.label, m.direction, m.feed_mm_per_min, m.value_mm "
+        "SELECT m.test_id, m.kind, m.label, m.direction, m.feed_mm_per_min, m.value_mm, m.u_mm "
         "FROM measures m JOIN tests t ON t.id = m.test_id "
         "WHERE t.machine = ? AND t.tested_at >= ? ORDER BY m.test_id, m.seq",
         {machine, since});
@@ -173,7 +186,7 @@ class SqlStore final : public Store {
         throw DatabaseError(
             fmt::format("{}: test {} holds a measure without a value", c_->name(), id));
       it->measures.push_back({row[1].value_or(""), row[2].value_or(""), row[3].value_or(""),
-                              stored_number(row[4], id), *value});
+                              stored_number(row[4], id), *value, stored_number(row[6], id)});
     }
     return out;
   }

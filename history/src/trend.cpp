@@ -1,5 +1,6 @@
-// `circana history`: the trend of H, G, F, backlash and squareness of one machine, and the
-// pass/fail check of its latest test against limits.
+// `circana history`: the trend of H, G, F (each with its stored U, k = 2), backlash and
+// squareness of one machine, and the check of its latest test against limits by ISO 14253-1
+// (the value alone where no U is stored).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -25,6 +26,7 @@ struct Quantity {
   const char* unit;
   double scale;  // to the display unit
   std::optional<double> TestRecord::*value;
+  std::optional<double> TestRecord::*u;  // its U (k = 2); null: stated without one
   std::optional<double> Limits::*limit;
   double max_limit;  // the largest limit that means anything for a circular test
   const char* limit_words;
@@ -34,12 +36,13 @@ struct Quantity {
 // of 10 mm or 10,000 urad (0.57 deg) is far beyond any machine worth testing.
 constexpr const char* kMmLimitWords = "a limit in mm above 0 and at most 10";
 constexpr Quantity kQuantities[] = {
-    {"H", "um", 1000.0, &TestRecord::h_mm, &Limits::h_mm, 10.0, kMmLimitWords},
-    {"G", "um", 1000.0, &TestRecord::g_mm, &Limits::g_mm, 10.0, kMmLimitWords},
-    {"F", "um", 1000.0, &TestRecord::f_mm, &Limits::f_mm, 10.0, kMmLimitWords},
-    {"backlash", "um", 1000.0, &TestRecord::backlash_mm, &Limits::backlash_mm, 10.0, kMmLimitWords},
-    {"squareness", "urad", 1.0, &TestRecord::squareness_urad, &Limits::squareness_urad, 10000.0,
-     "a limit in urad above 0 and at most 10000"},
+    {"H", "um", 1000.0, &TestRecord::h_mm, &TestRecord::u_h_mm, &Limits::h_mm, 10.0, kMmLimitWords},
+    {"G", "um", 1000.0, &TestRecord::g_mm, &TestRecord::u_g_mm, &Limits::g_mm, 10.0, kMmLimitWords},
+    {"F", "um", 1000.0, &TestRecord::f_mm, &TestRecord::u_f_mm, &Limits::f_mm, 10.0, kMmLimitWords},
+    {"backlash", "um", 1000.0, &TestRecord::backlash_mm, nullptr, &Limits::backlash_mm, 10.0,
+     kMmLimitWords},
+    {"squareness", "urad", 1.0, &TestRecord::squareness_urad, nullptr, &Limits::squareness_urad,
+     10000.0, "a limit in urad above 0 and at most 10000"},
 };
 
 // A value in its display unit: "-" when not measured, "n/a" when not a finite number (a row
@@ -48,6 +51,51 @@ std::string cell(const std::optional<double>& v, double scale) {
   if (!v) return "-";
   const double shown = *v * scale;
   return std::isfinite(shown) ? fmt::format("{:.1f}", shown) : std::string("n/a");
+}
+// H, G or F with its U: "12.0 +-1.4", or "12.0 (no U)" for a test stored without U.
+std::string cell_with_u(const std::optional<double>& v, const std::optional<double>& u) {
+  if (!v) return "-";
+  return cell(v, 1000.0) + (u ? " +-" + cell(u, 1000.0) : std::string(" (no U)"));
+}
+
+std::optional<double> u_of(const TestRecord& t, const Quantity& q) {
+  return q.u ? t.*(q.u) : std::nullopt;
+}
+
+// |VALUE| (with U when stated) against LIMIT, all in the stored unit: ISO 14253-1 with U, the
+// value alone without; no limit: no_limit; no value: not_measured. A value that is not a
+// finite number never passes.
+Verdict::Result judge(const std::optional<double>& value, const std::optional<double>& u,
+                      const std::optional<double>& limit) {
+  using R = Verdict::Result;
+  if (!limit) return R::no_limit;
+  if (!value) return R::not_measured;
+  const double v = std::abs(*value);
+  if (!std::isfinite(v)) return R::fail;
+  if (!u) return v <= *limit ? R::pass : R::fail;
+  if (v + *u <= *limit) return R::pass;
+  if (v - *u > *limit) return R::fail;
+  return R::not_decided;
+}
+
+// The test's check in a word: FAIL when a quantity fails or was not measured, NOT DECIDED
+// when one is within the uncertainty of its limit, else ok.
+const char* check_word(const std::vector<Verdict>& vs) {
+  bool undecided = false;
+  for (const Verdict& v : vs) {
+    if (v.result == Verdict::Result::fail || v.result == Verdict::Result::not_measured)
+      return "FAIL";
+    undecided |= v.result == Verdict::Result::not_decided;
+  }
+  return undecided ? "NOT DECIDED" : "ok";
+}
+
+// The quantities with a limit judged on the value alone for want of a stored U.
+bool judged_without_u(const std::vector<Verdict>& vs) {
+  return std::any_of(vs.begin(), vs.end(), [](const Verdict& v) {
+    const std::string_view q = v.quantity;
+    return v.limit && v.value && !v.u && (q == "H" || q == "G" || q == "F");
+  });
 }
 
 // Seconds since the epoch of an ISO 8601 date or date-time (UTC), when it parses.
@@ -94,32 +142,54 @@ Limits parse_limits(const std::string& text, std::string_view setting) {
 std::vector<Verdict> verdicts(const TestRecord& t, const Limits& limits) {
   std::vector<Verdict> out;
   for (const auto& q : kQuantities) {
-    Verdict v{q.name, q.unit, std::nullopt, std::nullopt, Verdict::Result::no_limit};
+    Verdict v{q.name, q.unit, std::nullopt, std::nullopt, Verdict::Result::no_limit, std::nullopt};
+    const std::optional<double> u = u_of(t, q);
     if (const auto& value = t.*(q.value)) v.value = std::abs(*value) * q.scale;
+    if (u) v.u = *u * q.scale;
     if (const auto& lim = limits.*(q.limit)) v.limit = *lim * q.scale;
-    if (v.limit) {
-      // A check that cannot be made does not pass; "inf" and NaN never pass either.
-      v.result = !v.value               ? Verdict::Result::not_measured
-                 : *v.value <= *v.limit ? Verdict::Result::pass
-                                        : Verdict::Result::fail;
-    }
+    // Judged in the stored unit, as circana analyze judges: a value + U exactly at the limit
+    // passes here as there. A check that cannot be made does not pass.
+    v.result = judge(t.*(q.value), u, limits.*(q.limit));
     out.push_back(v);
   }
   return out;
 }
 
+const char* decision_words(Verdict::Result r) noexcept {
+  switch (r) {
+    case Verdict::Result::pass:
+      return "pass";
+    case Verdict::Result::fail:
+      return "fail";
+    case Verdict::Result::not_decided:
+      return "not decided: within the uncertainty";
+    case Verdict::Result::not_measured:
+      return "not measured";
+    case Verdict::Result::no_limit:
+      break;
+  }
+  return "no limit";
+}
+
 std::vector<std::string> breaches(const TestRecord& t, const Limits& limits) {
   std::vector<std::string> out;
   for (const Verdict& v : verdicts(t, limits)) {
+    const std::string q = v.quantity;
+    auto num = [](double x) { return std::isfinite(x) ? fmt::format("{:.1f}", x) : "n/a"; };
     if (v.result == Verdict::Result::not_measured) {
-      const std::string q = v.quantity;
       out.push_back(
           fmt::format("{} not measured{}", q,
                       q == "backlash" || q == "squareness" ? " (no diagnosis stored)" : ""));
+    } else if (v.result == Verdict::Result::fail && v.u && std::isfinite(*v.value)) {
+      out.push_back(
+          fmt::format("{} {} - U {} > {:.1f} {}", q, num(*v.value), num(*v.u), *v.limit, v.unit));
     } else if (v.result == Verdict::Result::fail) {
-      out.push_back(fmt::format("{} {} > {:.1f} {}", v.quantity,
-                                std::isfinite(*v.value) ? fmt::format("{:.1f}", *v.value) : "n/a",
-                                *v.limit, v.unit));
+      out.push_back(fmt::format(
+          "{} {} > {:.1f} {}{}", q, num(*v.value), *v.limit, v.unit,
+          !v.u && (q == "H" || q == "G" || q == "F") ? " (no U stored: value alone)" : ""));
+    } else if (v.result == Verdict::Result::not_decided) {
+      out.push_back(fmt::format("{} {} + U {} > {:.1f} {}: not decided, within the uncertainty", q,
+                                num(*v.value), num(*v.u), *v.limit, v.unit));
     }
   }
   return out;
@@ -129,36 +199,55 @@ std::string history_text(const std::string& machine, const std::vector<TestRecor
                          const Limits& limits) {
   std::string s;
   auto out = std::back_inserter(s);
-  fmt::format_to(out, "History of machine {}: {} test(s)\n", machine, tests.size());
-  fmt::format_to(out, "{:<25} {:>6} {:>5} {:>8} {:>8} {:>8} {:>11} {:>11}  {}\n", "tested at", "id",
-                 "plane", "H um", "G um", "F um", "backlash um", "square urad",
+  fmt::format_to(out, "History of machine {}: {} test(s); H, G, F with U (k = 2)\n", machine,
+                 tests.size());
+  fmt::format_to(out, "{:<25} {:>6} {:>5} {:>12} {:>12} {:>12} {:>11} {:>11}  {}\n", "tested at",
+                 "id", "plane", "H um", "G um", "F um", "backlash um", "square urad",
                  limits.empty() ? "trace" : "check");
+  std::vector<std::int64_t> without_u;
   for (const auto& t : tests) {
     std::string last;
     if (limits.empty()) {
       last = t.trace_path;
     } else {
+      const auto vs = verdicts(t, limits);
+      last = check_word(vs);
+      if (judged_without_u(vs)) without_u.push_back(t.id);
       const auto b = breaches(t, limits);
-      last = "ok";
       if (!b.empty()) {
-        last = "FAIL:";
+        last += ":";
         for (const auto& x : b) last += " " + x + ";";
         last.pop_back();
       }
     }
-    fmt::format_to(out, "{:<25} {:>6} {:>5} {:>8} {:>8} {:>8} {:>11} {:>11}  {}\n", t.tested_at,
-                   t.id, t.plane, cell(t.h_mm, 1000), cell(t.g_mm, 1000), cell(t.f_mm, 1000),
-                   cell(t.backlash_mm, 1000), cell(t.squareness_urad, 1), last);
+    fmt::format_to(out, "{:<25} {:>6} {:>5} {:>12} {:>12} {:>12} {:>11} {:>11}  {}\n", t.tested_at,
+                   t.id, t.plane, cell_with_u(t.h_mm, t.u_h_mm), cell_with_u(t.g_mm, t.u_g_mm),
+                   cell_with_u(t.f_mm, t.u_f_mm), cell(t.backlash_mm, 1000),
+                   cell(t.squareness_urad, 1), last);
   }
-  if (!limits.empty() && !tests.empty()) {
-    const auto b = breaches(tests.back(), limits);
-    if (b.empty()) {
-      fmt::format_to(out, "Latest test ({}): within the limits\n", tests.back().tested_at);
-    } else {
-      fmt::format_to(out, "Latest test ({}): OUT OF TOLERANCE:", tests.back().tested_at);
-      for (const auto& x : b) fmt::format_to(out, " {};", x);
-      s.back() = '\n';
+  if (limits.empty() || tests.empty()) return s;
+  fmt::format_to(out, "Decision rule: {}\n", kDecisionRule);
+  if (limits.backlash_mm || limits.squareness_urad || !without_u.empty()) {
+    fmt::format_to(out, "Judged on the value alone ({}):", kValueAloneRule);
+    if (limits.backlash_mm || limits.squareness_urad)
+      s += " backlash and squareness (the diagnosis states them without U);";
+    if (!without_u.empty()) {
+      std::vector<std::string> ids;
+      for (const auto id : without_u) ids.push_back(std::to_string(id));
+      fmt::format_to(out, " H, G, F of test(s) {} (stored without U);", join(ids, ", "));
     }
+    s.back() = '\n';
+  }
+  const auto vs = verdicts(tests.back(), limits);
+  const std::string word = check_word(vs);
+  const auto b = breaches(tests.back(), limits);
+  if (b.empty()) {
+    fmt::format_to(out, "Latest test ({}): within the limits\n", tests.back().tested_at);
+  } else {
+    fmt::format_to(out, "Latest test ({}): {}:", tests.back().tested_at,
+                   word == "FAIL" ? "OUT OF TOLERANCE" : "NOT DECIDED (within the uncertainty)");
+    for (const auto& x : b) fmt::format_to(out, " {};", x);
+    s.back() = '\n';
   }
   return s;
 }
@@ -175,6 +264,7 @@ ojson history_json(const std::string& machine, const std::vector<TestRecord>& te
     if (limits.*(q.limit)) lim[q.name] = *(limits.*(q.limit));
   }
   j["limits"] = lim;
+  if (!limits.empty()) j["decision_rule"] = kDecisionRule;
   ojson arr = ojson::array();
   for (const auto& t : tests) {
     ojson measures = ojson::array();
@@ -183,7 +273,8 @@ ojson history_json(const std::string& machine, const std::vector<TestRecord>& te
                           {"label", m.label},
                           {"direction", m.direction},
                           {"feed_mm_per_min", opt(m.feed_mm_per_min)},
-                          {"value", m.value_mm}});
+                          {"value", m.value_mm},
+                          {"U", opt(m.u_mm)}});
     }
     ojson test = {{"id", t.id},
                   {"tested_at", t.tested_at},
@@ -195,11 +286,31 @@ ojson history_json(const std::string& machine, const std::vector<TestRecord>& te
                   {"H", opt(t.h_mm)},
                   {"G", opt(t.g_mm)},
                   {"F", opt(t.f_mm)},
+                  {"U_H", opt(t.u_h_mm)},
+                  {"U_G", opt(t.u_g_mm)},
+                  {"U_F", opt(t.u_f_mm)},
                   {"backlash", opt(t.backlash_mm)},
                   {"squareness_urad", opt(t.squareness_urad)},
                   {"measures", measures},
                   {"conditions", parse_ordered_json_text(json_text(t.conditions), t.trace_path)}};
-    if (!limits.empty()) test["breaches"] = breaches(t, limits);
+    if (!limits.empty()) {
+      // Each limit's verdict, in the limits' units (mm; squareness urad).
+      ojson items = ojson::array();
+      for (const auto& q : kQuantities) {
+        if (!(limits.*(q.limit))) continue;
+        const std::optional<double> u = u_of(t, q);
+        const auto& value = t.*(q.value);
+        items.push_back({{"quantity", q.name},
+                         {"value", value ? ojson(std::abs(*value)) : ojson(nullptr)},
+                         {"U", opt(u)},
+                         {"limit", *(limits.*(q.limit))},
+                         {"decision", decision_words(judge(value, u, limits.*(q.limit)))},
+                         {"rule", u ? kDecisionRule : kValueAloneRule}});
+      }
+      test["verdicts"] = items;
+      test["check"] = check_word(verdicts(t, limits));
+      test["breaches"] = breaches(t, limits);
+    }
     arr.push_back(std::move(test));
   }
   j["tests"] = arr;
@@ -244,7 +355,9 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
     double vmax = lim ? *lim * q.scale : 0.0;
     for (const auto& t : tests) {
       const auto& v = t.*(q.value);
-      if (v && std::isfinite(*v * q.scale)) vmax = std::max(vmax, std::abs(*v) * q.scale);
+      const double u = u_of(t, q).value_or(0.0);
+      if (v && std::isfinite((std::abs(*v) + u) * q.scale))
+        vmax = std::max(vmax, (std::abs(*v) + u) * q.scale);
     }
     if (!(vmax > 0)) vmax = 1;
     vmax *= 1.15;
@@ -272,12 +385,26 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
       if (!v || !std::isfinite(*v * q.scale)) continue;
       const double vx = px(xs[i]), vy = py(std::abs(*v) * q.scale);
       svg_add_point(pts, vx, vy);
-      const bool bad = lim && std::abs(*v) > *lim;
+      const std::optional<double> u = u_of(tests[i], q);
+      const Verdict::Result result = judge(v, u, lim);
+      if (u && std::isfinite(*u * q.scale)) {
+        // U (k = 2) as a bar from value - U to value + U.
+        fmt::format_to(out,
+                       "<line class=\"u-bar\" x1=\"{0:.1f}\" y1=\"{1:.1f}\" x2=\"{0:.1f}\" "
+                       "y2=\"{2:.1f}\" stroke=\"#1f5fbf\" stroke-width=\"1\"/>\n",
+                       vx, py(std::max(0.0, std::abs(*v) - *u) * q.scale),
+                       py((std::abs(*v) + *u) * q.scale));
+      }
       fmt::format_to(out,
                      "<circle class=\"point\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\">"
-                     "<title>{} {}: {:.2f} {}</title></circle>\n",
-                     vx, vy, bad ? "#c0392b" : "#1f5fbf", xml_escape(tests[i].tested_at), q.name,
-                     std::abs(*v) * q.scale, q.unit);
+                     "<title>{} {}: {:.2f}{} {}{}</title></circle>\n",
+                     vx, vy,
+                     result == Verdict::Result::fail          ? "#c0392b"
+                     : result == Verdict::Result::not_decided ? "#d68910"
+                                                              : "#1f5fbf",
+                     xml_escape(tests[i].tested_at), q.name, std::abs(*v) * q.scale,
+                     u ? fmt::format(", U = {:.2f}", *u * q.scale) : std::string(), q.unit,
+                     lim ? std::string(": ") + decision_words(result) : std::string());
     }
     if (!pts.empty()) {
       fmt::format_to(out,

@@ -4,169 +4,9 @@
 // wider than A4 portrait at 96 dpi, and printing gives the hand-over with the verdict on page
 // 1, then exactly one A4 page per plane, then the appendix. Without chromium every test here
 // is skipped with a message (ctest shows it as skipped), never passed.
-#include <gtest/gtest.h>
-#include <unistd.h>
+#include "html_report_fixture.hpp"
 
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <regex>
-#include <sstream>
-#include <string>
-#include <vector>
-
-#include "circtest/core/strings.hpp"
-#include "scratch.hpp"
-
-namespace fs = std::filesystem;
-
-namespace {
-
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::slurp;
-
-using circtest::testing::words;
-
-std::string mm(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.12g", v);
-  return buf;
-}
-
-std::size_t count(const std::string& text, const std::string& what) {
-  std::size_t n = 0;
-  for (auto p = text.find(what); p != std::string::npos; p = text.find(what, p + 1)) ++n;
-  return n;
-}
-
-class HtmlReport : public ::testing::Test {
- protected:
-  void SetUp() override {
-    if (std::string(CHROMIUM_PATH).empty() || !fs::exists(CHROMIUM_PATH)) {
-      GTEST_SKIP() << "chromium not installed (Debian package chromium): the HTML report is "
-                      "not checked";
-    }
-  }
-
-  CommandResult circana(const std::vector<std::string>& args) {
-    std::vector<std::string> argv{CIRCANA_PATH};
-    argv.insert(argv.end(), args.begin(), args.end());
-    return run_command(argv);
-  }
-  CommandResult circana(const std::string& args) { return circana(words(args)); }
-
-  std::string simtrace(const std::string& name, const std::string& args) {
-    const std::string path = (dir_ / name).string();
-    std::vector<std::string> argv{SIMTRACE_PATH, "-o", path};
-    for (auto& w : words(args)) argv.push_back(std::move(w));
-    const CommandResult r = run_command(argv);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return path;
-  }
-
-  // Chromium, headless, with its own profile (parallel tests do not share one) and logging of
-  // the page's console on stderr.
-  CommandResult chromium(const std::vector<std::string>& args) {
-    std::vector<std::string> argv{CHROMIUM_PATH,
-                                  "--headless",
-                                  "--disable-gpu",
-                                  "--no-first-run",
-                                  "--user-data-dir=" + (dir_ / "profile").string(),
-                                  "--enable-logging=stderr",
-                                  "--v=0"};
-    // The sandbox needs user namespaces Chromium refuses to use as root.
-    if (geteuid() == 0) argv.push_back("--no-sandbox");
-    argv.insert(argv.end(), args.begin(), args.end());
-    return run_command(argv);
-  }
-  std::string dom(const std::string& html) {
-    const CommandResult r = chromium({"--dump-dom", "file://" + html});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    console_ = r.err;
-    return r.out;
-  }
-  // The pages of the printed PDF: pdfinfo when installed, else the /Type /Page objects.
-  int printed_pages(const std::string& html, const std::string& pdf) {
-    const CommandResult r =
-        chromium({"--no-pdf-header-footer", "--print-to-pdf=" + pdf, "file://" + html});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    if (!std::string(PDFINFO_PATH).empty()) {
-      const CommandResult info = run_command({PDFINFO_PATH, pdf});
-      EXPECT_EQ(info.exit_code, 0) << info.err;
-      std::smatch m;
-      static const std::regex a4(R"(Page size:\s+(\d+(\.\d+)?) x (\d+(\.\d+)?) pts)");
-      EXPECT_TRUE(std::regex_search(info.out, m, a4)) << info.out;
-      if (!m.empty()) {
-        EXPECT_NEAR(std::stod(m[1]), 595.0, 2.0) << "A4 width";
-        EXPECT_NEAR(std::stod(m[3]), 842.0, 2.0) << "A4 height";
-      }
-      static const std::regex pages(R"(Pages:\s+(\d+))");
-      if (std::regex_search(info.out, m, pages)) return std::stoi(m[1]);
-      ADD_FAILURE() << "pdfinfo: no page count\n" << info.out;
-      return -1;
-    }
-    const std::string bytes = slurp(pdf);
-    static const std::regex page(R"(/Type\s*/Page\b)");
-    return static_cast<int>(
-        std::distance(std::sregex_iterator(bytes.begin(), bytes.end(), page), {}));
-  }
-  // The text of page K of the PDF (pdftotext).
-  std::string pdf_page_text(const std::string& pdf, int k) {
-    if (std::string(PDFTOTEXT_PATH).empty()) {
-      ADD_FAILURE() << "pdftotext (poppler-utils) is needed to read the printed pages";
-      return {};
-    }
-    const std::string n = std::to_string(k);
-    const CommandResult r = run_command({PDFTOTEXT_PATH, "-f", n, "-l", n, pdf, "-"});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return r.out;
-  }
-  // The right edge, in CSS px, of the widest element of the report laid out in a window as
-  // wide as A4 portrait at 96 dpi (794 px), measured by a script in a copy of the page.
-  double widest_px(const std::string& html, std::string& which) {
-    std::string text = slurp(html);
-    const auto body = text.rfind("</body>");
-    EXPECT_NE(body, std::string::npos);
-    text.insert(
-        body,
-        "<script>let w = document.documentElement.scrollWidth, who = 'html';"
-        "for (const e of document.querySelectorAll('*')) {"
-        "  const r = e.getBoundingClientRect();"
-        "  if (r.right > w) { w = r.right; who = e.tagName + ' ' + e.getAttribute('class'); }"
-        "}"
-        "document.body.setAttribute('data-widest', Math.ceil(w));"
-        "document.body.setAttribute('data-widest-element', who);</script>");
-    const std::string probe = (dir_ / "probe.html").string();
-    circtest::testing::spit(probe, text);
-    const CommandResult r = chromium({"--window-size=794,1123", "--dump-dom", "file://" + probe});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    std::smatch m;
-    static const std::regex widest(R"re(data-widest="(\d+)" data-widest-element="([^"]*)")re");
-    if (!std::regex_search(r.out, m, widest)) {
-      ADD_FAILURE() << "the width probe did not run";
-      return 1e9;
-    }
-    which = m[2];
-    return std::stod(m[1]);
-  }
-  // The page's console lines in Chromium's log (errors, warnings, logs alike).
-  std::string console_messages() const {
-    std::string out;
-    std::istringstream in(console_);
-    for (std::string line; std::getline(in, line);) {
-      if (line.find(":CONSOLE") != std::string::npos) out += line + "\n";
-    }
-    return out;
-  }
-
-  circtest::testing::ScratchDir scratch_{"circana-report"};
-  fs::path dir_ = scratch_.dir();
-  std::string console_;
-};
-
-}  // namespace
+using namespace circtest_html_report_test;
 
 // The detectors themselves: a page with a script error and an external image is caught.
 TEST_F(HtmlReport, TheConsoleAndReferenceChecksCatchABadPage) {
@@ -204,6 +44,9 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
   EXPECT_NE(d.find("VMC-3"), std::string::npos);
   EXPECT_NE(d.find("data-verdict=\"NONE\""), std::string::npos);
   EXPECT_EQ(count(d, "class=\"verdict-line\""), 9u);  // H, G, F of each plane
+  for (const char* hint : {"--db", "--limits", "--changes", "--machine"}) {
+    EXPECT_EQ(d.find(hint), std::string::npos) << "a command-line hint in the report: " << hint;
+  }
   EXPECT_EQ(count(d, "<td class=\"result NONE\">no limit set</td>"), 9u);
   // Conditions not recorded: one grey line a plane, never red on every line.
   EXPECT_EQ(count(d, "class=\"grey unrecorded\">Not recorded: "), 3u);
@@ -234,7 +77,37 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
             << trace << " " << k;
       }
     }
+    // U (k = 2) of H, G and F beside each on page 1, as analyze --json states it, and the same
+    // in the plane's line of U and in the budget's expanded rows.
+    const std::string plane = j["plane"].get<std::string>();
+    const std::map<std::string, double> u = {{"H", j["U_H"].get<double>()},
+                                             {"G", j["runs"][0]["U_G"].get<double>()},
+                                             {"F", j["runs"][0]["U_F"].get<double>()}};
+    for (const auto& [q, u_mm] : u) {
+      const auto p = d.find("data-plane=\"" + plane + "\" data-quantity=\"" + q + "\"");
+      ASSERT_NE(p, std::string::npos) << plane << q;
+      const std::string line = d.substr(p, d.find("</tr>", p) - p);
+      char cell[160];
+      std::snprintf(cell, sizeof cell,
+                    "<td class=\"num u\"><span class=\"u\" data-mm=\"%s\">%.1f</span> µm</td>",
+                    mm(u_mm).c_str(), u_mm * 1000.0);
+      EXPECT_NE(line.find(cell), std::string::npos) << line << "\n" << cell;
+      const auto e = d.find("<tr class=\"expanded\" data-quantity=\"" + q + "\"");
+      ASSERT_NE(e, std::string::npos) << q;
+      EXPECT_NE(d.substr(e, d.find("</tr>", e) - e).find("data-mm=\"" + mm(u_mm) + "\""),
+                std::string::npos)
+          << plane << " U_" << q << " in the budget";
+    }
+    const auto up = d.find("<section class=\"plane\" data-plane=\"" + plane + "\"");
+    const std::string u_line = d.substr(d.find("<p class=\"uncertainty\">", up));
+    EXPECT_NE(u_line.substr(0, u_line.find("</p>")).find("data-mm=\"" + mm(u.at("G")) + "\""),
+              std::string::npos)
+        << plane;
   }
+  // One budget table for the three alike tests, a column of each.
+  EXPECT_EQ(count(d, "<table class=\"budget\">"), 1u);
+  EXPECT_NE(d.find("<th class=\"num\">XY</th><th class=\"num\">YZ</th><th class=\"num\">ZX</th>"),
+            std::string::npos);
   // The diagnosis ran: its ranked contributions are bars.
   r = circana({"diagnose", xy, "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -246,12 +119,14 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
 
   // Summary, one page per plane, appendix.
   const std::string pdf = (dir_ / "report.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), 5);
+  EXPECT_EQ(printed_pages(html, pdf), 6);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: no limit set"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY: the measurement"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 3).find("Plane YZ: the measurement"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 4).find("Plane ZX: the measurement"), std::string::npos);
-  EXPECT_NE(pdf_page_text(pdf, 5).find("Appendix"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 5).find("Appendix: the uncertainty of H, G and F"),
+            std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, 6).find("Appendix: for the service engineer"), std::string::npos);
   std::string which;
   EXPECT_LE(widest_px(html, which), 794.0) << which;
 
@@ -322,7 +197,7 @@ TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
   ASSERT_NE(h_panel, std::string::npos);
   const std::string panel = d.substr(h_panel, d.find("</g>", h_panel) - h_panel);
   EXPECT_EQ(count(panel, "class=\"point\""), 3u);
-  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 3);
+  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 4);
 }
 
 // The hand-over of a before/after visit: the verdict against a limits file, what circcomp
@@ -332,7 +207,8 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   const std::string before = simtrace("before.csv", "--backlash-x 0.008 --seed 4");
   const std::string after = simtrace("after.csv", "--backlash-x 0.002 --seed 5");
   const std::string limits = (dir_ / "shop.limits").string();
-  // H passes after (2 um), F cannot pass at 0.1 um, G is judged against a wide limit.
+  // H passes after (2 um + U 1.4 um), F at 0.1 um is within its U (not decided), G is judged
+  // against a wide limit.
   circtest::testing::spit(limits, "# the shop's limits\nH=0.004, G=0.05\n\nF=0.0001  # tight\n");
   const std::string plan = (dir_ / "plan.json").string();
   circtest::testing::spit(plan,
@@ -350,7 +226,8 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   EXPECT_EQ(console_messages(), "");
 
   auto analyzed = [&](const std::string& trace) {
-    const CommandResult a = circana({"analyze", trace, "--json"});
+    const CommandResult a =
+        circana({"analyze", trace, "--json", "--instrument", "grid encoder KGM 182"});
     EXPECT_EQ(a.exit_code, 0) << a.err;
     return nlohmann::json::parse(a.out);
   };
@@ -363,19 +240,32 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   char cells[200];
   const double h_after = ja["pairs"][0]["H"].get<double>() * 1000.0;
   const double h_before = jb["pairs"][0]["H"].get<double>() * 1000.0;
+  const double u_h = ja["U_H"].get<double>();
   std::snprintf(cells, sizeof cells,
                 "<td class=\"num\">%.1f µm</td><td class=\"num\">%.1f µm</td>"
+                "<td class=\"num u\"><span class=\"u\" data-mm=\"%s\">%.1f</span> µm</td>"
                 "<td class=\"num\">4.0 µm</td><td class=\"result PASS\">PASS</td>",
-                h_before, h_after);
+                h_before, h_after, mm(u_h).c_str(), u_h * 1000.0);
   EXPECT_NE(row("H").find(cells), std::string::npos) << row("H") << "\n" << cells;
-  EXPECT_NE(row("F").find("<td class=\"num\">0.1 µm</td><td class=\"result FAIL\">FAIL</td>"),
+  ASSERT_LE(h_after + u_h * 1000.0, 4.0) << "the case is no pass by ISO 14253-1";
+  const double f_after = ja["runs"][0]["F_max"].get<double>(),
+               u_f = ja["runs"][0]["U_F"].get<double>();
+  ASSERT_LT(f_after - u_f, 0.0001) << "the case is no undecided F";
+  EXPECT_NE(row("F").find("<td class=\"num\">0.1 µm</td><td class=\"result OPEN\">not decided: "
+                          "within the uncertainty</td>"),
             std::string::npos)
       << row("F");
   EXPECT_NE(row("G").find("<td class=\"num\">50.0 µm</td><td class=\"result PASS\">PASS</td>"),
             std::string::npos)
       << row("G");
-  EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
-  EXPECT_NE(d.find("Against the limits of the file " + limits), std::string::npos);
+  // Not decided is not shown to conform: the overall verdict is open, the rule stated.
+  EXPECT_NE(d.find("data-verdict=\"OPEN\""), std::string::npos);
+  EXPECT_NE(d.find("Against the agreed acceptance limits (H 4.0 µm, G 50.0 µm, F 0.1 µm)"),
+            std::string::npos);
+  EXPECT_NE(d.find("Decision rule (ISO 14253-1): pass when value + U ≤ limit, fail when value − U "
+                   "&gt; limit"),
+            std::string::npos);
+  EXPECT_EQ(d.find("--limits"), std::string::npos) << "a command-line option on a customer's page";
   EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
 
   // The diagnosis of both tests, each source with its share of G.
@@ -390,18 +280,19 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   }
 
   const std::string pdf = (dir_ / "report.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), 3);
+  EXPECT_EQ(printed_pages(html, pdf), 4);
   const std::string page1 = pdf_page_text(pdf, 1);
-  for (const char* text : {"Verdict: FAIL", "VMC-3", "grid encoder KGM 182", "XY", "1000 mm/min",
-                           "X backlash 0 → 10.2 µm", "squareness XY correction 0 → 100.0 µrad",
-                           "FF1 X 0 → 1.0", "servo mismatch: X lags Y by 1.08 ms", "Tested by",
-                           "A. Sato", "Accepted by", "B. Kunde", "Signature", "Date"}) {
+  for (const char* text : {"Verdict: not decided: within the uncertainty", "U (k = 2)", "VMC-3",
+                           "grid encoder KGM 182", "XY", "1000 mm/min", "X backlash 0 → 10.2 µm",
+                           "squareness XY correction 0 → 100.0 µrad", "FF1 X 0 → 1.0",
+                           "servo mismatch: X lags Y by 1.08 ms", "Tested by", "A. Sato",
+                           "Accepted by", "B. Kunde", "Signature", "Date"}) {
     EXPECT_NE(page1.find(text), std::string::npos) << text << "\n" << page1;
   }
   EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY"), std::string::npos);
   const CommandResult sum = run_command({"/usr/bin/sha256sum", after});
   ASSERT_EQ(sum.exit_code, 0);
-  EXPECT_NE(pdf_page_text(pdf, 3).find(sum.out.substr(0, 64)), std::string::npos)
+  EXPECT_NE(pdf_page_text(pdf, 4).find(sum.out.substr(0, 64)), std::string::npos)
       << "the appendix holds the trace's SHA-256";
   std::string which;
   EXPECT_LE(widest_px(html, which), 794.0) << which;
@@ -427,7 +318,7 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
   }
   ASSERT_FALSE(planes.empty()) << "no plane page: not a circana report";
   const std::string pdf = (dir_ / "given.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), static_cast<int>(planes.size()) + 2);
+  EXPECT_EQ(printed_pages(html, pdf), static_cast<int>(planes.size()) + 3);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: "), std::string::npos);
   for (std::size_t k = 0; k < planes.size(); ++k) {
     EXPECT_NE(pdf_page_text(pdf, static_cast<int>(k) + 2).find("Plane " + planes[k] + ": "),
@@ -435,6 +326,8 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
         << planes[k];
   }
   EXPECT_NE(pdf_page_text(pdf, static_cast<int>(planes.size()) + 2).find("Appendix"),
+            std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, static_cast<int>(planes.size()) + 3).find("Appendix"),
             std::string::npos);
   EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
   std::string which;
@@ -460,8 +353,8 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
   };
   char cells[160];
   std::snprintf(cells, sizeof cells,
-                "<td class=\"num\">%.1f µm</td><td class=\"num\">4.0 µm</td>"
-                "<td class=\"result FAIL\">FAIL</td>",
+                "<td class=\"num\">%.1f µm</td><td class=\"num u\">–</td><td class=\"num\">4.0 "
+                "µm</td><td class=\"result FAIL\">FAIL</td>",
                 b_um);
   EXPECT_NE(row("backlash").find(cells), std::string::npos) << row("backlash") << "\n" << cells;
   EXPECT_NE(row("squareness").find("<td class=\"num\">50.0 µrad</td><td class=\"result PASS\">"),
@@ -470,6 +363,9 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
   // H, G, F have no limit here: listed, not judged.
   EXPECT_NE(row("H").find("no limit set"), std::string::npos);
   EXPECT_NE(d.find("data-verdict=\"FAIL\""), std::string::npos);
+  // Judged without U, and the page says so.
+  EXPECT_NE(d.find("Without U (backlash, squareness): the value alone against the limit."),
+            std::string::npos);
 
   // A diagnosis that does not state the squareness: that limit cannot pass.
   diag["squareness_urad"] = nullptr;
@@ -528,7 +424,11 @@ TEST_F(HtmlReport, BadRequests) {
     const CommandResult r = circana({"report", xy, "-o", out, "--limits-file", lim});
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const std::string html = circtest::testing::slurp(out);
-    EXPECT_NE(html.find("Against the limits of the file " + lim), std::string::npos);
+    EXPECT_NE(html.find("Against the agreed acceptance limits (H 10.0 µm, G 20.0 µm, F 100.0 µm, "
+                        "backlash 4.0 µm)"),
+              std::string::npos);
+    EXPECT_NE(html.find("acceptance limits: the file " + lim), std::string::npos)
+        << "the appendix names where they came from";
     for (const char* q : {"H", "G", "F"}) {
       EXPECT_NE(html.find(std::string("data-quantity=\"") + q + "\""), std::string::npos) << q;
     }
@@ -542,6 +442,10 @@ TEST_F(HtmlReport, BadRequests) {
   const std::string plan = (dir_ / "plan.json").string();
   circtest::testing::spit(plan, R"({"schema": "circtest.plan/1", "changes": [{"words": 3}]})");
   expect({"report", xy, "-o", out, "--changes", plan}, 4, "'changes[0].words': expected a string");
+  // What names a change (to net it over the rounds) is a string or null.
+  circtest::testing::spit(
+      plan, R"({"schema": "circtest.plan/1", "changes": [{"words": "a", "before": 3}]})");
+  expect({"report", xy, "-o", out, "--changes", plan}, 4, "'changes[0].before': expected a string");
   // A directory in the output's place is never replaced.
   fs::create_directory(dir_ / "dir.html");
   const CommandResult r = circana({"report", xy, "-o", (dir_ / "dir.html").string()});

@@ -11,6 +11,7 @@
 
 #include "circtest/analysis/report.hpp"
 #include "circtest/analysis/result_json.hpp"
+#include "circtest/analysis/uncertainty.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/json_text.hpp"
@@ -18,10 +19,25 @@
 #include "circtest/core/svg.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "circtest/core/version.hpp"
+#include "html_parts.hpp"
 
 namespace circtest {
 
+namespace html {
+
+std::string units_shown(std::string text) {
+  static const std::regex um(R"(\bum\b)"), urad(R"(\burad\b)"), deg_c(R"(\bdeg C\b)");
+  text = std::regex_replace(text, um, "µm");
+  text = std::regex_replace(text, urad, "µrad");
+  return std::regex_replace(text, deg_c, "°C");
+}
+
+}  // namespace html
+
 namespace {
+
+using html::u_span;
+using html::units_shown;
 
 // Screen: pages one below the other, each as wide as A4. Print: the hand-over, each plane's
 // evidence and the appendix each start an A4 portrait page; nothing is wider than the page
@@ -47,9 +63,11 @@ table.conditions th { width: 20%; font-weight: normal; background: #f7f7f7; }
 .banner.PASS { color: #14622b; border-color: #14622b; background: #eaf6ec; }
 .banner.FAIL { color: #a11; border-color: #a11; background: #fbeaea; }
 .banner.NONE { color: #444; border-color: #888; background: #f4f4f4; }
+.banner.OPEN { color: #8a5a00; border-color: #8a5a00; background: #fdf3e1; }
 .banner small { font-size: 9pt; font-weight: normal; display: block; }
 td.result { font-weight: bold; }
 td.PASS { color: #14622b; } td.FAIL { color: #a11; } td.NONE { color: #666; font-weight: normal; }
+td.OPEN { color: #8a5a00; }
 ul { margin: 0.5mm 0; padding-left: 5mm; }
 .signatures { display: grid; grid-template-columns: 1fr 1fr; gap: 10mm; margin-top: 6mm; }
 .signatures div p { border-bottom: 0.3mm solid #333; height: 9mm; margin: 0; padding-top: 3mm; }
@@ -71,6 +89,7 @@ ul.legend .swatch { display: inline-block; width: 4mm; height: 1.2mm; margin-rig
 .bar { display: inline-block; height: 2mm; background: #1f5fbf; vertical-align: middle;
        margin-left: 1mm; }
 .appendix td, .appendix th { font-size: 8pt; word-break: break-all; }
+.appendix table.budget td, .appendix table.budget th { word-break: normal; }
 .appendix .raw { columns: 2; column-gap: 6mm; font-size: 7.5pt; }
 .appendix .raw p { break-inside: avoid; }
 .appendix .raw b { font-weight: 600; }
@@ -86,14 +105,6 @@ footer { color: #666; font-size: 80%; margin-top: 2mm; }
   .appendix .raw { font-size: 6.5pt; }
 }
 )";
-
-// Micrometres and microradians as written, not "um" and "urad" (the library's ASCII words).
-std::string units_shown(std::string text) {
-  static const std::regex um(R"(\bum\b)"), urad(R"(\burad\b)"), deg_c(R"(\bdeg C\b)");
-  text = std::regex_replace(text, um, "µm");
-  text = std::regex_replace(text, urad, "µrad");
-  return std::regex_replace(text, deg_c, "°C");
-}
 
 std::string um_text(double mm, bool sign) {
   return sign ? fmt::format("{:+.1f}", mm * 1000.0) : fmt::format("{:.1f}", mm * 1000.0);
@@ -213,11 +224,6 @@ const char* program_title(std::string_view key) {
   }
   return nullptr;
 }
-bool internal_item(const ReportItem& item) {
-  static const std::set<std::string, std::less<>> kTitles = {"Channels evaluated", "Data capture"};
-  if (item.raw) return program_title(item.title) == nullptr;
-  return kTitles.count(item.title) > 0;
-}
 constexpr const char* kNotRecorded = "not recorded";
 
 // The clause 4.4 conditions that were recorded, two to a row; the items not recorded once,
@@ -230,7 +236,7 @@ void conditions_table(std::string& s, const Evaluation& ev) {
   for (const ReportSection& section : sections) {
     for (const ReportItem& item : section.items) {
       // Page 1 shows the clause 6 facts (and which of them were not recorded).
-      if (internal_item(item) || on_handover(item.title)) continue;
+      if (html::internal_item(item) || on_handover(item.title)) continue;
       if (item.value == kNotRecorded) {
         missing.push_back(item.title);
       } else {
@@ -401,6 +407,11 @@ void page_html(std::string& s, const ReportPage& page, const PlotOptions& plot_o
                                   : f_centre_method_name(ev.runs.front().f_centre_method)),
       "runs", {"Run", "Direction", "Feed"}, {"G", "F<sub>max</sub>", "F<sub>min</sub>"},
       run_rows(ev), page.before ? &rb : nullptr);
+  const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
+  fmt::format_to(out,
+                 "<p class=\"uncertainty\">Expanded uncertainty U (k = 2) of each value of this "
+                 "test: H {} µm, G {} µm, F {} µm (the budget is in the appendix).</p>\n",
+                 u_span(budget.u_h_mm), u_span(budget.u_g_mm), u_span(budget.u_f_mm));
 
   s += "<div class=\"figures\">\n<figure class=\"plot\">";
   std::vector<PlotLayer> layers{{page.evaluation, page.trace, page.before ? "after" : ""}};
@@ -426,37 +437,6 @@ void page_html(std::string& s, const ReportPage& page, const PlotOptions& plot_o
     fmt::format_to(out, "<p class=\"note\">Note: {}</p>\n", xml_escape(units_shown(n)));
   s += "<footer>Values in µm; the exact millimetres are in the data-mm attributes</footer>\n";
   s += "</section>\n";
-}
-
-const char* result_word(VerdictLine::Result r) {
-  switch (r) {
-    case VerdictLine::Result::pass:
-      return "PASS";
-    case VerdictLine::Result::fail:
-      return "FAIL";
-    case VerdictLine::Result::not_measured:
-      return "FAIL (not measured)";
-    case VerdictLine::Result::no_limit:
-      break;
-  }
-  return "no limit set";
-}
-
-std::string amount_cell(const std::optional<double>& v, const std::string& unit) {
-  return v ? fmt::format("<td class=\"num\">{:.1f} {}</td>", *v, unit)
-           : std::string("<td class=\"num\">&#8211;</td>");
-}
-
-// The overall verdict: FAIL when any quantity with a limit fails or was not measured, PASS
-// when every one with a limit passes, NONE when no limit applies.
-std::string overall(const std::vector<VerdictLine>& lines) {
-  bool any_limit = false;
-  for (const auto& l : lines) {
-    if (l.result == VerdictLine::Result::fail || l.result == VerdictLine::Result::not_measured)
-      return "FAIL";
-    any_limit |= l.result == VerdictLine::Result::pass;
-  }
-  return any_limit ? "PASS" : "NONE";
 }
 
 // The instrument as recorded, else what the trace says of it: the file it was imported from,
@@ -518,40 +498,6 @@ void facts_table(std::string& s, const std::vector<ReportPage>& pages, const Han
   s += "</table>\n";
 }
 
-void verdict_table(std::string& s, const HandOver& h, bool with_before) {
-  auto out = std::back_inserter(s);
-  const std::string all = overall(h.verdict);
-  fmt::format_to(
-      out, "<div class=\"banner {}\" data-verdict=\"{}\">Verdict: {}<small>{}</small></div>\n", all,
-      all,
-      all == "PASS"   ? "PASS"
-      : all == "FAIL" ? "FAIL"
-                      : "no limit set",
-      xml_escape(h.limits_source.empty()
-                     ? "No limits were given: the values are reported, not judged."
-                     : "Against the limits of " + h.limits_source + "."));
-  s += "<table class=\"verdict\"><caption>Results against the limits</caption>\n<tr><th>Plane</th>"
-       "<th>Quantity</th>";
-  if (with_before) s += "<th class=\"num\">before</th>";
-  s += "<th class=\"num\">this test</th><th class=\"num\">limit</th><th>result</th></tr>\n";
-  for (const auto& l : h.verdict) {
-    const std::string word = result_word(l.result);
-    const char* css = l.result == VerdictLine::Result::pass       ? "PASS"
-                      : l.result == VerdictLine::Result::no_limit ? "NONE"
-                                                                  : "FAIL";
-    fmt::format_to(
-        out,
-        "<tr class=\"verdict-line\" data-plane=\"{}\" data-quantity=\"{}\"><td>{}</td><td>{}</td>",
-        xml_escape(l.plane), xml_escape(l.quantity), xml_escape(l.plane), xml_escape(l.quantity));
-    if (with_before) s += amount_cell(l.before, l.unit);
-    s += amount_cell(l.now, l.unit) + amount_cell(l.limit, l.unit);
-    fmt::format_to(out, "<td class=\"result {}\">{}</td></tr>\n", css, word);
-  }
-  s += "</table>\n<p class=\"note\">H: the largest circular hysteresis, G: the largest circular "
-       "deviation, F: the largest radial deviation |F<sub>max</sub>|, |F<sub>min</sub>| of the "
-       "plane's runs (ISO 230-4).</p>\n";
-}
-
 void summary_html(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
   auto out = std::back_inserter(s);
   bool with_before = false;
@@ -559,12 +505,11 @@ void summary_html(std::string& s, const std::vector<ReportPage>& pages, const Ha
   s += "<section class=\"summary\">\n<h1>Circular test of the machine: hand-over report</h1>\n"
        "<p class=\"note\">ISO 230-4 / JIS B 6194 circular test.</p>\n";
   facts_table(s, pages, h);
-  verdict_table(s, h, with_before);
+  html::verdict_table(s, h, with_before);
   if (with_before || !h.changes_source.empty()) {
     s += "<h2>Changed between the tests</h2>\n";
     if (h.changes_source.empty()) {
-      s += "<p class=\"grey\">Not stated: no plan was given (circcomp plan --json, circana report "
-           "--changes).</p>\n";
+      s += "<p class=\"grey\">Not stated: no record of the changes was given.</p>\n";
     } else if (h.changes.empty()) {
       s += "<p>No setting: the plan corrects nothing.</p>\n";
     } else {
@@ -600,41 +545,13 @@ void summary_html(std::string& s, const std::vector<ReportPage>& pages, const Ha
   s += "</div>\n</section>\n";
 }
 
-// The internals of one trace: its file, hash and the logger's and generator's raw items.
-void internals_of(std::string& s, const char* what, const Evaluation& ev,
-                  const std::string& sha256) {
-  auto out = std::back_inserter(s);
-  fmt::format_to(
-      out,
-      "<h2>{}, plane {}</h2>\n<table>\n<tr><th style=\"width: 18%\">File</th><td>{}</td></tr>\n"
-      "<tr><th>SHA-256</th><td>{}</td></tr>\n",
-      what, plane_name(ev.plane), xml_escape(ev.source), sha256.empty() ? "not at hand" : sha256);
-  s += "</table>\n<div class=\"raw\">\n";
-  for (const ReportSection& section : header_sections(ev)) {
-    for (const ReportItem& item : section.items) {
-      if (!internal_item(item)) continue;
-      fmt::format_to(out, "<p><b>{}</b>: {}</p>\n", xml_escape(item.title),
-                     xml_escape(units_shown(item.value)));
-    }
-  }
-  s += "</div>\n";
-}
-
-void appendix_html(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
-  auto out = std::back_inserter(s);
-  s += "<section class=\"appendix\">\n<h1>Appendix: for the service engineer</h1>\n";
-  fmt::format_to(out, "<p>{}; limits: {}; changes: {}</p>\n",
-                 xml_escape(version_line("circana report")),
-                 xml_escape(h.limits_source.empty() ? "none" : h.limits_source),
-                 xml_escape(h.changes_source.empty() ? "none" : h.changes_source));
-  for (const auto& p : pages) {
-    internals_of(s, p.before ? "After (this test)" : "This test", *p.evaluation, p.trace_sha256);
-    if (p.before) internals_of(s, "Before", *p.before, p.before_sha256);
-  }
-  s += "</section>\n";
-}
-
 }  // namespace
+
+bool html::internal_item(const ReportItem& item) {
+  static const std::set<std::string, std::less<>> kTitles = {"Channels evaluated", "Data capture"};
+  if (item.raw) return program_title(item.title) == nullptr;
+  return kTitles.count(item.title) > 0;
+}
 
 DiagnosisChart diagnosis_chart(const Diagnosis& d) {
   DiagnosisChart c{d.source, d.plane, d.contributions, d.model_g_mm, d.residual_g_mm, {}, {}};
@@ -698,7 +615,7 @@ std::string html_report(const std::vector<ReportPage>& pages, const HandOver& ha
                  machine.empty() ? std::string() : " - " + xml_escape(machine), kStyle);
   summary_html(s, pages, handover);
   for (const auto& p : pages) page_html(s, p, plot);
-  appendix_html(s, pages, handover);
+  html::appendix_html(s, pages, handover);
   s += "</body>\n</html>\n";
   return s;
 }

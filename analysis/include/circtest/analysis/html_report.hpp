@@ -4,7 +4,8 @@
 // verdict per plane and quantity against the limits, what was changed between before and
 // after, the signatures. Then a page of evidence per plane: H/G/F, the polar plot (a before
 // test overlaid), the diagnosis before and after, the recorded conditions, the trend. Last an
-// appendix of internals (files, hashes, logger settings, versions). A print stylesheet puts
+// appendix of internals (files, hashes, logger settings, versions) and the uncertainty budget
+// of each test. A print stylesheet puts
 // each part on its own A4 portrait page. docs/html-report.md.
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -50,20 +51,22 @@ struct ReportPage {
   std::string before_sha256;  // of the before trace file
 };
 
-// One line of the verdict: a quantity of a plane against its limit.
+// One line of the verdict: a quantity of a plane against its limit, by ISO 14253-1 when it
+// has U (H, G, F), else by the value alone (backlash, squareness).
 struct VerdictLine {
-  enum class Result { pass, fail, no_limit, not_measured };
+  enum class Result { pass, fail, not_decided, no_limit, not_measured };
   std::string plane;
   std::string quantity;                      // "H", "G", "F", "backlash", "squareness"
   std::string unit;                          // "µm", "µrad"
   std::optional<double> before, now, limit;  // |value| and limit in the unit
+  std::optional<double> u;                   // U (k = 2) of `now` in the unit; empty: none
   Result result = Result::no_limit;
 };
 
 // What the first page holds beyond the tests.
 struct HandOver {
   std::vector<VerdictLine> verdict;
-  std::string limits_source;           // where the limits come from; empty: none given
+  std::string limits_source;           // where the limits come from (for the appendix); empty: none
   std::vector<std::string> changes;    // plain words, from circcomp plan --json
   std::vector<std::string> wiring;     // what makes LinuxCNC use them (HAL files, kinematics)
   std::vector<std::string> advice;     // what the plan could not change

@@ -23,6 +23,8 @@ struct Measure {
   std::string direction;  // "CCW", "CW"
   std::optional<double> feed_mm_per_min;
   double value_mm = 0.0;
+  // Its expanded uncertainty U (k = 2); empty for a test stored before U was kept.
+  std::optional<double> u_mm;
 };
 
 struct TestRecord {
@@ -42,6 +44,9 @@ struct TestRecord {
   std::optional<double> h_mm;
   std::optional<double> g_mm;
   std::optional<double> f_mm;  // the largest |F_max|, |F_min|
+  // The expanded uncertainties (k = 2) of H, G and F: one budget per trace
+  // (circtest/analysis/uncertainty.hpp). Empty for a test stored before U was kept.
+  std::optional<double> u_h_mm, u_g_mm, u_f_mm;
   std::optional<double> backlash_mm;
   std::optional<double> squareness_urad;
   nlohmann::json result;               // the evaluation document as stored
@@ -55,12 +60,16 @@ void for_each_number(const TestRecord& test, Visit&& visit) {
   visit(test.h_mm, std::string("H"));
   visit(test.g_mm, std::string("G"));
   visit(test.f_mm, std::string("F"));
+  visit(test.u_h_mm, std::string("U of H"));
+  visit(test.u_g_mm, std::string("U of G"));
+  visit(test.u_f_mm, std::string("U of F"));
   visit(test.backlash_mm, std::string("backlash"));
   visit(test.squareness_urad, std::string("squareness_urad"));
   for (const Measure& m : test.measures) {
     const std::string run = " of run " + m.label + " " + m.direction;
     visit(std::optional<double>(m.value_mm), m.kind + run);
     visit(m.feed_mm_per_min, "feed" + run);
+    visit(m.u_mm, "U of " + m.kind + run);
   }
 }
 
@@ -94,7 +103,7 @@ std::unique_ptr<Store> open_store(const std::string& url,
 // $XDG_DATA_HOME/circtest/history.sqlite ($HOME/.local/share when XDG_DATA_HOME is unset).
 std::string default_database_path(std::string_view setting = kDatabaseSetting);
 
-// Pass/fail limits of the trend: H, G, F, backlash (mm) and squareness (urad).
+// Limits of the trend: H, G, F, backlash (mm) and squareness (urad).
 struct Limits {
   std::optional<double> h_mm, g_mm, f_mm, backlash_mm, squareness_urad;
   bool empty() const { return !h_mm && !g_mm && !f_mm && !backlash_mm && !squareness_urad; }
@@ -102,19 +111,35 @@ struct Limits {
 // "H=0.015,G=0.020" (mm; squareness in urad). Throws UsageError naming `setting` (circana:
 // "--limits").
 Limits parse_limits(const std::string& text, std::string_view setting = "limits");
-// The quantities of a test that exceed their limit, e.g. {"H 0.0210 > 0.0150 mm"}.
+// The decision rule of ISO 14253-1, as `circana analyze --limits` applies it: the same words
+// as circtest::kDecisionRule of the analysis (a test holds them equal).
+inline constexpr const char* kDecisionRule =
+    "ISO 14253-1: pass when value + U <= limit, fail when value - U > limit, otherwise not "
+    "decided (U expanded, k = 2)";
+// How a quantity without U is judged: the value alone against the limit (a test stored before
+// U was kept; backlash and squareness, which the diagnosis states without U).
+inline constexpr const char* kValueAloneRule =
+    "without U: pass when value <= limit, fail otherwise (the value alone)";
+
+// The quantities of a test that do not pass their limit, e.g. {"H 21.0 - U 1.4 > 15.0 um"},
+// {"G 19.6 + U 1.5 > 20.0 um: not decided, within the uncertainty"}.
 std::vector<std::string> breaches(const TestRecord& test, const Limits& limits);
 
 // One quantity of a test against its limit: H, G, F, backlash (values and limit in um) and
-// squareness (urad). A quantity with a limit that was not measured does not pass.
+// squareness (urad). With U (H, G, F of a test stored with it) the rule of kDecisionRule;
+// without, the value alone (kValueAloneRule). A quantity with a limit that was not measured
+// does not pass.
 struct Verdict {
-  enum class Result { pass, fail, no_limit, not_measured };
+  enum class Result { pass, fail, not_decided, no_limit, not_measured };
   const char* quantity;         // as in the limits: "H", "G", "F", "backlash", "squareness"
   const char* unit;             // "um" or "urad" (ASCII; a front end writes its own symbol)
   std::optional<double> value;  // |value| in the unit, when measured
   std::optional<double> limit;  // in the unit, when set
   Result result = Result::no_limit;
+  std::optional<double> u;  // U (k = 2) in the unit; empty: judged on the value alone
 };
+// "pass", "fail", "not decided: within the uncertainty", "not measured", "no limit".
+const char* decision_words(Verdict::Result result) noexcept;
 // Every quantity of the test, in the order above.
 std::vector<Verdict> verdicts(const TestRecord& test, const Limits& limits);
 

@@ -21,7 +21,9 @@ namespace circtest {
 // naming `source` (the file the evaluation was read from; empty: the evaluation's source) and
 // the key: such a record is never stored.
 // The measures of the evaluation (H per pair, G, F_max, F_min per run) added to R, with the
-// trend's largest H, G and |F|: what history_record and the report's verdict judge.
+// trend's largest H, G and |F| and their expanded uncertainties U (k = 2) from the
+// evaluation's budget (uncertainty_budget with its own options): what history_record and the
+// report's verdict judge.
 void add_measures(const Evaluation& evaluation, history::TestRecord& r);
 
 history::TestRecord history_record(const Evaluation& evaluation,
