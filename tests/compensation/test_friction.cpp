@@ -50,6 +50,13 @@ DiagnosisInput spikes(std::optional<double> x_mm, std::optional<double> y_mm, do
   return d;
 }
 
+// The servo fixture made an inch machine ([TRAJ] LINEAR_UNITS = inch).
+void in_inch(Config& c) {
+  std::string text = c.read("servo-mill.ini");
+  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
+  c.write("servo-mill.ini", text);
+}
+
 PlanOptions friction_only() {
   PlanOptions o;
   o.only = {Correction::friction};
@@ -164,9 +171,7 @@ TEST(Friction, APidBeforeMotionControllerIsNoted) {
 
 TEST(Friction, InchMachineGetsMachineUnits) {
   Config c("servo-mill");
-  std::string text = c.read("servo-mill.ini");
-  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
-  c.write("servo-mill.ini", text);
+  in_inch(c);
   const Plan plan = make_plan(c.ini, spikes(0.00508, std::nullopt), friction_only());
   const IniDocument after = IniDocument::parse(file_of(plan, "servo-mill.ini")->after);
   EXPECT_EQ(after.get("FRICTION_X", "AMPLITUDE"), "0.0002");
@@ -183,9 +188,7 @@ TEST(Friction, InchMachineGetsMachineUnits) {
 // residual of 0.1 mil (2.54 um) is 0.0003 in.
 TEST(Friction, InchMachineSaysInchAndMm) {
   Config c("servo-mill");
-  std::string text = c.read("servo-mill.ini");
-  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
-  c.write("servo-mill.ini", text);
+  in_inch(c);
   DiagnosisInput d = spikes(0.0015, 0.003);
   d.reversal_spike_mm[1].standard_error = 0.002;
   Plan plan = make_plan(c.ini, d, friction_only());
