@@ -9,6 +9,7 @@
 #include <cmath>
 #include <string>
 
+#include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/segmentation.hpp"
 #include "circtest/core/error.hpp"
@@ -465,4 +466,34 @@ TEST(InchBounds, AnInchProgramsFeedWordsAreInchPerMinute) {
   EXPECT_DOUBLE_EQ(fa[0].value(), 300.0);
   EXPECT_NEAR(fb[0].value(), 300.0, 0.001);
   EXPECT_NEAR(fb[1].value(), 300.0, 0.001);
+}
+
+TEST(InchBounds, WithoutATimeColumnTheLagOfAnInchTraceIsTheMmOne) {
+  // Without a time column the runs' feeds come from the program's F words: the servo lag in
+  // ms (lag in mm over the feed) of the inch copy is the mm trace's, not 25.4 x it.
+  sim::MachineModel m;
+  m.x.kv_per_s = 40.0;
+  m.y.kv_per_s = 30.0;
+  m.noise_mm = 0.0002;
+  sim::CircleProgram p;
+  p.feed_mm_per_min = 3000.0;
+  Trace mm = sim::simulate(m, p);
+  const std::size_t t = mm.column_index("t").value();
+  mm.columns.erase(mm.columns.begin() + static_cast<std::ptrdiff_t>(t));
+  mm.values.erase(mm.values.begin() + static_cast<std::ptrdiff_t>(t));
+  mm.metadata = {};
+  mm.metadata.set("radius_mm", "75");
+  mm.metadata.set("segments", "1:CCW:F3000:XY,2:CW:F3000:XY");
+  Trace inch = in_inch(mm);
+  inch.metadata.set("segments", "1:CCW:F118.11:XY,2:CW:F118.11:XY");  // 3000 mm/min in in/min
+  ASSERT_TRUE(resolve_units(inch, Plane::XY, std::nullopt, {}).has_value());
+  const Diagnosis a = diagnose(mm);
+  const Diagnosis b = diagnose(inch);
+  ASSERT_EQ(b.feeds_mm_per_min.size(), 1u);
+  EXPECT_NEAR(b.feeds_mm_per_min[0], 3000.0, 0.01);
+  ASSERT_TRUE(a.servo_mismatch_ms.value.has_value());
+  ASSERT_TRUE(b.servo_mismatch_ms.value.has_value());
+  // The simulated mismatch: 1/40 - 1/30 s.
+  EXPECT_NEAR(*a.servo_mismatch_ms.value, 1e3 / 40.0 - 1e3 / 30.0, 1.0);
+  EXPECT_NEAR(*b.servo_mismatch_ms.value, *a.servo_mismatch_ms.value, 0.01);
 }
