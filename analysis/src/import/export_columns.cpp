@@ -6,6 +6,7 @@
 #include <array>
 #include <cctype>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "circtest/analysis/instrument_export.hpp"
@@ -46,16 +47,22 @@ constexpr std::array<Unit, 2> kPositionUnits{Unit{"mm", 1.0}, Unit{"um", 1e-3}};
 // The words of a title field, lower case, with the unit signs spelled out (µm, μm -> um,
 // ° -> deg).
 std::vector<std::string> title_words(std::string_view field) {
-  std::string text(field);
-  const auto replace_all = [&text](std::string_view from, std::string_view to) {
-    for (std::size_t p = text.find(from); p != std::string::npos; p = text.find(from, p)) {
-      text.replace(p, from.size(), to);
-      p += to.size();
+  // The micro sign, the Greek mu, the degree sign.
+  static constexpr std::array<std::pair<std::string_view, std::string_view>, 3> kSigns{
+      {{"\xC2\xB5", "u"}, {"\xCE\xBC", "u"}, {"\xC2\xB0", " deg "}}};
+  std::string text;
+  text.reserve(field.size() + 8);
+  for (std::size_t i = 0; i < field.size();) {
+    const auto sign = std::find_if(kSigns.begin(), kSigns.end(), [&](const auto& s) {
+      return field.substr(i).starts_with(s.first);
+    });
+    if (sign == kSigns.end()) {
+      text += field[i++];
+    } else {
+      text += sign->second;
+      i += sign->first.size();
     }
-  };
-  replace_all("\xC2\xB5", "u");  // micro sign
-  replace_all("\xCE\xBC", "u");  // Greek mu
-  replace_all("\xC2\xB0", " deg ");
+  }
   std::vector<std::string> words;
   std::string word;
   for (const char c : text) {
