@@ -3,7 +3,6 @@
 #include "circtest/circcomp/commands.hpp"
 
 #include <fmt/format.h>
-#include <sys/stat.h>
 
 #include <cerrno>
 #include <cstdio>
@@ -123,14 +122,8 @@ int run_revert(const CirccompRequest& request) {
 int run_circcomp(const CirccompRequest& r) {
   if (r.command == CirccompCommand::revert) return run_revert(r);
   check_plan_options(r.plan_options);  // a usage error before any file is read
-  // A named FIFO without a writer would block the read: a pipe is given as -.
-  struct stat st {};
-  if (::lstat(r.diagnosis.c_str(), &st) == 0 && S_ISFIFO(st.st_mode)) {
-    throw IoError(r.diagnosis,
-                  "is a FIFO: expected the diagnosis JSON as a regular file (a pipe "
-                  "as -)");
-  }
-  // One plane's diagnosis, or a test set's (one entry per plane).
+  // One plane's diagnosis, or a test set's (one entry per plane). Read through core's
+  // InputFile: a named FIFO (or device, folder) is refused unopened, a pipe is given as -.
   const std::vector<DiagnosisInput> planes = read_diagnosis_planes(r.diagnosis);
   if (r.command == CirccompCommand::apply)
     require_fresh(r.ini, planes.front(), r.plan_options.force, r.words);

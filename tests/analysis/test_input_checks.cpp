@@ -5,12 +5,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
+#include "circtest/analysis/diagnosis.hpp"
 #include "circtest/analysis/evaluation.hpp"
 #include "circtest/analysis/segmentation.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/trace_keys.hpp"
 #include "expect_error.hpp"
 #include "machine_sim.hpp"
 
@@ -249,4 +252,248 @@ TEST(Remedies, TheEvaluationsNotesAndRefusalsUseTheLibrarysWords) {
   EXPECT_ERROR(evaluate(t, nominal), ExitCode::usage,
                "F about the nominal centre needs the set-up centre: give the set-up centre "
                "setting A,B or a centre_mm metadata line");
+}
+
+// A trace in inch is checked at the same physical sizes as the same trace in mm: resolve_units
+// converts it first, so every bound (in mm) sees mm. Each class below builds a known trace in
+// mm, its copy in inch (every length column / 25.4 under `units: inch`, as LinuxCNC logs an
+// inch machine), and checks that both are accepted with equal results, or both refused, on
+// each side of the bound; the inch refusal says its sizes in inch and mm. A bound applied to
+// the inch values unconverted would accept 25.4 x too much (or refuse 25.4 x too little).
+namespace {
+
+// A 2 mm radius circle: small enough that the fixed floors of the bounds (0.05 mm) decide.
+Trace small_circle() {
+  sim::MachineModel m;
+  m.noise_mm = 0.0002;
+  sim::CircleProgram p;
+  p.radius_mm = 2.0;
+  p.feed_mm_per_min = 300.0;
+  return sim::simulate(m, p);
+}
+
+Trace in_inch(const Trace& mm) {
+  Trace t = mm;
+  t.metadata.set("units", "inch");
+  for (std::size_t c = 0; c < t.columns.size(); ++c) {
+    if (t.columns[c] == "t" || column_name::is_integer(t.columns[c])) continue;
+    for (double& v : t.values[c]) v /= 25.4;
+  }
+  return t;
+}
+
+struct Outcome {
+  std::optional<Evaluation> evaluation;
+  std::string refusal;
+};
+
+// As circana evaluates a trace: its units resolved, then the evaluation.
+Outcome evaluated(Trace t, EvaluationOptions options = {}) {
+  try {
+    (void)resolve_units(t, options.plane, options.nominal_radius_mm, options.input_checks);
+    return {evaluate(t, options), ""};
+  } catch (const Error& e) {
+    return {std::nullopt, e.what()};
+  }
+}
+
+// The mm trace and its inch copy both refused, the inch refusal containing `inch_words`.
+void expect_both_refused(const Trace& mm, const std::string& words, const std::string& inch_words,
+                         const EvaluationOptions& options = {}) {
+  const Outcome a = evaluated(mm, options);
+  const Outcome b = evaluated(in_inch(mm), options);
+  EXPECT_FALSE(a.evaluation.has_value());
+  EXPECT_FALSE(b.evaluation.has_value());
+  EXPECT_NE(a.refusal.find(words), std::string::npos) << a.refusal;
+  EXPECT_NE(b.refusal.find(words), std::string::npos) << b.refusal;
+  EXPECT_NE(b.refusal.find(inch_words), std::string::npos) << b.refusal;
+  EXPECT_EQ(a.refusal.find(" in ("), std::string::npos) << a.refusal;
+}
+
+// Both accepted, with the results of the inch copy those of the mm trace.
+void expect_both_equal(const Trace& mm) {
+  const Outcome a = evaluated(mm);
+  const Outcome b = evaluated(in_inch(mm));
+  ASSERT_TRUE(a.evaluation.has_value()) << a.refusal;
+  ASSERT_TRUE(b.evaluation.has_value()) << b.refusal;
+  ASSERT_EQ(a.evaluation->runs.size(), b.evaluation->runs.size());
+  for (std::size_t k = 0; k < a.evaluation->runs.size(); ++k) {
+    const RunResult& ra = a.evaluation->runs[k];
+    const RunResult& rb = b.evaluation->runs[k];
+    EXPECT_NEAR(rb.lsc.radius_mm, ra.lsc.radius_mm, 1e-9);
+    EXPECT_NEAR(rb.g_mzc_mm, ra.g_mzc_mm, 1e-9);
+    EXPECT_NEAR(rb.f_max_mm.value(), ra.f_max_mm.value(), 1e-9);
+    EXPECT_NEAR(rb.f_min_mm.value(), ra.f_min_mm.value(), 1e-9);
+    ASSERT_EQ(ra.feed_mm_per_min.has_value(), rb.feed_mm_per_min.has_value());
+    if (ra.feed_mm_per_min) {
+      EXPECT_NEAR(*rb.feed_mm_per_min, *ra.feed_mm_per_min, 1e-6);
+    }
+  }
+  ASSERT_EQ(a.evaluation->hysteresis.size(), 1u);
+  EXPECT_NEAR(b.evaluation->hysteresis[0].h_mm, a.evaluation->hysteresis[0].h_mm, 1e-9);
+}
+
+// The rows of the first marked run.
+std::pair<std::size_t, std::size_t> first_run(const Trace& t) {
+  const Segmentation s = segments(t);
+  return {s.runs.front().begin, s.runs.front().end};
+}
+
+}  // namespace
+
+TEST(InchBounds, ResultsAreTheMmOnes) {
+  const Trace mm = small_circle();
+  expect_both_equal(mm);
+  // The simulator's feed: 300 mm/min measured from the time column in both.
+  EXPECT_NEAR(evaluated(in_inch(mm)).evaluation->runs[0].feed_mm_per_min.value(), 300.0, 1.0);
+}
+
+TEST(InchBounds, OffPlaneMotionAtTheSameSize) {
+  // z rises steadily over the first run; z may move max(0.05 mm, 10 % of the 4 mm the plane's
+  // columns move) = 0.4 mm: 0.5 mm is refused, 0.3 mm accepted (0.3 mm = 0.0118 in, which a
+  // 0.05 bound taken on the inch values would also accept, and 0.5 mm = 0.0197 in too).
+  const auto ramp = [](double mm_total) {
+    Trace t = small_circle();
+    const auto [begin, end] = first_run(t);
+    for (std::size_t i = begin; i < end; ++i) {
+      column(t, "z")[i] +=
+          mm_total * static_cast<double>(i - begin) / static_cast<double>(end - 1 - begin);
+    }
+    return t;
+  };
+  expect_both_refused(ramp(0.5), "the run is not in the plane XY (z may move at most",
+                      "z moves 0.01968 in (0.500 mm) while x moves 0.157");
+  expect_both_refused(ramp(0.5), "", "z may move at most 0.0157");
+  expect_both_equal(ramp(0.3));
+}
+
+TEST(InchBounds, NominalRadiusAgreementAtTheSameSize) {
+  // The default tolerance at 2 mm: its 0.05 mm floor. radius_mm is in mm in both traces.
+  const auto nominal = [](const char* radius_mm) {
+    Trace t = small_circle();
+    t.metadata.set("radius_mm", radius_mm);
+    return t;
+  };
+  expect_both_refused(nominal("2.06"), "differs from the nominal radius",
+                      "nominal radius 0.081102 in (2.0600 mm) (metadata) by -0.00236");
+  expect_both_refused(nominal("2.06"), "", "more than the tolerance 0.001969 in (0.0500 mm)");
+  expect_both_equal(nominal("2.04"));
+  // --radius-tolerance is in mm for either trace.
+  EvaluationOptions wide;
+  wide.input_checks.radius_tolerance_mm = 0.07;
+  const Outcome a = evaluated(nominal("2.06"), wide);
+  const Outcome b = evaluated(in_inch(nominal("2.06")), wide);
+  EXPECT_TRUE(a.evaluation.has_value()) << a.refusal;
+  EXPECT_TRUE(b.evaluation.has_value()) << b.refusal;
+}
+
+TEST(InchBounds, OutliersAtTheSameSize) {
+  // One row of the first run pushed out radially: 0.06 mm is beyond the 0.05 mm floor.
+  const auto pushed = [](double mm) {
+    Trace t = small_circle();
+    const auto [begin, end] = first_run(t);
+    const std::size_t row = (begin + end) / 2;
+    const double x = column(t, "x")[row], y = column(t, "y")[row];
+    const double r = std::hypot(x, y);
+    column(t, "x")[row] = x * (r + mm) / r;
+    column(t, "y")[row] = y * (r + mm) / r;
+    return t;
+  };
+  expect_both_refused(pushed(0.06), "an outlier", "(beyond 0.001969 in (0.0500 mm))");
+  const Outcome a = evaluated(pushed(0.04));
+  const Outcome b = evaluated(in_inch(pushed(0.04)));
+  ASSERT_TRUE(a.evaluation.has_value()) << a.refusal;
+  ASSERT_TRUE(b.evaluation.has_value()) << b.refusal;
+  EXPECT_NEAR(b.evaluation->runs[0].g_mzc_mm, a.evaluation->runs[0].g_mzc_mm, 1e-9);
+  EXPECT_GT(a.evaluation->runs[0].g_mzc_mm, 0.035);  // the row sets G
+}
+
+TEST(InchBounds, PlaneWithoutMotionNamedInInchAndMm) {
+  EvaluationOptions zx;
+  zx.plane = Plane::ZX;
+  Trace mm = small_circle();
+  mm.metadata.set("plane", "ZX");
+  // resolve_units reads the plane's columns (z does not move): the option decides the unit.
+  zx.input_checks.position_units = PositionUnits::inch;
+  const Outcome b = evaluated(in_inch(mm), zx);
+  ASSERT_FALSE(b.evaluation.has_value());
+  EXPECT_NE(b.refusal.find("plane ZX: z moves 0.00005 in (0.001 mm) and x 0.15751 in (4.001 mm)"),
+            std::string::npos)
+      << b.refusal;
+}
+
+TEST(InchBounds, FeedBoundAtTheSameSize) {
+  // The time column compressed so that the runs run at 2e6 mm/min, beyond the 1e6 bound; at
+  // 5e5 within it. No sample_period_s: the time check would refuse the compression first.
+  const auto fast = [](double factor) {
+    Trace t = small_circle();
+    t.metadata = {};
+    t.metadata.set("radius_mm", "2");
+    t.metadata.set("plane", "XY");
+    for (double& v : column(t, "t")) v /= factor;
+    return t;
+  };
+  const Outcome a = evaluated(fast(2000.0 / 0.3));
+  const Outcome b = evaluated(in_inch(fast(2000.0 / 0.3)));
+  ASSERT_TRUE(a.evaluation.has_value()) << a.refusal;
+  ASSERT_TRUE(b.evaluation.has_value()) << b.refusal;
+  EXPECT_FALSE(a.evaluation->runs[0].feed_mm_per_min.has_value());
+  EXPECT_FALSE(b.evaluation->runs[0].feed_mm_per_min.has_value());
+  const auto has = [](const Evaluation& e, const std::string& words) {
+    return std::any_of(e.notes.begin(), e.notes.end(),
+                       [&](const std::string& n) { return n.find(words) != std::string::npos; });
+  };
+  EXPECT_TRUE(has(*a.evaluation, "mm/min (t from")) << a.evaluation->notes.front();
+  EXPECT_TRUE(has(*b.evaluation, "in/min (20000")) << b.evaluation->notes.front();
+  EXPECT_TRUE(has(*b.evaluation, "above any machine's 39370.079 in/min (1000000 mm/min)"));
+  expect_both_equal(fast(500.0 / 0.3));
+  EXPECT_NEAR(evaluated(in_inch(fast(500.0 / 0.3))).evaluation->runs[0].feed_mm_per_min.value(),
+              5e5, 2e3);
+}
+
+TEST(InchBounds, AnInchProgramsFeedWordsAreInchPerMinute) {
+  // circgen's segments give each run's F word in the program's units: F11.811 in an inch
+  // program is the 300 mm/min of F300 in a mm one.
+  Trace mm = small_circle();
+  mm.metadata.set("segments", "1:CCW:F300:XY,2:CW:F300:XY");
+  Trace inch = in_inch(mm);
+  inch.metadata.set("segments", "1:CCW:F11.811:XY,2:CW:F11.811:XY");
+  const Segmentation s = segments(mm);
+  const auto fa = announced_run_feeds(mm, s.runs);
+  const auto fb = announced_run_feeds(inch, s.runs);
+  ASSERT_EQ(fa.size(), 2u);
+  ASSERT_EQ(fb.size(), 2u);
+  EXPECT_DOUBLE_EQ(fa[0].value(), 300.0);
+  EXPECT_NEAR(fb[0].value(), 300.0, 0.001);
+  EXPECT_NEAR(fb[1].value(), 300.0, 0.001);
+}
+
+TEST(InchBounds, WithoutATimeColumnTheLagOfAnInchTraceIsTheMmOne) {
+  // Without a time column the runs' feeds come from the program's F words: the servo lag in
+  // ms (lag in mm over the feed) of the inch copy is the mm trace's, not 25.4 x it.
+  sim::MachineModel m;
+  m.x.kv_per_s = 40.0;
+  m.y.kv_per_s = 30.0;
+  m.noise_mm = 0.0002;
+  sim::CircleProgram p;
+  p.feed_mm_per_min = 3000.0;
+  Trace mm = sim::simulate(m, p);
+  const std::size_t t = mm.column_index("t").value();
+  mm.columns.erase(mm.columns.begin() + static_cast<std::ptrdiff_t>(t));
+  mm.values.erase(mm.values.begin() + static_cast<std::ptrdiff_t>(t));
+  mm.metadata = {};
+  mm.metadata.set("radius_mm", "75");
+  mm.metadata.set("segments", "1:CCW:F3000:XY,2:CW:F3000:XY");
+  Trace inch = in_inch(mm);
+  inch.metadata.set("segments", "1:CCW:F118.11:XY,2:CW:F118.11:XY");  // 3000 mm/min in in/min
+  ASSERT_TRUE(resolve_units(inch, Plane::XY, std::nullopt, {}).has_value());
+  const Diagnosis a = diagnose(mm);
+  const Diagnosis b = diagnose(inch);
+  ASSERT_EQ(b.feeds_mm_per_min.size(), 1u);
+  EXPECT_NEAR(b.feeds_mm_per_min[0], 3000.0, 0.01);
+  ASSERT_TRUE(a.servo_mismatch_ms.value.has_value());
+  ASSERT_TRUE(b.servo_mismatch_ms.value.has_value());
+  // The simulated mismatch: 1/40 - 1/30 s.
+  EXPECT_NEAR(*a.servo_mismatch_ms.value, 1e3 / 40.0 - 1e3 / 30.0, 1.0);
+  EXPECT_NEAR(*b.servo_mismatch_ms.value, *a.servo_mismatch_ms.value, 0.01);
 }

@@ -50,6 +50,13 @@ DiagnosisInput spikes(std::optional<double> x_mm, std::optional<double> y_mm, do
   return d;
 }
 
+// The servo fixture made an inch machine ([TRAJ] LINEAR_UNITS = inch).
+void in_inch(Config& c) {
+  std::string text = c.read("servo-mill.ini");
+  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
+  c.write("servo-mill.ini", text);
+}
+
 PlanOptions friction_only() {
   PlanOptions o;
   o.only = {Correction::friction};
@@ -164,14 +171,62 @@ TEST(Friction, APidBeforeMotionControllerIsNoted) {
 
 TEST(Friction, InchMachineGetsMachineUnits) {
   Config c("servo-mill");
-  std::string text = c.read("servo-mill.ini");
-  text.replace(text.find("LINEAR_UNITS = mm"), 17, "LINEAR_UNITS = inch");
-  c.write("servo-mill.ini", text);
+  in_inch(c);
   const Plan plan = make_plan(c.ini, spikes(0.00508, std::nullopt), friction_only());
   const IniDocument after = IniDocument::parse(file_of(plan, "servo-mill.ini")->after);
   EXPECT_EQ(after.get("FRICTION_X", "AMPLITUDE"), "0.0002");
   EXPECT_EQ(after.get("FRICTION_X", "AMPLITUDE_MAX"), "0.0004");
   EXPECT_EQ(after.get("FRICTION_X", "SPIKE_MM"), "0.00508");
+  // The plan says the spike in the machine's units and mm, as AMPLITUDE is in inch.
+  EXPECT_TRUE(has_text(plan.changes,
+                       "AMPLITUDE 0.0002 (spike 0.0002 in (0.00508 mm)), "
+                       "DECAY_MS 18.5, AMPLITUDE_MAX 0.0004 (2 x spike)"));
+}
+
+// On an inch machine every friction note, change and refusal says its size in inch and mm,
+// and step 2 writes its AMPLITUDE in inch: 0.2 mil first compensated (5.08 um) plus a
+// residual of 0.1 mil (2.54 um) is 0.0003 in.
+TEST(Friction, InchMachineSaysInchAndMm) {
+  Config c("servo-mill");
+  in_inch(c);
+  DiagnosisInput d = spikes(0.0015, 0.003);
+  d.reversal_spike_mm[1].standard_error = 0.002;
+  Plan plan = make_plan(c.ini, d, friction_only());
+  EXPECT_TRUE(plan.files.empty());
+  EXPECT_TRUE(has_text(plan.notes,
+                       "X reversal spike of 0.0000591 in (0.0015 mm) is below "
+                       "0.0000787 in (0.002 mm): no friction change"));
+  EXPECT_TRUE(has_text(plan.notes,
+                       "Y reversal spike of 0.0001181 in (0.003 mm) is not "
+                       "significant (standard error 0.0000787 in (0.002 mm)"));
+  plan = make_plan(c.ini, spikes(std::nullopt, -0.00254), friction_only());
+  EXPECT_TRUE(has_text(plan.notes, "Y reversal spike of -0.0001 in (-0.00254 mm) points inwards"));
+  try {
+    (void)make_plan(c.ini, spikes(0.254, 0.0), friction_only());
+    ADD_FAILURE() << "a 0.254 mm spike was planned";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("X reversal spike = 0.01 in (0.254 mm) is implausible "
+                                         "for friction (more than 0.003937 in (0.1 mm))"),
+              std::string::npos)
+        << e.what();
+  }
+  PlanOptions backlash;
+  backlash.only = {Correction::backlash};
+  plan = make_plan(c.ini, spikes(0.00508, 0.0), backlash);
+  EXPECT_TRUE(has_text(plan.advice, "X reversal spikes of 0.0002 in (0.00508 mm) decaying"));
+  // Step 1, applied; step 2 from a residual of 0.0001 in.
+  apply_plan(make_plan(c.ini, spikes(0.00508, std::nullopt), friction_only()));
+  plan = make_plan(c.ini, spikes(0.00254, std::nullopt), friction_only());
+  ASSERT_EQ(plan.files.size(), 1u);
+  EXPECT_EQ(IniDocument::parse(plan.files[0].after).get("FRICTION_X", "AMPLITUDE"), "0.0003");
+  EXPECT_TRUE(has_text(plan.changes,
+                       "AMPLITUDE 0.0002 -> 0.0003 (residual spike 0.0001 in "
+                       "(0.00254 mm), 50 % of the 0.0002 in (0.00508 mm) "
+                       "compensated)"));
+  plan = make_plan(c.ini, spikes(0.00127, std::nullopt), friction_only());
+  EXPECT_TRUE(has_text(plan.notes,
+                       "X residual reversal spike of 0.00005 in (0.00127 mm) is "
+                       "below 0.0000787 in (0.002 mm)"));
 }
 
 TEST(Friction, GantryGetsOneInstancePerJoint) {

@@ -41,7 +41,7 @@ check "circgen, the INI's PARAMETER_FILE a FIFO" \
   "$circgen" --d 100 --f 500 --ini "$dir/mill/sim-mill.ini" -o "$dir/t.ngc"
 check "circana analyze FIFO" "$dir/fifo: is a FIFO, not a regular file" \
   "$circana" analyze "$dir/fifo"
-check "circcomp plan --ini INI FIFO" "$dir/fifo: is a FIFO: expected the diagnosis JSON as a regular file" \
+check "circcomp plan --ini INI FIFO" "$dir/fifo: is a FIFO, not a regular file" \
   "$circcomp" plan --ini "$dir/mill/sim-mill.ini" "$dir/fifo"
 check "circlog-record --program FIFO" "$dir/fifo: is a FIFO, not a regular file" \
   "$recorder" -o "$dir/t.csv" --program "$dir/fifo"

@@ -6,6 +6,7 @@
 namespace circtest::evaluation_detail {
 
 inline constexpr double kPi = std::numbers::pi;
+inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
 inline constexpr double kRadToDeg = 180.0 / kPi;
 
 }  // namespace circtest::evaluation_detail

@@ -13,6 +13,10 @@ namespace circtest::fit_detail {
 // short enough that the plain partial sums stay accurate.
 inline constexpr std::size_t kBlock = 256;
 
+// Certificate tolerance of the zone and contact fits, relative to the radius: a point within
+// it of a circle is on it.
+inline constexpr double kCertTol = 1e-12;
+
 struct Vec2 {
   double x = 0.0;
   double y = 0.0;

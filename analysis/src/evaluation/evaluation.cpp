@@ -17,6 +17,7 @@
 #include "circtest/core/trace_keys.hpp"
 #include "radial_profile.hpp"
 #include "rows_context.hpp"
+#include "user_units.hpp"
 
 namespace circtest {
 
@@ -198,11 +199,14 @@ RunResult evaluate_run(const Trace& trace, const Evaluation& ev, std::size_t num
     // machine does not belong to its motion, and the diagnosis would take its servo terms from
     // it. The feed is then not measured.
     if (rr.feed_mm_per_min && !(*rr.feed_mm_per_min <= kMaxFeedMmPerMin)) {
+      const bool inch = detail::trace_in_inch(trace);
       notes.push_back(fmt::format(
-          "run {} (lines {}-{}): feed not measurable: its time column gives {:.0f} mm/min (t "
-          "from {:g} to {:g} s), above any machine's {:.0f}",
-          number, rr.first_line, rr.last_line, *rr.feed_mm_per_min, (*t)[run.begin],
-          (*t)[run.end - 1], kMaxFeedMmPerMin));
+          "run {} (lines {}-{}): feed not measurable: its time column gives {} (t "
+          "from {:g} to {:g} s), above any machine's {}",
+          number, rr.first_line, rr.last_line, detail::user_feed(*rr.feed_mm_per_min, inch),
+          (*t)[run.begin], (*t)[run.end - 1],
+          inch ? detail::user_feed(kMaxFeedMmPerMin, true)
+               : fmt::format("{:.0f}", kMaxFeedMmPerMin)));
       rr.feed_mm_per_min.reset();
     }
   }

@@ -13,11 +13,13 @@
 #include "circtest/core/trace_keys.hpp"
 #include "median.hpp"
 #include "rows_context.hpp"
+#include "user_units.hpp"
 
 namespace circtest {
 namespace {
 
-constexpr double kMmPerInch = 25.4;
+constexpr double kMmPerInch = detail::kUserMmPerInch;
+using detail::user_length;
 
 std::size_t line_of(const Trace& trace, std::size_t row) {
   return row < trace.line_of_row.size() ? trace.line_of_row[row] : 0;
@@ -155,6 +157,9 @@ std::optional<std::string> resolve_units(Trace& trace, std::optional<Plane> plan
     if (name == column_name::t || column_name::is_integer(name)) continue;
     for (double& v : trace.values[c]) v *= kMmPerInch;
   }
+  // A trace without the key that the option says is in inch: the refusals and notes after
+  // this say their lengths in inch too (user_units.hpp), and its F words are in/min.
+  if (!units) trace.metadata.set(meta_key::units, "inch");
   return fmt::format("units: the positions are in inch ({}); converted to mm (x 25.4)", why);
 }
 
@@ -178,6 +183,7 @@ void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& col
   const bool flat = small < std::max(0.001, 0.02 * large);
   // A radius beyond any machine is the result checks' to name (they refuse what it gives).
   const bool plausible = nominal_radius_mm && *nominal_radius_mm <= 100'000.0;
+  const bool inch = detail::trace_in_inch(trace);
   const double least_mm = plausible ? 0.1 * *nominal_radius_mm : 0.0;
   if (!flat && large >= least_mm) return;
   std::string others;
@@ -186,20 +192,22 @@ void check_plane_motion(const Trace& trace, Plane plane, const PlaneColumns& col
     if (!v) continue;
     Range r;
     for_each_measured_row(trace, [&](std::size_t i) { r.add((*v)[i]); });
-    others += fmt::format("{}{} {:.3f} mm", others.empty() ? "" : ", ", axis, r.width());
+    others +=
+        fmt::format("{}{} {}", others.empty() ? "" : ", ", axis, user_length(r.width(), 3, inch));
   }
   const std::string& na = trace.columns[columns.a];
   const std::string& nb = trace.columns[columns.b];
   const std::string too_little =
       flat ? std::string()
-           : fmt::format(", less than a circle of radius {:.3f} mm moves them (at least {:.3f} mm)",
-                         *nominal_radius_mm, least_mm);
+           : fmt::format(", less than a circle of radius {} moves them (at least {})",
+                         user_length(*nominal_radius_mm, 3, inch), user_length(least_mm, 3, inch));
   throw DataError(
       trace.source, 0,
-      fmt::format("plane {}: {} moves {:.3f} mm and {} {:.3f} mm over lines {}-{}{}: no circle in "
+      fmt::format("plane {}: {} moves {} and {} {} over lines {}-{}{}: no circle in "
                   "that plane (position ranges: {}); give the plane of the test with {}",
-                  plane_name(plane), na, wa, nb, wb, line_of(trace, first), line_of(trace, last),
-                  too_little, others.empty() ? "none" : others, words(Remedy::give_plane)));
+                  plane_name(plane), na, user_length(wa, 3, inch), nb, user_length(wb, 3, inch),
+                  line_of(trace, first), line_of(trace, last), too_little,
+                  others.empty() ? "none" : others, words(Remedy::give_plane)));
 }
 
 std::optional<std::string> check_off_plane(const Trace& trace, Plane plane,
@@ -216,15 +224,18 @@ std::optional<std::string> check_off_plane(const Trace& trace, Plane plane,
   }
   const double limit = std::max(0.05, 0.1 * std::max(ra.width(), rb.width()));
   if (rn.width() <= limit) return std::nullopt;
+  const bool inch = detail::trace_in_inch(trace);
   return refuse_or_note(
       trace, line_of(trace, run.begin),
-      fmt::format("run {} (lines {}-{}): {} moves {:.3f} mm while {} moves {:.3f} mm and {} "
-                  "{:.3f} mm: the run is not in the plane {} ({} may move at most {:.3f} mm); "
+      fmt::format("run {} (lines {}-{}): {} moves {} while {} moves {} and {} "
+                  "{}: the run is not in the plane {} ({} may move at most {}); "
                   "give the plane of the test with {}",
                   run_number, line_of(trace, run.begin), line_of(trace, run.end - 1),
-                  column_name::actual(normal), rn.width(), trace.columns[columns.a], ra.width(),
-                  trace.columns[columns.b], rb.width(), plane_name(plane),
-                  column_name::actual(normal), limit, options.remedy_words(Remedy::give_plane)),
+                  column_name::actual(normal), user_length(rn.width(), 3, inch),
+                  trace.columns[columns.a], user_length(ra.width(), 3, inch),
+                  trace.columns[columns.b], user_length(rb.width(), 3, inch), plane_name(plane),
+                  column_name::actual(normal), user_length(limit, 3, inch),
+                  options.remedy_words(Remedy::give_plane)),
       options);
 }
 
@@ -303,6 +314,7 @@ std::vector<std::string> split_list(std::string_view text) {
 // trace says nothing of its runs (or says it in a form not understood).
 std::optional<Announced> announced_runs(const Trace& trace) {
   Announced a;
+  const bool inch_program = detail::trace_in_inch(trace);
   if (const std::string* segments = trace.metadata.find(meta_key::segments)) {
     a.key = meta_key::segments;
     for (const std::string& item : split_list(*segments)) {
@@ -314,12 +326,14 @@ std::optional<Announced> announced_runs(const Trace& trace) {
                                         ? std::string_view()
                                         : std::string_view(item).substr(colon + 1);
       a.dirs.emplace_back(rest.substr(0, rest.find(':')));
-      // The feed after the direction: "F300" (mm/min).
+      // The feed after the direction, the program's F word: "F300" (mm/min), in an inch
+      // program "F11.811" (in/min).
       std::optional<double> feed;
       if (const auto f = rest.find(":F"); f != std::string_view::npos) {
         const std::string_view v = rest.substr(f + 2);
         feed = parse_finite(v.substr(0, v.find(':')));
         if (feed && !(*feed > 0)) feed.reset();
+        if (feed && inch_program) *feed *= kMmPerInch;
       }
       a.feeds.push_back(feed);
     }
@@ -415,14 +429,16 @@ std::optional<std::string> check_nominal_radius(const Trace& trace, std::size_t 
   const double tol = options.radius_tolerance_mm.value_or(default_radius_tolerance(nominal_mm));
   const double diff = fitted_mm - nominal_mm;
   if (std::abs(diff) <= tol) return std::nullopt;
+  const bool inch = detail::trace_in_inch(trace);
   return refuse_or_note(
       trace, line_of(trace, run.begin),
-      fmt::format("run {} (lines {}-{}): its least-squares radius {:.4f} mm differs from the "
-                  "nominal radius {:.4f} mm ({}) by {:+.4f} mm, more than the tolerance {:.4f} "
-                  "mm ({}): F would measure that difference",
-                  run_number, line_of(trace, run.begin), line_of(trace, run.end - 1), fitted_mm,
-                  nominal_mm, nominal_source, diff, tol,
-                  options.remedy_words(Remedy::radius_tolerance)),
+      fmt::format("run {} (lines {}-{}): its least-squares radius {} differs from the "
+                  "nominal radius {} ({}) by {}{}, more than the tolerance {} ({}): F would "
+                  "measure that difference",
+                  run_number, line_of(trace, run.begin), line_of(trace, run.end - 1),
+                  user_length(fitted_mm, 4, inch), user_length(nominal_mm, 4, inch), nominal_source,
+                  diff < 0 ? "-" : "+", user_length(std::abs(diff), 4, inch),
+                  user_length(tol, 4, inch), options.remedy_words(Remedy::radius_tolerance)),
       options);
 }
 
@@ -474,12 +490,14 @@ void check_outliers(const Trace& trace, std::size_t run_number, const Run& run,
   }
   if (worst == n) return;
   const std::size_t row = run.begin + worst;
-  throw DataError(
-      trace.source, line_of(trace, row),
-      fmt::format("run {}: an outlier: this sample lies {:.4f} mm from the run's centre, the "
-                  "others {:.4f} mm (spread {:.4f} mm); {} such sample{} (beyond {:.4f} mm), "
-                  "which would set G (the MZC zone): correct or remove the row",
-                  run_number, dist(worst), med, spread, count, count == 1 ? "" : "s", limit));
+  const bool inch = detail::trace_in_inch(trace);
+  throw DataError(trace.source, line_of(trace, row),
+                  fmt::format("run {}: an outlier: this sample lies {} from the run's centre, the "
+                              "others {} (spread {}); {} such sample{} (beyond {}), "
+                              "which would set G (the MZC zone): correct or remove the row",
+                              run_number, user_length(dist(worst), 4, inch),
+                              user_length(med, 4, inch), user_length(spread, 4, inch), count,
+                              count == 1 ? "" : "s", user_length(limit, 4, inch)));
 }
 
 }  // namespace circtest

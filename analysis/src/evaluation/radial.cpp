@@ -10,8 +10,17 @@
 #include "circtest/core/numbers.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "rows_context.hpp"
+#include "user_units.hpp"
 
 namespace circtest {
+
+namespace {
+// "12.5 mm" as the value prints in full; on an inch trace "0.492126 in (12.5 mm)".
+std::string radial_length(double mm, const Trace& trace) {
+  if (!detail::trace_in_inch(trace)) return fmt::format("{} mm", mm);
+  return fmt::format("{:g} in ({} mm)", mm / detail::kUserMmPerInch, mm);
+}
+}  // namespace
 
 Plane trace_plane(const Trace& trace, const std::optional<Plane>& option) {
   if (option) return *option;
@@ -95,10 +104,11 @@ RadialPositions radial_positions(const Trace& trace, const RadialOptions& option
       commanded = std::hypot((*cmd_a)[i] - out.centre_a_mm, (*cmd_b)[i] - out.centre_b_mm);
     }
     if (*mid < 0.5 * commanded) {
-      throw DataError(trace.source, trace.header_line,
-                      fmt::format("column 'r' (median {} mm) is far below the radius {} mm: "
-                                  "a length change needs a '# {}: L' metadata line",
-                                  *mid, commanded, kBarLengthKey));
+      throw DataError(
+          trace.source, trace.header_line,
+          fmt::format("column 'r' (median {}) is far below the radius {}: "
+                      "a length change needs a '# {}: L' metadata line",
+                      radial_length(*mid, trace), radial_length(commanded, trace), kBarLengthKey));
     }
   }
 

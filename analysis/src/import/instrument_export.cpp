@@ -16,35 +16,14 @@
 #include "circtest/core/strings.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "circtest/core/utc_time.hpp"
+#include "export_columns.hpp"
 
 namespace circtest {
 
 namespace {
 
-constexpr double kDegPerRad = 180.0 / std::numbers::pi;
-
-struct Unit {
-  std::string_view name;
-  double scale;
-};
-struct RoleName {
-  std::string_view name;  // before the unit: "angle", "dev", "t"; an axis letter for positions
-  ExportRole role;
-  std::array<Unit, 3> units;  // empty names: no more units; all empty: the name takes none
-};
-
-// The names of --columns, per role with its units (converted to deg, mm, s).
-constexpr std::array kRoleNames{
-    RoleName{"angle", ExportRole::angle, {Unit{"deg", 1.0}, Unit{"rad", kDegPerRad}, Unit{}}},
-    RoleName{"dev", ExportRole::deviation, {Unit{"um", 1e-3}, Unit{"mm", 1.0}, Unit{"nm", 1e-6}}},
-    RoleName{
-        "ccw", ExportRole::deviation_ccw, {Unit{"um", 1e-3}, Unit{"mm", 1.0}, Unit{"nm", 1e-6}}},
-    RoleName{"cw", ExportRole::deviation_cw, {Unit{"um", 1e-3}, Unit{"mm", 1.0}, Unit{"nm", 1e-6}}},
-    RoleName{"t", ExportRole::time, {Unit{"s", 1.0}, Unit{"ms", 1e-3}, Unit{}}},
-    RoleName{"run", ExportRole::run, {}},
-    RoleName{"skip", ExportRole::skip, {}},
-};
-constexpr std::array<Unit, 2> kPositionUnits{Unit{"mm", 1.0}, Unit{"um", 1e-3}};
+using import_detail::kDegPerRad;
+using import_detail::title_column_name;
 
 // ------------------------------------------------------------------ the text's lines
 
@@ -107,93 +86,6 @@ std::vector<TextLine> content_lines(std::string_view text) {
 bool is_comment(std::string_view line) {
   const std::string_view t = trim(line);
   return t.starts_with('#') || t.starts_with(';');
-}
-
-// ------------------------------------------------------------------ a title row
-
-// The words of a title field, lower case, with the unit signs spelled out (µm, μm -> um,
-// ° -> deg).
-std::vector<std::string> title_words(std::string_view field) {
-  std::string text(field);
-  const auto replace_all = [&text](std::string_view from, std::string_view to) {
-    for (std::size_t p = text.find(from); p != std::string::npos; p = text.find(from, p)) {
-      text.replace(p, from.size(), to);
-      p += to.size();
-    }
-  };
-  replace_all("\xC2\xB5", "u");  // micro sign
-  replace_all("\xCE\xBC", "u");  // Greek mu
-  replace_all("\xC2\xB0", " deg ");
-  std::vector<std::string> words;
-  std::string word;
-  for (const char c : text) {
-    const auto u = static_cast<unsigned char>(c);
-    if (std::isalnum(u)) {
-      word += static_cast<char>(std::tolower(u));
-    } else if (!word.empty()) {
-      words.push_back(std::move(word));
-      word.clear();
-    }
-  }
-  if (!word.empty()) words.push_back(std::move(word));
-  return words;
-}
-
-// A title field as a --columns name ("Angle (deg)" -> "angle_deg"); "" when it does not say
-// what the column holds.
-std::string title_column_name(std::string_view field) {
-  const std::vector<std::string> words = title_words(field);
-  const auto has = [&words](std::initializer_list<std::string_view> any) {
-    return std::any_of(words.begin(), words.end(), [&any](const std::string& w) {
-      return std::find(any.begin(), any.end(), w) != any.end();
-    });
-  };
-  std::string role;
-  if (has({"angle", "theta"})) {
-    role = "angle";
-  } else if (has({"ccw", "counterclockwise", "anticlockwise", "acw"}) ||
-             (has({"counter", "anti"}) && has({"clockwise"}))) {
-    role = "ccw";
-  } else if (has({"cw", "clockwise"})) {
-    role = "cw";
-  } else if (has({"deviation", "dev", "error", "radial", "dr"})) {
-    role = "dev";
-  } else if (has({"time", "t", "timestamp"})) {
-    role = "t";
-  } else if (has({"run", "segment"})) {
-    return "run";
-  } else if (has({"centre", "center", "nominal", "target"})) {
-    // "Centre X", "Center X": a coordinate of the centre, not the axis's position.
-    return {};
-  } else if (const auto axes = std::count_if(
-                 words.begin(), words.end(),
-                 [](const std::string& w) { return w == "x" || w == "y" || w == "z"; });
-             axes == 1) {
-    // "X (mm)", "X position [um]": one axis letter names a position column.
-    role = *std::find_if(words.begin(), words.end(),
-                         [](const std::string& w) { return w == "x" || w == "y" || w == "z"; });
-  } else {
-    return {};
-  }
-  std::string unit;
-  for (const std::string& w : words) {
-    std::string u = w;
-    // British and American spellings alike (metre, meter), singular and plural.
-    if (u.size() > 3 && u.back() == 's' && u != "ms") u.pop_back();
-    if (u == "degree") u = "deg";
-    if (u == "radian") u = "rad";
-    if (u == "micron" || u == "micrometre" || u == "micrometer") u = "um";
-    if (u == "millimetre" || u == "millimeter") u = "mm";
-    if (u == "nanometre" || u == "nanometer") u = "nm";
-    if (u == "millisecond" || u == "msec") u = "ms";
-    if (u == "sec" || u == "second") u = "s";
-    if (u == "deg" || u == "rad" || u == "um" || u == "mm" || u == "nm" || u == "ms" ||
-        (u == "s" && role == "t")) {
-      if (!unit.empty() && unit != u) return {};  // two units: not for us to pick one
-      unit = u;
-    }
-  }
-  return unit.empty() ? std::string() : fmt::format("{}_{}", role, unit);
 }
 
 // ------------------------------------------------------------------ the table
@@ -613,67 +505,6 @@ bool check_column_set(const std::vector<ExportColumn>& columns, bool from_option
 
 }  // namespace
 
-std::vector<std::string> export_column_names(Plane plane) {
-  std::vector<std::string> names;
-  for (const RoleName& r : kRoleNames) {
-    if (r.units[0].name.empty()) names.emplace_back(r.name);
-    for (const Unit& u : r.units) {
-      if (!u.name.empty()) names.push_back(fmt::format("{}_{}", r.name, u.name));
-    }
-  }
-  const PlaneAxes axes = plane_axes(plane);
-  for (const char axis : {axes.first, axes.second}) {
-    for (const Unit& u : kPositionUnits) names.push_back(fmt::format("{}_{}", axis, u.name));
-  }
-  return names;
-}
-
-std::optional<ExportColumn> parse_export_column(std::string_view name, Plane plane) {
-  for (const RoleName& r : kRoleNames) {
-    if (r.units[0].name.empty() && name == r.name)
-      return ExportColumn{r.role, 1.0, std::string(name)};
-    for (const Unit& u : r.units) {
-      if (!u.name.empty() && name == fmt::format("{}_{}", r.name, u.name)) {
-        return ExportColumn{r.role, u.scale, std::string(name)};
-      }
-    }
-  }
-  const PlaneAxes axes = plane_axes(plane);
-  for (const char axis : {axes.first, axes.second}) {
-    for (const Unit& u : kPositionUnits) {
-      if (name == fmt::format("{}_{}", axis, u.name)) {
-        return ExportColumn{axis == axes.first ? ExportRole::position_a : ExportRole::position_b,
-                            u.scale, std::string(name)};
-      }
-    }
-  }
-  return std::nullopt;
-}
-
-std::vector<ExportColumn> parse_export_columns(std::string_view list, Plane plane) {
-  std::vector<ExportColumn> columns;
-  const std::vector<std::string> known = export_column_names(plane);
-  std::size_t begin = 0;
-  while (begin <= list.size()) {
-    std::size_t end = list.find(',', begin);
-    if (end == std::string_view::npos) end = list.size();
-    const std::string item(trim(list.substr(begin, end - begin)));
-    begin = end + 1;
-    const auto column = parse_export_column(item, plane);
-    if (!column) {
-      std::string message =
-          fmt::format("--columns: unknown column '{}' for the plane {}: expected one of {}", item,
-                      plane_name(plane), join(known, ", "));
-      if (const std::string guess = closest_name(item, known); !guess.empty()) {
-        message += "; did you mean " + guess + "?";
-      }
-      throw UsageError(message);
-    }
-    columns.push_back(*column);
-  }
-  return columns;
-}
-
 Trace import_export_text(std::string_view text, const std::string& source,
                          const ExportImportOptions& options) {
   const ExportText parts = split_export(text, source);
@@ -713,87 +544,6 @@ Trace import_export_text(std::string_view text, const std::string& source,
   trace.source = source;
   trace.metadata = std::move(metadata);
   return trace;
-}
-
-// ------------------------------------------------------------------ export
-
-namespace {
-
-// The metadata of a test an export carries: what it was, how it ran and on what machine;
-// not the recorder's bookkeeping, which describes a file the export is not.
-constexpr std::array kExportedKeys{
-    meta_key::generator,
-    meta_key::test,
-    meta_key::date,
-    meta_key::start_time,
-    meta_key::feed_mm_per_min,
-    meta_key::feeds_mm_per_min,
-    meta_key::directions,
-    meta_key::direction_labels,
-    meta_key::arc_deg,
-    meta_key::segments,
-    meta_key::ini,
-    meta_key::ini_sha256,
-    meta_key::machine,
-    meta_key::machine_serial,
-    meta_key::instrument,
-    meta_key::operator_name,
-    meta_key::location,
-    meta_key::notes,
-    meta_key::temperature_air_C,
-    meta_key::temperature_machine_C,
-    meta_key::temperature_instrument_C,
-    meta_key::expansion_machine_per_K,
-    meta_key::expansion_instrument_per_K,
-    meta_key::compensation,
-    meta_key::other_axes,
-};
-
-}  // namespace
-
-std::string polar_export_text(const Trace& trace, const Evaluation& ev) {
-  if (ev.runs.empty()) throw DataError(trace.source, 0, "no measured run to export");
-  const PlanePoint centre = ev.centre.value_or(
-      PlanePoint{ev.runs.front().lsc.centre_a_mm, ev.runs.front().lsc.centre_b_mm});
-  const double radius_mm = ev.nominal_radius_mm.value_or(ev.runs.front().lsc.radius_mm);
-  // The runs keep their segment ids when those tell them apart, so that the announced runs
-  // (`segments`) still match; else they are numbered and the announcement is left out.
-  std::vector<long> ids;
-  for (const RunResult& r : ev.runs) ids.push_back(r.run.segment_id);
-  std::vector<long> sorted = ids;
-  std::sort(sorted.begin(), sorted.end());
-  const bool own_ids =
-      sorted.front() > 0 && std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end();
-  if (!own_ids) std::iota(ids.begin(), ids.end(), 1L);
-
-  std::string out = fmt::format("# {}: {}\n", kExportedByKey, kExportedByPolar);
-  out += fmt::format("# {}: {}\n", meta_key::plane, plane_name(ev.plane));
-  out += fmt::format("# {}: {}\n", meta_key::radius_mm, radius_mm);
-  for (const char* key : kExportedKeys) {
-    if (!own_ids && (std::string_view(key) == meta_key::segments)) continue;
-    if (const std::string* v = trace.metadata.find(key)) {
-      out += fmt::format("# {}: {}\n", key, *v);
-    }
-  }
-  out += "angle_deg,dev_um,run\n";
-  const auto& a = trace.values[ev.columns.a];
-  const auto& b = trace.values[ev.columns.b];
-  for (std::size_t k = 0; k < ev.runs.size(); ++k) {
-    const Run& run = ev.runs[k].run;
-    double previous = 0.0;
-    for (std::size_t i = run.begin; i < run.end; ++i) {
-      const double da = a[i] - centre.a_mm, db = b[i] - centre.b_mm;
-      double angle = std::atan2(db, da) * kDegPerRad;
-      if (i > run.begin) {
-        // Unwrapped: a run's angles continue past +-180 deg, so its sense stays readable.
-        angle = previous + std::remainder(angle - previous, 360.0);
-      }
-      previous = angle;
-      out +=
-          fmt::format("{:.7f},{:.5f},{}\n", angle, (std::hypot(da, db) - radius_mm) * 1e3, ids[k]);
-    }
-  }
-  return out;
 }
 
 }  // namespace circtest

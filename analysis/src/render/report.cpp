@@ -19,7 +19,7 @@ namespace {
 using json = nlohmann::ordered_json;
 
 // Micrometres for the text report: the unit people read circular-test results in.
-std::string um(double mm) {
+std::string signed_um(double mm) {
   return fmt::format("{:+.1f} um", mm * 1000.0);
 }
 std::string um_abs(double mm) {
@@ -265,7 +265,7 @@ std::string text_report(const Evaluation& ev) {
     if (r.f_max_mm) {
       fmt::format_to(out, "   run {} {:>3} {:>12} F_{},max = {}  F_{},min = {}{}  (centre: {})\n",
                      i + 1, direction_name(r.run.direction), feed_text(r.feed_mm_per_min), r.label,
-                     um(*r.f_max_mm), r.label, um(*r.f_min_mm), u_f,
+                     signed_um(*r.f_max_mm), r.label, signed_um(*r.f_min_mm), u_f,
                      f_centre_method_name(r.f_centre_method));
     } else {
       fmt::format_to(out, "   run {} {:>3} F: not available\n", i + 1,

@@ -199,9 +199,18 @@ double friction_value(const IniDocument& ini, const std::string& section, const 
   return *v;
 }
 
+// A spike (MM) as the user reads it: "4.70 um" with DECIMALS; on a machine in other units
+// (UPM machine units per mm) in those and mm, "0.000185 in (0.0047 mm)", as the INI's
+// AMPLITUDE is in the machine's units.
+std::string spike_text(double mm, double upm, int decimals = 2) {
+  if (std::fabs(upm - 1.0) < 1e-12) return fmt::format("{:.{}f} um", mm * 1e3, decimals);
+  return quantity_text(mm, "mm", upm);
+}
+
 // The measured spike of one axis, when it is one circfric should answer; else a note.
 std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const char* what,
-                                          const PlanOptions& o, std::vector<std::string>& notes) {
+                                          double upm, const PlanOptions& o,
+                                          std::vector<std::string>& notes) {
   const char axis = d.axes[k];
   const Measured& m = d.reversal_spike_mm[k];
   if (!m.value) {
@@ -211,23 +220,24 @@ std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const 
   }
   const double v = *m.value;
   if (std::fabs(v) < kMinFrictionSpikeMm) {
-    notes.push_back(fmt::format("{} {} of {:.2f} um is below {:.0f} um: no friction change", axis,
-                                what, v * 1e3, kMinFrictionSpikeMm * 1e3));
+    notes.push_back(fmt::format("{} {} of {} is below {}: no friction change", axis, what,
+                                spike_text(v, upm), spike_text(kMinFrictionSpikeMm, upm, 0)));
     return std::nullopt;
   }
   if (m.standard_error && std::fabs(v) < 2.0 * *m.standard_error) {
-    notes.push_back(fmt::format(
-        "{} {} of {:.2f} um is not significant (standard error {:.2f} um, needs |spike| >= "
-        "2 standard errors): no friction change; measure again",
-        axis, what, v * 1e3, *m.standard_error * 1e3));
+    notes.push_back(
+        fmt::format("{} {} of {} is not significant (standard error {}, needs |spike| >= "
+                    "2 standard errors): no friction change; measure again",
+                    axis, what, spike_text(v, upm), spike_text(*m.standard_error, upm)));
     return std::nullopt;
   }
   if (!o.force && std::fabs(v) > kMaxFrictionSpikeMm) {
-    throw DataError(d.source, 0,
-                    fmt::format("{} {} = {:.1f} um is implausible for friction (more than {:.0f} "
-                                "um); check the measurement, or {}",
-                                axis, what, v * 1e3, kMaxFrictionSpikeMm * 1e3,
-                                o.setting_words(PlanSetting::force)));
+    throw DataError(
+        d.source, 0,
+        fmt::format("{} {} = {} is implausible for friction (more than {}); check "
+                    "the measurement, or {}",
+                    axis, what, spike_text(v, upm, 1), spike_text(kMaxFrictionSpikeMm, upm, 0),
+                    o.setting_words(PlanSetting::force)));
   }
   return v;
 }
@@ -311,22 +321,23 @@ PulseShape plain_pulse(const DiagnosisInput& d, double spike_mm, double decay_ms
 bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
                   const PlanOptions& o, Plan& plan) {
   const char axis = d.axes[k];
-  const auto spike = spike_to_compensate(d, k, "reversal spike", o, plan.notes);
+  const auto spike = spike_to_compensate(d, k, "reversal spike", upm, o, plan.notes);
   if (!spike) return false;
   if (*spike < 0) {
-    plan.notes.push_back(fmt::format(
-        "{} reversal spike of {:.2f} um points inwards: not friction's outward spike, not "
-        "compensated",
-        axis, *spike * 1e3));
+    plan.notes.push_back(
+        fmt::format("{} reversal spike of {} points inwards: not friction's outward spike, not "
+                    "compensated",
+                    axis, spike_text(*spike, upm)));
     return false;
   }
   const auto decay = d.reversal_spike_ms[k];
   if (!decay || !(*decay >= fric::kMinDecayMs && *decay <= fric::kMaxDecayMs)) {
-    plan.notes.push_back(fmt::format(
-        "{} reversal spike of {:.2f} um: its decay {} is not within circfric's {} to {} ms, "
-        "not compensated",
-        axis, *spike * 1e3, decay ? fmt::format("{} ms", number_text(*decay)) : "was not measured",
-        fric::kMinDecayMs, fric::kMaxDecayMs));
+    plan.notes.push_back(
+        fmt::format("{} reversal spike of {}: its decay {} is not within circfric's {} to {} ms, "
+                    "not compensated",
+                    axis, spike_text(*spike, upm),
+                    decay ? fmt::format("{} ms", number_text(*decay)) : "was not measured",
+                    fric::kMinDecayMs, fric::kMaxDecayMs));
     return false;
   }
   // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
@@ -337,9 +348,9 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
   const double amplitude = pulse.amplitude;
   if (amplitude_max > fric::kMaxAmplitude) {
     throw DataError(d.source, 0,
-                    fmt::format("{} reversal spike {:.1f} um: twice it is beyond circfric's "
+                    fmt::format("{} reversal spike {}: twice it is beyond circfric's "
                                 "bound of 1 machine unit",
-                                axis, *spike * 1e3));
+                                axis, spike_text(*spike, upm, 1)));
   }
   const std::string sec = std::string("FRICTION_") + axis;
   if (ini.has_section(sec)) {
@@ -360,9 +371,9 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
                                  "AMPLITUDE_MAX stays at most twice it",
                                  axis, kFrictionHalFile, rising ? "and RISE_MS " : ""));
   plan.changes.push_back(
-      fmt::format("[{}] step 1 (first tuning): AMPLITUDE {} (spike {:.2f} um{}), {}DECAY_MS {}, "
+      fmt::format("[{}] step 1 (first tuning): AMPLITUDE {} (spike {}{}), {}DECAY_MS {}, "
                   "AMPLITUDE_MAX {} (2 x spike); rerun the circle and plan again for step 2",
-                  sec, number_text(amplitude), *spike * 1e3, pulse.how,
+                  sec, number_text(amplitude), spike_text(*spike, upm), pulse.how,
                   rising ? "RISE_MS " + number_text(pulse.rise_ms) + ", " : "", number_text(*decay),
                   number_text(amplitude_max)));
   return true;
@@ -377,14 +388,14 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
   const double amplitude = friction_value(ini, sec, "AMPLITUDE", "a length in machine units");
   const double max_now = friction_value(ini, sec, "AMPLITUDE_MAX", "a length in machine units");
   const double bound = 2.0 * first_mm * upm;
-  const auto residual = spike_to_compensate(d, k, "residual reversal spike", o, plan.notes);
+  const auto residual = spike_to_compensate(d, k, "residual reversal spike", upm, o, plan.notes);
   if (!residual) return;
   if (std::fabs(*residual) <= kFrictionRefineShare * first_mm) {
-    plan.notes.push_back(fmt::format(
-        "{} residual reversal spike of {:.2f} um is {:.0f} % of the {:.2f} um compensated, not "
-        "more than {:.0f} %: no step 2, [{}] unchanged",
-        axis, *residual * 1e3, std::fabs(*residual) / first_mm * 100.0, first_mm * 1e3,
-        kFrictionRefineShare * 100.0, sec));
+    plan.notes.push_back(
+        fmt::format("{} residual reversal spike of {} is {:.0f} % of the {} compensated, not "
+                    "more than {:.0f} %: no step 2, [{}] unchanged",
+                    axis, spike_text(*residual, upm), std::fabs(*residual) / first_mm * 100.0,
+                    spike_text(first_mm, upm), kFrictionRefineShare * 100.0, sec));
     return;
   }
   const double limit = std::min(max_now, bound);
@@ -393,8 +404,8 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
     ini.set(sec, "AMPLITUDE_MAX", number_text(bound));
     plan.notes.push_back(
         fmt::format("[{}] AMPLITUDE_MAX {} -> {}: at most twice the spike first "
-                    "measured ({:.2f} um)",
-                    sec, number_text(max_now), number_text(bound), first_mm * 1e3));
+                    "measured ({})",
+                    sec, number_text(max_now), number_text(bound), spike_text(first_mm, upm)));
   }
   const double wanted = amplitude + o.gain * *residual * upm;
   const double next = std::clamp(wanted, 0.0, limit);
@@ -405,10 +416,10 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
   }
   ini.set(sec, "AMPLITUDE", number_text(next));
   plan.changes.push_back(fmt::format(
-      "[{}] step 2 (refinement): AMPLITUDE {} -> {} (residual spike {:.2f} um, {:.0f} % of the "
-      "{:.2f} um compensated)",
-      sec, number_text(amplitude), number_text(next), *residual * 1e3,
-      std::fabs(*residual) / first_mm * 100.0, first_mm * 1e3));
+      "[{}] step 2 (refinement): AMPLITUDE {} -> {} (residual spike {}, {:.0f} % of the "
+      "{} compensated)",
+      sec, number_text(amplitude), number_text(next), spike_text(*residual, upm),
+      std::fabs(*residual) / first_mm * 100.0, spike_text(first_mm, upm)));
   // Where the bound holds the amplitude below what an outward residual asks for, the pulse's
   // area (amplitude x decay, what it pushes the stuck table with) still grows by that share:
   // the decay lengthens, at most to twice its value in one step.
@@ -435,10 +446,10 @@ void spike_advice(PlanContext& c) {
     const auto& s = c.d().reversal_spike_mm[k];
     if (!s.value || std::fabs(*s.value) < 1e-3) continue;
     c.plan.advice.push_back(fmt::format(
-        "{} reversal spikes of {:.1f} um{}: friction (stick-slip at the reversal), not play; "
+        "{} reversal spikes of {}{}: friction (stick-slip at the reversal), not play; "
         "compensating them as backlash makes parts worse: check gibs and lubrication, or "
         "let circcomp plan friction compensation (circfric)",
-        c.d().axes[k], *s.value * 1e3,
+        c.d().axes[k], spike_text(*s.value, c.upm, 1),
         c.d().reversal_spike_ms[k]
             ? fmt::format(" decaying in {:.0f} ms", *c.d().reversal_spike_ms[k])
             : ""));
