@@ -59,11 +59,11 @@ void report_estimates(DiagnosisState& ds) {
     const bool reversal = ax == 0 ? reversal_a : reversal_b;
     const double tau = ax == 0 ? st.tau_a : st.tau_b;
     const auto& measured = ds.spike_measure[axs];
-    if (D.spike_mm[axs].value && measured && measured->rises) {
-      // A spike that rises after the reversal: its decay is the fall from the measured
-      // profile's peak to 1/e of it.
+    if (D.spike_mm[axs].value && measured && (measured->rises || !(tau > 0))) {
+      // A spike that rises after the reversal, or that no decaying step found: its decay is
+      // the fall from the measured profile's peak to 1/e of it.
       D.spike_ms[axs] = {measured->fall_s * 1e3, measured->fall_se_s * 1e3};
-      D.spike_peak_ms[axs] = {measured->peak_s * 1e3, std::nullopt};
+      if (measured->rises) D.spike_peak_ms[axs] = {measured->peak_s * 1e3, std::nullopt};
     } else if (D.spike_mm[axs].value) {
       // The decaying step's decay, with the standard error of the decaying step's model: the
       // Jacobian with its derivative column added.

@@ -9,6 +9,9 @@
 #include <memory>
 #include <optional>
 #include <utility>
+#include <string>
+#include <cstdio>
+#include <cstdlib>
 
 #include "stages.hpp"
 
@@ -203,6 +206,23 @@ std::optional<std::size_t> peak_bin(const SpikeProfile& p) {
   return kp;
 }
 
+// The mean of the first three bins with samples before bin `before` (the deviation just past
+// the reversal), and its standard error.
+std::pair<double, double> first_bins(const SpikeProfile& p, std::size_t before) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  int bins = 0;
+  for (std::size_t k = 0; k < before && bins < 3; ++k) {
+    if (!p.valid(k)) continue;
+    sum += p.sum[k];
+    n += p.n[k];
+    ++bins;
+  }
+  if (n == 0) return {0.0, std::numeric_limits<double>::infinity()};
+  const double nn = static_cast<double>(n);
+  return {sum / nn - p.base, p.sd / std::sqrt(nn)};
+}
+
 // The profile's bins up to end_s on the shape's grid (one point per bin, at its middle),
 // linear between the bins with samples, the first one's value before it. Not yet divided by
 // the height.
@@ -235,6 +255,7 @@ struct Measured {
   std::shared_ptr<const SpikeShape> shape;
   SpikeMeasure measure;
   double peak_mm = 0.0, peak_se_mm = 0.0;  // the profile's own peak
+  double settle_s = 0.0;                   // the level is taken from this time on
 };
 
 // None when the profile does not fall to 1/e of its peak inside the window (nothing to take
@@ -247,10 +268,14 @@ std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const Win
   auto fall = fall_time(p, *kp);
   if (!fall) return std::nullopt;
   // The other terms of the fit (backlash above all) shift the level after the reversal: the
-  // spike is measured from where the deviation settles, five fall times past the peak.
-  bool settled = false;
-  if (settled_level(p, p.time(*kp) + 5.0 * fall->first, p.base)) {
-    settled = true;
+  // spike is measured from where the deviation settles, five fall times past the peak and in
+  // the last quarter of the window (a spike that swings back settles later than its fall).
+  double last_s = 0.0;  // the last bin with samples
+  for (std::size_t k = 0; k < p.n.size(); ++k) {
+    if (p.valid(k)) last_s = std::max(last_s, p.time(k));
+  }
+  const double settle_s = std::max(p.time(*kp) + 5.0 * fall->first, 0.75 * last_s);
+  if (settled_level(p, settle_s, p.base)) {
     kp = peak_bin(p);
     fall = kp ? fall_time(p, *kp) : std::nullopt;
     if (!fall) return std::nullopt;
@@ -263,18 +288,32 @@ std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const Win
   out.measure.fall_s = fall->first;
   out.measure.fall_se_s = fall->second;
   // A peak in the first bins, or before a quarter of the fall, is the decaying step; a peak
-  // after that rises after the reversal when it stands out of the reversals' scatter.
-  out.measure.rises = *kp >= 3 && t_peak >= 0.25 * fall->first &&
-                      std::abs(out.peak_mm) > ds.options.spike_detection_t * out.peak_se_mm &&
-                      std::abs(out.peak_mm) >= ds.options.min_spike_mm;
-  // The shape: up to where the level was taken (five fall times past the peak), else to the
-  // last bin with samples.
-  double end_s = t_peak + 5.0 * fall->first;
-  if (!settled) {
-    end_s = 0.0;
-    for (std::size_t k = 0; k < p.n.size(); ++k) {
-      if (p.valid(k)) end_s = std::max(end_s, p.time(k));
-    }
+  // after that rises after the reversal when it stands out of the reversals' scatter, and
+  // above the first bins past the reversal (on a noisy decaying step a later bin can top them
+  // by chance).
+  const double t = ds.options.spike_detection_t;
+  bool rises = *kp >= 3 && t_peak >= 0.25 * fall->first &&
+               std::abs(out.peak_mm) > t * out.peak_se_mm &&
+               std::abs(out.peak_mm) >= ds.options.min_spike_mm;
+  if (rises) {
+    const auto [early_mm, early_se_mm] = first_bins(p, *kp);
+    rises = (out.peak_mm - early_mm) * (out.peak_mm > 0 ? 1.0 : -1.0) >
+            t * std::hypot(out.peak_se_mm, early_se_mm);
+  }
+  out.measure.rises = rises;
+  out.settle_s = settle_s;
+  // The shape: up to the last bin that stands apart from the level, by 1 % of the peak and by
+  // the spike's detection threshold in standard errors.
+  double end_s = 0.0;
+  for (std::size_t k = 0; k < p.n.size(); ++k) {
+    if (p.valid(k) &&
+        std::abs(p.mean(k)) > std::max(0.01 * std::abs(out.peak_mm), t * p.standard_error(k)))
+      end_s = p.time(k) + p.bin_s;
+  }
+  if (const char* dbg = std::getenv("CIRCTEST_DBG_PROF")) {  // DEBUG-TEMP
+    FILE* f = std::fopen((std::string(dbg) + std::to_string(ax)).c_str(), "w");
+    for (std::size_t k = 0; k < p.n.size(); ++k) if (p.valid(k)) std::fprintf(f, "%.4f %.5f %zu\n", p.time(k), p.mean(k)*1e3, p.n[k]);
+    std::fclose(f);
   }
   std::vector<double> v = on_grid(p, end_s);
   if (v.empty()) return std::nullopt;
@@ -283,8 +322,9 @@ std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const Win
   // grid), so that the height means what the decaying step's does.
   double height = out.peak_mm;
   if (!out.measure.rises) {
-    const double tau = ax == 0 ? ds.st.tau_a : ds.st.tau_b;
-    if (!(tau > 0)) return std::nullopt;
+    // The decay search's decay; where it found no spike, the profile's fall.
+    double tau = ax == 0 ? ds.st.tau_a : ds.st.tau_b;
+    if (!(tau > 0)) tau = fall->first;
     double se = 0.0, ee = 0.0;
     for (std::size_t k = 0; k < v.size(); ++k) {
       const double e = std::exp(-(static_cast<double>(k) + 0.5) * p.bin_s / tau);
@@ -317,7 +357,8 @@ double shape_change(const SpikeShape* a, const SpikeShape& b) {
 // on its own at the peak's time (circfric has one amplitude per joint; a large difference says
 // the friction is not symmetric), and what the decaying step made of it.
 std::string rising_note(const DiagnosisState& ds, int ax, const WindowResidual& w,
-                        const Measured& m, const std::pair<double, double>& step) {
+                        const Measured& m,
+                        const std::optional<std::pair<double, double>>& step) {
   const std::string& axis = ax == 0 ? ds.A : ds.B;
   const SpikeMeasure& sm = m.measure;
   std::string per_direction;
@@ -326,7 +367,7 @@ std::string rising_note(const DiagnosisState& ds, int ax, const WindowResidual& 
     if (q.n.empty()) continue;
     const auto k = static_cast<std::size_t>(sm.peak_s / q.bin_s);
     if (k >= q.n.size() || !q.valid(k)) continue;
-    settled_level(q, sm.peak_s + 5.0 * sm.fall_s, q.base);
+    settled_level(q, m.settle_s, q.base);
     per_direction +=
         fmt::format("{}{:.2f} um at the reversals to {}{}", per_direction.empty() ? "; " : ", ",
                     q.mean(k) * 1e3, dir > 0 ? "+" : "-", axis);
@@ -334,31 +375,40 @@ std::string rising_note(const DiagnosisState& ds, int ax, const WindowResidual& 
   return fmt::format(
       "reversal spike {} rises after the reversal (the table sticks): its mean profile over "
       "the reversals peaks at {:.2f} um {:.0f} ms after them and falls to 1/e in {:.0f} ms{}; "
-      "the fit takes the spike as this profile (a decaying step fitted {:.2f} um, {:.0f} ms)",
-      axis, m.peak_mm * 1e3, sm.peak_s * 1e3, sm.fall_s * 1e3, per_direction, step.first * 1e3,
-      step.second * 1e3);
+      "the fit takes the spike as this profile ({})",
+      axis, m.peak_mm * 1e3, sm.peak_s * 1e3, sm.fall_s * 1e3, per_direction,
+      step ? fmt::format("a decaying step fitted {:.2f} um, {:.0f} ms", step->first * 1e3,
+                         step->second * 1e3)
+           : std::string("a decaying step did not stand out of the noise"));
 }
 
 }  // namespace
 
 // A friction spike on a servo does not jump at the reversal: the table sticks while the
 // command moves on, the deviation grows until the drive breaks free, then falls with the
-// loop's dynamics. A decaying step put its height at the reversal, where that spike is still
-// small, and left most of it in the residual. So each spike enters the fit as its measured
-// mean profile (the residual plus the fitted spike, averaged over the reversals, from the level
-// it settles at), its amplitude fitted; the profile is measured again on the new residual
-// until it holds still (the other terms, backlash above all, move with it).
+// loop's dynamics; a friction compensation's pulse leaves a spike of yet another shape. A
+// decaying step put such a spike's height at the reversal, where it is still small, and left
+// most of it in the residual. So each spike enters the fit as its measured mean profile (the
+// residual plus the fitted spike, averaged over the reversals, from the level it settles at),
+// its amplitude fitted; the profile is measured again on the new residual until it holds still
+// (the other terms, backlash above all, move with it). An axis whose decaying step did not
+// stand out gets a spike when its profile's peak does.
 void fit_spike_profiles(DiagnosisState& ds) {
   if (!ds.speed_known) return;
+  const std::array<Kind, 2> kinds{Kind::spike_a, Kind::spike_b};
   std::array<bool, 2> on{};
-  std::array<std::pair<double, double>, 2> step{};  // the decaying step's height and decay
+  // The decaying step's height and decay, for the note; none where it did not stand out.
+  std::array<std::optional<std::pair<double, double>>, 2> step;
   for (int ax = 0; ax < 2; ++ax) {
     const auto axs = static_cast<std::size_t>(ax);
-    const auto j = find(ds.cols, ax == 0 ? Kind::spike_a : Kind::spike_b);
-    on[axs] = j.has_value();
-    if (j) step[axs] = {ds.sol.x[static_cast<Eigen::Index>(*j)], ax == 0 ? ds.st.tau_a : ds.st.tau_b};
+    const auto j = find(ds.cols, kinds[axs]);
+    on[axs] = (ax == 0 ? ds.reversal_a : ds.reversal_b) &&
+              find(ds.cols, ax == 0 ? Kind::backlash_a : Kind::backlash_b).has_value();
+    if (j) {
+      step[axs] = {ds.sol.x[static_cast<Eigen::Index>(*j)], ax == 0 ? ds.st.tau_a : ds.st.tau_b};
+    }
   }
-  if (!on[0] && !on[1]) return;
+  const double t = ds.options.spike_detection_t;
   for (int round = 0;; ++round) {
     const WindowResidual w = window_residual(ds);
     std::array<std::optional<Measured>, 2> got;
@@ -367,7 +417,16 @@ void fit_spike_profiles(DiagnosisState& ds) {
       const auto axs = static_cast<std::size_t>(ax);
       if (!on[axs]) continue;
       got[axs] = measure_axis(ds, ax, w);
-      if (got[axs]) change = std::max(change, shape_change(ds.st.spike_shape[axs].get(), *got[axs]->shape));
+      if (!got[axs]) continue;
+      // A spike not in the fit yet: when its profile's peak stands out of the reversals'
+      // scatter.
+      if (!find(ds.cols, kinds[axs]) &&
+          !(std::abs(got[axs]->peak_mm) > t * got[axs]->peak_se_mm &&
+            std::abs(got[axs]->peak_mm) >= ds.options.min_spike_mm)) {
+        got[axs].reset();
+        continue;
+      }
+      change = std::max(change, shape_change(ds.st.spike_shape[axs].get(), *got[axs]->shape));
     }
     if (round == kMaxRounds || change < kShapeTolerance) {
       // The profiles the fit holds: what they show goes into the report.
@@ -381,7 +440,9 @@ void fit_spike_profiles(DiagnosisState& ds) {
       return;
     }
     for (std::size_t axs = 0; axs < 2; ++axs) {
-      if (got[axs]) ds.st.spike_shape[axs] = got[axs]->shape;
+      if (!got[axs]) continue;
+      ds.st.spike_shape[axs] = got[axs]->shape;
+      if (!find(ds.cols, kinds[axs])) ds.cols.push_back({kinds[axs]});
     }
     fit(ds);
   }
