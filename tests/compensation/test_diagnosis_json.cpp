@@ -230,7 +230,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   sim::CircleProgram p;
   p.radius_mm = 50.0;
   const auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
-  EXPECT_EQ(j.at("version"), "1.3");
+  EXPECT_EQ(j.at("version"), "1.4");
   EXPECT_EQ(j.at("schema"), "circtest.diagnosis/1");
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.0")), "d.json"));
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.99")), "d.json"));

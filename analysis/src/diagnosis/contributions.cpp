@@ -284,6 +284,10 @@ void residual_and_contributions(DiagnosisState& ds) {
     }
   }
   contributions(ds, rev, src, all, imax, imin);
+  // The measured G the residual's is a part of: the largest of the runs (least squares centre).
+  for (const RunResult& rr : ds.ev.runs) {
+    if (!D.measured_g_mm || rr.g_lsc_mm > *D.measured_g_mm) D.measured_g_mm = rr.g_lsc_mm;
+  }
 }
 
 }  // namespace circtest::diagnosis_detail
