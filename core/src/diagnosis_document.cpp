@@ -397,8 +397,7 @@ void read_fit(const Reader& r, const pjson& doc, const pjson& se, Diagnosis& d) 
   d.residual_rms_mm =
       r.number(r.member(residual, K::rms_mm, at), at + "." + K::rms_mm).value_or(0.0);
   d.residual_g_mm = r.number(r.member(residual, K::g_mm, at), at + "." + K::g_mm).value_or(0.0);
-  d.measured_g_mm =
-      r.number(r.member(residual, K::measured_g_mm, at), at + "." + K::measured_g_mm);
+  d.measured_g_mm = r.number(r.member(residual, K::measured_g_mm, at), at + "." + K::measured_g_mm);
 }
 
 std::vector<std::string> texts(const Reader& r, const pjson& doc, const char* key) {

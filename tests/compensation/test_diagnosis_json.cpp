@@ -247,7 +247,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   for (const char* bad : {"2", "1.", ".1", "1.1.1", "v1.1", "-1.0", "1.x", "99999999.0", ""}) {
     EXPECT_ERROR(
         compensation::parse_diagnosis(with_version(quoted(bad)), "d.json"), ExitCode::parse,
-        "d.json: \"version\": expected MAJOR.MINOR (\"1.3\"), got '" + std::string(bad) + "'");
+        "d.json: \"version\": expected MAJOR.MINOR (\"1.4\"), got '" + std::string(bad) + "'");
   }
   EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("\\u0001\\u00ff.1")), "d.json"),
                ExitCode::parse, "got '\\x01\\xc3\\xbf.1'");

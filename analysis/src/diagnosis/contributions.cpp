@@ -2,8 +2,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <cstdio>
-#include <cstdlib>
 
 #include "circtest/core/memory.hpp"
 #include "stages.hpp"
@@ -260,15 +258,6 @@ void residual_and_contributions(DiagnosisState& ds) {
   const std::size_t nruns = S.runs.size();
   std::vector<double> resid;
   const Extremes all = residual_pass(ds, rev, src, resid);
-  if (const char* dump = std::getenv("CIRCTEST_DUMP_RESID")) {  // DEBUG-TEMP
-    FILE* f = std::fopen(dump, "w");
-    for (std::size_t i = 0; i < S.size(); ++i) {
-      const Reversal rv = rev.at(i);
-      const RunInfo& r = S.runs[S.run[i]];
-      std::fprintf(f, "%zu %u %.9f %.9f %.9f %.9f %.9f %.9f %.6f %.6f %d %d %d\n", i, S.run[i], S.u[i], S.c[i], S.s[i], S.dr[i], resid[i], S.dr[i]-resid[i], rv.since_a * S.radius / r.speed_mm_s, rv.since_b * S.radius / r.speed_mm_s, rv.dir_a, rv.dir_b, (int)at_reversal(S, i, rv));
-    }
-    std::fclose(f);
-  }
   reversal_steps(S, resid, all.events, D);
   D.residual_rms_mm = std::sqrt(all.ss / static_cast<double>(S.size()));
   std::size_t imax = 0, imin = 0;

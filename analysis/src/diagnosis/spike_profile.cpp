@@ -8,10 +8,8 @@
 #include <limits>
 #include <memory>
 #include <optional>
-#include <utility>
 #include <string>
-#include <cstdio>
-#include <cstdlib>
+#include <utility>
 
 #include "stages.hpp"
 
@@ -302,18 +300,14 @@ std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const Win
   }
   out.measure.rises = rises;
   out.settle_s = settle_s;
-  // The shape: up to the last bin that stands apart from the level, by 1 % of the peak and by
-  // the spike's detection threshold in standard errors.
-  double end_s = 0.0;
+  // The shape: five fall times past the peak, or further up to the last bin that stands apart
+  // from the level by 1 % of the peak and by the spike's detection threshold in standard
+  // errors (a spike that swings back).
+  double end_s = std::min(t_peak + 5.0 * fall->first, last_s + p.bin_s);
   for (std::size_t k = 0; k < p.n.size(); ++k) {
     if (p.valid(k) &&
         std::abs(p.mean(k)) > std::max(0.01 * std::abs(out.peak_mm), t * p.standard_error(k)))
-      end_s = p.time(k) + p.bin_s;
-  }
-  if (const char* dbg = std::getenv("CIRCTEST_DBG_PROF")) {  // DEBUG-TEMP
-    FILE* f = std::fopen((std::string(dbg) + std::to_string(ax)).c_str(), "w");
-    for (std::size_t k = 0; k < p.n.size(); ++k) if (p.valid(k)) std::fprintf(f, "%.4f %.5f %zu\n", p.time(k), p.mean(k)*1e3, p.n[k]);
-    std::fclose(f);
+      end_s = std::max(end_s, p.time(k) + p.bin_s);
   }
   std::vector<double> v = on_grid(p, end_s);
   if (v.empty()) return std::nullopt;
@@ -357,8 +351,7 @@ double shape_change(const SpikeShape* a, const SpikeShape& b) {
 // on its own at the peak's time (circfric has one amplitude per joint; a large difference says
 // the friction is not symmetric), and what the decaying step made of it.
 std::string rising_note(const DiagnosisState& ds, int ax, const WindowResidual& w,
-                        const Measured& m,
-                        const std::optional<std::pair<double, double>>& step) {
+                        const Measured& m, const std::optional<std::pair<double, double>>& step) {
   const std::string& axis = ax == 0 ? ds.A : ds.B;
   const SpikeMeasure& sm = m.measure;
   std::string per_direction;
@@ -420,9 +413,8 @@ void fit_spike_profiles(DiagnosisState& ds) {
       if (!got[axs]) continue;
       // A spike not in the fit yet: when its profile's peak stands out of the reversals'
       // scatter.
-      if (!find(ds.cols, kinds[axs]) &&
-          !(std::abs(got[axs]->peak_mm) > t * got[axs]->peak_se_mm &&
-            std::abs(got[axs]->peak_mm) >= ds.options.min_spike_mm)) {
+      if (!find(ds.cols, kinds[axs]) && !(std::abs(got[axs]->peak_mm) > t * got[axs]->peak_se_mm &&
+                                          std::abs(got[axs]->peak_mm) >= ds.options.min_spike_mm)) {
         got[axs].reset();
         continue;
       }

@@ -1,11 +1,9 @@
 // Reversal spikes, first as a decaying step of each axis after its reversal: the decay is
 // profiled over a log grid, then refined. The step's height and decay are where the measured
 // profile (spike_profile.cpp) starts from.
-#include <fmt/format.h>
-
+#include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <utility>
 
 #include "profile.hpp"
