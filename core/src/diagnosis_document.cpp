@@ -93,6 +93,12 @@ json to_json(const Diagnosis& d) {
   j[K::contributions] = con;
   j[K::model_g_mm] = d.model_g_mm;
   j[K::residual] = {{K::rms_mm, d.residual_rms_mm}, {K::g_mm, d.residual_g_mm}};
+  if (d.measured_g_mm) {
+    j[K::residual][K::measured_g_mm] = *d.measured_g_mm;
+    j[K::residual][K::percent] = json_number_or_null(
+        *d.measured_g_mm > 0 ? std::optional(d.residual_g_mm / *d.measured_g_mm * 100.0)
+                             : std::nullopt);
+  }
   json se;
   se[K::backlash_mm] = per_axis(d, d.backlash_mm, true);
   se[K::reversal_spike_mm] = per_axis(d, d.spike_mm, true);
@@ -391,6 +397,7 @@ void read_fit(const Reader& r, const pjson& doc, const pjson& se, Diagnosis& d) 
   d.residual_rms_mm =
       r.number(r.member(residual, K::rms_mm, at), at + "." + K::rms_mm).value_or(0.0);
   d.residual_g_mm = r.number(r.member(residual, K::g_mm, at), at + "." + K::g_mm).value_or(0.0);
+  d.measured_g_mm = r.number(r.member(residual, K::measured_g_mm, at), at + "." + K::measured_g_mm);
 }
 
 std::vector<std::string> texts(const Reader& r, const pjson& doc, const char* key) {

@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -114,6 +115,11 @@ TEST_P(FrictionSpike, HeightAndDecayAreThoseOfTheStick) {
     trace.values[*trace.column_index(axis)] = with;
   }
   const Diagnosis d = diagnose(trace);
+  // The spike enters the model as its measured profile: what the model leaves of the circle
+  // is a small part of its G (as a decaying step, a third or more).
+  ASSERT_TRUE(d.measured_g_mm);
+  EXPECT_LE(d.residual_g_mm, 0.15 * *d.measured_g_mm)
+      << "residual G " << d.residual_g_mm * 1e3 << " um of " << *d.measured_g_mm * 1e3 << " um";
   for (int ax = 0; ax < 2; ++ax) {
     const auto axs = static_cast<std::size_t>(ax);
     const Truth& t = truth[axs];
@@ -187,3 +193,117 @@ INSTANTIATE_TEST_SUITE_P(
              75.0,
              1000.0}),
     [](const ::testing::TestParamInfo<Case>& p) { return std::string(p.param.label); });
+
+namespace {
+
+// The demo's machine before compensation (scripts/demo.sh on configs/sim-servo): each axis a P
+// loop (30 and 31 1/s, FF1 0: unequal lags) driving circdrive with friction, then the
+// geometry of configs/sim-servo/geometry.hal: the screw follows the motor through a play
+// (limit1 between motor - b/2 and motor + b/2), scale, squareness (x += alpha y), and a cyclic
+// error on Y tied to its motor position.
+struct MainJob {
+  double backlash_x_mm = 0.010;
+  double scale_x = 50e-6;
+  double squareness_rad = 100e-6;
+  double cyclic_y_mm = 0.002, pitch_y_mm = 5.0;
+  Friction x{30.0, 0.8, 1.2, 0.004, 0.02}, y{31.0, 0.5, 0.8, 0.006, 0.02};
+};
+
+// The screw through a play of b around the motor.
+std::vector<double> through_play(const std::vector<double>& motor, double b) {
+  std::vector<double> screw(motor.size());
+  double s = motor.front();
+  for (std::size_t i = 0; i < motor.size(); ++i) {
+    s = std::clamp(s, motor[i] - b / 2, motor[i] + b / 2);
+    screw[i] = s;
+  }
+  return screw;
+}
+
+// The demo's circle (D100, F1000, CCW and CW) on that machine; the motor positions as the
+// feedback columns, as circlog logs them.
+Trace main_job_trace(const MainJob& m) {
+  sim::CircleProgram prog;
+  prog.radius_mm = 50.0;
+  prog.feed_mm_per_min = 1000.0;
+  prog.lead_deg = 10.0;
+  Trace trace = sim::simulate(sim::MachineModel{}, prog);
+  const double period = prog.period_s;
+  const std::vector<double> mx = through_loop(*trace.column("x_cmd"), period, m.x, true);
+  const std::vector<double> my = through_loop(*trace.column("y_cmd"), period, m.y, true);
+  const std::vector<double> sx = through_play(mx, m.backlash_x_mm);
+  std::vector<double> tx(sx.size()), ty(sx.size());
+  for (std::size_t i = 0; i < sx.size(); ++i) {
+    const double x = sx[i] * (1.0 + m.scale_x), y = my[i];
+    tx[i] = x + m.squareness_rad * y;
+    ty[i] = y + m.cyclic_y_mm * std::sin(2.0 * std::numbers::pi * my[i] / m.pitch_y_mm);
+  }
+  trace.values[*trace.column_index("x")] = tx;
+  trace.values[*trace.column_index("y")] = ty;
+  trace.columns.push_back("x_fb");
+  trace.values.push_back(mx);
+  trace.columns.push_back("y_fb");
+  trace.values.push_back(my);
+  return trace;
+}
+
+}  // namespace
+
+// The main job before compensation: the model explains the circle (the residual's G is at
+// most 15 % of the measured G) and recovers every injected source. The spikes rise after the
+// reversal (friction's stick): taken as a decaying step, 42 % of G stayed unexplained on this
+// circle, and the decaying step took some of the backlash and the lag mismatch with it.
+TEST(MainJob, TheModelExplainsTheCircleAndRecoversTheInjectedSources) {
+  const MainJob m;
+  const Trace trace = main_job_trace(m);
+  const Evaluation ev = evaluate(trace, {});
+  double g_mm = 0.0;
+  for (const RunResult& r : ev.runs) g_mm = std::max(g_mm, r.g_lsc_mm);
+  const Diagnosis d = diagnose(trace, ev, {});
+  std::printf("G %.2f um, residual G %.2f um (%.1f %%), RMS %.3f um\n", g_mm * 1e3,
+              d.residual_g_mm * 1e3, 100.0 * d.residual_g_mm / g_mm, d.residual_rms_mm * 1e3);
+  ASSERT_GT(g_mm, 25e-3) << "the circle of the main job: G some 35 um";
+  EXPECT_LE(d.residual_g_mm, 0.15 * g_mm);
+  ASSERT_TRUE(d.measured_g_mm);
+  EXPECT_DOUBLE_EQ(*d.measured_g_mm, g_mm);
+  // The injected sources, within 5 % or 0.3 um, 3 ppm, 2 urad, 0.02 ms.
+  ASSERT_TRUE(d.backlash_mm[0].value && d.backlash_mm[1].value);
+  EXPECT_NEAR(*d.backlash_mm[0].value, m.backlash_x_mm, 0.05 * m.backlash_x_mm);
+  EXPECT_NEAR(*d.backlash_mm[1].value, 0.0, 0.3e-3);
+  ASSERT_TRUE(d.scale_ppm[0].value && d.scale_ppm[1].value);
+  EXPECT_NEAR(*d.scale_ppm[0].value, m.scale_x * 1e6, 3.0);
+  EXPECT_NEAR(*d.scale_ppm[1].value, 0.0, 3.0);
+  ASSERT_TRUE(d.squareness_urad.value);
+  EXPECT_NEAR(*d.squareness_urad.value, m.squareness_rad * 1e6, 2.0);
+  ASSERT_TRUE(d.servo_mismatch_ms.value);
+  EXPECT_NEAR(*d.servo_mismatch_ms.value, (1.0 / m.x.p_per_s - 1.0 / m.y.p_per_s) * 1e3, 0.02);
+  ASSERT_TRUE(d.cyclic[1]);
+  EXPECT_NEAR(d.cyclic[1]->amplitude_mm, m.cyclic_y_mm, 0.3e-3);
+  EXPECT_NEAR(d.cyclic[1]->pitch_mm, m.pitch_y_mm, 0.01 * m.pitch_y_mm);
+  EXPECT_FALSE(d.cyclic[0]);
+  // The spikes against the friction's own deviation at the table: the loop with friction
+  // less the loop without, each through the axis' play (on X the play takes up part of the
+  // motor's stick before the table sees it).
+  const auto& marker = *trace.column("marker");
+  for (int ax = 0; ax < 2; ++ax) {
+    const auto axs = static_cast<std::size_t>(ax);
+    const Friction& f = ax == 0 ? m.x : m.y;
+    const double b = ax == 0 ? m.backlash_x_mm : 0.0;
+    const auto& cmd = *trace.column(ax == 0 ? "x_cmd" : "y_cmd");
+    // The reversals from the motor without friction (through the play the table stands still
+    // a while, with no sign change to find).
+    const std::vector<double> motor = through_loop(cmd, 0.001, f, false);
+    const std::vector<double> with = through_play(through_loop(cmd, 0.001, f, true), b);
+    const std::vector<double> without = through_play(motor, b);
+    std::vector<double> shifted(motor.size());
+    for (std::size_t i = 0; i < motor.size(); ++i) shifted[i] = motor[i] + with[i] - without[i];
+    const Truth t = truth_of(shifted, motor, marker, 0.001);
+    ASSERT_GT(t.height_mm, 2e-3) << ax;
+    ASSERT_TRUE(d.spike_mm[axs].value && d.spike_peak_ms[axs].value) << ax;
+    std::printf("%c: spike %.3f um (truth %.3f), peak at %.1f ms (%.1f)\n", d.axes[axs],
+                *d.spike_mm[axs].value * 1e3, t.height_mm * 1e3, *d.spike_peak_ms[axs].value,
+                t.peak_ms);
+    EXPECT_NEAR(*d.spike_mm[axs].value, t.height_mm, 0.05 * t.height_mm) << ax;
+    EXPECT_NEAR(*d.spike_peak_ms[axs].value, t.peak_ms, std::max(0.1 * t.peak_ms, 3.0)) << ax;
+  }
+}

@@ -230,7 +230,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   sim::CircleProgram p;
   p.radius_mm = 50.0;
   const auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
-  EXPECT_EQ(j.at("version"), "1.3");
+  EXPECT_EQ(j.at("version"), "1.4");
   EXPECT_EQ(j.at("schema"), "circtest.diagnosis/1");
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.0")), "d.json"));
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.99")), "d.json"));
@@ -247,7 +247,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   for (const char* bad : {"2", "1.", ".1", "1.1.1", "v1.1", "-1.0", "1.x", "99999999.0", ""}) {
     EXPECT_ERROR(
         compensation::parse_diagnosis(with_version(quoted(bad)), "d.json"), ExitCode::parse,
-        "d.json: \"version\": expected MAJOR.MINOR (\"1.3\"), got '" + std::string(bad) + "'");
+        "d.json: \"version\": expected MAJOR.MINOR (\"1.4\"), got '" + std::string(bad) + "'");
   }
   EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("\\u0001\\u00ff.1")), "d.json"),
                ExitCode::parse, "got '\\x01\\xc3\\xbf.1'");

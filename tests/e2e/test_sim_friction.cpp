@@ -180,9 +180,10 @@ TEST_F(SimFriction, SpikesFallByTheCompensationAndASlowJogDoesNotExciteIt) {
   // G falls: the spikes sit at the quadrants, so each run's G falls where a spike made one of
   // its extremes. On this machine the servo mismatch's ellipse and the squareness make the
   // CCW run's extremes at 45 deg, away from the reversals: that run's G stays (within 0.5 um,
-  // what the timing of a loaded host moves it), the CW run's falls, and so does the G of
-  // what the diagnosis cannot model (its residual), which the spikes dominate.
-  double sum0 = 0, sum1 = 0;
+  // what the timing of a loaded host moves it), the CW run's falls. Before the compensation
+  // the diagnosis explains the circle, the spikes as their measured profiles: its residual G
+  // is at most 15 % of the largest G of the runs.
+  double sum0 = 0, sum1 = 0, max0 = 0;
   for (std::size_t r = 0; r < before.analysis["runs"].size(); ++r) {
     const double g0 = before.analysis["runs"][r]["G"].get<double>();
     const double g1 = after.analysis["runs"][r]["G"].get<double>();
@@ -190,13 +191,14 @@ TEST_F(SimFriction, SpikesFallByTheCompensationAndASlowJogDoesNotExciteIt) {
     EXPECT_LE(g1, g0 + 0.5e-3) << "run " << r << ": G not worse";
     sum0 += g0;
     sum1 += g1;
+    max0 = std::max(max0, g0);
   }
   EXPECT_LT(sum1, sum0 - 1e-3) << "G falls (the runs' G summed, by 1 um or more)";
   const double rg0 = num(before.diagnosis["residual"]["G_mm"]);
   const double rg1 = num(after.diagnosis["residual"]["G_mm"]);
   std::printf("H %.2f -> %.2f um; residual G %.2f -> %.2f um\n", num(before.analysis["H"]) * 1e3,
               num(after.analysis["H"]) * 1e3, rg0 * 1e3, rg1 * 1e3);
-  EXPECT_LT(rg1, 0.5 * rg0) << "the diagnosis' residual G (the spikes' part) halves";
+  EXPECT_LE(rg0, 0.15 * max0) << "the model explains the circle before the compensation";
   // Backlash is the play between motor and table (10 um on X): the pulse acts before the
   // play, so the fitted play stays within 1 um (the fit shares the samples just after the
   // reversal with the spike, whose shape the compensation changes).

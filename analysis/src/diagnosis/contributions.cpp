@@ -259,7 +259,6 @@ void residual_and_contributions(DiagnosisState& ds) {
   std::vector<double> resid;
   const Extremes all = residual_pass(ds, rev, src, resid);
   reversal_steps(S, resid, all.events, D);
-  measure_spikes(ds, resid, all.events, D);
   D.residual_rms_mm = std::sqrt(all.ss / static_cast<double>(S.size()));
   std::size_t imax = 0, imin = 0;
   for (std::size_t k = 0; k < nruns; ++k) {
@@ -274,6 +273,10 @@ void residual_and_contributions(DiagnosisState& ds) {
     }
   }
   contributions(ds, rev, src, all, imax, imin);
+  // The measured G the residual's is a part of: the largest of the runs (least squares centre).
+  for (const RunResult& rr : ds.ev.runs) {
+    if (!D.measured_g_mm || rr.g_lsc_mm > *D.measured_g_mm) D.measured_g_mm = rr.g_lsc_mm;
+  }
 }
 
 }  // namespace circtest::diagnosis_detail

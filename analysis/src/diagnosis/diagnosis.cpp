@@ -29,6 +29,7 @@ void run_stages(DiagnosisState& ds) {
   // With the spikes in the model, a pitch found by the periodogram is refined once more, and
   // the spikes are searched again with that pitch.
   if (refine_cyclic(ds)) search_spikes(ds);
+  fit_spike_profiles(ds);
   report_estimates(ds);
   measure_following_lag(ds);
   split_radius_change(ds);

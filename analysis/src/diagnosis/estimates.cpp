@@ -58,10 +58,18 @@ void report_estimates(DiagnosisState& ds) {
     const auto axs = static_cast<std::size_t>(ax);
     const bool reversal = ax == 0 ? reversal_a : reversal_b;
     const double tau = ax == 0 ? st.tau_a : st.tau_b;
-    if (D.spike_mm[axs].value) {
+    const auto& measured = ds.spike_measure[axs];
+    if (D.spike_mm[axs].value && measured && (measured->rises || !(tau > 0))) {
+      // A spike that rises after the reversal, or that no decaying step found: its decay is
+      // the fall from the measured profile's peak to 1/e of it.
+      D.spike_ms[axs] = {measured->fall_s * 1e3, measured->fall_se_s * 1e3};
+      if (measured->rises) D.spike_peak_ms[axs] = {measured->peak_s * 1e3, std::nullopt};
+    } else if (D.spike_mm[axs].value) {
+      // The decaying step's decay, with the standard error of the decaying step's model: the
+      // Jacobian with its derivative column added.
       D.spike_ms[axs].value = tau * 1e3;
-      // Standard error of the decay: the Jacobian with its derivative column added.
       State s2 = st;
+      s2.spike_shape = {};
       s2.spike_h_a = D.spike_mm[0].value.value_or(0.0);
       s2.spike_h_b = D.spike_mm[1].value.value_or(0.0);
       std::vector<Column> aug = cols;

@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -101,6 +102,26 @@ struct Samples {
   }
 };
 
+// The measured mean profile of one axis' reversal spike (spike_profile.cpp): the axis'
+// deviation against the time since its reversal, outwards positive, on a grid of one bin per
+// sample period (value k at (k + 1/2) bin_s), divided by the spike's height so that the
+// fitted amplitude is the height; zero past the grid.
+struct SpikeShape {
+  double bin_s = 0.0;
+  std::vector<double> v;
+  double end_s() const { return static_cast<double>(v.size()) * bin_s; }
+  // Linear between the grid's points; the first point's value before it.
+  double at(double dt_s) const {
+    const double x = dt_s / bin_s - 0.5;
+    if (!(x < static_cast<double>(v.size()) - 0.5)) return 0.0;
+    if (x <= 0.0) return v.front();
+    const auto k = static_cast<std::size_t>(x);
+    if (k + 1 >= v.size()) return v.back();
+    const double f = x - static_cast<double>(k);
+    return v[k] + f * (v[k + 1] - v[k]);
+  }
+};
+
 // The nonlinear parts, held fixed while the linear parameters are fitted.
 struct State {
   double backlash_a = 0.0, backlash_b = 0.0;  // current play estimate for the transition shape
@@ -110,8 +131,22 @@ struct State {
   // instrument sees it (its angle follows the other axis there), B at pi/2 + k pi - dir w dtau.
   double servo_mismatch_s = 0.0;
   double spike_h_a = 0.0, spike_h_b = 0.0;  // heights, for the decay derivatives
+  // Each axis' spike as its measured profile; without one, the decaying step
+  // exp(-t / tau) (the decay search, spikes.cpp, fits that first).
+  std::array<std::shared_ptr<const SpikeShape>, 2> spike_shape{};
   bool operator==(const State&) const = default;
 };
+
+// Axis ax's spike dt_s seconds after its reversal per unit of its height: the measured
+// profile when the state has one, else the decaying step exp(-dt / tau) (zero when tau is not
+// set, and past exp(-700) = 1e-304, where exp's underflow path is slow).
+inline double spike_unit(const State& st, int ax, double dt_s) {
+  if (const auto& shape = st.spike_shape[static_cast<std::size_t>(ax)]) return shape->at(dt_s);
+  const double tau = ax == 0 ? st.tau_a : st.tau_b;
+  if (tau <= 0) return 0.0;
+  const double x = dt_s / tau;
+  return x > kSpikeCut ? 0.0 : std::exp(-x);
+}
 
 inline double sgn(double v) {
   return v > 0 ? 1.0 : (v < 0 ? -1.0 : 0.0);
@@ -248,17 +283,11 @@ double term(const Samples& S, const State& st, const Column& col, std::size_t i,
   } else if constexpr (K == Kind::backlash_b) {
     return backlash_terms(rv.dir_b, rv.trav_b, st.backlash_b).first * s;
   } else if constexpr (K == Kind::spike_a) {
-    // Past exp(-700) (1e-304) a spike term is taken as zero, as profile_column does: most rows
-    // are that far from a reversal, and exp's underflow path costs several times its fast one.
-    if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
-    const double x = rv.since_a * R / r.speed_mm_s / st.tau_a;
-    if (x > kSpikeCut) return 0.0;
-    return -static_cast<double>(rv.dir_a) * std::exp(-x) * c;
+    if (r.speed_mm_s <= 0) return 0.0;
+    return -static_cast<double>(rv.dir_a) * spike_unit(st, 0, rv.since_a * R / r.speed_mm_s) * c;
   } else if constexpr (K == Kind::spike_b) {
-    if (st.tau_b <= 0 || r.speed_mm_s <= 0) return 0.0;
-    const double x = rv.since_b * R / r.speed_mm_s / st.tau_b;
-    if (x > kSpikeCut) return 0.0;
-    return -static_cast<double>(rv.dir_b) * std::exp(-x) * s;
+    if (r.speed_mm_s <= 0) return 0.0;
+    return -static_cast<double>(rv.dir_b) * spike_unit(st, 1, rv.since_b * R / r.speed_mm_s) * s;
   } else if constexpr (K == Kind::spike_tau_a) {
     if (st.tau_a <= 0 || r.speed_mm_s <= 0) return 0.0;
     const double dt = rv.since_a * R / r.speed_mm_s;

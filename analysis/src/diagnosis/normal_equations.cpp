@@ -92,10 +92,21 @@ bool steady_applies(const std::vector<Column>& cols) {
   });
 }
 
+// The angle after a reversal within which run r's spike columns follow a measured profile
+// (zero past it).
+double shape_rad(const State& st, const RunInfo& r, double radius) {
+  double end_s = 0.0;
+  for (const auto& shape : st.spike_shape) {
+    if (shape) end_s = std::max(end_s, shape->end_s());
+  }
+  return end_s * r.speed_mm_s / radius;
+}
+
 bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
                   const std::vector<Column>& cols, std::size_t stride) {
   if (ss.stride != stride || ss.cols != cols || st.pitch_a != ss.ref.pitch_a ||
-      st.pitch_b != ss.ref.pitch_b || st.tau_a != ss.ref.tau_a || st.tau_b != ss.ref.tau_b)
+      st.pitch_b != ss.ref.pitch_b || st.tau_a != ss.ref.tau_a || st.tau_b != ss.ref.tau_b ||
+      st.spike_shape != ss.ref.spike_shape)
     return false;
   const double need_b =
       std::max(takeup_rad(st.backlash_a, S.radius), takeup_rad(st.backlash_b, S.radius));
@@ -104,7 +115,7 @@ bool steady_valid(const Samples& S, const SteadySums& ss, const State& st,
     const double shift =
         std::abs(r.ellipse_speed_mm_s / S.radius * (st.servo_mismatch_s - ss.ref.servo_mismatch_s));
     if (!(shift + r.eps_rad < ss.before_rad[k]) ||
-        !(shift + std::max(r.eps_rad, need_b) < ss.after_rad[k]))
+        !(shift + std::max({r.eps_rad, need_b, shape_rad(st, r, S.radius)}) < ss.after_rad[k]))
       return false;
   }
   return true;
@@ -124,7 +135,7 @@ SteadySums take_steady(const Samples& S, const State& st, const std::vector<Colu
     const double room = std::max(
         {2.0 * r.eps_rad, kPi / 180.0, 2.0 * w * std::max(std::abs(st.servo_mismatch_s), 2e-3)});
     ss.before_rad.push_back(room);
-    ss.after_rad.push_back(room + takeup_rad(play, S.radius));
+    ss.after_rad.push_back(room + std::max(takeup_rad(play, S.radius), shape_rad(st, r, S.radius)));
   }
   const Reversals rev(S, st.servo_mismatch_s);
   const auto p = static_cast<Eigen::Index>(cols.size());
@@ -179,17 +190,20 @@ Normal steady_normal(const Samples& S, const SteadySums& ss, const State& st,
   Sums near(p, 1);
   for (const Sums& c : part) near += c;
   Normal N = to_normal(*ss.sums, st.servo_mismatch_s);
-  // A spike column on a steady row is exp(-t / tau) times a fixed part, t the time since the
-  // reversal, and a new lag mismatch moves the reversals by its change d in time: A's column
-  // scales by exp(d / tau_a) and B's by exp(-d / tau_b) on every such row (docs/diagnosis.md:
-  // the reversal of A at w dtau, of B at pi/2 - w dtau).
+  // A decaying step's spike column on a steady row is exp(-t / tau) times a fixed part, t the
+  // time since the reversal, and a new lag mismatch moves the reversals by its change d in
+  // time: A's column scales by exp(d / tau_a) and B's by exp(-d / tau_b) on every such row
+  // (docs/diagnosis.md: the reversal of A at w dtau, of B at pi/2 - w dtau). A measured
+  // profile is zero on every steady row.
   const double d = st.servo_mismatch_s - ss.ref.servo_mismatch_s;
   if (d != 0.0) {
     Eigen::VectorXd scale = Eigen::VectorXd::Ones(p);
     for (Eigen::Index j = 0; j < p; ++j) {
       const Kind k = cols[static_cast<std::size_t>(j)].kind;
-      if (k == Kind::spike_a && st.tau_a > 0) scale[j] = std::exp(d / st.tau_a);
-      if (k == Kind::spike_b && st.tau_b > 0) scale[j] = std::exp(-d / st.tau_b);
+      if (k == Kind::spike_a && st.tau_a > 0 && !st.spike_shape[0])
+        scale[j] = std::exp(d / st.tau_a);
+      if (k == Kind::spike_b && st.tau_b > 0 && !st.spike_shape[1])
+        scale[j] = std::exp(-d / st.tau_b);
     }
     N.M = scale.asDiagonal() * N.M * scale.asDiagonal();
     N.v = scale.asDiagonal() * N.v;

@@ -12,24 +12,17 @@ namespace circtest::diagnosis_detail {
 
 namespace {
 
-// One added column on the profile's rows. A spike term is exp(-dt / tau) times its sign, the
-// same value as `value` gives; past exp(-700) (1e-304) it is taken as zero, which spares the
-// slow underflow path of exp and changes no sum.
+// One added column on the profile's rows. A spike term is its sign times spike_unit, the
+// same value as `value` gives.
 void profile_column(const Samples& S, const State& st, const Profile& P, const Column& col,
                     Eigen::Ref<Eigen::VectorXd> out) {
   const Eigen::Index n = P.J.rows();
   if (col.kind == Kind::spike_a || col.kind == Kind::spike_b) {
-    const std::size_t ax = col.kind == Kind::spike_a ? 0 : 1;
-    const double tau = ax == 0 ? st.tau_a : st.tau_b;
-    if (tau <= 0) {
-      out.setZero();
-      return;
-    }
-    const double cut = kSpikeCut * tau;
-    const VecMap& sign = P.spike_sign[ax];
-    const VecMap& dt = P.spike_dt_s[ax];
+    const int ax = col.kind == Kind::spike_a ? 0 : 1;
+    const VecMap& sign = P.spike_sign[static_cast<std::size_t>(ax)];
+    const VecMap& dt = P.spike_dt_s[static_cast<std::size_t>(ax)];
     for (Eigen::Index r = 0; r < n; ++r) {
-      out[r] = dt[r] < 0 || dt[r] > cut ? 0.0 : sign[r] * std::exp(-dt[r] / tau);
+      out[r] = dt[r] < 0 ? 0.0 : sign[r] * spike_unit(st, ax, dt[r]);
     }
     return;
   }

@@ -22,6 +22,13 @@ struct ReversalEvent {
   std::int8_t dir;
 };
 
+// What an axis' measured spike profile shows beyond its height (spike_profile.cpp).
+struct SpikeMeasure {
+  bool rises = false;                    // it peaks after the reversal (the table sticks)
+  double peak_s = 0.0;                   // the peak's time after the reversal
+  double fall_s = 0.0, fall_se_s = 0.0;  // from the peak to 1/e of it
+};
+
 struct DiagnosisState {
   DiagnosisState(const Trace& t, const Evaluation& e, const DiagnosisOptions& o)
       : trace(t), ev(e), options(o) {}
@@ -68,6 +75,8 @@ struct DiagnosisState {
 
   // The spike decays found last, the next search's starting points (spikes.cpp).
   std::array<double, 2> spike_hints{0.0, 0.0};
+  // The spikes' measured profiles (spike_profile.cpp), per axis whose spike is one.
+  std::array<std::optional<SpikeMeasure>, 2> spike_measure;
 
   // The mean following lag from the commanded columns and the sample period (servo.cpp).
   std::optional<double> lag_s;
@@ -102,6 +111,10 @@ void take_cyclic_fit(const DiagnosisState& ds, int ax, CyclicEstimate& ce);
 bool refine_cyclic(DiagnosisState& ds);
 // spikes.cpp: the reversal spikes' decays searched and their heights fitted.
 void search_spikes(DiagnosisState& ds);
+// spike_profile.cpp: each spike's mean profile over its reversals measured on the residual
+// and put into the fit in place of the decaying step (its amplitude fitted), until the profile
+// holds still.
+void fit_spike_profiles(DiagnosisState& ds);
 // estimates.cpp: the fitted parameters and their standard errors into the diagnosis.
 void report_estimates(DiagnosisState& ds);
 // servo.cpp: the mean following lag from the commanded columns, and its part of the scale
@@ -117,10 +130,6 @@ void measure_axis_lags(DiagnosisState& ds);
 void residual_and_contributions(DiagnosisState& ds);
 // reversals.cpp: the backlash at each end of an axis' travel from the residual's steps.
 void reversal_steps(const Samples& S, const std::vector<double>& resid,
-                    const std::array<std::vector<ReversalEvent>, 2>& events, Diagnosis& D);
-// spikes.cpp: the spikes' height and decay measured again on the reversals' mean profile when
-// the spike rises after the reversal (friction's stick) instead of jumping there.
-void measure_spikes(const DiagnosisState& ds, const std::vector<double>& resid,
                     const std::array<std::vector<ReversalEvent>, 2>& events, Diagnosis& D);
 // plausibility.cpp: refuses a diagnosis with a number that is not finite.
 void check_finite(const DiagnosisState& ds);

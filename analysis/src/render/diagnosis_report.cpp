@@ -15,6 +15,13 @@ std::string um(double mm) {
   return fmt::format("{:.2f} um", mm * 1e3);
 }
 
+// The residual's G as a share of the measured G: the part of G the model does not explain.
+std::string residual_share(const Diagnosis& d) {
+  if (!d.measured_g_mm || !(*d.measured_g_mm > 0)) return {};
+  return fmt::format(" ({:.1f} % of the measured G {})", d.residual_g_mm / *d.measured_g_mm * 100.0,
+                     um(*d.measured_g_mm));
+}
+
 std::string pm_um(const Estimate& e) {
   if (!e.value) return "not available";
   return fmt::format("{:+.2f} um (+- {:.2f})", *e.value * 1e3, e.standard_error.value_or(0) * 1e3);
@@ -149,8 +156,8 @@ std::string text_report(const Diagnosis& d) {
   for (const auto& c : d.contributions) {
     fmt::format_to(out, "  {:<18} G {:>9}  {:5.1f} %\n", c.source, um(c.g_mm), c.percent);
   }
-  fmt::format_to(out, "Residual (measured - model): RMS {}, G {}\n", um(d.residual_rms_mm),
-                 um(d.residual_g_mm));
+  fmt::format_to(out, "Residual (measured - model): RMS {}, G {}{}\n", um(d.residual_rms_mm),
+                 um(d.residual_g_mm), residual_share(d));
   for (const auto& n : d.notes) fmt::format_to(out, "Note: {}\n", n);
   return s;
 }
@@ -163,7 +170,8 @@ std::string short_text_report(const Diagnosis& d) {
     if (shown++ == 4) break;
     fmt::format_to(out, "  {:<18} G {:>9}  {:5.1f} %\n", c.source, um(c.g_mm), c.percent);
   }
-  fmt::format_to(out, "  residual RMS {}, G {}\n", um(d.residual_rms_mm), um(d.residual_g_mm));
+  fmt::format_to(out, "  residual RMS {}, G {}{}\n", um(d.residual_rms_mm), um(d.residual_g_mm),
+                 residual_share(d));
   return s;
 }
 

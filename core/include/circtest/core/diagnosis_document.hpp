@@ -103,6 +103,9 @@ struct Diagnosis {
   double model_g_mm = 0.0;                  // G of the model without centring and radius
   double residual_rms_mm = 0.0;
   double residual_g_mm = 0.0;
+  // The largest G (least squares centre) of the measured runs: residual_g_mm's share of it is
+  // the part of G the model does not explain.
+  std::optional<double> measured_g_mm;
   std::optional<std::string> ini_sha256;  // from the trace's metadata, when recorded
   // The terms this trace cannot tell apart, by where their values would be in the document
   // ("backlash_mm.X", "servo_mismatch_ms"): their values are not reported.

@@ -18,8 +18,8 @@ inline constexpr const char* kSchemaFamily = "circtest.diagnosis/";
 // "MAJOR.MINOR": the major is the schema's; a minor adds keys, never renames or retypes one,
 // so a reader reads every minor of its major and refuses a newer major.
 inline constexpr int kVersionMajor = 1;
-inline constexpr int kVersionMinor = 3;
-inline constexpr const char* kVersion = "1.3";
+inline constexpr int kVersionMinor = 4;
+inline constexpr const char* kVersion = "1.4";
 
 namespace key {
 inline constexpr const char* units = "units";    // "mm"
