@@ -117,6 +117,7 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
       out << "circtest: the recorder failed (exit " << rc << "); nothing analysed or applied\n";
     } else {
       out << "circtest: recorded " << trace << "\n";
+      rc = check_servo_periods(setup, trace, out);
     }
     return {rc};
   }

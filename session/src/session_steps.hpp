@@ -1,8 +1,12 @@
 #pragma once
 // The steps of a session, shared by run and verify (internal to the session library).
+#include <cstddef>
+#include <iosfwd>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "circtest/core/trace.hpp"
 #include "circtest/session/console.hpp"
 #include "circtest/session/run.hpp"
 
@@ -15,8 +19,9 @@ struct SessionSetup {
   std::vector<std::string> columns;
   int marker_output = 0;
   int segment_output = 0;
-  std::string machine;        // [EMC] MACHINE, as a file name
-  std::string machine_title;  // [EMC] MACHINE as it is written (the trace's metadata)
+  std::string machine;                    // [EMC] MACHINE, as a file name
+  std::string machine_title;              // [EMC] MACHINE as it is written (the trace's metadata)
+  std::optional<double> servo_period_ns;  // [EMCMOT] SERVO_PERIOD
 };
 
 // Throws HalError when circtest install has not been applied to the INI.
@@ -36,6 +41,29 @@ struct RecordResult {
 RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
                             const std::string& program, const std::string& trace,
                             const Console& console);
+
+// The servo thread's periods in a trace: the servo_period_ns channel (circtest install) against
+// the thread's own period. A period longer than kLatePeriodFactor times it is late: the thread
+// woke late (a latency problem of the PC), so the samples around it are not a servo period
+// apart and the run does not measure the machine.
+inline constexpr double kLatePeriodFactor = 1.5;
+struct ServoPeriods {
+  bool logged = false;  // the trace has the channel
+  std::size_t samples = 0;
+  double nominal_ns = 0;  // the thread's period
+  std::size_t late = 0;   // periods longer than kLatePeriodFactor * nominal_ns
+  double longest_ns = 0;
+};
+// The nominal period is the trace's sample_period_s, else INI_PERIOD_NS. Throws DataError when
+// the channel is there and neither is known.
+ServoPeriods servo_periods(const Trace& trace, std::optional<double> ini_period_ns);
+// What the session says of them, in one line (without the "circtest: " prefix).
+std::string servo_period_line(const ServoPeriods& periods);
+// The session folder's record of them (servo-period.json).
+std::string servo_period_json(const ServoPeriods& periods, const std::string& trace_name);
+// Reads TRACE's periods, writes servo-period.json beside it (verify-servo-period.json for
+// verify-trace.csv), says the line; exit 5 (data) when a period was late, else 0.
+int check_servo_periods(const SessionSetup& setup, const std::string& trace, std::ostream& out);
 
 // circana analyze and diagnose, circcomp plan; asks, applies. APPLIED: corrections written.
 int analyse_and_apply(const SessionSetup& setup, const RunRequest& request, const std::string& dir,

@@ -1,0 +1,93 @@
+// The servo thread's timing during a recording: the servo_period_ns channel install adds
+// (motion.servo.last-period through conv_u32_float) against the thread's own period.
+#include <fmt/format.h>
+#include <algorithm>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "circtest/core/atomic_file.hpp"
+#include "circtest/core/error.hpp"
+#include "circtest/core/json_text.hpp"
+#include "circtest/core/trace_keys.hpp"
+#include "circtest/session/install.hpp"
+#include "session_steps.hpp"
+
+namespace circtest::session {
+
+namespace fs = std::filesystem;
+
+ServoPeriods servo_periods(const Trace& trace, std::optional<double> ini_period_ns) {
+  ServoPeriods p;
+  const std::vector<double>* column = trace.column(kServoPeriodColumn);
+  if (column == nullptr) return p;
+  p.logged = true;
+  // The period circlog was called with (the thread's), else the INI's SERVO_PERIOD.
+  const std::optional<double> sample_s =
+      trace.metadata.number(meta_key::sample_period_s, trace.source);
+  if (sample_s && *sample_s > 0) {
+    p.nominal_ns = *sample_s * 1e9;
+  } else if (ini_period_ns && *ini_period_ns > 0) {
+    p.nominal_ns = *ini_period_ns;
+  } else {
+    throw DataError(trace.source, trace.header_line,
+                    "the servo thread's period is unknown (no sample_period_s in the trace, no "
+                    "[EMCMOT] SERVO_PERIOD in the INI): its late periods cannot be counted");
+  }
+  p.samples = column->size();
+  const double limit_ns = kLatePeriodFactor * p.nominal_ns;
+  for (const double period_ns : *column) {
+    p.longest_ns = std::max(p.longest_ns, period_ns);
+    if (period_ns > limit_ns) ++p.late;
+  }
+  return p;
+}
+
+std::string servo_period_line(const ServoPeriods& p) {
+  if (!p.logged) {
+    return "the servo thread's period is not logged (see circtest install's note): late "
+           "periods would go unseen";
+  }
+  if (p.late > 0) {
+    return fmt::format(
+        "the servo thread missed its period {} times (longest {:.0f} us of {:.0f} us): a latency "
+        "problem of this PC, not a machine error; nothing applied from this run",
+        p.late, p.longest_ns / 1000, p.nominal_ns / 1000);
+  }
+  return fmt::format(
+      "the servo thread kept its period ({} samples, longest {:.0f} us of {:.0f} us)", p.samples,
+      p.longest_ns / 1000, p.nominal_ns / 1000);
+}
+
+std::string servo_period_json(const ServoPeriods& p, const std::string& trace_name) {
+  nlohmann::ordered_json j;
+  j["trace"] = trace_name;
+  j["logged"] = p.logged;
+  if (p.logged) {
+    j["samples"] = p.samples;
+    j["nominal_period_us"] = p.nominal_ns / 1000;
+    j["late_limit_us"] = kLatePeriodFactor * p.nominal_ns / 1000;
+    j["late_periods"] = p.late;
+    j["longest_period_us"] = p.longest_ns / 1000;
+  }
+  j["run_usable"] = !p.logged || p.late == 0;
+  j["says"] = servo_period_line(p);
+  return json_text(j, 2) + "\n";
+}
+
+int check_servo_periods(const SessionSetup& setup, const std::string& trace, std::ostream& out) {
+  TraceReadOptions options;
+  options.keep = {std::string(kServoPeriodColumn)};
+  options.check_time_monotonic = false;
+  const ServoPeriods p = servo_periods(read_trace(trace, options), setup.servo_period_ns);
+  const fs::path path(trace);
+  const std::string stem = path.stem().string();  // trace, verify-trace
+  const std::string prefix = stem.size() > 5 ? stem.substr(0, stem.size() - 5) : "";
+  write_file_atomic((path.parent_path() / (prefix + "servo-period.json")).string(),
+                    servo_period_json(p, path.filename().string()));
+  out << "circtest: " << servo_period_line(p) << "\n";
+  out.flush();
+  return p.logged && p.late > 0 ? static_cast<int>(ExitCode::data) : 0;
+}
+
+}  // namespace circtest::session
