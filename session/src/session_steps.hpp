@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "circtest/core/progress.hpp"
 #include "circtest/core/trace.hpp"
 #include "circtest/session/console.hpp"
 #include "circtest/session/run.hpp"
@@ -64,6 +65,39 @@ std::string servo_period_json(const ServoPeriods& periods, const std::string& tr
 // Reads TRACE's periods, writes servo-period.json beside it (verify-servo-period.json for
 // verify-trace.csv), says the line; exit 5 (data) when a period was late, else 0.
 int check_servo_periods(const SessionSetup& setup, const std::string& trace, std::ostream& out);
+
+// What the operator sees while the program runs: "XY run 1 of 2 (CCW F1000): 37 % of the
+// path", from the program's header (its runs, radius, arc, feeds) and the LinuxCNC link's
+// `run SEGMENT` / `run-end` events. On a terminal (TERMINAL not null) one line redrawn in
+// place; else a plain line on OUT at the start of each run, at each quarter of its path and at
+// its end. The share of the path is the time since the run's start against its measured arc
+// at its feed (the override is at 100 %), held below 100 until the run ends.
+class RunProgress {
+ public:
+  RunProgress(const std::string& program, std::ostream& out, std::FILE* terminal, double now_s);
+  void started(int segment, double now_s);
+  void ended(double now_s);  // says the run is recorded
+  void update(double now_s);
+  void clear();  // before another message
+  std::string status(double now_s) const;
+
+ private:
+  struct Run {
+    int segment = 0;
+    std::string what;  // "XY run 1 of 2 (CCW F1000)"
+    double duration_s = 0;
+  };
+  static constexpr int kPlainStep = 25;
+  const Run* find(int segment) const;
+  std::string what(int segment) const;
+  std::optional<int> percent(double now_s) const;
+  std::ostream& out_;
+  ProgressLine line_;
+  std::vector<Run> runs_;
+  std::optional<int> current_;
+  double started_s_ = 0;
+  int next_step_ = kPlainStep;
+};
 
 // circana analyze and diagnose, circcomp plan; asks, applies. APPLIED: corrections written.
 int analyse_and_apply(const SessionSetup& setup, const RunRequest& request, const std::string& dir,
