@@ -156,9 +156,9 @@ void add_servo_period(const HalWiring& wiring, InstallPlan& plan) {
   const auto signal = wiring.signal_of_pin.find(pin);
   plan.servo_period_signal =
       signal == wiring.signal_of_pin.end() ? std::string(kNewPeriodSignal) : signal->second;
-  plan.channels.push_back({std::string(kServoPeriodColumn), "circtest-servo-period-ns",
+  plan.channels.push_back({std::string(kServoPeriodColumn), "circtest-servo-period-float",
                            std::string(kServoPeriodConv) + ".out",
-                           "the servo thread's period in ns (" + pin + " through conv_u32_float)"});
+                           "the servo thread's period (" + pin + " through conv_u32_float)"});
 }
 
 }  // namespace
@@ -171,7 +171,9 @@ std::string session_hal_text(const InstallPlan& plan, const std::string& thread)
   text += fmt::format("loadrt circlog channels={}\n", plan.channels.size());
   if (!plan.servo_period_signal.empty()) {
     const std::string_view conv = kServoPeriodConv;
-    text += "# The servo thread's period (u32 ns) as a float for circlog, in the same period.\n";
+    text +=
+        "# The servo thread's period (u32: CPU clocks in LinuxCNC 2.9, ns later) as a float for "
+        "circlog,\n# in the same period.\n";
     text += fmt::format("loadrt conv_u32_float names={}\naddf {} {}\n", conv, conv, thread);
     // A signal of the configuration's on the pin is joined as it is; else one of its own.
     text += fmt::format(

@@ -92,6 +92,14 @@ SessionSetup read_setup(const std::string& ini_path) {
   // Not a number: the trace's sample_period_s gives the period.
   if (const auto period = ini.get("EMCMOT", "SERVO_PERIOD"))
     s.servo_period_ns = parse_finite(*period);
+  if (const auto late = ini.find("CIRCTEST", "LATE_SERVO_PERIODS")) {
+    if (late->value != "refuse" && late->value != "note") {
+      throw DataError(late->file, late->line,
+                      "[CIRCTEST] LATE_SERVO_PERIODS = " + late->value +
+                          ": expected refuse (a real machine) or note (a simulated one)");
+    }
+    s.late_periods_noted = late->value == "note";
+  }
   return s;
 }
 

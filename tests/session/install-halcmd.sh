@@ -65,7 +65,7 @@ halcmd start && sleep 0.5 && halcmd stop
 period_u32=$(halcmd getp motion.servo.last-period)
 period_float=$(halcmd getp circtest-servo-period.out)
 period_in=$(halcmd getp "circlog.0.in-$(printf '%02d' "$(sed -n 's/^COLUMNS *= *//p' "$ini" |
-  tr ',' '\n' | grep -n '^servo_period_ns$' | cut -d: -f1 | awk '{print $1-1}')")")
+  tr ',' '\n' | grep -n '^servo_period$' | cut -d: -f1 | awk '{print $1-1}')")")
 halcmd show funct circlog.0 > "$work/funct.txt"
 halcmd show thread > "$work/thread.txt"
 halrun -U >/dev/null 2>&1 || true

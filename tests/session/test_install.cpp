@@ -77,7 +77,7 @@ TEST(Install, PncconfServoJoinsItsSignalsAndTakesAFreeMarkerOutput) {
   EXPECT_NE(plan.plan.files[0].after.find("HALFILE = custom.hal\nHALFILE = circtest.hal\n"),
             std::string::npos);
   EXPECT_NE(plan.plan.files[0].after.find(
-                "COLUMNS = x_cmd,y_cmd,z_cmd,x_fb,y_fb,z_fb,servo_period_ns\nMARKER_OUTPUT = 1\n"),
+                "COLUMNS = x_cmd,y_cmd,z_cmd,x_fb,y_fb,z_fb,servo_period\nMARKER_OUTPUT = 1\n"),
             std::string::npos);
   EXPECT_NE(plan.plan.files[1].after.find("net circtest-marker motion.digital-out-01 => "),
             std::string::npos);
@@ -87,7 +87,7 @@ TEST(Install, TheServoPeriodIsLoggedThroughConvU32Float) {
   ScratchDir scratch("session-install");
   const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
   const InstallPlan plan = plan_install(request_for(ini));
-  const InstallChannel* period = channel(plan, "servo_period_ns");
+  const InstallChannel* period = channel(plan, "servo_period");
   ASSERT_NE(period, nullptr);
   EXPECT_EQ(period->pin, "circtest-servo-period.out");
   const std::string& hal = plan.plan.files[1].after;
@@ -98,8 +98,9 @@ TEST(Install, TheServoPeriodIsLoggedThroughConvU32Float) {
       "circtest-servo-period.in\n");
   ASSERT_NE(conv, std::string::npos) << hal;
   EXPECT_LT(conv, hal.find("addf circlog.0 servo-thread"));
-  EXPECT_NE(hal.find("net circtest-servo-period-ns circtest-servo-period.out => circlog.0.in-06\n"),
-            std::string::npos)
+  EXPECT_NE(
+      hal.find("net circtest-servo-period-float circtest-servo-period.out => circlog.0.in-06\n"),
+      std::string::npos)
       << hal;
 
   // A signal of the configuration's on the pin is joined as it is.
@@ -118,7 +119,7 @@ TEST(Install, AConfigurationLoadingConvU32FloatKeepsItsStartAndLogsNoPeriod) {
   circtest::testing::spit(custom,
                           "loadrt conv_u32_float count=1\n" + circtest::testing::slurp(custom));
   const InstallPlan plan = plan_install(request_for(ini));
-  EXPECT_EQ(channel(plan, "servo_period_ns"), nullptr);
+  EXPECT_EQ(channel(plan, "servo_period"), nullptr);
   EXPECT_EQ(plan.channels.size(), 6u);
   EXPECT_EQ(plan.plan.files[1].after.find("conv_u32_float"), std::string::npos);
   ASSERT_EQ(plan.notes.size(), 1u);

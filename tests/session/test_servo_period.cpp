@@ -1,4 +1,4 @@
-// The servo thread's late periods in a recorded trace (the servo_period_ns channel circtest
+// The servo thread's late periods in a recorded trace (the servo_period channel circtest
 // install adds): synthetic traces with jitter and known late periods inserted.
 #include <gtest/gtest.h>
 
@@ -29,7 +29,7 @@ std::string trace_text(std::size_t rows, double nominal_ns,
   std::ostringstream t;
   t.precision(10);
   if (sample_period) t << "# sample_period_s: " << nominal_ns * 1e-9 << "\n";
-  t << "t,period,x_fb,servo_period_ns\n";
+  t << "t,period,x_fb,servo_period\n";
   for (std::size_t i = 0; i < rows; ++i) {
     double period_ns =
         nominal_ns + static_cast<double>(static_cast<int>((i * 37) % 41) - 20) * 1000;
@@ -68,6 +68,22 @@ TEST(ServoPeriods, JitterAloneIsOnTime) {
   EXPECT_DOUBLE_EQ(p.longest_ns, 1.02e6);  // the jitter's largest: +20 us
   EXPECT_EQ(servo_period_line(p),
             "the servo thread kept its period (2000 samples, longest 1020 us of 1000 us)");
+}
+
+TEST(ServoPeriods, CpuClocksAsLinuxCnc29CountsThemAreScaledByTheirMean) {
+  // LinuxCNC 2.9's last-period: CPU clocks (2096 per us here). A 30 ms stall, then the thread
+  // runs the 29 periods it owes back to back (3000 clocks each) and keeps its deadlines again.
+  const double clocks_per_us = 2096;
+  std::vector<std::pair<std::size_t, double>> stall = {{1000, 30000 * clocks_per_us}};
+  for (std::size_t i = 1; i <= 29; ++i) stall.emplace_back(1000 + i, 3000);
+  std::string text = trace_text(5000, 1e6 * clocks_per_us / 1000, stall);
+  // The metadata states the thread's period in s: 1 ms.
+  text.replace(text.find("# sample_period_s: ") + 19, text.find('\n') - 19, "0.001");
+  const ServoPeriods p = periods_of(text);
+  EXPECT_FALSE(p.unit_is_ns);
+  EXPECT_NEAR(p.units_per_us, clocks_per_us, 0.01 * clocks_per_us);
+  EXPECT_EQ(p.late, 1u);
+  EXPECT_NEAR(p.longest_ns / 1000, 30000, 300);  // 30 ms, within the mean's 1 %
 }
 
 TEST(ServoPeriods, TheIniPeriodWhenTheTraceDoesNotStateIt) {
@@ -112,4 +128,32 @@ TEST(ServoPeriods, TheSessionRefusesTheRunAndItsJsonSaysWhy) {
       nlohmann::json::parse(circtest::testing::slurp(scratch.dir() / "verify-servo-period.json"));
   EXPECT_EQ(j2["late_periods"], 0);
   EXPECT_EQ(j2["run_usable"], true);
+  // A simulated machine whose INI says LATE_SERVO_PERIODS = note: said, the session goes on.
+  setup.late_periods_noted = true;
+  std::ostringstream out3;
+  EXPECT_EQ(check_servo_periods(setup, trace.string(), out3), 0);
+  EXPECT_NE(out3.str().find("missed its period 2 times (longest 5000 us of 1000 us): noted only"),
+            std::string::npos)
+      << out3.str();
+}
+
+TEST(ServoPeriods, TheIniSaysWhetherLatePeriodsStopTheSession) {
+  ScratchDir scratch("session-servo");
+  const fs::path ini = scratch.dir() / "m.ini";
+  const std::string base =
+      "[EMCMOT]\nSERVO_PERIOD = 1000000\n[CIRCTEST]\nCOLUMNS = x_fb\nMARKER_OUTPUT = 0\n";
+  circtest::testing::spit(ini, base);
+  EXPECT_FALSE(read_setup(ini.string()).late_periods_noted);
+  EXPECT_DOUBLE_EQ(read_setup(ini.string()).servo_period_ns.value_or(0), 1e6);
+  circtest::testing::spit(ini, base + "LATE_SERVO_PERIODS = note\n");
+  EXPECT_TRUE(read_setup(ini.string()).late_periods_noted);
+  circtest::testing::spit(ini, base + "LATE_SERVO_PERIODS = ignore\n");
+  try {
+    read_setup(ini.string());
+    FAIL() << "expected a refusal";
+  } catch (const DataError& e) {
+    EXPECT_EQ(e.line(), 6u);
+    EXPECT_NE(std::string(e.what()).find("expected refuse (a real machine) or note"),
+              std::string::npos);
+  }
 }
