@@ -120,11 +120,9 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   for (;;) {
     const auto got = linuxcnc.read_line_for(line, 0.2);
     if (got && !*got) break;
-    if (got) {
-      show_event(line, request, out, progress, end, override_changed);
-      continue;
-    }
+    if (got) show_event(line, request, out, progress, end, override_changed);
     progress.update(now_s());
+    if (got) continue;
     // The recorder stops with the servo thread: LinuxCNC quit (its status may stay as it was);
     // or by itself once every run is in (the program's retract may still run).
     if (!recorder_done && !recorder.running()) {
