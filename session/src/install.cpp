@@ -33,6 +33,10 @@ std::string_view library_setting_words(InstallSetting setting) noexcept {
 
 namespace {
 
+constexpr std::size_t kMaxChannels = 16;  // circlog's channels= limit
+// The u32 signal install puts on motion.servo.last-period when the configuration has none.
+constexpr std::string_view kNewPeriodSignal = "circtest-last-period";
+
 // What feeds a joint's feedback, from the pin that writes its signal.
 std::string feedback_kind(const std::string& source, const std::string& signal,
                           const HalWiring& wiring, int joint, std::vector<std::string>& notes) {
@@ -130,6 +134,33 @@ void add_instruments(const InstallRequest& request, const HalWiring& wiring, Ins
   }
 }
 
+// The servo thread's period as a channel, through LinuxCNC's conv_u32_float loaded under a
+// name of its own; left out with a note when the configuration loads conv_u32_float itself
+// (a second loadrt of a module fails in LinuxCNC, and with it the start).
+void add_servo_period(const HalWiring& wiring, InstallPlan& plan) {
+  if (const auto it = wiring.loaded.find("conv_u32_float"); it != wiring.loaded.end()) {
+    plan.notes.push_back(fmt::format(
+        "{} loads conv_u32_float already (a second loadrt of it would stop LinuxCNC's start): "
+        "the servo thread's period (motion.servo.last-period) is not logged, so a run with late "
+        "servo periods is not detected",
+        it->second.text()));
+    return;
+  }
+  if (plan.channels.size() >= kMaxChannels) {
+    plan.notes.push_back(fmt::format(
+        "{} channels already: the servo thread's period is not logged (circlog logs at most {})",
+        plan.channels.size(), kMaxChannels));
+    return;
+  }
+  const std::string pin = "motion.servo.last-period";
+  const auto signal = wiring.signal_of_pin.find(pin);
+  plan.servo_period_signal =
+      signal == wiring.signal_of_pin.end() ? std::string(kNewPeriodSignal) : signal->second;
+  plan.channels.push_back({std::string(kServoPeriodColumn), "circtest-servo-period-float",
+                           std::string(kServoPeriodConv) + ".out",
+                           "the servo thread's period (" + pin + " through conv_u32_float)"});
+}
+
 }  // namespace
 
 std::string session_hal_text(const InstallPlan& plan, const std::string& thread) {
@@ -138,6 +169,17 @@ std::string session_hal_text(const InstallPlan& plan, const std::string& thread)
       "# Loaded after the machine's HAL files; `circtest uninstall` removes it again.\n"
       "# Column names for circlog-record: [CIRCTEST] COLUMNS in the INI.\n";
   text += fmt::format("loadrt circlog channels={}\n", plan.channels.size());
+  if (!plan.servo_period_signal.empty()) {
+    const std::string_view conv = kServoPeriodConv;
+    text +=
+        "# The servo thread's period (u32: CPU clocks in LinuxCNC 2.9, ns later) as a float for "
+        "circlog,\n# in the same period.\n";
+    text += fmt::format("loadrt conv_u32_float names={}\naddf {} {}\n", conv, conv, thread);
+    // A signal of the configuration's on the pin is joined as it is; else one of its own.
+    text += fmt::format(
+        "net {}{} => {}.in\n", plan.servo_period_signal,
+        plan.servo_period_signal == kNewPeriodSignal ? " motion.servo.last-period" : "", conv);
+  }
   text += "# Last in the servo thread: the command and the feedback of the same period.\n";
   text += fmt::format("addf circlog.0 {}\n\n", thread);
   for (std::size_t i = 0; i < plan.channels.size(); ++i) {
@@ -210,9 +252,11 @@ InstallPlan plan_install(const InstallRequest& request) {
   }
   plan.channels.insert(plan.channels.end(), fb.begin(), fb.end());
   add_instruments(request, wiring, plan);
-  if (plan.channels.size() > 16) {
-    throw DataError(request.ini_path, 0,
-                    fmt::format("{} channels: circlog logs at most 16", plan.channels.size()));
+  add_servo_period(wiring, plan);
+  if (plan.channels.size() > kMaxChannels) {
+    throw DataError(
+        request.ini_path, 0,
+        fmt::format("{} channels: circlog logs at most {}", plan.channels.size(), kMaxChannels));
   }
   plan.marker_output = free_output(wiring, "digital-out", num_dio);
   plan.segment_output = free_output(wiring, "analog-out", num_aio);

@@ -1,9 +1,15 @@
 #include <signal.h>
 
 #include <fmt/format.h>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <iostream>
+#include <optional>
 #include <ostream>
 
+#include "circtest/core/progress.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
@@ -13,12 +19,26 @@ namespace circtest::session {
 
 namespace {
 
+double now_s() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
 // What the LinuxCNC link's event line means for the operator; sets END to the end event.
 void show_event(const std::string& line, const RunRequest& request, std::ostream& out,
-                std::string& end, bool& override_changed) {
+                RunProgress& progress, std::string& end, bool& override_changed) {
   const auto space = line.find(' ');
   const std::string kind = line.substr(0, space);
   const std::string rest = space == std::string::npos ? "" : line.substr(space + 1);
+  if (kind == "run") {
+    progress.started(std::atoi(rest.c_str()), now_s());
+    return;
+  }
+  if (kind == "run-end") {
+    progress.ended(now_s());
+    return;
+  }
+  if (kind == "line" || kind == "resumed" || kind == "opened") return;
+  progress.clear();
   if (kind == "end") {
     end = rest;
   } else if (kind == "waiting") {
@@ -61,28 +81,48 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
     out << "circtest: the marker output was on (an aborted program): switched off (M65 P"
         << setup.marker_output << ")\n";
   }
+  // On a terminal the session's line shows the progress, and the recorder's own status line
+  // (on the same terminal) is held back for the recording (its delay set beyond it).
+  std::FILE* terminal = &out == &std::cout && is_terminal(stdout) ? stdout : nullptr;
+  RunProgress progress(program, out, terminal, now_s());
+  std::optional<std::string> delay;
+  if (const char* d = std::getenv("CIRCTEST_PROGRESS_AFTER_S")) delay = d;
+  if (terminal) ::setenv("CIRCTEST_PROGRESS_AFTER_S", "3600", 1);
   Child recorder(
       {tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","), "--program",
        program, "--ini", setup.ini_path, "--until-idle", "2", "--machine", setup.machine_title},
       "-");
+  if (terminal) {
+    if (delay) {
+      ::setenv("CIRCTEST_PROGRESS_AFTER_S", delay->c_str(), 1);
+    } else {
+      ::unsetenv("CIRCTEST_PROGRESS_AFTER_S");
+    }
+  }
   if (const int rc = recorder.wait_for(0.5); rc >= 0) {
     out << "circtest: circlog-record stopped at once (exit " << rc << "): nothing was run\n";
     return {rc == 0 ? 7 : rc};
   }
-  std::vector<std::string> link = {tool_path("circtest-linuxcnc"), "run", program, "--timeout",
-                                   fmt::format("{}", request.timeout_s)};
+  std::vector<std::string> link = {tool_path("circtest-linuxcnc"),
+                                   "run",
+                                   program,
+                                   "--timeout",
+                                   fmt::format("{}", request.timeout_s),
+                                   "--marker",
+                                   std::to_string(setup.marker_output),
+                                   "--segment",
+                                   std::to_string(setup.segment_output)};
   if (request.start) link.push_back("--start");
   Child linuxcnc(link, "");
   std::string line, end;
   bool override_changed = false;
   bool recorder_done = false;  // it ended by itself: every announced run recorded, then idle
   for (;;) {
-    const auto got = linuxcnc.read_line_for(line, 0.5);
+    const auto got = linuxcnc.read_line_for(line, 0.2);
     if (got && !*got) break;
-    if (got) {
-      show_event(line, request, out, end, override_changed);
-      continue;
-    }
+    if (got) show_event(line, request, out, progress, end, override_changed);
+    progress.update(now_s());
+    if (got) continue;
     // The recorder stops with the servo thread: LinuxCNC quit (its status may stay as it was);
     // or by itself once every run is in (the program's retract may still run).
     if (!recorder_done && !recorder.running()) {
@@ -90,12 +130,14 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
       if (recorder_done) continue;
       linuxcnc.signal(SIGTERM);
       linuxcnc.wait();
+      progress.clear();
       out << "circtest: the test is incomplete (the servo thread stopped: LinuxCNC quit?): "
           << trace << " keeps what was recorded; nothing analysed or applied\n";
       return {7};
     }
   }
   const int link_rc = linuxcnc.wait();
+  progress.clear();
   if (end == "idle" && !override_changed) {
     // The recorder ends by itself once every announced run is in and the marker stays off.
     int rc = recorder.wait_for(10);
@@ -117,6 +159,7 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
       out << "circtest: the recorder failed (exit " << rc << "); nothing analysed or applied\n";
     } else {
       out << "circtest: recorded " << trace << "\n";
+      rc = check_servo_periods(setup, trace, out);
     }
     return {rc};
   }

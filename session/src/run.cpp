@@ -13,6 +13,7 @@
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/ini.hpp"
+#include "circtest/core/numbers.hpp"
 #include "circtest/core/strings.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
@@ -88,6 +89,17 @@ SessionSetup read_setup(const std::string& ini_path) {
   s.segment_output = std::stoi(ini.get("CIRCTEST", "SEGMENT_OUTPUT").value_or("0"));
   s.machine_title = ini.get("EMC", "MACHINE").value_or("machine");
   s.machine = safe_name(s.machine_title);
+  // Not a number: the trace's sample_period_s gives the period.
+  if (const auto period = ini.get("EMCMOT", "SERVO_PERIOD"))
+    s.servo_period_ns = parse_finite(*period);
+  if (const auto late = ini.find("CIRCTEST", "LATE_SERVO_PERIODS")) {
+    if (late->value != "refuse" && late->value != "note") {
+      throw DataError(late->file, late->line,
+                      "[CIRCTEST] LATE_SERVO_PERIODS = " + late->value +
+                          ": expected refuse (a real machine) or note (a simulated one)");
+    }
+    s.late_periods_noted = late->value == "note";
+  }
   return s;
 }
 

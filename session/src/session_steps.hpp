@@ -1,8 +1,13 @@
 #pragma once
 // The steps of a session, shared by run and verify (internal to the session library).
+#include <cstddef>
+#include <iosfwd>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "circtest/core/progress.hpp"
+#include "circtest/core/trace.hpp"
 #include "circtest/session/console.hpp"
 #include "circtest/session/run.hpp"
 
@@ -15,8 +20,13 @@ struct SessionSetup {
   std::vector<std::string> columns;
   int marker_output = 0;
   int segment_output = 0;
-  std::string machine;        // [EMC] MACHINE, as a file name
-  std::string machine_title;  // [EMC] MACHINE as it is written (the trace's metadata)
+  std::string machine;                    // [EMC] MACHINE, as a file name
+  std::string machine_title;              // [EMC] MACHINE as it is written (the trace's metadata)
+  std::optional<double> servo_period_ns;  // [EMCMOT] SERVO_PERIOD
+  // [CIRCTEST] LATE_SERVO_PERIODS = note: late periods are said but do not stop the session
+  // (a simulated machine, whose motion is computed per servo period: a late period delays
+  // the run but changes nothing it measures); absent or `refuse`: they stop it.
+  bool late_periods_noted = false;
 };
 
 // Throws HalError when circtest install has not been applied to the INI.
@@ -36,6 +46,68 @@ struct RecordResult {
 RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
                             const std::string& program, const std::string& trace,
                             const Console& console);
+
+// The servo thread's periods in a trace: the servo_period channel (circtest install:
+// motion.servo.last-period, CPU clocks in LinuxCNC 2.9, ns later) against the thread's own
+// period. A period longer than kLatePeriodFactor times it is late: the thread
+// woke late (a latency problem of the PC), so the samples around it are not a servo period
+// apart and the run does not measure the machine.
+inline constexpr double kLatePeriodFactor = 1.5;
+struct ServoPeriods {
+  bool logged = false;  // the trace has the channel
+  std::size_t samples = 0;
+  double nominal_ns = 0;  // the thread's period
+  std::size_t late = 0;   // periods longer than kLatePeriodFactor * nominal_ns
+  double longest_ns = 0;
+  bool unit_is_ns = true;      // the column's mean is the nominal period in ns
+  double units_per_us = 1000;  // else CPU clocks: the column's mean over the nominal period
+};
+// The nominal period is the trace's sample_period_s, else INI_PERIOD_NS. Throws DataError when
+// the channel is there and neither is known.
+ServoPeriods servo_periods(const Trace& trace, std::optional<double> ini_period_ns);
+// What the session says of them, in one line (without the "circtest: " prefix); NOTED: late
+// periods are noted only (SessionSetup::late_periods_noted).
+std::string servo_period_line(const ServoPeriods& periods, bool noted = false);
+// The session folder's record of them (servo-period.json).
+std::string servo_period_json(const ServoPeriods& periods, const std::string& trace_name,
+                              bool noted = false);
+// Reads TRACE's periods, writes servo-period.json beside it (verify-servo-period.json for
+// verify-trace.csv), says the line; exit 5 (data) when a period was late (and they are not
+// noted only), else 0.
+int check_servo_periods(const SessionSetup& setup, const std::string& trace, std::ostream& out);
+
+// What the operator sees while the program runs: "XY run 1 of 2 (CCW F1000): 37 % of the
+// path", from the program's header (its runs, radius, arc, feeds) and the LinuxCNC link's
+// `run SEGMENT` / `run-end` events. On a terminal (TERMINAL not null) one line redrawn in
+// place; else a plain line on OUT at the start of each run, at each quarter of its path and at
+// its end. The share of the path is the time since the run's start against its measured arc
+// at its feed (the override is at 100 %), held below 100 until the run ends.
+class RunProgress {
+ public:
+  RunProgress(const std::string& program, std::ostream& out, std::FILE* terminal, double now_s);
+  void started(int segment, double now_s);
+  void ended(double now_s);  // says the run is recorded
+  void update(double now_s);
+  void clear();  // before another message
+  std::string status(double now_s) const;
+
+ private:
+  struct Run {
+    int segment = 0;
+    std::string what;  // "XY run 1 of 2 (CCW F1000)"
+    double duration_s = 0;
+  };
+  static constexpr int kPlainStep = 25;
+  const Run* find(int segment) const;
+  std::string what(int segment) const;
+  std::optional<int> percent(double now_s) const;
+  std::ostream& out_;
+  ProgressLine line_;
+  std::vector<Run> runs_;
+  std::optional<int> current_;
+  double started_s_ = 0;
+  int next_step_ = kPlainStep;
+};
 
 // circana analyze and diagnose, circcomp plan; asks, applies. APPLIED: corrections written.
 int analyse_and_apply(const SessionSetup& setup, const RunRequest& request, const std::string& dir,

@@ -57,6 +57,15 @@ while read -r f; do
   halcmd -i "$ini" -f "$f" || { echo "FAIL: halcmd -f $f"; halrun -U; exit 1; }
 done < <(sed -n 's/^HALFILE *= *//p' "$ini")
 halcmd show pin circlog > "$work/pins.txt"
+halcmd show pin circtest-servo-period > "$work/period-pins.txt" || true
+halcmd show pin motion.servo.last-period >> "$work/period-pins.txt" || true
+# The threads run a moment: the period conv_u32_float hands circlog is motion's own (stopped,
+# both pins hold the last period's values).
+halcmd start && sleep 0.5 && halcmd stop
+period_u32=$(halcmd getp motion.servo.last-period)
+period_float=$(halcmd getp circtest-servo-period.out)
+period_in=$(halcmd getp "circlog.0.in-$(printf '%02d' "$(sed -n 's/^COLUMNS *= *//p' "$ini" |
+  tr ',' '\n' | grep -n '^servo_period$' | cut -d: -f1 | awk '{print $1-1}')")")
 halcmd show funct circlog.0 > "$work/funct.txt"
 halcmd show thread > "$work/thread.txt"
 halrun -U >/dev/null 2>&1 || true
@@ -81,6 +90,25 @@ grep -qE "circlog.0.enable[[:space:]]+<== circtest-marker" "$work/pins.txt" ||
 awk '/servo-thread/{s=1} s' "$work/thread.txt" | grep -n "motion-controller\|circlog.0" |
   tr '\n' ' ' | grep -qE "motion-controller.*circlog.0" ||
   { echo "FAIL: circlog.0 is not after motion-controller in the servo thread"; cat "$work/thread.txt"; fail=1; }
+
+# The servo thread's period: motion.servo.last-period through conv_u32_float into circlog, run
+# in the servo thread after motion-controller and before circlog.0.
+cat "$work/period-pins.txt"
+grep -qE "circtest-servo-period.in[[:space:]]+<== " "$work/period-pins.txt" ||
+  { echo "FAIL: circtest-servo-period.in is on no signal"; fail=1; }
+sig=$(sed -nE 's/.*circtest-servo-period.in[[:space:]]+<== ([^ ]+)$/\1/p' "$work/period-pins.txt")
+grep -qE "motion.servo.last-period[[:space:]]+==> $sig\$" "$work/period-pins.txt" ||
+  { echo "FAIL: motion.servo.last-period is not on $sig"; fail=1; }
+awk '/servo-thread/{s=1} s' "$work/thread.txt" | grep -n "motion-controller\|circtest-servo-period\|circlog.0" |
+  tr '\n' ' ' | grep -qE "motion-controller.*circtest-servo-period.*circlog.0" ||
+  { echo "FAIL: circtest-servo-period is not between motion-controller and circlog.0"; fail=1; }
+echo "servo period: motion.servo.last-period $period_u32, conv out $period_float, circlog in $period_in"
+python3 - "$period_u32" "$period_float" "$period_in" <<'PY' || fail=1
+import sys
+u32, out, logged = int(sys.argv[1], 0), float(sys.argv[2]), float(sys.argv[3])
+if not (u32 > 0 and out == u32 and logged == u32):
+    sys.exit("FAIL: the period logged (%s, %s) is not motion's (%d)" % (sys.argv[2], sys.argv[3], u32))
+PY
 
 "$circtest" uninstall --ini "$ini"
 if ! diff -r "$pristine" "$machine"; then

@@ -65,7 +65,7 @@ TEST(Install, PncconfServoJoinsItsSignalsAndTakesAFreeMarkerOutput) {
   ScratchDir scratch("session-install");
   const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
   const InstallPlan plan = plan_install(request_for(ini));
-  ASSERT_EQ(plan.channels.size(), 6u);
+  ASSERT_EQ(plan.channels.size(), 7u);
   EXPECT_EQ(channel(plan, "x_cmd")->signal, "x-pos-cmd");
   EXPECT_EQ(channel(plan, "z_fb")->signal, "z-pos-fb");
   EXPECT_NE(channel(plan, "y_fb")->what.find("encoder (encoder.1.position)"), std::string::npos);
@@ -77,10 +77,58 @@ TEST(Install, PncconfServoJoinsItsSignalsAndTakesAFreeMarkerOutput) {
   EXPECT_NE(plan.plan.files[0].after.find("HALFILE = custom.hal\nHALFILE = circtest.hal\n"),
             std::string::npos);
   EXPECT_NE(plan.plan.files[0].after.find(
-                "COLUMNS = x_cmd,y_cmd,z_cmd,x_fb,y_fb,z_fb\nMARKER_OUTPUT = 1\n"),
+                "COLUMNS = x_cmd,y_cmd,z_cmd,x_fb,y_fb,z_fb,servo_period\nMARKER_OUTPUT = 1\n"),
             std::string::npos);
   EXPECT_NE(plan.plan.files[1].after.find("net circtest-marker motion.digital-out-01 => "),
             std::string::npos);
+}
+
+TEST(Install, TheServoPeriodIsLoggedThroughConvU32Float) {
+  ScratchDir scratch("session-install");
+  const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
+  const InstallPlan plan = plan_install(request_for(ini));
+  const InstallChannel* period = channel(plan, "servo_period");
+  ASSERT_NE(period, nullptr);
+  EXPECT_EQ(period->pin, "circtest-servo-period.out");
+  const std::string& hal = plan.plan.files[1].after;
+  // Loaded under a name of its own, in the thread before circlog.0 (the same period's value).
+  const auto conv = hal.find(
+      "loadrt conv_u32_float names=circtest-servo-period\naddf circtest-servo-period "
+      "servo-thread\nnet circtest-last-period motion.servo.last-period => "
+      "circtest-servo-period.in\n");
+  ASSERT_NE(conv, std::string::npos) << hal;
+  EXPECT_LT(conv, hal.find("addf circlog.0 servo-thread"));
+  EXPECT_NE(
+      hal.find("net circtest-servo-period-float circtest-servo-period.out => circlog.0.in-06\n"),
+      std::string::npos)
+      << hal;
+
+  // A signal of the configuration's on the pin is joined as it is.
+  const std::string custom = (fs::path(ini).parent_path() / "custom.hal").string();
+  circtest::testing::spit(
+      custom, circtest::testing::slurp(custom) + "net servo-time motion.servo.last-period\n");
+  const InstallPlan joined = plan_install(request_for(ini));
+  EXPECT_NE(joined.plan.files[1].after.find("net servo-time => circtest-servo-period.in\n"),
+            std::string::npos);
+}
+
+TEST(Install, AConfigurationLoadingConvU32FloatKeepsItsStartAndLogsNoPeriod) {
+  ScratchDir scratch("session-install");
+  const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");
+  const std::string custom = (fs::path(ini).parent_path() / "custom.hal").string();
+  circtest::testing::spit(custom,
+                          "loadrt conv_u32_float count=1\n" + circtest::testing::slurp(custom));
+  const InstallPlan plan = plan_install(request_for(ini));
+  EXPECT_EQ(channel(plan, "servo_period"), nullptr);
+  EXPECT_EQ(plan.channels.size(), 6u);
+  EXPECT_EQ(plan.plan.files[1].after.find("conv_u32_float"), std::string::npos);
+  ASSERT_EQ(plan.notes.size(), 1u);
+  EXPECT_NE(plan.notes[0].find("custom.hal:1 loads conv_u32_float already"), std::string::npos)
+      << plan.notes[0];
+  // The front end shows it among the notes.
+  const auto r = circtest::testing::run_command({CIRCTEST_PATH, "install", "--ini", ini});
+  EXPECT_NE(r.out.find("# note: custom.hal:1 loads conv_u32_float already"), std::string::npos)
+      << r.out;
 }
 
 TEST(Install, StepperSaysFeedbackIsTheStepCount) {

@@ -29,6 +29,11 @@ std::string_view library_setting_words(InstallSetting setting) noexcept;
 
 // The HAL file the install writes, in the configuration folder.
 inline constexpr std::string_view kSessionHalFile = "circtest.hal";
+// The channel of the servo thread's period: motion.servo.last-period (u32: the time between
+// the last two runs of motion's controller, in CPU clocks in LinuxCNC 2.9, in ns later) made a
+// float by LinuxCNC's conv_u32_float, loaded under this instance name.
+inline constexpr std::string_view kServoPeriodColumn = "servo_period";
+inline constexpr std::string_view kServoPeriodConv = "circtest-servo-period";
 
 struct InstallRequest {
   std::string ini_path;
@@ -69,6 +74,10 @@ struct InstallPlan {
   std::vector<std::string> notes;  // stepper feedback, joints left out, ...
   int marker_output = 0;           // motion.digital-out-NN for circlog.0.enable
   int segment_output = 0;          // motion.analog-out-NN for circlog.0.segment
+  // The u32 signal on motion.servo.last-period that feeds the conv_u32_float of the
+  // servo_period channel (a new signal when the pin is on none); empty: the period is not
+  // logged (a note says why).
+  std::string servo_period_signal;
 };
 
 // Reads the INI and its HAL files and plans the install. Throws DataError when circlog is
