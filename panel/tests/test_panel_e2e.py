@@ -120,12 +120,13 @@ def test_the_whole_flow_by_the_panels_buttons(qtbot, programs):
     panel = widgets.CircTestPanel(programs, linuxcnc, "")
     qtbot.addWidget(panel)
     panel.resize(960, 720)
-    panel.show()
-    qtbot.waitExposed(panel)
+    with qtbot.waitExposed(panel):
+        panel.show()
     steps = Steps(qtbot, panel)
     steps.wait_machine_ready()
 
     # Set up: the INI, D and F, the panel presses cycle start (a simulator); the preview.
+    panel.ini_edit.clear()
     qtbot.keyClicks(panel.ini_edit, INI)
     panel.diameter.setValue(DIAMETER_MM)
     panel.feeds.clear()
