@@ -185,5 +185,8 @@ def test_the_whole_flow_by_the_panels_buttons(qtbot, programs):
     assert panel_figures(panel, "run") == before
     assert panel_figures(panel, "verify") == after
     assert panel.plan_list.item(0).text().startswith("applied (apply.txt)")
+    # the corrections applied through the panel act after the restart (H, G: lower)
+    assert float(after[0][2]) < float(before[0][2])
+    assert max(float(g) for g, _, _ in after) < max(float(g) for g, _, _ in before)
     steps.shot("8-before-after", "results")
     print("G, F, H (um) per run: before %s, after %s" % (before, after))
