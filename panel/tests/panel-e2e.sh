@@ -43,6 +43,8 @@ for name in circgen:gcode-gen/circgen circana:analysis/circana circcomp:compensa
   export "CIRCTEST_TEST_${n^^}=$build/${name#*:}"
 done
 rc=0
+# (root: no compiled Python left in the source tree)
+export PYTHONDONTWRITEBYTECODE=1
 PANEL_E2E_INI=$ini PANEL_E2E_SHOTS=$shots PANEL_E2E_MACHINE=$machine PANEL_E2E_BUILD=$build \
   PANEL_E2E_SCRIPT=$here/panel-e2e.sh QT_QPA_PLATFORM=xcb xvfb-run -a -s "-screen 0 1280x1024x24" \
   "${PANEL_E2E_PYTHON:-/usr/bin/python3}" -m pytest -q -s -p no:cacheprovider \
