@@ -274,10 +274,16 @@ def plan_lines(plan):
 
 
 def session_folder(stdout_line):
-    """The session folder `circtest run` announces on one of its lines, else None."""
-    prefix = "circtest: session folder "
+    """The session folder `circtest run` (`circtest: session folder DIR`) or `circtest verify`
+    (`circtest: verifying session DIR: its program again`) announces on a line, else None."""
     line = stdout_line.strip()
-    return line[len(prefix):] if line.startswith(prefix) else None
+    prefix = "circtest: session folder "
+    if line.startswith(prefix):
+        return line[len(prefix):]
+    prefix, suffix = "circtest: verifying session ", ": its program again"
+    if line.startswith(prefix) and line.endswith(suffix):
+        return line[len(prefix):-len(suffix)]
+    return None
 
 
 def write_apply_record(session_dir, apply_stdout):

@@ -525,6 +525,7 @@ class CircTestPanel(QWidget):
                 v = row.get(key)
                 text = "" if v is None else ("%.1f" % v if isinstance(v, float) else str(v))
                 table.setItem(i, j, QTableWidgetItem(text))
+        table.resizeColumnsToContents()
 
     def show_results(self, tests):
         """TESTS: (label, circana analyze --json document), the run's and the verify's."""

@@ -163,6 +163,10 @@ def test_find_programs(tmp_path):
 def test_session_folder_line():
     assert logic.session_folder("circtest: session folder /a/b\n") == "/a/b"
     assert logic.session_folder("circtest: program /a/p.ngc") is None
+    # circtest verify's line (session/src/verify.cpp)
+    assert logic.session_folder(
+        "circtest: verifying session /a/m-20260101T000000Z: its program again") == \
+        "/a/m-20260101T000000Z"
 
 
 def test_machine_state():

@@ -140,10 +140,14 @@ def test_preview_runs_circgen(qtbot, programs, tmp_path):
 def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_servo,
                                              monkeypatch):
     d = session_folder(tmp_path, programs, sim_servo)
-    # The stand-in announces the folder; as verify, its recording appears a moment later.
+    # The stand-in announces the folder as circtest run and verify do (verify first as the
+    # session it verifies, both at their end); as verify, its recording appears a moment later.
     run = script(tmp_path / "circtest",
-                 "echo 'circtest: session folder {0}'\nsleep 0.5\n"
+                 "if [ \"$1\" = verify ]; then\n"
+                 "  echo 'circtest: verifying session {0}: its program again'\n"
+                 "else echo 'circtest: session folder {0}'; fi\nsleep 0.5\n"
                  "if [ -f {0}/pending.csv ]; then mv {0}/pending.csv {0}/verify-trace.csv; fi\n"
+                 "echo 'circtest: session folder {0}'\n"
                  .format(d))
     panel = panel_with(qtbot, programs, run, ini=sim_servo)
     qtbot.mouseClick(panel.run_button, widgets.Qt.LeftButton)
