@@ -97,6 +97,7 @@ class Loop {
   const char* should_stop();
   void wait_for_producer_to_see_release();
   std::string status(const TraceWriter& writer) const;
+  void flush_live(TraceWriter& writer);
 
   circlog::Consumer& ring_;
   const circlog::SharedHeader& h_;
@@ -112,6 +113,8 @@ class Loop {
   std::uint64_t last_active_period_ = 0;
   std::uint64_t last_periods_ = 0;
   double last_progress_s_ = 0.0;
+  double last_live_s_ = 0.0;
+  bool live_error_said_ = false;
   bool seen_marker_ = false;
   bool reloaded_ = false;
   // The run being read (marker set), and whether its start was recorded: enable rose, or
@@ -358,6 +361,7 @@ Summary Loop::run(std::int32_t pid) {
   std::unique_ptr<TraceWriter> writer;
   try {
     writer = open_writer(names);
+    if (!options_.live.empty()) writer->live_copy(options_.live);
   } catch (...) {
     ring_.release();
     throw;
@@ -370,6 +374,7 @@ Summary Loop::run(std::int32_t pid) {
       reason = should_stop();
       const std::size_t n = drain(*writer);
       if (progress_.enabled()) progress_.update(env_.monotonic_s(), status(*writer));
+      flush_live(*writer);
       if (reason) break;
       if (n == 0) env_.sleep(options_.poll_s);
     }
@@ -409,6 +414,20 @@ Summary Loop::run(std::int32_t pid) {
 }
 
 // "12 s, 12000 samples, 1 run; waiting for run 2 of 3".
+// The rows since the last time into the live copy, at most every kLiveFlush_s; a live copy
+// that failed is said once and the recording goes on.
+void Loop::flush_live(TraceWriter& writer) {
+  if (options_.live.empty()) return;
+  const double now = env_.monotonic_s();
+  if (now - last_live_s_ < kLiveFlush_s) return;
+  last_live_s_ = now;
+  writer.flush_live();
+  if (!writer.live_error().empty() && !live_error_said_) {
+    std::fprintf(log_, "circlog-record: warning: %s\n", writer.live_error().c_str());
+    live_error_said_ = true;
+  }
+}
+
 std::string Loop::status(const TraceWriter& writer) const {
   std::string text = fmt::format("{:.0f} s, {} samples, {} run(s)", env_.monotonic_s() - started_s_,
                                  writer.rows_written(), summary_.runs);

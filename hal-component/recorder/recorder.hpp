@@ -66,7 +66,13 @@ struct RecordRequest {
   // --progress-to: a terminal for the status line when stderr is not one (circtest-run, whose
   // LinuxCNC output goes to a log, passes its own terminal).
   std::string progress_to;
+  // --live: a copy of the trace's text that grows while it records, every kLiveFlush_s (the
+  // QtVCP panel's live plot reads it); the trace at `output` is still written whole at the end.
+  std::string live;
 };
+
+// How often the live copy (--live) gets the rows recorded since the last time.
+inline constexpr double kLiveFlush_s = 0.1;
 
 // TEXT cut at each SEPARATOR, empty items kept ("a,,b," gives a, "", b, "").
 std::vector<std::string> split_on(const std::string& text, char separator);

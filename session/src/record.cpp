@@ -88,10 +88,18 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   std::optional<std::string> delay;
   if (const char* d = std::getenv("CIRCTEST_PROGRESS_AFTER_S")) delay = d;
   if (terminal) ::setenv("CIRCTEST_PROGRESS_AFTER_S", "3600", 1);
-  Child recorder(
-      {tool_path("circlog-record"), "-o", trace, "--columns", join(setup.columns, ","), "--program",
-       program, "--ini", setup.ini_path, "--until-idle", "2", "--machine", setup.machine_title},
-      "-");
+  // Beside the trace, its live copy while it records (the panel's live plot): trace.csv's is
+  // live.csv, verify-trace.csv's verify-live.csv.
+  std::string live = trace;
+  if (const auto at = live.rfind("trace.csv"); at != std::string::npos) {
+    live.replace(at, 9, "live.csv");
+  } else {
+    live += ".live.csv";
+  }
+  Child recorder({tool_path("circlog-record"), "-o", trace, "--live", live, "--columns",
+                  join(setup.columns, ","), "--program", program, "--ini", setup.ini_path,
+                  "--until-idle", "2", "--machine", setup.machine_title},
+                 "-");
   if (terminal) {
     if (delay) {
       ::setenv("CIRCTEST_PROGRESS_AFTER_S", delay->c_str(), 1);

@@ -18,6 +18,7 @@
 #include "circlog_kernel.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/trace.hpp"
+#include "fake_servo.hpp"
 #include "options.hpp"
 #include "pty_capture.hpp"
 #include "recorder.hpp"
@@ -27,87 +28,8 @@ namespace {
 
 namespace rec = circtest::circlog_record;
 namespace fs = std::filesystem;
-
-struct FreeDeleter {
-  void operator()(void* p) const { std::free(p); }
-};
-
-// The servo thread at 1 kHz; enable and segment follow a script of the period number.
-class FakeServo final : public rec::Environment {
- public:
-  FakeServo(int channels, int depth)
-      : bytes_(circtest::circlog::shared_size(channels, depth)),
-        memory_(std::aligned_alloc(64, (bytes_ + 63) / 64 * 64)),
-        values_(static_cast<std::size_t>(channels)),
-        pointers_(static_cast<std::size_t>(channels)) {
-    for (std::size_t i = 0; i < values_.size(); ++i) pointers_[i] = &values_[i];
-    EXPECT_TRUE(producer_.init(memory_.get(), bytes_, channels, depth));
-    EXPECT_EQ(consumer.attach(memory_.get(), bytes_), circtest::circlog::AttachResult::ok);
-  }
-
-  std::function<bool(std::uint64_t)> enable = [](std::uint64_t) { return false; };
-  std::function<double(std::uint64_t)> segment = [](std::uint64_t) { return 0.0; };
-  bool running = true;
-  int stop_after_sleeps = -1;
-  std::vector<std::int32_t> alive;
-
-  void run_periods(std::uint64_t n) {
-    for (std::uint64_t i = 0; i < n; ++i) {
-      for (std::size_t c = 0; c < values_.size(); ++c) {
-        values_[c] = static_cast<double>(period_) + 0.001 * static_cast<double>(c);
-      }
-      producer_.step(enable(period_), segment(period_), pointers_.data(), 1000000);
-      ++period_;
-    }
-  }
-
-  void sleep(double seconds) override {
-    ++sleeps_;
-    const double before = now_;
-    now_ += seconds;
-    if (running) {
-      run_periods(static_cast<std::uint64_t>(std::floor(now_ * 1000.0)) -
-                  static_cast<std::uint64_t>(std::floor(before * 1000.0)));
-    }
-  }
-  double monotonic_s() override { return now_; }
-  bool stop_requested() override { return stop_after_sleeps >= 0 && sleeps_ >= stop_after_sleeps; }
-  bool process_alive(std::int32_t pid) override {
-    return std::find(alive.begin(), alive.end(), pid) != alive.end();
-  }
-  std::string utc_now_iso8601() override { return "2026-01-02T03:04:05.000Z"; }
-
-  circtest::circlog::Consumer consumer;
-  circtest::circlog::Status status() const { return producer_.status(); }
-
- private:
-  std::size_t bytes_;
-  std::unique_ptr<void, FreeDeleter> memory_;
-  std::vector<double> values_;
-  std::vector<const volatile double*> pointers_;
-  circtest::circlog::Producer producer_;
-  std::uint64_t period_ = 0;
-  double now_ = 0.0;
-  int sleeps_ = 0;
-};
-
-class Recorder : public ::testing::Test {
- protected:
-  void SetUp() override { log_ = std::tmpfile(); }
-  void TearDown() override { std::fclose(log_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  std::string log_text() {
-    std::rewind(log_);
-    std::string s;
-    char buf[256];
-    while (std::fgets(buf, sizeof buf, log_)) s += buf;
-    return s;
-  }
-
-  circtest::testing::ScratchDir scratch_{"circlog-recorder-test"};
-  fs::path dir_ = scratch_.dir();
-  std::FILE* log_ = nullptr;
-};
+using circtest::testing::FakeServo;
+using circtest::testing::Recorder;
 
 rec::RecordRequest options_for(const std::string& output) {
   rec::RecordRequest o;
@@ -250,6 +172,38 @@ TEST_F(Recorder, RecordsARunAndStopsWhenIdle) {
   for (const auto& [k, v] : m.entries()) machine_lines += k == "machine";
   EXPECT_EQ(machine_lines, 1u);
   EXPECT_NE(log_text().find("header key 'rows'"), std::string::npos);
+}
+
+// --live: while it records, the live copy holds the rows recorded up to at most 0.1 s before
+// (the panel's live plot); at the end it is the trace's text.
+TEST_F(Recorder, TheLiveCopyGrowsWhileItRecordsAndEndsAsTheTrace) {
+  FakeServo servo(2, 4096);
+  servo.enable = [](std::uint64_t p) { return p >= 100 && p < 2100; };
+  rec::RecordRequest o = options_for(path("t.csv"));
+  o.idle_s = 0.1;
+  o.live = path("live.csv");
+  std::vector<std::pair<double, std::size_t>> seen;  // fake time, rows in the live copy
+  servo.on_sleep = [&] {
+    if (!fs::exists(path("live.csv"))) return;
+    const std::string text = circtest::testing::slurp(path("live.csv"));
+    const auto lines = static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+    seen.emplace_back(servo.monotonic_s(), lines);
+  };
+  const rec::Summary s = rec::record(servo.consumer, 42, o, servo, log_);
+  EXPECT_EQ(s.rows, 2001u);
+  ASSERT_FALSE(seen.empty());
+  const std::size_t header = seen.front().second;
+  std::size_t in_between = 0;
+  for (const auto& [t_s, lines] : seen) {
+    const double recorded = std::clamp(t_s - 0.1, 0.0, 2.001);  // s of enabled periods so far
+    const double rows = static_cast<double>(lines - header);
+    EXPECT_LE(rows, recorded * 1000.0 + 2.0) << t_s;  // nothing ahead
+    if (t_s < 2.0)
+      EXPECT_GE(rows, (recorded - 0.1) * 1000.0 - 10.0) << t_s;  // at most 0.1 s behind
+    in_between += rows > 0 && rows < 2001;
+  }
+  EXPECT_GT(in_between, 10u);
+  EXPECT_EQ(circtest::testing::slurp(path("live.csv")), circtest::testing::slurp(path("t.csv")));
 }
 
 TEST_F(Recorder, ATinyRingLosesRecordsAndSaysSoEverywhere) {

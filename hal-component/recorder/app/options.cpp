@@ -72,7 +72,10 @@ std::optional<RecordRequest> parse_options(int argc, const char* const* argv, st
       "poll", po::value(&o.poll_s)->value_name("S"),
       "sleep between polls of an empty ring (default 0.005)")(
       "progress-to", po::value(&o.progress_to)->value_name("TTY"),
-      "show the status line on this terminal (default: stderr when it is a terminal)");
+      "show the status line on this terminal (default: stderr when it is a terminal)")(
+      "live", po::value(&o.live)->value_name("FILE"),
+      "also write the trace's text to FILE as it records (every 0.1 s), for a live plot; the "
+      "trace (-o) is still written whole at the end");
   // The test conditions of clauses 4.4 and 6, written as metadata (docs/trace-format.md).
   std::vector<std::string> condition_values(condition_options().size());
   for (std::size_t i = 0; i < condition_options().size(); ++i) {
