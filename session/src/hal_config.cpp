@@ -6,10 +6,9 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/strings.hpp"
+#include "session_steps.hpp"
 
 namespace circtest::session {
-
-namespace {
 
 std::vector<std::string> words_of(const std::string& line) {
   std::vector<std::string> words;
@@ -17,6 +16,8 @@ std::vector<std::string> words_of(const std::string& line) {
   for (std::string w; in >> w;) words.push_back(w);
   return words;
 }
+
+namespace {
 
 bool is_input_side(const std::string& pin) {
   return pin.rfind("joint.", 0) == 0 || pin.find(".feedback") != std::string::npos ||

@@ -5,17 +5,11 @@
 
 #include "circtest/core/error.hpp"
 #include "circtest/session/install.hpp"
+#include "session_steps.hpp"
 
 namespace circtest::session {
 
 namespace {
-
-std::vector<std::string> words_of(const std::string& text) {
-  std::istringstream in(text);
-  std::vector<std::string> words;
-  for (std::string w; in >> w;) words.push_back(w);
-  return words;
-}
 
 // The screen qtvcp runs: its last word that is not an option ("qtvcp -d qtdragon").
 std::string qtvcp_screen(const std::vector<std::string>& words) {

@@ -13,6 +13,10 @@
 
 namespace circtest::session {
 
+// The words of a line or an INI value, split at white space (as halcmd and the linuxcnc
+// script split them).
+std::vector<std::string> words_of(const std::string& line);
+
 // What install wrote into the INI ([CIRCTEST]) and where the session lives.
 struct SessionSetup {
   std::string ini_path;
