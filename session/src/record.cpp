@@ -47,9 +47,8 @@ void show_event(const std::string& line, const RunRequest& request, std::ostream
     out << "circtest: cycle start: the program runs\n";
   } else if (kind == "paused") {
     out << "circtest: operator pause (line " << rest << ")"
-        << (request.start ? ": resumed\n" : ": read the message, press cycle start\n");
-  } else if (kind == "message") {
-    out << "circtest: LinuxCNC: " << rest << "\n";
+        << (request.start ? ": resumed\n"
+                          : ": read its message on the machine's screen, press cycle start\n");
   } else if (kind == "override") {
     if (rest != "100") {
       override_changed = true;
