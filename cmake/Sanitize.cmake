@@ -23,6 +23,9 @@ if(CIRCTEST_SANITIZE)
   target_compile_options(circtest_options INTERFACE ${circtest_sanitize_flags}
                          $<${circtest_not_test_program}:-fsanitize=address>)
   target_link_options(circtest_options INTERFACE ${circtest_sanitize_flags} -fsanitize=address)
+  # Tells a test program, whose own sources are not ASan-instrumented, that the programs it
+  # runs are (tests/support/sanitizer.hpp).
+  target_compile_definitions(circtest_options INTERFACE CIRCTEST_SANITIZE_BUILD=1)
 endif()
 if(CIRCTEST_FUZZ)
   if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
