@@ -11,16 +11,21 @@ mkdir -p "$work/cfg/qtvcp/panels"
 cp -r "$src/panel/circtest" "$work/cfg/qtvcp/panels/circtest"
 cat >"$work/run.sh" <<INNER
 #!/bin/bash
+# No desktop bus in the sandbox: qtvcp's notifications and Qt fail at once instead of waiting.
 export CONFIG_DIR=$work/cfg QT_QPA_PLATFORM=offscreen CIRCTEST_PANEL_SCREENSHOT=$work/panel.png
+export DBUS_SESSION_BUS_ADDRESS=disabled: PYTHONUNBUFFERED=1
 cd $work/cfg
 /usr/lib/linuxcnc/realtime start >/dev/null 2>&1
-/usr/bin/python3 /usr/bin/qtvcp -d circtest >$work/qtvcp.log 2>&1 &
+/usr/bin/python3 -X faulthandler /usr/bin/qtvcp -d circtest >$work/qtvcp.log 2>&1 &
 pid=\$!
-for _ in \$(seq 1 300); do
+for _ in \$(seq 1 900); do
   [ -s $work/panel.png ] && break
   kill -0 \$pid 2>/dev/null || break
   sleep 0.1
 done
+# Not drawn in time: Python's stacks into the log (faulthandler, SIGABRT) to say where it waits.
+[ -s $work/panel.png ] || kill -ABRT \$pid 2>/dev/null || true
+sleep 0.5
 # qtvcp leaves HAL on SIGTERM but its window stays: SIGKILL after 2 s
 kill \$pid 2>/dev/null || true
 for _ in \$(seq 1 20); do kill -0 \$pid 2>/dev/null || break; sleep 0.1; done

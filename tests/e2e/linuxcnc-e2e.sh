@@ -39,7 +39,7 @@ e2e_machine() {
   export CIRCTEST_KINS_MODULE=$build/hal-component/circtest_kins.so
   export CIRCTEST_FRIC_MODULE=$build/hal-component/circfric.so
   circtest=$build/session/circtest
-  local ini_tool=$build/core/circtest-ini
+  ini_tool=$build/core/circtest-ini
   machine=$work/machine ini=$work/machine/$config.ini
   rm -rf "$machine"
   cp -rL "$top/configs/$config" "$machine"

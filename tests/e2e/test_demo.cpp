@@ -21,9 +21,13 @@ using nlohmann::json;
 
 namespace {
 
-// The demo's budget: a further apply round starts only when it ends within 180 s after the
-// build; the margin is a busy machine's evaluation time.
-constexpr double kBudgetS = 180.0 + 30.0;
+// The demo's budget: a further apply round starts only when it ends within
+// CIRCTEST_DEMO_BUDGET_S after the build (180 s for a user on an idle machine). The suite runs
+// it beside two other LinuxCNC and the unit tests, where each run takes longer: its budget
+// here is 400 s, so that the friction round this test checks always runs; the margin is a busy
+// machine's evaluation time.
+constexpr double kSuiteBudgetS = 400.0;
+constexpr double kBudgetS = kSuiteBudgetS + 30.0;
 
 class Demo : public circtest::testing::LinuxcncTest {
  protected:
@@ -103,7 +107,8 @@ class Demo : public circtest::testing::LinuxcncTest {
 TEST_F(Demo, ClosesTheLoopOnTheServoMachineAndPrintsTheServoPerAxis) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto demo = run_command({"/bin/bash", CIRCTEST_DEMO_PATH, "--no-setup", out_.string()},
-                                {std::string("CIRCTEST_BUILD_DIR=") + CIRCTEST_BINARY_DIR});
+                                {std::string("CIRCTEST_BUILD_DIR=") + CIRCTEST_BINARY_DIR,
+                                 "CIRCTEST_DEMO_BUDGET_S=" + std::to_string(int(kSuiteBudgetS))});
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_EQ(demo.exit_code, 0) << demo.out << demo.err;

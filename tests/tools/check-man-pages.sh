@@ -9,7 +9,7 @@
 # renders without a groff warning.
 #   check-man-pages.sh SOURCE_DIR CIRCGEN CIRCANA CIRCLOG_RECORD CIRCCOMP
 set -u  # no pipefail: grep -q may close a pipe early
-src=$1 circgen=$2 circana=$3 recorder=$4 circcomp=$5
+src=$1 circgen=$2 circana=$3 recorder=$4 circcomp=$5 circtest=$6
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
@@ -100,6 +100,12 @@ done
 check_documented_options circcomp "$("$circcomp" --help | grep -o -- '--[a-z][a-z-]*' | sort -u; echo --help; echo --version)" \
   circcomp.1
 echo "ok: circcomp: $n options in docs/man/circcomp.1 and docs/compensation.md"
+circtest_known=$("$circtest" --help 2>&1 | grep -o -- '--[a-z][a-z-]*' | sort -u; echo --help; echo --version)
+check_documented_options circtest "$circtest_known" circtest.1
+for opt in $(grep -vxF -e --help -e --version <<<"$circtest_known"); do
+  plain "$src/docs/man/circtest.1" | grep -qF -- "$opt" || fail "circtest(1) does not describe $opt"
+done
+echo "ok: circtest: its options in docs/man/circtest.1"
 
 pins=$(grep -o '"circlog\.0\.[a-z-]*' "$src/hal-component/circlog/circlog_hal.cpp" | tr -d '"' | sort -u)
 [ -n "$pins" ] || fail "no pin names found in hal-component/circlog/circlog_hal.cpp"
@@ -147,6 +153,7 @@ all_known=$(
   "$recorder" --help | long_options
   echo "$circana_known"
   "$circcomp" --help | grep -o -- '--[a-z][a-z-]*'
+  echo "$circtest_known"
 )
 n=0
 for opt in $(grep -oE -- '--[a-z][a-z0-9-]*' "$src/README.md" | sort -u); do
