@@ -345,7 +345,8 @@ def machine_state(linuxcnc_module):
     try:
         stat = linuxcnc_module.stat()
         stat.poll()
-    except linuxcnc_module.error as exc:
+    except (linuxcnc_module.error, SystemError) as exc:
+        # SystemError: LinuxCNC 2.9's poll() without a running LinuxCNC's tool table memory.
         return "no LinuxCNC runs (%s): start the machine first" % exc
     parts = []
     parts.append("E-stop" if stat.task_state == linuxcnc_module.STATE_ESTOP else (

@@ -174,6 +174,8 @@ def test_machine_state():
     assert "not installed" in logic.machine_state(None)
     fake.MODE = "gone"
     assert logic.machine_state(fake).startswith("no LinuxCNC runs (emcStatusBuffer")
+    fake.MODE = "no-mmap"
+    assert logic.machine_state(fake).startswith("no LinuxCNC runs (<method 'poll'")
     fake.MODE = "ready"
     assert logic.machine_state(fake) == "LinuxCNC: on, homed, idle"
     fake.MODE = "estop"

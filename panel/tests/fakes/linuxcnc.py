@@ -1,5 +1,6 @@
 """A stand-in for LinuxCNC's `linuxcnc` module: the status channel in the state MODE says
-("gone": no LinuxCNC runs; "ready": on, homed, idle; "estop")."""
+("gone": no LinuxCNC runs; "no-mmap": none either, as LinuxCNC 2.9's stat.poll() says it
+without its tool table's shared memory: a SystemError; "ready": on, homed, idle; "estop")."""
 MODE = "gone"
 
 STATE_ESTOP, STATE_ESTOP_RESET, STATE_OFF, STATE_ON = 1, 2, 3, 4
@@ -14,6 +15,8 @@ class stat:
     def poll(self):
         if MODE == "gone":
             raise error("emcStatusBuffer invalid err=3")
+        if MODE == "no-mmap":
+            raise SystemError("<method 'poll' of 'linuxcnc.stat' objects> returned NULL")
         self.joints = 3
         self.homed = (1, 1, 1, 0, 0, 0, 0, 0, 0)
         self.interp_state = INTERP_IDLE
