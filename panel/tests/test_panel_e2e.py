@@ -179,7 +179,8 @@ def test_the_whole_flow_by_the_panels_buttons(qtbot, programs):
     steps.click(panel.verify_button)
     steps.wait_session_end("verify")
     assert panel.session_dir == session
-    assert panel.source.tail.path == os.path.join(session, "verify-trace.csv")
+    # The verify's own recording: its live copy (circlog-record --live), never the run's trace.
+    assert panel.source.tail.path == os.path.join(session, "verify-live.csv")
     steps.shot("7-verify", "run")
     after = cli_figures(programs, os.path.join(session, "verify-trace.csv"))
     assert panel_figures(panel, "run") == before

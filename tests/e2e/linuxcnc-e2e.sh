@@ -85,7 +85,7 @@ stop_linuxcnc() {
 # Python interface.
 operator() {
   /usr/bin/python3 - "$1" <<'PY'
-import sys, time, linuxcnc
+import os, sys, time, linuxcnc
 c, s = linuxcnc.command(), linuxcnc.stat()
 def wait(p, what):
     end = time.time() + 60
@@ -108,8 +108,9 @@ while True:
     time.sleep(0.5)
 mode = sys.argv[1]
 if mode in ("abort", "estop", "quit"):
-    # Mid-run: once the program runs, 3 s into it, as an operator pressing Stop or E-stop,
-    # or LinuxCNC quitting (its display ends).
+    # Mid-run: once the program runs, 3 s into it (LinuxCNC quitting: 0.3 s into its first run
+    # when CIRCTEST_MARKER names the marker output), as an operator pressing Stop or E-stop, or
+    # LinuxCNC quitting (its display ends).
     end = time.time() + 60
     while time.time() < end:
         s.poll()
@@ -117,7 +118,16 @@ if mode in ("abort", "estop", "quit"):
         time.sleep(0.02)
     else:
         sys.exit("the program did not start")
-    time.sleep(3)
+    if mode == "quit" and os.environ.get("CIRCTEST_MARKER"):
+        # Inside a run, whatever the load: once the program's marker output is on.
+        marker = int(os.environ["CIRCTEST_MARKER"])
+        while time.time() < end:
+            s.poll()
+            if s.dout[marker]: break
+            time.sleep(0.005)
+        time.sleep(0.3)
+    else:
+        time.sleep(3)
     if mode == "quit":
         import os, signal
         os.kill(int(open(os.environ["CIRCTEST_DISPLAY_PID"]).read()), signal.SIGTERM)

@@ -41,7 +41,18 @@ export CIRCLOG_RECORDER=$recorder CIRCLOG_TESTS=$here TEST_DIR=$test_dir
 export PYTHONDONTWRITEBYTECODE=1
 cd "$work"
 
-cleanup() { halrun -U >/dev/null 2>&1 || true; }
+# The realtime threads SCHED_FIFO, as configs/circtest-run makes them (scripts/rt-boost: at
+# normal priority, the suite's builds and LinuxCNC runs beside this one delay its threads; as
+# root only, inside the sandbox's own PID namespace).
+boost=
+if [ "$(id -u)" = 0 ]; then
+  "$here/../../scripts/rt-boost" &
+  boost=$!
+fi
+cleanup() {
+  halrun -U >/dev/null 2>&1 || true
+  [ -z "$boost" ] || kill "$boost" 2>/dev/null || true
+}
 trap cleanup EXIT
 
 rc=0
