@@ -77,11 +77,14 @@ void TraceWriter::append_text_row(std::string& to, const double* values) const {
 }
 
 void TraceWriter::write_row(const double* values) {
-  if (live_fd_ >= 0) append_text_row(live_buffer_, values);
   if (binary_) {
     buffer_.append(reinterpret_cast<const char*>(values), columns_.size() * sizeof(double));
+    if (live_fd_ >= 0) append_text_row(live_buffer_, values);
   } else {
+    const std::size_t at = buffer_.size();
     append_text_row(buffer_, values);
+    // The live copy takes the same text, formatted once.
+    if (live_fd_ >= 0) live_buffer_.append(buffer_, at, std::string::npos);
   }
   ++rows_;
   if (buffer_.size() >= (1u << 20)) flush_buffer();
