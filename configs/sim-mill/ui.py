@@ -43,6 +43,11 @@ def wait_for(predicate, timeout, what, stat):
     raise RuntimeError("timed out waiting for " + what)
 
 
+def recorder_attached():
+    r = subprocess.run(["halcmd", "getp", "circlog.0.reading"], capture_output=True, text=True)
+    return r.returncode == 0 and r.stdout.strip() == "TRUE"
+
+
 def main():
     program = os.environ.get("CIRCTEST_PROGRAM")
     if not program:
@@ -79,10 +84,18 @@ def main():
         log("recording: " + record)
         # No shell in between: the SIGINT below must reach the recorder itself.
         recorder = subprocess.Popen(shlex.split(record), start_new_session=True)
-        time.sleep(0.5)  # attached to the stream before the first marker
-        if recorder.poll() is not None:
-            log("error: the recorder exited at once with code %d" % recorder.returncode)
-            return 7
+        # The program starts once the recorder reads circlog's stream (circlog.0.reading),
+        # so that the first run's start is in the trace however slowly the recorder starts.
+        end = time.monotonic() + 30
+        while not recorder_attached():
+            if recorder.poll() is not None:
+                log("error: the recorder exited at once with code %d" % recorder.returncode)
+                return 7
+            if time.monotonic() > end:
+                log("error: the recorder did not attach to circlog within 30 s")
+                recorder.kill()
+                return 7
+            time.sleep(0.1)
 
     log("homed; running " + program)
     cmd.auto(linuxcnc.AUTO_RUN, 0)

@@ -6,13 +6,13 @@ source "$CIRCLOG_TESTS/lib.sh"
 hal_start "$TEST_DIR/test.hal"
 
 sleep 0.3
-halcmd sets fric-on 1
+halcmd sets fric-want 1
 halcmd sets sampling 1
 sleep 2.4
-# Switched off just after a reversal, so that a pulse is running (it lasts 400 ms).
+# Switched off in the first pulse after this (test.hal: fric-arm), so that a pulse is running.
 count=$(halcmd getp circfric.0.reversals)
-wait_for_value circfric.0.reversals $((count + 1))
-halcmd sets fric-on 0
+halcmd sets fric-arm 1
+wait_for_value circfric.0.reversals $((count + 2))
 sleep 1.2
 halcmd sets sampling 0
 dump_sampler >samples.txt
