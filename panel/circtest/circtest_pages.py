@@ -40,6 +40,7 @@ def fill_table(table, header, rows):
         for j, text in enumerate(row):
             table.setItem(i, j, QTableWidgetItem(text))
     table.resizeColumnsToContents()
+    table.verticalHeader().setVisible(False)
 
 
 class ReportPage(QWidget):
@@ -61,7 +62,6 @@ class ReportPage(QWidget):
         self.banner = QLabel("")
         self.banner.setWordWrap(True)
         self.verdict = QTableWidget(0, 0)
-        self.verdict.setMaximumHeight(190)
         self.g_label = QLabel("")
         self.g_label.setWordWrap(True)
         self.problem = ProblemLabel()
@@ -69,14 +69,19 @@ class ReportPage(QWidget):
         top = QHBoxLayout()
         top.addWidget(self.path_label, 1)
         top.addWidget(self.open_button)
+        left = QVBoxLayout()
+        left.addWidget(self.verdict)
+        left.addWidget(self.problem)
+        left.addWidget(QLabel("Before and after: circana analyze --compare, one scale"))
+        left.addWidget(self.g_label)
+        left.addStretch(1)
+        middle = QHBoxLayout()
+        middle.addLayout(left)
+        middle.addLayout(self.plots, 1)
         box = QVBoxLayout(self)
         box.addLayout(top)
         box.addWidget(self.banner)
-        box.addWidget(self.verdict)
-        box.addWidget(self.problem)
-        box.addWidget(QLabel("Before and after (circana analyze --compare: one scale)"))
-        box.addWidget(self.g_label)
-        box.addLayout(self.plots, 1)
+        box.addLayout(middle, 1)
 
     def clear(self):
         self.report_path = None
@@ -121,6 +126,12 @@ class ReportPage(QWidget):
                                                 html.escape(verdict["note"])))
         self.banner.setStyleSheet("color: %s" % colour)
         fill_table(self.verdict, verdict["header"], verdict["rows"])
+        # as large as its cells: the plot beside it takes the rest
+        table, frame = self.verdict, 2 * self.verdict.frameWidth()
+        table.setMinimumWidth(frame + sum(table.columnWidth(j)
+                                          for j in range(table.columnCount())))
+        table.setMaximumHeight(frame + table.horizontalHeader().height() + sum(
+            table.rowHeight(i) for i in range(table.rowCount())))
 
     def show_plot(self, plane, svg, generation):
         if generation != self.generation:
@@ -210,6 +221,7 @@ class TrendPlot(QWidget):
         for (key, title), (rect, top, points) in zip(self.QUANTITIES, (
                 self.series()[k] for k, _ in self.QUANTITIES)):
             painter.setPen(QPen(QColor("#c0c0c0")))
+            painter.setBrush(Qt.NoBrush)
             painter.drawRect(rect)
             painter.setPen(QColor("black"))
             painter.drawText(QRectF(0, rect.top(), self.LEFT - 4, 16), Qt.AlignRight,
