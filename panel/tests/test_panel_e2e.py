@@ -201,7 +201,8 @@ def check_report(qtbot, panel, session, before, after):
     """The report verify wrote: its path, page 1's H and G before and after (the CLI's) with U
     (verify-results.json's), and circana's before/after plot with G of each run."""
     page = panel.report_page
-    assert page.report_path == os.path.join(session, "report.html") and page.open_button.isEnabled()
+    assert page.report_path == os.path.join(session, "report.html")
+    assert page.open_button.isEnabled()
     table = page.verdict
     rows = {table.item(r, 1).text(): [table.item(r, c).text() for c in range(2, 5)]
             for r in range(table.rowCount())}
@@ -210,7 +211,8 @@ def check_report(qtbot, panel, session, before, after):
                              for figures in (before, after)], rows
     verify = json.load(open(os.path.join(session, "verify-results.json")))
     assert rows["H"][2] == "%.1f µm" % (verify["U_H"] * 1000), rows
-    qtbot.waitUntil(lambda: "XY" in page.plot_paths or page.problem.text(), timeout=60000)
+    qtbot.waitUntil(lambda: "XY" in page.plot_paths or bool(page.problem.text()),
+                    timeout=60000)
     assert page.problem.text() == ""
     assert page.g_label.text() == "XY: G before %s µm, after %s µm" % (
         ", ".join(g for g, _, _ in before), ", ".join(g for g, _, _ in after))
@@ -219,7 +221,8 @@ def check_report(qtbot, panel, session, before, after):
 def check_history(qtbot, panel, before):
     """The machine's history (circtest run stored the test): its latest test is the run's."""
     page = panel.history_page
-    qtbot.waitUntil(lambda: page.table.rowCount() > 0 or page.problem.text(), timeout=60000)
+    qtbot.waitUntil(lambda: page.table.rowCount() > 0 or bool(page.problem.text()),
+                    timeout=60000)
     assert page.problem.text() == ""
     latest = page.table.rowCount() - 1
     assert page.table.item(latest, 3).text().startswith(before[0][2] + " ± ")
