@@ -267,11 +267,10 @@ class HistoryPage(QWidget):
         super().__init__()
         self.panel = panel
         self.machine = None
-        self.machine_label = QLabel("The machine's history appears after a test (circtest run "
-                                    "stores each one)")
+        self.machine_label = QLabel("The machine's history: the machine named in the INI "
+                                    "([EMC] MACHINE), or the one of the last test")
         self.machine_label.setWordWrap(True)
         self.refresh_button = QPushButton("Refresh")
-        self.refresh_button.setEnabled(False)
         self.refresh_button.clicked.connect(self.refresh)
         self.problem = ProblemLabel()
         self.trend = TrendPlot()
@@ -302,12 +301,20 @@ class HistoryPage(QWidget):
         self.machine = machine
         self.machine_label.setText("History of machine %s (circana history; H, G, F with U, "
                                    "k = 2)" % machine)
-        self.refresh_button.setEnabled(True)
         self.refresh()
 
     def refresh(self):
+        """The history of the machine shown, else of the one the set-up's INI names."""
         self.problem.setText("")
         try:
+            if not self.machine:
+                machine = records.ini_machine(self.panel.linuxcnc,
+                                              self.panel.ini_edit.text().strip())
+                if not machine:
+                    raise records.panel_error("no machine yet: give the machine's INI on the "
+                                              "set-up step, or run a test")
+                self.show_machine(machine)
+                return
             argv = records.circana_history_command(self.panel.programs, self.machine)
         except Exception as exc:  # noqa: BLE001
             self.problem.add(records.error_line(exc))

@@ -166,6 +166,19 @@ def session_machine(session_dir):
     return None
 
 
+def ini_machine(linuxcnc_module, ini_path):
+    """The name `circtest run` stores the machine's tests under: the INI's [EMC] MACHINE, as
+    LinuxCNC's own INI reader (the `linuxcnc` module's `ini`, which the screens use) reads it,
+    else "machine"; None without an INI file or LinuxCNC's module."""
+    if (not ini_path or linuxcnc_module is None or not hasattr(linuxcnc_module, "ini")
+            or not os.path.isfile(ini_path)):
+        return None
+    try:
+        return linuxcnc_module.ini(ini_path).find("EMC", "MACHINE") or "machine"
+    except linuxcnc_module.error as exc:
+        raise panel_error("%s: LinuxCNC's INI reader: %s" % (ini_path, exc)) from None
+
+
 def circana_history_command(programs, machine):
     return [programs.path("circana"), "history", "--machine", machine, "--json"]
 

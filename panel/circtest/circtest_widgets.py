@@ -240,6 +240,8 @@ class CircTestPanel(QWidget):
         self.tabs.addTab(self.report_page, "Report")
         self.history_page = pages.HistoryPage(self)
         self.tabs.addTab(self.history_page, "History")
+        if os.path.isfile(self.ini_edit.text().strip()):
+            self.history_page.refresh()  # the INI's machine, before any test
         self.live_timer = QTimer(self)
         self.live_timer.setInterval(100)  # 10 frames/s
         self.live_timer.timeout.connect(self.poll_live)

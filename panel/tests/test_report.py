@@ -183,7 +183,7 @@ def test_open_the_report(qtbot, programs, tmp_path):
 
 def stored(programs, tmp_path, machine, backlash_and_times):
     """Tests of MACHINE stored in the history as circtest run stores them (circana diagnose
-    --store, circana's default database under XDG_DATA_HOME)."""
+    --store, circana's default database: under the test's XDG_DATA_HOME, conftest.py)."""
     traces = []
     for i, (backlash_mm, start_time) in enumerate(backlash_and_times):
         trace = traced(tmp_path / ("stored-%d.csv" % i), backlash_mm, machine, start_time)
@@ -192,8 +192,7 @@ def stored(programs, tmp_path, machine, backlash_and_times):
     return traces
 
 
-def test_history_trend_with_u(qtbot, programs, tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+def test_history_trend_with_u(qtbot, programs, tmp_path):
     times = ["2026-03-01T08:00:00Z", "2026-03-02T08:00:00Z", "2026-03-05T08:00:00Z"]
     traces = stored(programs, tmp_path, "mill-3", zip((0.01, 0.006, 0.002), times))
     d = tmp_path / "session"
@@ -232,8 +231,24 @@ def test_history_trend_with_u(qtbot, programs, tmp_path, monkeypatch):
     assert image.pixelColor(x, y).name() != "#ffffff"  # the first test's point is drawn
 
 
-def test_history_refusals_are_one_line(qtbot, programs, tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+def test_history_of_the_ini_machine_before_any_test(qtbot, programs, tmp_path, sim_servo):
+    # configs/sim-servo's [EMC] MACHINE, under which circtest run stores its tests
+    stored(programs, tmp_path, "circtest-sim-servo", [(0.004, "2026-03-01T08:00:00Z")])
+    panel = make_panel(qtbot, programs)
+    assert panel.history_page.machine is None  # "machine.ini" is no file: nothing asked
+    qtbot.mouseClick(panel.history_page.refresh_button, widgets.Qt.LeftButton)
+    assert panel.history_page.problem.text() == ("circtest panel: error: no machine yet: give "
+                                                 "the machine's INI on the set-up step, or run "
+                                                 "a test")
+    panel = widgets.CircTestPanel(programs, fake_linuxcnc, sim_servo)
+    qtbot.addWidget(panel)
+    page = panel.history_page
+    qtbot.waitUntil(lambda: page.table.rowCount() == 1, timeout=15000)
+    assert page.machine == "circtest-sim-servo"
+    assert page.table.item(0, 3).text().startswith("4.0 ± ")
+
+
+def test_history_refusals_are_one_line(qtbot, programs, tmp_path):
     stored(programs, tmp_path, "mill-3", [(0.01, "2026-03-01T08:00:00Z")])
     d = tmp_path / "session"
     d.mkdir()
