@@ -59,6 +59,13 @@ class ReportPage(QWidget):
         self.open_button = QPushButton("Open the report (print to PDF from there)")
         self.open_button.setEnabled(False)
         self.open_button.clicked.connect(self.open_report)
+        self.chromium = records.chromium_path()
+        self.pdf_button = QPushButton("Save as PDF")
+        self.pdf_button.setEnabled(False)
+        self.pdf_button.setToolTip("report.pdf beside the report, printed by Chromium" if
+                                   self.chromium else "needs Debian's chromium: else open the "
+                                   "report and print it from the viewer")
+        self.pdf_button.clicked.connect(self.save_pdf)
         self.banner = QLabel("")
         self.banner.setWordWrap(True)
         self.verdict = QTableWidget(0, 0)
@@ -69,6 +76,7 @@ class ReportPage(QWidget):
         top = QHBoxLayout()
         top.addWidget(self.path_label, 1)
         top.addWidget(self.open_button)
+        top.addWidget(self.pdf_button)
         left = QVBoxLayout()
         left.addWidget(self.verdict)
         left.addWidget(self.problem)
@@ -86,6 +94,7 @@ class ReportPage(QWidget):
     def clear(self):
         self.report_path = None
         self.open_button.setEnabled(False)
+        self.pdf_button.setEnabled(False)
         self.banner.setText("")
         self.verdict.setRowCount(0)
         self.g_label.setText("")
@@ -103,6 +112,7 @@ class ReportPage(QWidget):
             self.report_path = path
             self.path_label.setText("The report: " + path)
             self.open_button.setEnabled(True)
+            self.pdf_button.setEnabled(self.chromium is not None)
             try:
                 self.show_verdict(records.report_verdict(path))
             except Exception as exc:  # noqa: BLE001 (shown, never a traceback)
@@ -143,10 +153,36 @@ class ReportPage(QWidget):
         self.plot_paths[plane] = svg
         self.plots.addWidget(widget)
 
+    def save_pdf(self):
+        """report.pdf beside the report (Chromium's print of its A4 pages), in the background."""
+        if not self._report_there():
+            return
+        html_path = self.report_path
+        pdf = os.path.splitext(html_path)[0] + ".pdf"
+        partial = os.path.join(os.path.dirname(pdf), ".report-printing.pdf")
+        self.pdf_button.setEnabled(False)
+        self.panel.say("printing the report to PDF (Chromium)…")
+
+        def printed(_out):
+            self.pdf_button.setEnabled(True)
+            self.panel.say("the report as PDF: " + records.pdf_written(partial, pdf))
+
+        def failed(line):
+            self.pdf_button.setEnabled(True)
+            self.panel.say(line)
+
+        self.panel.launch(records.pdf_command(self.chromium, html_path, partial), printed,
+                          on_error=failed)
+
+    def _report_there(self):
+        if self.report_path and os.path.exists(self.report_path):
+            return True
+        self.panel.say("circtest panel: error: %s: the report is not there (run the test again)"
+                       % self.report_path)
+        return False
+
     def open_report(self):
-        if not self.report_path or not os.path.exists(self.report_path or ""):
-            self.panel.say("circtest panel: error: %s: the report is not there (run the test "
-                           "again)" % self.report_path)
+        if not self._report_there():
             return
         if QDesktopServices.openUrl(QUrl.fromLocalFile(self.report_path)):
             self.panel.say("opened in the desktop's viewer: " + self.report_path)

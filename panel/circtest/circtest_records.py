@@ -8,6 +8,8 @@ import datetime
 import html.parser
 import json
 import os
+import pathlib
+import shutil
 
 import circtest_logic as logic
 
@@ -103,6 +105,41 @@ def report_verdict(path):
     return {"verdict": reader.verdict, "banner": " ".join("".join(reader.banner).split()),
             "note": " ".join("".join(reader.note).split()), "header": reader.header,
             "rows": reader.rows}
+
+
+# ---- the report as PDF: printed by Chromium, as docs/html-report.md prints it ---------------
+
+def chromium_path():
+    """Debian's chromium (its headless print makes the report's A4 pages), else None."""
+    for name in ("chromium", "chromium-browser"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def pdf_command(chromium, html_path, pdf_path):
+    argv = [chromium, "--headless", "--disable-gpu", "--no-pdf-header-footer",
+            "--print-to-pdf=" + pdf_path, pathlib.Path(html_path).absolute().as_uri()]
+    if os.geteuid() == 0:
+        argv.insert(1, "--no-sandbox")  # Chromium starts as root only without its sandbox
+    return argv
+
+
+def pdf_written(partial, pdf_path):
+    """The PDF Chromium printed into PARTIAL, renamed to PDF_PATH once it is one (a print that
+    ended without one leaves nothing, and says so)."""
+    try:
+        with open(partial, "rb") as f:
+            whole = f.read(5) == b"%PDF-"
+    except OSError:
+        whole = False
+    if not whole:
+        if os.path.exists(partial):
+            os.unlink(partial)
+        raise panel_error("chromium: no PDF written for %s" % pdf_path)
+    os.replace(partial, pdf_path)
+    return pdf_path
 
 
 # ---- before and after: circana's plot of both tests at one scale -----------------------------

@@ -307,3 +307,31 @@ def test_records_read_circanas_report(programs, tmp_path):
     verdict = records.report_verdict(str(d / "report.html"))
     assert verdict["verdict"] == "NONE"
     assert [row[:2] for row in verdict["rows"]] == [["XY", "H"], ["XY", "G"], ["XY", "F"]]
+
+
+@pytest.mark.skipif(records.chromium_path() is None,
+                    reason="chromium not installed (Debian package chromium): no PDF print")
+def test_save_the_report_as_pdf(qtbot, programs, tmp_path):
+    import subprocess
+    d = session(tmp_path, programs)
+    after = json.loads((d / "verify-results.json").read_text())
+    panel = make_panel(qtbot, programs)
+    panel.load_session(str(d))
+    assert panel.report_page.pdf_button.isEnabled()
+    qtbot.mouseClick(panel.report_page.pdf_button, widgets.Qt.LeftButton)
+    qtbot.waitUntil(lambda: panel.report_page.pdf_button.isEnabled(), timeout=120000)
+    assert panel.status.text() == "the report as PDF: %s" % (d / "report.pdf")
+    assert (d / "report.pdf").read_bytes()[:5] == b"%PDF-"
+    assert not (d / ".report-printing.pdf").exists()
+    # page 1 of the PDF is the report's hand-over page, with H after as circana gives it
+    page1 = subprocess.run(["pdftotext", "-l", "1", str(d / "report.pdf"), "-"],
+                           capture_output=True, text=True, check=True).stdout
+    assert "hand-over report" in page1 and "Verdict: no limit set" in page1
+    assert "%.1f µm" % (after["H"] * 1000) in page1
+    # the report gone: said, nothing printed
+    (d / "report.pdf").unlink()
+    (d / "report.html").unlink()
+    qtbot.mouseClick(panel.report_page.pdf_button, widgets.Qt.LeftButton)
+    assert panel.status.text().endswith("report.html: the report is not there (run the test "
+                                        "again)")
+    assert not (d / "report.pdf").exists()
