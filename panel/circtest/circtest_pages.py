@@ -56,7 +56,7 @@ class ReportPage(QWidget):
         self.path_label = QLabel("No report yet: it is written at the end of a run and of Verify")
         self.path_label.setWordWrap(True)
         self.path_label.setTextInteractionFlags(Qt.TextSelectableByMouse)
-        self.open_button = QPushButton("Open the report (print to PDF from there)")
+        self.open_button = QPushButton("Open the report")
         self.open_button.setEnabled(False)
         self.open_button.clicked.connect(self.open_report)
         self.chromium = records.chromium_path()
