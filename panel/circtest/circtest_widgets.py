@@ -5,8 +5,8 @@ import math
 import os
 import tempfile
 
-from PyQt5.QtCore import QObject, QPointF, QProcess, Qt, QTimer, QUrl, pyqtSignal
-from PyQt5.QtGui import QColor, QDesktopServices, QImage, QPainter, QPen, QPolygonF
+from PyQt5.QtCore import QObject, QPointF, QProcess, Qt, QTimer, pyqtSignal
+from PyQt5.QtGui import QColor, QImage, QPainter, QPen, QPolygonF
 from PyQt5.QtSvg import QSvgWidget
 from PyQt5.QtWidgets import (QCheckBox, QDoubleSpinBox, QFormLayout, QHBoxLayout, QLabel,
                              QLineEdit, QListWidget, QMessageBox, QPlainTextEdit, QPushButton,
@@ -14,6 +14,8 @@ from PyQt5.QtWidgets import (QCheckBox, QDoubleSpinBox, QFormLayout, QHBoxLayout
 
 import circtest_live as live
 import circtest_logic as logic
+import circtest_pages as pages
+import circtest_records as records
 
 RUN_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf")
 
@@ -207,8 +209,9 @@ class PathPreview(QWidget):
 
 
 class CircTestPanel(QWidget):
-    """The steps: set up, run, results, compensation, report. `status` shows the one line of
-    the last thing that happened (a program's error as it printed it)."""
+    """The steps: set up, run, results, compensation, report, history. `status` shows the one
+    line of the last thing that happened (a program's error as it printed it; any other error
+    as one line too, never only a traceback on stderr)."""
 
     def __init__(self, programs=None, linuxcnc_module=None, ini="", parent=None):
         super().__init__(parent)
@@ -232,7 +235,13 @@ class CircTestPanel(QWidget):
         self._build_run()
         self._build_results()
         self._build_compensation()
-        self._build_report()
+        self.report_page = pages.ReportPage(self)
+        self.report_button = self.report_page.open_button
+        self.tabs.addTab(self.report_page, "Report")
+        self.history_page = pages.HistoryPage(self)
+        self.tabs.addTab(self.history_page, "History")
+        if os.path.isfile(self.ini_edit.text().strip()):
+            self.history_page.refresh()  # the INI's machine, before any test
         self.live_timer = QTimer(self)
         self.live_timer.setInterval(100)  # 10 frames/s
         self.live_timer.timeout.connect(self.poll_live)
@@ -335,25 +344,15 @@ class CircTestPanel(QWidget):
         box.addWidget(self.apply_button)
         self.tabs.addTab(page, "Compensation")
 
-    def _build_report(self):
-        page = QWidget()
-        self.report_button = QPushButton("Open the report")
-        self.report_button.setEnabled(False)
-        self.report_button.clicked.connect(self.open_report)
-        self.report_label = QLabel("")
-        box = QVBoxLayout(page)
-        box.addWidget(self.report_button)
-        box.addWidget(self.report_label)
-        box.addStretch(1)
-        self.tabs.addTab(page, "Report")
-
     # ---- running programs --------------------------------------------------------------------
 
     def say(self, text):
         self.status.setText(text)
 
-    def launch(self, argv, on_done, on_line=None, on_failed=None):
-        """Starts ARGV in the background; a failure is said in its one line."""
+    def launch(self, argv, on_done, on_line=None, on_failed=None, on_error=None):
+        """Starts ARGV in the background. Its failure, or an error in showing what it gave, is
+        said in one line: to ON_ERROR when given (a step's own line), else on the status line
+        (and the run buttons are usable again)."""
         runner = ProgramRunner(argv, self)
         self.runners.append(runner)
 
@@ -361,9 +360,25 @@ class CircTestPanel(QWidget):
             if runner in self.runners:
                 self.runners.remove(runner)
 
-        runner.done.connect(lambda out: (forget(), on_done(out)))
-        runner.failed.connect(lambda line: (forget(), self.say(line), self._idle(),
-                                             on_failed and on_failed()))
+        def failed(line):
+            forget()
+            if on_error:
+                on_error(line)
+                return
+            self.say(line)
+            self._idle()
+            if on_failed:
+                on_failed()
+
+        def done(out):
+            forget()
+            try:
+                on_done(out)
+            except Exception as exc:  # noqa: BLE001 (shown as one line, never a traceback)
+                (on_error or self.say)(records.error_line(exc))
+
+        runner.done.connect(done)
+        runner.failed.connect(failed)
         if on_line:
             runner.line.connect(on_line)
         runner.start()
@@ -391,8 +406,8 @@ class CircTestPanel(QWidget):
     def _guarded(self, action):
         try:
             action()
-        except logic.ProgramError as exc:
-            self.say(exc.message)
+        except Exception as exc:  # noqa: BLE001 (shown as one line, never a traceback)
+            self.say(records.error_line(exc))
             self._idle()
 
     def _idle(self):
@@ -464,6 +479,13 @@ class CircTestPanel(QWidget):
     # ---- live plot ---------------------------------------------------------------------------
 
     def poll_live(self):
+        try:
+            self._poll_live()
+        except Exception as exc:  # noqa: BLE001 (a trace the plot cannot read: said, not raised)
+            self.live_timer.stop()
+            self.say(records.error_line(exc))
+
+    def _poll_live(self):
         if not self.session_dir:
             return
         if self.source is None or self.source.rows == 0:
@@ -487,7 +509,8 @@ class CircTestPanel(QWidget):
     # ---- results and compensation ------------------------------------------------------------
 
     def load_session(self, session_dir=None):
-        """Results, diagnosis, plan and report of a session folder (circtest run's files)."""
+        """Results, diagnosis, plan, report and history of a session folder (circtest run's
+        files)."""
         self.session_dir = session_dir or self.session_dir
         if not self.session_dir:
             return
@@ -501,6 +524,7 @@ class CircTestPanel(QWidget):
             self.show_results(tests)
             if os.path.exists(os.path.join(d, "plot.svg")):
                 self.svg.load(os.path.join(d, "plot.svg"))
+                self.svg.renderer().setAspectRatioMode(Qt.KeepAspectRatio)
             diagnosis = os.path.join(d, "diagnosis.json")
             if os.path.exists(diagnosis):
                 with open(diagnosis) as f:
@@ -511,12 +535,10 @@ class CircTestPanel(QWidget):
                     self.apply_button.setEnabled(False)
                 else:
                     self.request_plan()
-        except logic.ProgramError as exc:
-            self.say(exc.message)
-        for name in ("report.html",):
-            if os.path.exists(os.path.join(d, name)):
-                self.report_button.setEnabled(True)
-                self.report_label.setText(os.path.join(d, name))
+        except Exception as exc:  # noqa: BLE001 (shown as one line, never a traceback)
+            self.say(records.error_line(exc))
+        self.report_page.show_session(d)
+        self.history_page.show_session(d)
 
     def _fill(self, table, rows, keys):
         table.setRowCount(len(rows))
@@ -578,9 +600,6 @@ class CircTestPanel(QWidget):
     def _applied(self, stdout):
         logic.write_apply_record(self.session_dir, stdout)
         self.say("applied: restart LinuxCNC, then press Verify")
-
-    def open_report(self):
-        QDesktopServices.openUrl(QUrl.fromLocalFile(self.report_label.text()))
 
     # ---- LinuxCNC ----------------------------------------------------------------------------
 

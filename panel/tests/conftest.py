@@ -30,6 +30,12 @@ def program_path(name):
     return path
 
 
+@pytest.fixture(autouse=True)
+def private_history(tmp_path, monkeypatch):
+    """circana's default history database (XDG_DATA_HOME) of the test's own, never the user's."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg-data"))
+
+
 @pytest.fixture
 def programs():
     import circtest_logic

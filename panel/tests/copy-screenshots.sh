@@ -7,7 +7,8 @@ set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 docs=$here/../../docs
 shots=${1:?usage: copy-screenshots.sh BUILD_DIR}/panel/e2e
-names="1-setup 2-run 3-results 4-compensation 5-apply-confirm 6-applied 7-verify 8-before-after"
+names="1-setup 2-run 3-results 4-compensation 5-apply-confirm 6-applied 7-verify 8-before-after
+9-report 10-history"
 for name in $names; do
   [ -s "$shots/panel-$name.png" ] || {
     echo "copy-screenshots: error: $shots/panel-$name.png: missing (run ctest -R panel.e2e)" >&2

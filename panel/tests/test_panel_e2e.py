@@ -37,7 +37,7 @@ SHOTS = os.environ["PANEL_E2E_SHOTS"]
 DIAMETER_MM, FEED = 20.0, "2000"
 UM_PER_DIVISION = 50.0
 RUN_S = 300  # the longest wait for a recording (a loaded machine; the runs take ~30 s)
-TABS = {"setup": 0, "run": 1, "results": 2, "compensation": 3}
+TABS = {"setup": 0, "run": 1, "results": 2, "compensation": 3, "report": 4, "history": 5}
 
 
 def seconds(t0):
@@ -191,3 +191,40 @@ def test_the_whole_flow_by_the_panels_buttons(qtbot, programs):
     assert max(float(g) for g, _, _ in after) < max(float(g) for g, _, _ in before)
     steps.shot("8-before-after", "results")
     print("G, F, H (um) per run: before %s, after %s" % (before, after))
+    check_report(qtbot, panel, session, before, after)
+    steps.shot("9-report", "report")
+    check_history(qtbot, panel, before)
+    steps.shot("10-history", "history")
+
+
+def check_report(qtbot, panel, session, before, after):
+    """The report verify wrote: its path, page 1's H and G before and after (the CLI's) with U
+    (verify-results.json's), and circana's before/after plot with G of each run."""
+    page = panel.report_page
+    assert page.report_path == os.path.join(session, "report.html")
+    assert page.open_button.isEnabled()
+    table = page.verdict
+    rows = {table.item(r, 1).text(): [table.item(r, c).text() for c in range(2, 5)]
+            for r in range(table.rowCount())}
+    assert rows["H"][:2] == [before[0][2] + " µm", after[0][2] + " µm"], rows
+    assert rows["G"][:2] == ["%.1f µm" % max(float(g) for g, _, _ in figures)
+                             for figures in (before, after)], rows
+    verify = json.load(open(os.path.join(session, "verify-results.json")))
+    assert rows["H"][2] == "%.1f µm" % (verify["U_H"] * 1000), rows
+    qtbot.waitUntil(lambda: "XY" in page.plot_paths or bool(page.problem.text()),
+                    timeout=60000)
+    assert page.problem.text() == ""
+    assert page.g_label.text() == "XY: G before %s µm, after %s µm" % (
+        ", ".join(g for g, _, _ in before), ", ".join(g for g, _, _ in after))
+
+
+def check_history(qtbot, panel, before):
+    """The machine's history (circtest run stored the test): its latest test is the run's."""
+    page = panel.history_page
+    qtbot.waitUntil(lambda: page.table.rowCount() > 0 or bool(page.problem.text()),
+                    timeout=60000)
+    assert page.problem.text() == ""
+    latest = page.table.rowCount() - 1
+    assert page.table.item(latest, 3).text().startswith(before[0][2] + " ± ")
+    assert page.table.item(latest, 4).text().startswith(
+        "%.1f ± " % max(float(g) for g, _, _ in before))

@@ -21,3 +21,26 @@ class stat:
         self.homed = (1, 1, 1, 0, 0, 0, 0, 0, 0)
         self.interp_state = INTERP_IDLE
         self.task_state = STATE_ESTOP if MODE == "estop" else STATE_ON
+
+
+class ini:
+    """LinuxCNC's INI reader as the screens use it: find(SECTION, KEY), the first value or None
+    (the real one raises linuxcnc.error for a file it cannot open)."""
+
+    def __init__(self, path):
+        try:
+            with open(path) as f:
+                self.lines = [line.strip() for line in f]
+        except OSError:
+            raise error("inifile.open() failed") from None
+
+    def find(self, section, key):
+        current = None
+        for line in self.lines:
+            if line.startswith("[") and line.endswith("]"):
+                current = line[1:-1]
+            elif current == section and "=" in line:
+                name, _, value = line.partition("=")
+                if name.strip() == key:
+                    return value.strip()
+        return None
