@@ -11,11 +11,13 @@
 # input files; compensation and session: HAL files, comp tables, the manifest, the diagnosis
 # JSON, the configuration writer; the HAL kernels and the recorder), without analysis and
 # circgen: scripts/test.sh's full run, whose main build runs every unit test.
-#   scripts/sanitize.sh [all|build|test] [CTEST ARGS...]   (default all: build, then test)
+#   scripts/sanitize.sh [all|configure|build|test] [CTEST ARGS...]   (default all: build, then
+#   test; configure: only cmake's configure step, which lists the unit-test programs in
+#   $SAN_DIR/unit-test-programs.txt)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 phase=all
-case "${1:-}" in all|build|test) phase=$1; shift ;; esac
+case "${1:-}" in all|configure|build|test) phase=$1; shift ;; esac
 SAN_DIR=${CIRCTEST_SANITIZE_DIR:-build-sanitize}
 scope=()
 case "${CIRCTEST_SANITIZE_SCOPE:-all}" in
@@ -41,6 +43,7 @@ if [ "$phase" != test ]; then
     -DCIRCTEST_HAL_MODULES=OFF -DCIRCTEST_BUILD_BENCHMARKS=OFF -DCIRCTEST_BUILD_DOCS=OFF \
     -DCIRCTEST_FUZZ_SECONDS="${CIRCTEST_FUZZ_SECONDS:-4}" -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS=ONLY \
     "${scope[@]}" "${launcher[@]}"
+  [ "$phase" != configure ] || exit 0
   cmake --build "$SAN_DIR" -j"$(nproc)"
 fi
 [ "$phase" != build ] || exit 0

@@ -2,8 +2,8 @@
 # Installs what circtest needs on Debian 12 (idempotent: apt only runs when a package is
 # missing) and builds it in ./build. Run as root, or as a user with sudo.
 #   scripts/setup.sh [install|build]    (default: both; scripts/test.sh runs them apart)
-# CIRCTEST_UNIT_TESTS=OFF builds no unit-test programs (scripts/test.sh's full run, whose
-# sanitizer build has them).
+# CIRCTEST_UNIT_TESTS=OFF builds no unit-test programs; CIRCTEST_UNIT_TESTS_ELSEWHERE=LIST
+# leaves out those another build lists (scripts/test.sh: the sanitizer build's).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 step=all
@@ -41,5 +41,7 @@ BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
 # The programs and libraries Release (-O3); the test programs' own sources -O0: they compile
 # in a fraction of the time and the CPU goes to the programs under test (tests/CMakeLists.txt).
 cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release -DCMAKE_EXPORT_COMPILE_COMMANDS=ON \
-  -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS="${CIRCTEST_UNIT_TESTS:-ON}"
-cmake --build "$BUILD_DIR" -j"$(nproc)"
+  -DCIRCTEST_TEST_COMPILE_OPTIONS=-O0 -DCIRCTEST_UNIT_TESTS="${CIRCTEST_UNIT_TESTS:-ON}" \
+  -DCIRCTEST_UNIT_TESTS_ELSEWHERE="${CIRCTEST_UNIT_TESTS_ELSEWHERE:-}"
+# CIRCTEST_BUILD_TARGET: one target and what it needs (scripts/test.sh: circtest_e2e_programs).
+cmake --build "$BUILD_DIR" -j"$(nproc)" ${CIRCTEST_BUILD_TARGET:+--target "$CIRCTEST_BUILD_TARGET"}
