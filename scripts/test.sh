@@ -14,15 +14,15 @@ full_run=0
 # The full run leaves out the label soak (circlog for 10 minutes: `scripts/test.sh -L soak`).
 if [ $# -eq 0 ]; then full_run=1; set -- -LE soak; fi
 # The full run (CI) builds twice: the main build (Release, gcc: the programs, the realtime
-# modules and every test, the unit tests too) and the sanitizer build (scripts/sanitize.sh:
-# clang, ASan/UBSan, libFuzzer) of the parts that read users' files and write the
-# configuration (CIRCTEST_SANITIZE_SCOPE=inputs: core, compensation, session, the HAL kernels
-# and the recorder), whose unit tests run there once more under the sanitizers, and each of
-# their fuzz harnesses for CIRCTEST_FUZZ_SECONDS. CIRCTEST_SANITIZE_SCOPE=all sanitizes every
-# part (analysis and circgen too: about 10 minutes more on 2 cores); CIRCTEST_SANITIZE_PASS=0
-# leaves the sanitizer build out. The sanitizer pass starts right after the packages are in,
-# at nice 19: it takes the CPU the main build and then its suite leave (the LinuxCNC runs wait
-# on real-time motion for most of their time).
+# modules and the tests) and the sanitizer build (scripts/sanitize.sh: clang, ASan/UBSan,
+# libFuzzer) of the parts that read users' files and write the configuration
+# (CIRCTEST_SANITIZE_SCOPE=inputs: core, compensation, session, the HAL kernels and the
+# recorder). The unit tests of those parts run there only, under the sanitizers (the main build
+# leaves out the programs the sanitizer build lists), with each fuzz harness for
+# CIRCTEST_FUZZ_SECONDS. CIRCTEST_SANITIZE_SCOPE=all sanitizes every part (analysis and circgen
+# too: about 10 minutes more on 2 cores); CIRCTEST_SANITIZE_PASS=0 leaves the sanitizer build
+# out (every unit test then runs in the main build). The sanitizer pass starts right after the
+# packages are in, at nice 10, beside the main build and the suite.
 sanitize=0
 [ $full_run = 1 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ] && sanitize=1
 san_log=$BUILD_DIR/sanitize-build.log san_test_log=$BUILD_DIR/sanitize-test.log
