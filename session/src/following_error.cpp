@@ -26,9 +26,9 @@ double joint_value(const IniDocument& ini, const std::string& section, const cha
   if (!entry) return fallback;
   const auto value = parse_finite(entry->value);
   if (!value || *value < 0) {
-    throw ParseError(entry->file, entry->line,
-                     fmt::format("[{}] {} = {}: expected a number of 0 or more", section, key,
-                                 entry->value));
+    throw ParseError(
+        entry->file, entry->line,
+        fmt::format("[{}] {} = {}: expected a number of 0 or more", section, key, entry->value));
   }
   return *value;
 }
@@ -74,8 +74,8 @@ std::optional<FollowingError> find_following_error(const Trace& trace,
                                : f.min_ferror;
       const double error = std::abs((*cmd)[i] - (*fb)[i]);
       if (error > limit && (!worst || error - limit > worst->error - worst->limit)) {
-        worst = FollowingError{f.joint, f.axis, error, limit, (*t)[i], trace.line_of_row[i],
-                               f.units};
+        worst =
+            FollowingError{f.joint, f.axis, error, limit, (*t)[i], trace.line_of_row[i], f.units};
       }
     }
   }

@@ -80,9 +80,9 @@ bool said_following_error(const SessionSetup& setup, const std::string& trace, s
   try {
     TraceReadOptions options;
     options.check_time_monotonic = false;
-    const auto error = find_following_error(
-        read_trace(trace, options),
-        ferror_limits(IniDocument::load(setup.ini_path), setup.ini_path));
+    const auto error =
+        find_following_error(read_trace(trace, options),
+                             ferror_limits(IniDocument::load(setup.ini_path), setup.ini_path));
     if (!error) return false;
     out << "circtest: " << following_error_line(*error, trace) << "\n";
     return true;

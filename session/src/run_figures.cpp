@@ -2,6 +2,7 @@
 // (circlog-record --live) up to the run's last row, evaluated by circana analyze as the whole
 // trace is after the program, its G (and H once a CCW/CW pair is in) said in one line.
 #include <fmt/format.h>
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>

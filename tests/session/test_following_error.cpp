@@ -107,8 +107,7 @@ TEST(FollowingError, AGapBetweenRunsIsNoVelocity) {
   // its own. Taken over the gap (0.0167 mm in 2 s) its limit would be MIN_FERROR 0.3, under
   // X's lag 0.417; at the feed the limit is 0.667.
   const auto limits = limits_of("FERROR = 2\nMIN_FERROR = 0.3\nMAX_VELOCITY = 50\n");
-  EXPECT_FALSE(
-      find_following_error(parse_trace(trace_text(200, 1000, 100, 2.0), "t.csv"), limits));
+  EXPECT_FALSE(find_following_error(parse_trace(trace_text(200, 1000, 100, 2.0), "t.csv"), limits));
   // The same limits without the gap: within.
   EXPECT_FALSE(find_following_error(parse_trace(trace_text(200, 1000), "t.csv"), limits));
 }
@@ -119,7 +118,6 @@ TEST(FollowingError, AValueThatIsNoNumberIsRefusedWithItsLine) {
     FAIL() << "no ParseError";
   } catch (const ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("m.ini:5"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("[JOINT_0] FERROR = fast"), std::string::npos)
-        << e.what();
+    EXPECT_NE(std::string(e.what()).find("[JOINT_0] FERROR = fast"), std::string::npos) << e.what();
   }
 }
