@@ -70,9 +70,10 @@ TEST(FollowingError, AJammedAxisIsFoundWhereItPassesTheLimit) {
   EXPECT_EQ(e->joint, 0);
   EXPECT_EQ(e->axis, 'X');
   EXPECT_NEAR(e->limit, 2.0 * kSpeed / 50.0, 1e-9);
-  // The worst sample is the last (the error keeps growing): row 149, file line 151.
+  // The worst sample is the last (the error keeps growing): row 149, file line 152 (after the
+  // metadata and the header).
   EXPECT_NEAR(e->error, kLag + 49 * kSpeed * kPeriodS, 1e-9);
-  EXPECT_EQ(e->line, 151u);
+  EXPECT_EQ(e->line, 152u);
   EXPECT_NEAR(e->time_s, 149 * kPeriodS, 1e-9);
   const std::string line = following_error_line(*e, "trace.csv");
   EXPECT_NE(line.find("joint 0 (X): a following error, 1.2333 mm over its limit 0.6667"),
