@@ -127,7 +127,10 @@ std::optional<std::string> RunFigures::finished(int segment) const {
     out << *snapshot;
     if (!out.flush()) return std::nullopt;
   }
-  std::vector<std::string> args = {tool_path("circana"), "analyze", scratch_, "--json"};
+  // The runs still to come are missing from it by design: --warn-inconsistent lets circana
+  // evaluate the ones in (the evaluation after the program is the strict one).
+  std::vector<std::string> args = {tool_path("circana"), "analyze", scratch_, "--json",
+                                   "--warn-inconsistent"};
   args.insert(args.end(), columns_.begin(), columns_.end());
   int code = 0;
   const std::string json = program_output(args, code, "/dev/null");
