@@ -124,6 +124,11 @@ for net in "net x-pos-cmd => circlog.0.in-00" "net y-pos-cmd => circlog.0.in-01"
   grep -qxF "$net" "$machine/circtest.hal" || fail "circtest.hal has no '$net'"
 done
 start_mill
+# LinuxCNC's own programs run as the user (rtapi_app, setuid root as LinuxCNC installs it,
+# keeps root for its threads and writes files as the user).
+for p in milltask halui io; do
+  [ "$(ps -o uid= -C "$p" | tr -d ' ' | sort -u)" = "$uid" ] || fail "$p does not run as $user"
+done
 operator home
 operator "mdi=G10 L2 P1 X200 Y150 Z-50"
 # A following error mid-run (X jammed: its pid's gain 0 once the run records, so the motor
@@ -159,6 +164,7 @@ as_circtest "$work/verify.out" verify --ini "$ini" --start
 cat "$work/verify.out"
 [ $rc = 0 ] || fail "circtest verify (exit $rc)"
 stop_linuxcnc
+grep -h "POSIX\|realtime" "$home/linuxcnc_print.txt" "$home/linuxcnc_debug.txt" 2>/dev/null | head -n 3 || true
 others=$(find "$home" "$work/display.pid" ! -user "$user")
 [ -z "$others" ] || fail "not the user's: $others"
 echo "session as $user on pncconf-mill: $((SECONDS - t0)) s"
