@@ -61,7 +61,7 @@ uid=$(id -u "$user") gid=$(id -g "$user")
 home=$work/home
 rm -rf "$home"
 mkdir -p "$home/linuxcnc/configs" "$home/linuxcnc/nc_files"
-machine=$home/linuxcnc/configs/mill ini=$home/linuxcnc/configs/mill/mill.ini config=mill
+machine=$home/linuxcnc/configs/mill ini=$home/linuxcnc/configs/mill/mill.ini
 cp -r "$top/configs/pncconf-mill" "$machine"
 # The screen: configs/idle-display (headless) in place of gmoccapy; pncconf writes the
 # user's own nc_files folder; a simulated machine notes late servo periods (docs/session.md).
@@ -80,6 +80,7 @@ as_user() {
     LOGNAME="$user" LANG=C.UTF-8 PATH="$stage/usr/bin:/usr/local/bin:/usr/bin:/bin" \
     CIRCTEST_DISPLAY_PID="$CIRCTEST_DISPLAY_PID" CIRCTEST_MARKER="${CIRCTEST_MARKER:-}" "$@"
 }
+# shellcheck disable=SC2034 # the operator (linuxcnc-e2e.sh) runs as the user
 e2e_as=(as_user)
 link=$stage/usr/libexec/circtest/circtest-linuxcnc
 
