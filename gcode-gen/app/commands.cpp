@@ -127,13 +127,19 @@ std::pair<std::array<double, 3>, std::string> work_offset_origin(
   if (spec.work_offset_mm) {
     constexpr double kAgreeMm = 1e-6;
     for (int i = 0; i < 3 && from_file; ++i) {
-      if (std::abs((*from_file)[i] - (*spec.work_offset_mm)[i]) > kAgreeMm) {
-        throw UsageError(fmt::format(
-            "--offset {} disagrees with {} = {}: give the origin that is right, or drop "
-            "--offset",
+      if (std::abs((*from_file)[i] - (*spec.work_offset_mm)[i]) <= kAgreeMm) continue;
+      if (request.offset_from_linuxcnc) {
+        warnings.push_back(fmt::format(
+            "--offset {} (the origin the running LinuxCNC uses) differs from {} = {}, which "
+            "LinuxCNC writes when it exits: the path is checked from --offset",
             position_list(*spec.work_offset_mm, spec.units), file_source,
             position_list(*from_file, spec.units)));
+        return {*spec.work_offset_mm, "--offset, the origin the running LinuxCNC uses"};
       }
+      throw UsageError(fmt::format(
+          "--offset {} disagrees with {} = {}: give the origin that is right, or drop --offset",
+          position_list(*spec.work_offset_mm, spec.units), file_source,
+          position_list(*from_file, spec.units)));
     }
     return {*spec.work_offset_mm, from_file ? "--offset, as " + file_source : "--offset"};
   }

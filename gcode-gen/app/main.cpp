@@ -108,6 +108,9 @@ po::options_description circgen_options() {
     ("offset", po::value<std::string>(),
      "work offset origin X,Y,Z in machine coordinates: the --ini check and the header's "
      "centre_machine_mm (0,0,0 with --ini)")
+    ("offset-from-linuxcnc",
+     "--offset is the origin the running LinuxCNC uses: not refused when the parameter file "
+     "(written when LinuxCNC exits) differs")
     ("output,o", po::value<std::string>(), "write the program to FILE (atomically)");
   // clang-format on
   return options;
@@ -351,6 +354,7 @@ int run(int argc, char** argv) {
   request.planes = plane_specs(spec, vm, mm);
   if (vm.count("ini")) request.ini_path = opt_text(vm, "ini");
   request.work_offset_origin_mm = offset;
+  request.offset_from_linuxcnc = vm.count("offset-from-linuxcnc") > 0;
   if (vm.count("output")) request.output_path = opt_text(vm, "output");
   return run_generate(std::move(request), std::cout, std::cerr);
 }

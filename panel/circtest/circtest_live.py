@@ -5,7 +5,8 @@ same at the first second and after ten minutes.
 
 The deviation is the one circana's plot draws (analysis/src/render/plot.cpp):
 hypot(a - centre_a, b - centre_b) - radius, at the angle atan2(b - centre_b, a - centre_a),
-with the trace's nominal centre (`centre_mm`, x,y,z) and radius (`radius_mm`, or
+with the trace's nominal centre (`centre_machine_mm`, else `centre_mm`, x,y,z: the
+positions are machine coordinates) and radius (`radius_mm`, or
 `diameter_mm` / 2), on the plane's columns (`x,y` for XY, `y,z` for YZ, `z,x` for ZX; the
 motor feedback `x_fb,y_fb` where the instrument columns are absent, as circtest evaluates).
 The final numbers are circana's (circtest run writes them to results.json): the plot is what
@@ -130,7 +131,11 @@ class LivePolar:
                 radius = float(metadata["radius_mm"])
             else:
                 radius = float(metadata["diameter_mm"]) / 2.0
-            centre = [float(v) for v in metadata.get("centre_mm", "0,0,0").split(",")]
+            # Recorded positions are LinuxCNC's joint positions, machine coordinates: the centre
+            # there (centre_machine_mm, circgen's when it knows the work offset) before the
+            # program's (centre_mm, in its work offset), as circana takes them.
+            centre_text = metadata.get("centre_machine_mm", metadata.get("centre_mm", "0,0,0"))
+            centre = [float(v) for v in centre_text.split(",")]
             if len(centre) != 3:
                 raise ValueError
         except (KeyError, ValueError):

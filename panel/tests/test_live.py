@@ -50,6 +50,22 @@ def test_deviation_is_the_injected_scale_error(scale_trace):
         assert run.high_um[bins // 8] == pytest.approx(R_MM * SCALE_X * 1000.0 / 2, abs=0.05)
 
 
+def test_a_work_offset_centre_is_taken_in_machine_coordinates(scale_trace, tmp_path):
+    # The program ran in a work offset: centre_mm is the centre there, centre_machine_mm the
+    # one the recorded (machine) positions circle about.
+    lines = open(scale_trace).read().split("\n")
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    lines[header:header] = ["# centre_mm: 30,40,0", "# centre_machine_mm: 0,0,0"]
+    offset_trace = tmp_path / "offset.csv"
+    offset_trace.write_text("\n".join(lines))
+    source = live.LiveSource(str(offset_trace))
+    source.tail.max_bytes_per_poll = 1 << 30
+    assert source.poll() > 0
+    for run in source.polar.runs:
+        assert run.high_um[0] == pytest.approx(R_MM * SCALE_X * 1000.0, abs=0.05)
+        assert run.low_um[source.polar.bins // 4] == pytest.approx(0.0, abs=0.05)
+
+
 def test_extremes_equal_circanas_f(programs, scale_trace):
     # The LSC centre is the nominal one here (the error is symmetric): circana's F about it
     # and the live plot's extremes about the nominal circle are the same numbers.

@@ -23,7 +23,8 @@ namespace circtest::session {
 
 namespace fs = std::filesystem;
 
-Child::Child(const std::vector<std::string>& argv, const std::string& stdout_path)
+Child::Child(const std::vector<std::string>& argv, const std::string& stdout_path,
+             const std::string& stderr_path)
     : name_(fs::path(argv.at(0)).filename().string()) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
@@ -36,6 +37,10 @@ Child::Child(const std::vector<std::string>& argv, const std::string& stdout_pat
                                      O_WRONLY | O_CREAT | O_TRUNC, 0644);
   }
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  if (!stderr_path.empty()) {
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, stderr_path.c_str(),
+                                     O_WRONLY | O_CREAT | O_APPEND, 0644);
+  }
   std::vector<char*> args;
   for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
   args.push_back(nullptr);
@@ -126,8 +131,9 @@ int run_program(const std::vector<std::string>& argv, const std::string& stdout_
   return child.wait();
 }
 
-std::string program_output(const std::vector<std::string>& argv, int& exit_code) {
-  Child child(argv, "");
+std::string program_output(const std::vector<std::string>& argv, int& exit_code,
+                           const std::string& stderr_path) {
+  Child child(argv, "", stderr_path);
   std::string out, line;
   while (child.read_line(line)) out += line + "\n";
   exit_code = child.wait();

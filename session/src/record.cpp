@@ -4,13 +4,17 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <optional>
 #include <ostream>
 
+#include "circtest/core/error.hpp"
+#include "circtest/core/ini.hpp"
 #include "circtest/core/progress.hpp"
 #include "circtest/core/strings.hpp"
+#include "circtest/core/trace.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
 #include "session_steps.hpp"
@@ -70,6 +74,23 @@ std::string trace_trailer(const std::string& trace, const std::string& key) {
   return value;
 }
 
+// A following error in what was recorded (the machine went off, or the program ended early),
+// said in one line: true when there was one. A trace that cannot be read says nothing here.
+bool said_following_error(const SessionSetup& setup, const std::string& trace, std::ostream& out) {
+  try {
+    TraceReadOptions options;
+    options.check_time_monotonic = false;
+    const auto error =
+        find_following_error(read_trace(trace, options),
+                             ferror_limits(IniDocument::load(setup.ini_path), setup.ini_path));
+    if (!error) return false;
+    out << "circtest: " << following_error_line(*error, trace) << "\n";
+    return true;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
 }  // namespace
 
 RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
@@ -121,13 +142,25 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
                                    std::to_string(setup.segment_output)};
   if (request.start) link.push_back("--start");
   Child linuxcnc(link, "");
+  const RunFigures figures(
+      live, evaluated_columns(setup, request.program.planes),
+      (std::filesystem::path(trace).parent_path() / ".run-figures.csv").string());
   std::string line, end;
+  std::optional<int> segment;  // the run the marker is on for
   bool override_changed = false;
   bool recorder_done = false;  // it ended by itself: every announced run recorded, then idle
   for (;;) {
     const auto got = linuxcnc.read_line_for(line, 0.2);
     if (got && !*got) break;
-    if (got) show_event(line, request, out, progress, end, override_changed);
+    if (got) {
+      if (line.rfind("run ", 0) == 0) segment = std::atoi(line.c_str() + 4);
+      show_event(line, request, out, progress, end, override_changed);
+      if (line == "run-end" && segment) {
+        if (const auto said = figures.finished(*segment)) {
+          out << "circtest: " << progress.what(*segment) << ": " << *said << "\n" << std::flush;
+        }
+      }
+    }
     progress.update(now_s());
     if (got) continue;
     // The recorder stops with the servo thread: LinuxCNC quit (its status may stay as it was);
@@ -154,6 +187,7 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
     }
     const std::string missing = trace_trailer(trace, "runs_missing");
     if (!missing.empty() && missing != "none") {
+      if (said_following_error(setup, trace, out)) return {5};
       out << "circtest: the test is incomplete (the program ended before every run was "
              "recorded: aborted?): runs "
           << missing << "; " << trace << " keeps what was recorded; nothing analysed or applied\n";
@@ -172,6 +206,7 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   }
   recorder.signal(SIGINT);
   recorder.wait();
+  if (end == "off" && said_following_error(setup, trace, out)) return {5};
   const std::string why = end.empty() ? "the LinuxCNC link stopped" : end;
   out << "circtest: the test is incomplete ("
       << (override_changed ? "feed override not 100 %" : why) << "): " << trace

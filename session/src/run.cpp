@@ -65,8 +65,8 @@ std::vector<std::string> circgen_args(const RunRequest& r, const MachineState& s
   if (!r.program.clearance_mm.empty()) a.insert(a.end(), {"--clearance", r.program.clearance_mm});
   const auto& o = state.work_origin_machine_mm;
   a.insert(a.end(), {"--ini", r.ini_path, "--offset", fmt::format("{},{},{}", o[0], o[1], o[2]),
-                     "--marker", std::to_string(setup.marker_output), "--segment-out",
-                     std::to_string(setup.segment_output), "-o", program});
+                     "--offset-from-linuxcnc", "--marker", std::to_string(setup.marker_output),
+                     "--segment-out", std::to_string(setup.segment_output), "-o", program});
   return a;
 }
 

@@ -4,8 +4,10 @@
 #include <iosfwd>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "circtest/core/ini.hpp"
 #include "circtest/core/progress.hpp"
 #include "circtest/core/trace.hpp"
 #include "circtest/session/console.hpp"
@@ -51,6 +53,36 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
                             const std::string& program, const std::string& trace,
                             const Console& console);
 
+// A joint's following-error limit as LinuxCNC's motion applies it ([JOINT_n] FERROR at
+// MAX_VELOCITY, never below MIN_FERROR; machine units, [TRAJ] LINEAR_UNITS).
+struct FerrorLimit {
+  int joint = 0;
+  char axis = 'X';
+  double ferror = 1.0;
+  double min_ferror = 1.0;
+  double max_velocity = 1.0;
+  std::string units = "mm";
+};
+// Each joint's limit (LinuxCNC's defaults where a key is absent); ParseError for a value that
+// is not a number of 0 or more.
+std::vector<FerrorLimit> ferror_limits(const IniDocument& ini, const std::string& ini_path);
+struct FollowingError {
+  int joint = 0;
+  char axis = 'X';
+  double error = 0;  // |x_cmd - x_fb|, machine units
+  double limit = 0;  // the limit at that sample's commanded velocity
+  double time_s = 0;
+  std::size_t line = 0;  // the trace's line of the sample
+  std::string units;
+};
+// The sample whose following error is furthest over its limit (x_cmd - x_fb of each logged
+// axis, the command's velocity from one sample to the next), none when every one is within;
+// none also when the trace has no t column or no sample_period_s.
+std::optional<FollowingError> find_following_error(const Trace& trace,
+                                                   const std::vector<FerrorLimit>& limits);
+// What the session says of it, in one line (without the "circtest: " prefix).
+std::string following_error_line(const FollowingError& error, const std::string& trace);
+
 // The servo thread's periods in a trace: the servo_period channel (circtest install:
 // motion.servo.last-period, CPU clocks in LinuxCNC 2.9, ns later) against the thread's own
 // period. A period longer than kLatePeriodFactor times it is late: the thread
@@ -94,6 +126,7 @@ class RunProgress {
   void update(double now_s);
   void clear();  // before another message
   std::string status(double now_s) const;
+  std::string what(int segment) const;  // "XY run 1 of 2 (CCW F1000)"
 
  private:
   struct Run {
@@ -103,7 +136,6 @@ class RunProgress {
   };
   static constexpr int kPlainStep = 25;
   const Run* find(int segment) const;
-  std::string what(int segment) const;
   std::optional<int> percent(double now_s) const;
   std::ostream& out_;
   ProgressLine line_;
@@ -111,6 +143,28 @@ class RunProgress {
   std::optional<int> current_;
   double started_s_ = 0;
   int next_step_ = kPlainStep;
+};
+
+// The figures of each run as soon as it has finished (run_figures.cpp): TEXT, a live copy of
+// a trace, through the last row of SEGMENT's run (its marker on), whole lines only; none when
+// that run has no row in it or the text no segment column.
+std::optional<std::string> trace_through_run(const std::string& text, int segment);
+// "G 12.3 um (U 0.8 um)" of SEGMENT's run in circana's result JSON, with ", H ..." when the
+// run completes a CCW/CW pair; none when the result has no G for it.
+std::optional<std::string> run_figures_line(const std::string& result_json, int segment);
+// At a run's end: the live copy LIVE through that run, evaluated by circana analyze (with
+// COLUMNS, its column options) from the snapshot file SCRATCH (removed again); none when
+// circana cannot evaluate it (then the figures come with the evaluation after the program).
+class RunFigures {
+ public:
+  RunFigures(std::string live, std::vector<std::string> columns, std::string scratch)
+      : live_(std::move(live)), columns_(std::move(columns)), scratch_(std::move(scratch)) {}
+  std::optional<std::string> finished(int segment) const;
+
+ private:
+  std::string live_;
+  std::vector<std::string> columns_;
+  std::string scratch_;
 };
 
 // circana analyze and diagnose, circcomp plan; asks, applies. APPLIED: corrections written.

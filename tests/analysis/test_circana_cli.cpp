@@ -121,6 +121,27 @@ std::string edited_example(const fs::path& dir, const std::string& name, std::si
   return p.string();
 }
 
+// A program run in a work offset: circgen states the centre in it (centre_mm) and, knowing the
+// offset's origin, in machine coordinates (centre_machine_mm); the recorded positions are
+// LinuxCNC's joint positions, machine coordinates, so the runs are found about the latter.
+TEST_F(CircanaCli, ARecordedTraceCirclesTheCentreInMachineCoordinates) {
+  const std::string example = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
+  const std::string offset = edited_example(
+      dir_, "offset.csv", 0, [](std::vector<std::string>&) {},
+      "# centre_mm: 0,0,0\n# centre_machine_mm: 250,250,100\n");
+  const CommandResult a = run("analyze " + example + " --json");
+  const CommandResult b = run("analyze " + offset + " --json");
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const auto ja = nlohmann::json::parse(a.out);
+  const auto jb = nlohmann::json::parse(b.out);
+  ASSERT_EQ(jb["runs"].size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_DOUBLE_EQ(jb["runs"][i]["G"].get<double>(), ja["runs"][i]["G"].get<double>());
+    EXPECT_DOUBLE_EQ(jb["runs"][i]["F_max"].get<double>(), ja["runs"][i]["F_max"].get<double>());
+  }
+}
+
 TEST_F(CircanaCli, OneOutlierRowIsADataErrorAtItsLine) {
   // y = 0 in one row of run 1 (columns t,x,y,...) would make G = 150 mm (the MZC zone set
   // by that row): refused naming the row's line (5 metadata lines + header + 3000). (assign,

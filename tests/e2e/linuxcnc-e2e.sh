@@ -82,9 +82,10 @@ stop_linuxcnc() {
 }
 
 # The operator: E-stop released, machine on, and (with `home`) homed, through LinuxCNC's
-# Python interface.
+# Python interface; `mdi=LINE` runs LINE by MDI (a touch-off); `jam=PIN=VALUE` (below). As the command prefix e2e_as
+# (an array) when it is set: a script's own user.
 operator() {
-  /usr/bin/python3 - "$1" <<'PY'
+  ${e2e_as[@]+"${e2e_as[@]}"} /usr/bin/python3 - "$1" <<'PY'
 import os, sys, time, linuxcnc
 c, s = linuxcnc.command(), linuxcnc.stat()
 def wait(p, what):
@@ -183,6 +184,21 @@ if mode == "latency":
             children.append(pid)
         for pid in children: os.waitpid(pid, 0)
         time.sleep(0.2)
+    sys.exit(0)
+if mode.startswith("jam="):
+    # A jammed axis mid-run (`jam=PIN=VALUE`, e.g. a pid's Pgain to 0: its drive stops while
+    # the command goes on): once the program's marker output is on, 0.3 s later, by halcmd.
+    import subprocess
+    pin, value = mode[4:].split("=")
+    marker = int(os.environ["CIRCTEST_MARKER"])
+    wait(lambda: s.dout[marker], "the marker output")
+    time.sleep(0.3)
+    subprocess.run(["halcmd", "setp", pin, value], check=True)
+    sys.exit(0)
+if mode.startswith("mdi="):
+    c.mode(linuxcnc.MODE_MDI); c.wait_complete()
+    c.mdi(mode[4:]); c.wait_complete(30)
+    wait(lambda: s.interp_state == linuxcnc.INTERP_IDLE, "MDI " + mode[4:])
     sys.exit(0)
 if mode.startswith("override="):
     c.feedrate(float(mode[9:])); wait(lambda: abs(s.feedrate - float(mode[9:])) < 1e-6, "override")

@@ -443,6 +443,26 @@ TEST_F(CircgenCliIni, ParameterFileRefusals) {
                      " = 0,0,0 mm: give the origin that is right, or drop --offset");
 }
 
+// circtest gives the origin the running LinuxCNC uses: after a touch-off the parameter file
+// (written when LinuxCNC exits) still holds the old one; the path is checked from --offset.
+TEST_F(CircgenCliIni, OffsetFromLinuxcncIsCheckedOverAnOlderParameterFile) {
+  spit(ini(), std::string(kMachineIni) + "\n[RS274NGC]\nPARAMETER_FILE = m.var\n");
+  spit(dir_.file("m.var"), "5220 1\n5221 0\n");
+  const CommandResult ok =
+      run({"--d", "150", "--f", "300", "--offset", "5,0,0", "--offset-from-linuxcnc"});
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_NE(ok.err.find("--offset 5,0,0 mm (the origin the running LinuxCNC uses) differs from "
+                        "G54 #5221..#5223 in " +
+                        dir_.file("m.var") + " = 0,0,0 mm, which LinuxCNC writes when it exits"),
+            std::string::npos)
+      << ok.err;
+  EXPECT_NE(ok.out.find("work_offset_origin_machine_mm: 5,0,0"), std::string::npos) << ok.out;
+  // The path from --offset, not from the file: X -255 is beyond MIN_LIMIT -200.
+  expect_refused(
+      run({"--d", "150", "--f", "300", "--offset", "-180,0,0", "--offset-from-linuxcnc"}), 6,
+      "X = -255 mm in machine coordinates, below [AXIS_X] MIN_LIMIT = -200");
+}
+
 TEST_F(CircgenCliIni, RefusesACircleBeyondMaxLimit) {
   expect_refused(run({"--d", "150", "--f", "300", "--centre", "150,0,0"}), 6,
                  "X = 225 mm in machine coordinates, above [AXIS_X] MAX_LIMIT = 200");

@@ -65,7 +65,13 @@ std::optional<FCentreMethod> parse_f_centre_method(std::string_view name) {
 }
 
 std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
-  const std::string* v = trace.metadata.find(meta_key::centre_mm);
+  // Recorded positions are LinuxCNC's joint positions, in machine coordinates: the centre there
+  // (centre_machine_mm, stated by circgen when it knows the work offset's origin) is the one
+  // they circle about; centre_mm is in the program's work offset.
+  const char* key = trace.metadata.find(meta_key::centre_machine_mm) != nullptr
+                        ? meta_key::centre_machine_mm
+                        : meta_key::centre_mm;
+  const std::string* v = trace.metadata.find(key);
   if (!v) return std::nullopt;
   std::vector<double> xyz;
   std::size_t pos = 0;
@@ -77,9 +83,8 @@ std::optional<PlanePoint> metadata_centre(const Trace& trace, Plane plane) {
     pos = comma + 1;
   }
   if (xyz.size() != 3 || pos <= v->size()) {
-    throw ParseError(
-        trace.source, trace.metadata.line_of(meta_key::centre_mm),
-        fmt::format("metadata 'centre_mm': expected three numbers x,y,z, got '{}'", *v));
+    throw ParseError(trace.source, trace.metadata.line_of(key),
+                     fmt::format("metadata '{}': expected three numbers x,y,z, got '{}'", key, *v));
   }
   const PlaneAxes axes = plane_axes(plane);
   return PlanePoint{xyz[static_cast<std::size_t>(axes.first - 'x')],

@@ -52,6 +52,8 @@ inline constexpr const char* units = "units";
 inline constexpr const char* diameter_mm = "diameter_mm";
 inline constexpr const char* radius_mm = "radius_mm";
 inline constexpr const char* centre_mm = "centre_mm";
+// The centre in machine coordinates (circgen, when it knows the work offset's origin).
+inline constexpr const char* centre_machine_mm = "centre_machine_mm";
 inline constexpr const char* feed_mm_per_min = "feed_mm_per_min";
 inline constexpr const char* feeds_mm_per_min = "feeds_mm_per_min";
 // The same in inches, beside the mm keys when the program is in inches (G20).

@@ -14,9 +14,10 @@ class Child {
  public:
   // Starts ARGV (ARGV[0] a path or a name found on PATH). STDOUT_PATH: its standard output
   // goes to that file (created, replaced); "-": the session's own; empty: to a pipe read with
-  // read_line(). Standard error stays the session's. Throws HalError (exit 7) when it cannot be
-  // started.
-  Child(const std::vector<std::string>& argv, const std::string& stdout_path);
+  // read_line(). Standard error stays the session's, or goes to STDERR_PATH when one is given
+  // (appended). Throws HalError (exit 7) when it cannot be started.
+  Child(const std::vector<std::string>& argv, const std::string& stdout_path,
+        const std::string& stderr_path = {});
   ~Child();
   Child(const Child&) = delete;
   Child& operator=(const Child&) = delete;
@@ -46,8 +47,10 @@ class Child {
 // standard output); the exit code.
 int run_program(const std::vector<std::string>& argv, const std::string& stdout_path = {});
 
-// Runs ARGV and returns its standard output; EXIT_CODE gets its exit code.
-std::string program_output(const std::vector<std::string>& argv, int& exit_code);
+// Runs ARGV and returns its standard output; EXIT_CODE gets its exit code. Its standard error
+// goes to STDERR_PATH when one is given, else to the session's.
+std::string program_output(const std::vector<std::string>& argv, int& exit_code,
+                           const std::string& stderr_path = {});
 
 // The path of the circtest program NAME (circgen, circana, ...): $CIRCTEST_BIN/<part>/NAME in
 // a build tree when CIRCTEST_BIN is set, else beside the running circtest, else NAME (PATH).

@@ -20,6 +20,10 @@ struct GenerateRequest {
   std::string ini_path;
   // Machine coordinates of the work offset's origin, for the INI's soft limits.
   std::array<double, 3> work_offset_origin_mm{0.0, 0.0, 0.0};
+  // The planes' work_offset_mm is the origin the running LinuxCNC uses (its status, as circtest
+  // reads it): the parameter file, which LinuxCNC writes when it exits, is not held against it
+  // (a warning says when the two differ).
+  bool offset_from_linuxcnc = false;
   std::string output_path;  // written atomically (empty: to `out`)
 };
 
