@@ -30,9 +30,8 @@ struct Sources {
 
 // The sources of the contributions (below), and each column's: their terms' ranges per run
 // are taken in the same pass as the residual.
-Sources contribution_sources(const DiagnosisState& ds) {
-  const std::vector<Column>& cols = ds.cols;
-  const Diagnosis& D = ds.D;
+Sources contribution_sources(const Model& m, const Diagnosis& D) {
+  const std::vector<Column>& cols = m.cols;
   Sources out;
   std::vector<std::string>& sources = out.names;
   std::vector<int>& source_of = out.of;
@@ -49,13 +48,12 @@ Sources contribution_sources(const DiagnosisState& ds) {
 }
 
 // The samples [lo, hi) into the residual and the block's extremes.
-void residual_block(const DiagnosisState& ds, const Reversals& rev,
+void residual_block(const Samples& S, const Model& model, const Reversals& rev,
                     const std::vector<int>& source_of, std::size_t ns, std::size_t lo,
                     std::size_t hi, Extremes& e, std::vector<double>& resid) {
-  const Samples& S = ds.S;
-  const std::vector<Column>& cols = ds.cols;
-  const State& st = ds.st;
-  const Solution& sol = ds.sol;
+  const std::vector<Column>& cols = model.cols;
+  const State& st = model.st;
+  const Solution& sol = model.sol;
   // The samples in chunks inside one run: the columns filled with each kind dispatched
   // once, then every sum and extreme a column at a time (loops the compiler vectorises; each
   // sample's sums still add the columns in their order).
@@ -155,9 +153,8 @@ void residual_block(const DiagnosisState& ds, const Reversals& rev,
 
 // One pass over all samples on the threads, combined in block order, so the result is the
 // sequential one.
-Extremes residual_pass(const DiagnosisState& ds, const Reversals& rev, const Sources& src,
+Extremes residual_pass(const Samples& S, const Model& m, const Reversals& rev, const Sources& src,
                        std::vector<double>& resid) {
-  const Samples& S = ds.S;
   const std::size_t ns = src.names.size();
   const std::size_t nruns = S.runs.size();
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
@@ -173,7 +170,7 @@ Extremes residual_pass(const DiagnosisState& ds, const Reversals& rev, const Sou
   reserve_huge(resid, S.size());
   resid.resize(S.size());
   for_blocks(S.size(), [&](std::size_t lo, std::size_t hi, std::size_t block) {
-    residual_block(ds, rev, src.of, ns, lo, hi, ext[block], resid);
+    residual_block(S, m, rev, src.of, ns, lo, hi, ext[block], resid);
   });
   Extremes all = ext.empty() ? Extremes{} : ext.front();
   for (std::size_t b = 1; b < ext.size(); ++b) {
@@ -203,13 +200,11 @@ Extremes residual_pass(const DiagnosisState& ds, const Reversals& rev, const Sou
 
 // Contributions: each source's term alone (its G over the runs) and its part of the
 // modelled G at the model's extreme points imax, imin (these parts add up to the modelled G).
-void contributions(DiagnosisState& ds, const Reversals& rev, const Sources& src,
-                   const Extremes& all, std::size_t imax, std::size_t imin) {
-  const Samples& S = ds.S;
-  Diagnosis& D = ds.D;
-  const std::vector<Column>& cols = ds.cols;
-  const State& st = ds.st;
-  const Solution& sol = ds.sol;
+void contributions(const Samples& S, const Model& m, const Reversals& rev, const Sources& src,
+                   const Extremes& all, std::size_t imax, std::size_t imin, Diagnosis& D) {
+  const std::vector<Column>& cols = m.cols;
+  const State& st = m.st;
+  const Solution& sol = m.sol;
   const std::vector<std::string>& sources = src.names;
   const std::size_t ns = sources.size();
   const std::vector<double>& term_min = all.term_min;
@@ -250,14 +245,14 @@ void contributions(DiagnosisState& ds, const Reversals& rev, const Sources& src,
 }  // namespace
 
 // Residual over every sample, and the model's terms for the contributions.
-void residual_and_contributions(DiagnosisState& ds) {
-  const Samples& S = ds.S;
-  Diagnosis& D = ds.D;
-  const Reversals rev(S, ds.st.servo_mismatch_s);
-  const Sources src = contribution_sources(ds);
+void residual_and_contributions(const Inputs& in, const SampleSet& ss, const Model& m,
+                                Diagnosis& D) {
+  const Samples& S = ss.S;
+  const Reversals rev(S, m.st.servo_mismatch_s);
+  const Sources src = contribution_sources(m, D);
   const std::size_t nruns = S.runs.size();
   std::vector<double> resid;
-  const Extremes all = residual_pass(ds, rev, src, resid);
+  const Extremes all = residual_pass(S, m, rev, src, resid);
   reversal_steps(S, resid, all.events, D);
   D.residual_rms_mm = std::sqrt(all.ss / static_cast<double>(S.size()));
   std::size_t imax = 0, imin = 0;
@@ -272,9 +267,9 @@ void residual_and_contributions(DiagnosisState& ds) {
       imin = all.model_imin[k];
     }
   }
-  contributions(ds, rev, src, all, imax, imin);
+  contributions(S, m, rev, src, all, imax, imin, D);
   // The measured G the residual's is a part of: the largest of the runs (least squares centre).
-  for (const RunResult& rr : ds.ev.runs) {
+  for (const RunResult& rr : in.ev.runs) {
     if (!D.measured_g_mm || rr.g_lsc_mm > *D.measured_g_mm) D.measured_g_mm = rr.g_lsc_mm;
   }
 }

@@ -161,10 +161,10 @@ Kind cyclic_cos(int ax) {
 
 }  // namespace
 
-void take_cyclic_fit(const DiagnosisState& ds, int ax, CyclicEstimate& ce) {
-  const Solution& sol = ds.sol;
-  const auto js = static_cast<Eigen::Index>(*find(ds.cols, cyclic_sin(ax)));
-  const auto jc = static_cast<Eigen::Index>(*find(ds.cols, cyclic_cos(ax)));
+void take_cyclic_fit(const Model& m, int ax, CyclicEstimate& ce) {
+  const Solution& sol = m.sol;
+  const auto js = static_cast<Eigen::Index>(*find(m.cols, cyclic_sin(ax)));
+  const auto jc = static_cast<Eigen::Index>(*find(m.cols, cyclic_cos(ax)));
   const double a = sol.x[js], b = sol.x[jc];
   ce.amplitude_mm = std::hypot(a, b);
   ce.phase_rad = std::atan2(b, a);
@@ -173,17 +173,18 @@ void take_cyclic_fit(const DiagnosisState& ds, int ax, CyclicEstimate& ce) {
 }
 
 // Cyclic errors: a given pitch, else a periodogram of the residual over axis position.
-void find_cyclic(DiagnosisState& ds) {
-  const DiagnosisOptions& options = ds.options;
-  const Samples& S = ds.S;
-  Diagnosis& D = ds.D;
-  std::vector<Column>& cols = ds.cols;
-  State& st = ds.st;
-  const Solution& sol = ds.sol;
-  const char la = ds.la, lb = ds.lb;
-  const std::string &A = ds.A, &B = ds.B;
-  const double R = ds.R;
-  auto fit = [&] { diagnosis_detail::fit(ds); };
+CyclicErrors find_cyclic(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                         Model& m, Diagnosis& D) {
+  const DiagnosisOptions& options = in.options;
+  const Samples& S = ss.S;
+  CyclicErrors out;
+  std::vector<Column>& cols = m.cols;
+  State& st = m.st;
+  const Solution& sol = m.sol;
+  const char la = td.la, lb = td.lb;
+  const std::string &A = td.A, &B = td.B;
+  const double R = ss.R;
+  auto fit = [&] { diagnosis_detail::fit(S, m); };
   std::vector<double> res;
   // The columns and state `res` was taken at; none before the first residual (an empty
   // column set at the default state is a state like any other, not "already taken").
@@ -257,7 +258,7 @@ void find_cyclic(DiagnosisState& ds) {
     cols.push_back({kc});
     fit();
     ce.pitch_mm = pitch;
-    take_cyclic_fit(ds, ax, ce);
+    take_cyclic_fit(m, ax, ce);
     if (ce.pitch_source == "periodogram" && (ce.amplitude_mm < options.min_cyclic_amplitude_mm ||
                                              ce.amplitude_mm < 5.0 * ce.amplitude_se_mm)) {
       // A peak of a residual that is itself negligible: not a cyclic error.
@@ -267,23 +268,23 @@ void find_cyclic(DiagnosisState& ds) {
       continue;
     }
     found = ce;
-    D.cyclic[static_cast<std::size_t>(ax)] = found;
+    out[static_cast<std::size_t>(ax)] = found;
   }
+  return out;
 }
 
 // With the spikes in the model, a pitch found by the periodogram is refined once more, and
 // the spikes are searched again with that pitch.
-bool refine_cyclic(DiagnosisState& ds) {
-  const DiagnosisOptions& options = ds.options;
-  const Samples& S = ds.S;
-  Diagnosis& D = ds.D;
-  std::vector<Column>& cols = ds.cols;
-  State& st = ds.st;
-  const Solution& sol = ds.sol;
-  auto fit = [&] { diagnosis_detail::fit(ds); };
+bool refine_cyclic(const Inputs& in, const SampleSet& ss, Model& m, CyclicErrors& cyclic) {
+  const DiagnosisOptions& options = in.options;
+  const Samples& S = ss.S;
+  std::vector<Column>& cols = m.cols;
+  State& st = m.st;
+  const Solution& sol = m.sol;
+  auto fit = [&] { diagnosis_detail::fit(S, m); };
   bool refined = false;
   for (int ax = 0; ax < 2; ++ax) {
-    auto& cy = D.cyclic[static_cast<std::size_t>(ax)];
+    auto& cy = cyclic[static_cast<std::size_t>(ax)];
     if (!cy || cy->pitch_source != "periodogram") continue;
     const Kind ks = cyclic_sin(ax);
     const Kind kc = cyclic_cos(ax);
@@ -304,7 +305,7 @@ bool refine_cyclic(DiagnosisState& ds) {
     cols.push_back({kc});
     fit();
     cy->pitch_mm = pitch;
-    take_cyclic_fit(ds, ax, *cy);
+    take_cyclic_fit(m, ax, *cy);
     refined = true;
     // The peak may have been the spikes' residual before they were fitted: the same test as
     // when it was found, now with the spikes in the model.

@@ -12,30 +12,31 @@ Diagnosis diagnose(const Trace& trace, const DiagnosisOptions& options) {
 }
 
 Diagnosis diagnose(const Trace& trace, const Evaluation& ev, const DiagnosisOptions& options) {
-  diagnosis_detail::DiagnosisState ds(trace, ev, options);
-  diagnosis_detail::run_stages(ds);
-  return std::move(ds.D);
+  return std::move(diagnosis_detail::run_stages({trace, ev, options}).D);
 }
 
 namespace diagnosis_detail {
 
-void run_stages(DiagnosisState& ds) {
-  describe_trace(ds);
-  set_up_samples(ds);
-  choose_terms(ds);
-  fit(ds);
-  find_cyclic(ds);
-  search_spikes(ds);
+PlaneFit run_stages(const Inputs& in) {
+  Diagnosis D;
+  const TraceDescription td = describe_trace(in, D);
+  SampleSet ss = set_up_samples(in, td, D);
+  auto [terms, model] = choose_terms(in, td, ss, D);
+  fit(ss.S, model);
+  CyclicErrors cyclic = find_cyclic(in, td, ss, model, D);
+  SpikeHints hints{0.0, 0.0};
+  search_spikes(in, ss, model, hints);
   // With the spikes in the model, a pitch found by the periodogram is refined once more, and
   // the spikes are searched again with that pitch.
-  if (refine_cyclic(ds)) search_spikes(ds);
-  fit_spike_profiles(ds);
-  report_estimates(ds);
-  measure_following_lag(ds);
-  split_radius_change(ds);
-  measure_axis_lags(ds);
-  residual_and_contributions(ds);
-  check_finite(ds);
+  if (refine_cyclic(in, ss, model, cyclic)) search_spikes(in, ss, model, hints);
+  const SpikeMeasures spikes = fit_spike_profiles(in, td, ss, model, D);
+  report_estimates(in, td, ss, terms, model, cyclic, spikes, D);
+  const FollowingLag lag = measure_following_lag(in, td, ss, model, D);
+  const MeanScale mean_scale = split_radius_change(in, ss, lag, D);
+  measure_axis_lags(in, td, ss, lag, D);
+  residual_and_contributions(in, ss, model, D);
+  check_finite(in, ss, D);
+  return {std::move(ss), std::move(model), lag, mean_scale, std::move(D)};
 }
 
 }  // namespace diagnosis_detail

@@ -12,11 +12,12 @@ namespace circtest::diagnosis_detail {
 namespace {
 
 // Parameters and standard errors: the column of kind k's value times `scale`.
-Estimate estimate(const DiagnosisState& ds, Kind k, double scale, int group = 0) {
-  const std::vector<Column>& cols = ds.cols;
-  const Solution& sol = ds.sol;
+Estimate estimate(const TermSet& terms, const Model& m, Kind k, double scale, int group = 0) {
+  const std::vector<Column>& cols = m.cols;
+  const Solution& sol = m.sol;
   Estimate e;
-  if (std::find(ds.unseparable.begin(), ds.unseparable.end(), k) != ds.unseparable.end()) return e;
+  if (std::find(terms.unseparable.begin(), terms.unseparable.end(), k) != terms.unseparable.end())
+    return e;
   if (auto j = find(cols, k, group)) {
     const auto ji = static_cast<Eigen::Index>(*j);
     e.value = sol.x[ji] * scale;
@@ -27,20 +28,24 @@ Estimate estimate(const DiagnosisState& ds, Kind k, double scale, int group = 0)
 
 }  // namespace
 
-void report_estimates(DiagnosisState& ds) {
-  const Evaluation& ev = ds.ev;
-  const Samples& S = ds.S;
-  Diagnosis& D = ds.D;
-  const std::vector<Column>& cols = ds.cols;
-  const State& st = ds.st;
-  const Solution& sol = ds.sol;
-  const std::string &A = ds.A, &B = ds.B;
-  const bool speed_known = ds.speed_known, reversal_a = ds.reversal_a, reversal_b = ds.reversal_b;
-  auto est = [&](Kind k, double scale, int group = 0) { return estimate(ds, k, scale, group); };
+void report_estimates(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                      const TermSet& terms, Model& m, const CyclicErrors& cyclic,
+                      const SpikeMeasures& spikes, Diagnosis& D) {
+  const Evaluation& ev = in.ev;
+  const Samples& S = ss.S;
+  const std::vector<Column>& cols = m.cols;
+  const State& st = m.st;
+  const Solution& sol = m.sol;
+  const std::string &A = td.A, &B = td.B;
+  const bool speed_known = ss.speed_known, reversal_a = ss.reversal_a, reversal_b = ss.reversal_b;
+  auto est = [&](Kind k, double scale, int group = 0) {
+    return estimate(terms, m, k, scale, group);
+  };
+  D.cyclic = cyclic;
   for (int ax = 0; ax < 2; ++ax) {
     auto& cy = D.cyclic[static_cast<std::size_t>(ax)];
     if (!cy) continue;
-    take_cyclic_fit(ds, ax, *cy);
+    take_cyclic_fit(m, ax, *cy);
   }
   D.centre_offset_mm = {est(Kind::centre_a, 1.0), est(Kind::centre_b, 1.0)};
   D.backlash_mm = {est(Kind::backlash_a, 1.0), est(Kind::backlash_b, 1.0)};
@@ -58,7 +63,7 @@ void report_estimates(DiagnosisState& ds) {
     const auto axs = static_cast<std::size_t>(ax);
     const bool reversal = ax == 0 ? reversal_a : reversal_b;
     const double tau = ax == 0 ? st.tau_a : st.tau_b;
-    const auto& measured = ds.spike_measure[axs];
+    const auto& measured = spikes[axs];
     if (D.spike_mm[axs].value && measured && (measured->rises || !(tau > 0))) {
       // A spike that rises after the reversal, or that no decaying step found: its decay is
       // the fall from the measured profile's peak to 1/e of it.
@@ -74,7 +79,7 @@ void report_estimates(DiagnosisState& ds) {
       s2.spike_h_b = D.spike_mm[1].value.value_or(0.0);
       std::vector<Column> aug = cols;
       aug.push_back({ax == 0 ? Kind::spike_tau_a : Kind::spike_tau_b});
-      const Normal N = accumulate(S, s2, aug, ds.stride, ds.memo);
+      const Normal N = accumulate(S, s2, aug, m.stride, m.memo);
       const auto last = static_cast<Eigen::Index>(aug.size() - 1);
       const Solution a = solve(N);
       D.spike_ms[axs].standard_error =
@@ -86,7 +91,7 @@ void report_estimates(DiagnosisState& ds) {
     }
   }
   D.scale_mismatch_ppm = est(Kind::scale_mismatch, 1e6);
-  if (!ds.squareness_servo_confounded) {
+  if (!terms.squareness_servo_confounded) {
     D.squareness_urad = est(Kind::squareness, 1e6);
     D.servo_mismatch_ms = est(Kind::servo, 1e3);
     if (!speed_known && D.servo_mismatch_ms.value) {
@@ -98,9 +103,9 @@ void report_estimates(DiagnosisState& ds) {
       D.servo_mismatch_ms = {};
     }
   }
-  for (std::size_t g = 0; g < ds.group_feed.size(); ++g) {
+  for (std::size_t g = 0; g < ss.group_feed.size(); ++g) {
     FeedRadius fr;
-    fr.feed_mm_per_min = ds.group_feed[g];
+    fr.feed_mm_per_min = ss.group_feed[g];
     fr.dr_mm = est(Kind::radius, 1.0, static_cast<int>(g));
     D.radius_change.push_back(fr);
   }

@@ -6,13 +6,12 @@
 namespace circtest::diagnosis_detail {
 
 // Backlash transitions: a few Gauss-Newton steps on the play.
-void fit(DiagnosisState& ds) {
-  const Samples& S = ds.S;
-  const std::vector<Column>& cols = ds.cols;
-  State& st = ds.st;
-  Solution& sol = ds.sol;
-  const std::size_t stride = ds.stride;
-  NormalMemo& memo = ds.memo;
+void fit(const Samples& S, Model& model) {
+  const std::vector<Column>& cols = model.cols;
+  State& st = model.st;
+  Solution& sol = model.sol;
+  const std::size_t stride = model.stride;
+  NormalMemo& memo = model.memo;
   for (int it = 0; it < 4; ++it) {
     sol = solve(accumulate(S, st, cols, stride, memo));
     bool changed = false;

@@ -55,11 +55,10 @@ std::optional<std::string> first_not_finite(const Diagnosis& D) {
 
 }  // namespace
 
-void check_finite(const DiagnosisState& ds) {
-  const Trace& trace = ds.trace;
-  const Evaluation& ev = ds.ev;
-  const Samples& S = ds.S;
-  const Diagnosis& D = ds.D;
+void check_finite(const Inputs& in, const SampleSet& ss, const Diagnosis& D) {
+  const Trace& trace = in.trace;
+  const Evaluation& ev = in.ev;
+  const Samples& S = ss.S;
   if (const auto what = first_not_finite(D)) {
     const Run& first = ev.runs.front().run;
     throw DataError(trace.source, trace.line_of_row[first.begin],

@@ -10,12 +10,12 @@
 namespace circtest::diagnosis_detail {
 
 // Absolute scale and Kv from the radius change: it is R (sA + sB) / 2 - v^2 lag^2 / (2 R).
-void split_radius_change(DiagnosisState& ds) {
-  const Evaluation& ev = ds.ev;
-  Diagnosis& D = ds.D;
-  const double R = ds.R;
-  const std::optional<double>& lag_s = ds.lag_s;
-  const double period = ds.period;
+MeanScale split_radius_change(const Inputs& in, const SampleSet& ss, const FollowingLag& lag,
+                              Diagnosis& D) {
+  const Evaluation& ev = in.ev;
+  const double R = ss.R;
+  const std::optional<double>& lag_s = lag.lag_s;
+  const double period = lag.period;
   const std::optional<double> mismatch_ppm = D.scale_mismatch_ppm.value;
   std::optional<double> mean_scale, mean_scale_se;
   std::size_t nfeeds = 0;
@@ -77,9 +77,10 @@ void split_radius_change(DiagnosisState& ds) {
     mean_scale.reset();
     D.notes.push_back("instrument is not absolute (ballbar): only the scale mismatch is reported");
   }
+  MeanScale out;
   if (mean_scale) {
-    ds.mean_scale = mean_scale;
-    ds.mean_scale_se = mean_scale_se.value_or(0.0);
+    out.value = mean_scale;
+    out.se = mean_scale_se.value_or(0.0);
   }
   if (mean_scale && mismatch_ppm) {
     const double se_ds = D.scale_mismatch_ppm.standard_error.value_or(0.0);
@@ -88,6 +89,7 @@ void split_radius_change(DiagnosisState& ds) {
     D.scale_ppm[1].value = m - *mismatch_ppm / 2;
     D.scale_ppm[0].standard_error = D.scale_ppm[1].standard_error = std::hypot(mse, se_ds / 2);
   }
+  return out;
 }
 
 }  // namespace circtest::diagnosis_detail

@@ -19,15 +19,15 @@ namespace circtest::diagnosis_detail {
 namespace {
 
 // The linearisation point: the nominal circle, else the least-squares circle of all runs.
-void linearisation_point(DiagnosisState& ds) {
-  const Trace& trace = ds.trace;
-  const Evaluation& ev = ds.ev;
-  Diagnosis& D = ds.D;
-  double& ca = ds.ca;
-  double& cb = ds.cb;
-  double& R = ds.R;
-  const auto& col_a = trace.values[ev.columns.a];
-  const auto& col_b = trace.values[ev.columns.b];
+void linearisation_point(const Inputs& in, const TraceDescription& td, SampleSet& ss,
+                         Diagnosis& D) {
+  const Trace& trace = in.trace;
+  const Evaluation& ev = in.ev;
+  double& ca = ss.ca;
+  double& cb = ss.cb;
+  double& R = ss.R;
+  const auto& col_a = td.col_a;
+  const auto& col_b = td.col_b;
   if (ev.centre && ev.nominal_radius_mm) {
     ca = ev.centre->a_mm;
     cb = ev.centre->b_mm;
@@ -55,9 +55,7 @@ void linearisation_point(DiagnosisState& ds) {
 }
 
 // The sample arrays reserved for all runs.
-void reserve_samples(DiagnosisState& ds) {
-  const Evaluation& ev = ds.ev;
-  Samples& S = ds.S;
+void reserve_samples(const Evaluation& ev, Samples& S) {
   std::size_t total = 0;
   for (const RunResult& rr : ev.runs) total += rr.run.size();
   // Side by side: mapping in these fresh pages (27 MB on the benchmark trace) costs more
@@ -74,24 +72,24 @@ void reserve_samples(DiagnosisState& ds) {
 
 // The runs' bookkeeping in order: their range of the samples, direction, speed, feed group and
 // sample period in angle.
-void run_bookkeeping(DiagnosisState& ds, const std::optional<double>& meta_feed) {
-  const std::vector<Run> runs = [&ds] {
+void run_bookkeeping(const Inputs& in, SampleSet& ss, const std::optional<double>& meta_feed) {
+  const std::vector<Run> runs = [&in] {
     std::vector<Run> r;
-    for (const RunResult& rr : ds.ev.runs) r.push_back(rr.run);
+    for (const RunResult& rr : in.ev.runs) r.push_back(rr.run);
     return r;
   }();
   // Each run's feed: measured (the time column), else as the program announced it, else the
   // trace's one feed.
-  const std::vector<std::optional<double>> announced = announced_run_feeds(ds.trace, runs);
-  const Trace& trace = ds.trace;
-  const Evaluation& ev = ds.ev;
-  Samples& S = ds.S;
-  std::vector<double>& group_feed = ds.group_feed;
-  bool& speed_known = ds.speed_known;
-  bool& have_ccw = ds.have_ccw;
-  bool& have_cw = ds.have_cw;
-  double& min_sweep = ds.min_sweep;
-  const double R = ds.R;
+  const std::vector<std::optional<double>> announced = announced_run_feeds(in.trace, runs);
+  const Trace& trace = in.trace;
+  const Evaluation& ev = in.ev;
+  Samples& S = ss.S;
+  std::vector<double>& group_feed = ss.group_feed;
+  bool& speed_known = ss.speed_known;
+  bool& have_ccw = ss.have_ccw;
+  bool& have_cw = ss.have_cw;
+  double& min_sweep = ss.min_sweep;
+  const double R = ss.R;
   for (std::size_t k = 0; k < ev.runs.size(); ++k) {
     const RunResult& rr = ev.runs[k];
     RunInfo info;
@@ -133,12 +131,12 @@ void run_bookkeeping(DiagnosisState& ds, const std::optional<double>& meta_feed)
 
 // The runs' samples side by side (each run's into its own range of the arrays); returns each
 // run's lowest and highest unwrapped angle.
-std::vector<std::array<double, 2>> fill_samples(DiagnosisState& ds) {
-  const Evaluation& ev = ds.ev;
-  Samples& S = ds.S;
-  const auto& col_a = ds.trace.values[ev.columns.a];
-  const auto& col_b = ds.trace.values[ev.columns.b];
-  const double ca = ds.ca, cb = ds.cb, R = ds.R;
+std::vector<std::array<double, 2>> fill_samples(const Evaluation& ev, const TraceDescription& td,
+                                                SampleSet& ss) {
+  Samples& S = ss.S;
+  const auto& col_a = td.col_a;
+  const auto& col_b = td.col_b;
+  const double ca = ss.ca, cb = ss.cb, R = ss.R;
   {
     const std::size_t total = S.runs.empty() ? 0 : S.runs.back().end;
     for (auto* v : {&S.c, &S.s, &S.dr, &S.u}) v->resize(total);
@@ -173,9 +171,9 @@ std::vector<std::array<double, 2>> fill_samples(DiagnosisState& ds) {
   return angle_range;
 }
 
-void find_reversals(DiagnosisState& ds, const std::vector<std::array<double, 2>>& angle_range) {
-  bool& reversal_a = ds.reversal_a;
-  bool& reversal_b = ds.reversal_b;
+void find_reversals(SampleSet& ss, const std::vector<std::array<double, 2>>& angle_range) {
+  bool& reversal_a = ss.reversal_a;
+  bool& reversal_b = ss.reversal_b;
   for (const std::array<double, 2>& range : angle_range) {
     const double lo = range[0], hi = range[1];
     // An axis reverses inside the run when the arc crosses its reversal angle (with a margin
@@ -190,13 +188,12 @@ void find_reversals(DiagnosisState& ds, const std::vector<std::array<double, 2>>
 }
 
 // What the runs cannot show.
-void sample_notes(DiagnosisState& ds) {
-  Diagnosis& D = ds.D;
-  const bool speed_known = ds.speed_known, have_ccw = ds.have_ccw, have_cw = ds.have_cw;
-  const double min_sweep = ds.min_sweep;
-  D.runs = ds.ev.runs.size();
-  D.samples = ds.S.size();
-  D.feeds_mm_per_min = ds.group_feed;
+void sample_notes(const Evaluation& ev, const SampleSet& ss, Diagnosis& D) {
+  const bool speed_known = ss.speed_known, have_ccw = ss.have_ccw, have_cw = ss.have_cw;
+  const double min_sweep = ss.min_sweep;
+  D.runs = ev.runs.size();
+  D.samples = ss.S.size();
+  D.feeds_mm_per_min = ss.group_feed;
   if (!speed_known) {
     D.feeds_mm_per_min.clear();
     D.notes.push_back(
@@ -218,21 +215,23 @@ void sample_notes(DiagnosisState& ds) {
 
 }  // namespace
 
-void describe_trace(DiagnosisState& ds) {
-  const Trace& trace = ds.trace;
-  const Evaluation& ev = ds.ev;
-  const DiagnosisOptions& options = ds.options;
-  Diagnosis& D = ds.D;
+TraceDescription describe_trace(const Inputs& in, Diagnosis& D) {
+  const Trace& trace = in.trace;
+  const Evaluation& ev = in.ev;
+  const DiagnosisOptions& options = in.options;
+  if (ev.runs.empty()) throw DataError(trace.source, 0, "no run to diagnose");
   D.source = ev.source;
   D.plane = ev.plane;
   const PlaneAxes pa = plane_axes(ev.plane);
-  ds.la = pa.first;
-  ds.lb = pa.second;
-  D.axes = {static_cast<char>(ds.la - 'a' + 'A'), static_cast<char>(ds.lb - 'a' + 'A')};
-  ds.radial = ev.channel_a == column_name::from_radial(ds.la) ||
-              ev.channel_b == column_name::from_radial(ds.lb);
-  ds.A = std::string(1, D.axes[0]);
-  ds.B = std::string(1, D.axes[1]);
+  D.axes = {static_cast<char>(pa.first - 'a' + 'A'), static_cast<char>(pa.second - 'a' + 'A')};
+  TraceDescription td{pa.first,
+                      pa.second,
+                      std::string(1, D.axes[0]),
+                      std::string(1, D.axes[1]),
+                      trace.values[ev.columns.a],
+                      trace.values[ev.columns.b],
+                      ev.channel_a == column_name::from_radial(pa.first) ||
+                          ev.channel_b == column_name::from_radial(pa.second)};
   if (const std::string* h = trace.metadata.find(meta_key::ini_sha256)) D.ini_sha256 = *h;
   D.absolute_channels = options.absolute_channels;
   if (const std::string* ins = trace.metadata.find(meta_key::instrument)) {
@@ -243,22 +242,24 @@ void describe_trace(DiagnosisState& ds) {
       D.absolute_channels = false;
     }
   }
-  if (ev.runs.empty()) throw DataError(trace.source, 0, "no run to diagnose");
+  return td;
 }
 
-void set_up_samples(DiagnosisState& ds) {
-  linearisation_point(ds);
-  ds.D.radius_mm = ds.R;
+SampleSet set_up_samples(const Inputs& in, const TraceDescription& td, Diagnosis& D) {
+  SampleSet ss;
+  linearisation_point(in, td, ss, D);
+  D.radius_mm = ss.R;
   // Feed groups: runs within 2 % of each other's feed share a radius parameter.
   const std::optional<double> meta_feed =
-      ds.trace.metadata.number(meta_key::feed_mm_per_min, ds.trace.source);
-  ds.S.radius = ds.R;
-  ds.S.col_a = ds.trace.values[ds.ev.columns.a].data();
-  ds.S.col_b = ds.trace.values[ds.ev.columns.b].data();
-  reserve_samples(ds);
-  run_bookkeeping(ds, meta_feed);
-  find_reversals(ds, fill_samples(ds));
-  sample_notes(ds);
+      in.trace.metadata.number(meta_key::feed_mm_per_min, in.trace.source);
+  ss.S.radius = ss.R;
+  ss.S.col_a = td.col_a.data();
+  ss.S.col_b = td.col_b.data();
+  reserve_samples(in.ev, ss.S);
+  run_bookkeeping(in, ss, meta_feed);
+  find_reversals(ss, fill_samples(in.ev, td, ss));
+  sample_notes(in.ev, ss, D);
+  return ss;
 }
 
 }  // namespace circtest::diagnosis_detail

@@ -20,32 +20,33 @@ const std::vector<double>* cmd_column(const Trace& trace, char axis) {
 
 // Whether the fitted servo mismatch ellipse (in s, or a phase without the feed) stands out of
 // its noise: more than three standard errors.
-bool servo_ellipse_stands_out(const DiagnosisState& ds) {
-  const auto j = find(ds.cols, Kind::servo);
+bool servo_ellipse_stands_out(const Model& m) {
+  const auto j = find(m.cols, Kind::servo);
   if (!j) return false;
   const auto ji = static_cast<Eigen::Index>(*j);
-  const double se = std::sqrt(std::max(0.0, ds.sol.sigma2 * ds.sol.inv(ji, ji)));
-  return std::abs(ds.sol.x[ji]) > 3.0 * se;
+  const double se = std::sqrt(std::max(0.0, m.sol.sigma2 * m.sol.inv(ji, ji)));
+  return std::abs(m.sol.x[ji]) > 3.0 * se;
 }
 
 }  // namespace
 
 // The mean following lag from the commanded columns (same servo period as the instrument).
-void measure_following_lag(DiagnosisState& ds) {
-  const Trace& trace = ds.trace;
-  const Evaluation& ev = ds.ev;
-  const Samples& S = ds.S;
-  Diagnosis& D = ds.D;
-  const auto& col_a = trace.values[ev.columns.a];
-  const auto& col_b = trace.values[ev.columns.b];
-  const double ca = ds.ca, cb = ds.cb, R = ds.R;
-  const bool speed_known = ds.speed_known;
-  std::optional<double>& lag_s = ds.lag_s;
-  double& period = ds.period;
-  const char la = ds.la, lb = ds.lb;
+FollowingLag measure_following_lag(const Inputs& in, const TraceDescription& td,
+                                   const SampleSet& ss, const Model& m, Diagnosis& D) {
+  const Trace& trace = in.trace;
+  const Evaluation& ev = in.ev;
+  const Samples& S = ss.S;
+  const auto& col_a = td.col_a;
+  const auto& col_b = td.col_b;
+  const double ca = ss.ca, cb = ss.cb, R = ss.R;
+  const bool speed_known = ss.speed_known;
+  FollowingLag out;
+  std::optional<double>& lag_s = out.lag_s;
+  double& period = out.period;
+  const char la = td.la, lb = td.lb;
   const std::vector<double>* cmd_a = cmd_column(trace, la);
   const std::vector<double>* cmd_b = cmd_column(trace, lb);
-  if (cmd_a && cmd_b && speed_known && !ds.radial) {
+  if (cmd_a && cmd_b && speed_known && !td.radial) {
     const double oa = D.centre_offset_mm[0].value.value_or(0.0);
     const double ob = D.centre_offset_mm[1].value.value_or(0.0);
     const double alpha = D.squareness_urad.value.value_or(0.0) * 1e-6;
@@ -135,10 +136,10 @@ void measure_following_lag(DiagnosisState& ds) {
       w2 += w * w;
     }
     w2 /= static_cast<double>(S.size());
-    ds.scale_servo_per_s = w2 * *lag_s;
-    *D.scale_mismatch_ppm.value += ds.scale_servo_per_s * *D.servo_mismatch_ms.value * 1e-3 * 1e6;
-  } else if ((!ds.speed_known || ds.radial) && D.scale_mismatch_ppm.value &&
-             servo_ellipse_stands_out(ds)) {
+    out.scale_servo_per_s = w2 * *lag_s;
+    *D.scale_mismatch_ppm.value += out.scale_servo_per_s * *D.servo_mismatch_ms.value * 1e-3 * 1e6;
+  } else if ((!ss.speed_known || td.radial) && D.scale_mismatch_ppm.value &&
+             servo_ellipse_stands_out(m)) {
     // The ellipse's cos 2theta part w^2 lag dtau is in the scale mismatch column, and the lag
     // is not known (no command to measure it against; without the feed not even w): the
     // mismatch is not reported rather than reported with the servo in it.
@@ -148,14 +149,15 @@ void measure_following_lag(DiagnosisState& ds) {
         "scale mismatch cannot be separated from the servo mismatch ellipse by this trace: "
         "unequal lags make a cos 2theta term w^2 lag (lag_{} - lag_{}) like it, and {}: not "
         "reported",
-        ds.A, ds.B,
-        ds.radial ? "a radial trace has no command to measure the lag against"
+        td.A, td.B,
+        td.radial ? "a radial trace has no command to measure the lag against"
                   : "without the feed and a command the lag is not known"));
   } else if (D.servo_mismatch_ms.value && D.scale_mismatch_ppm.value) {
     D.notes.push_back(
         "no commanded columns: the scale mismatch includes the cos 2theta part of the servo "
         "mismatch (w^2 lag dtau)");
   }
+  return out;
 }
 
 }  // namespace circtest::diagnosis_detail

@@ -27,16 +27,25 @@ struct LagFit {
   std::size_t samples = 0;
 };
 
+// What the per-axis lag fits read.
+struct LagContext {
+  const Inputs& in;
+  const TraceDescription& td;
+  const SampleSet& ss;
+  const FollowingLag& lag;
+};
+
 // Least squares of the following error on the columns above for axis AX against REFERENCE.
-LagFit fit_axis_lag(const DiagnosisState& ds, int ax, const std::vector<double>& cmd,
+LagFit fit_axis_lag(const LagContext& ctx, int ax, const std::vector<double>& cmd,
                     const std::vector<double>& reference, const std::vector<double>* other_cmd) {
-  const Trace& trace = ds.trace;
+  const Trace& trace = ctx.in.trace;
+  const SampleSet& ss = ctx.ss;
   const std::vector<double>* t = trace.column(column_name::t);
-  const Samples& S = ds.S;
-  const double centre = ax == 0 ? ds.ca : ds.cb;
-  const double other_centre = ax == 0 ? ds.cb : ds.ca;
-  const bool with_acc = ds.group_feed.size() > 1;
-  const bool with_other = other_cmd != nullptr && ds.have_ccw && ds.have_cw;
+  const Samples& S = ss.S;
+  const double centre = ax == 0 ? ss.ca : ss.cb;
+  const double other_centre = ax == 0 ? ss.cb : ss.ca;
+  const bool with_acc = ss.group_feed.size() > 1;
+  const bool with_other = other_cmd != nullptr && ss.have_ccw && ss.have_cw;
   const int n_cols = 4 + (with_acc ? 1 : 0) + (with_other ? 1 : 0);
   Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(n_cols, n_cols);
   Eigen::VectorXd atb = Eigen::VectorXd::Zero(n_cols);
@@ -46,10 +55,10 @@ LagFit fit_axis_lag(const DiagnosisState& ds, int ax, const std::vector<double>&
   for (const RunInfo& info : S.runs) {
     const std::size_t len = info.end - info.begin;
     if (len < 3 || info.speed_mm_s <= 0) continue;
-    const double w2 = (info.speed_mm_s / ds.R) * (info.speed_mm_s / ds.R);
+    const double w2 = (info.speed_mm_s / ss.R) * (info.speed_mm_s / ss.R);
     for (std::size_t q = 1; q + 1 < len; ++q) {
       const std::size_t i = info.trace_begin + q;
-      const double dt = t ? (*t)[i + 1] - (*t)[i - 1] : 2.0 * ds.period;
+      const double dt = t ? (*t)[i + 1] - (*t)[i - 1] : 2.0 * ctx.lag.period;
       if (!(dt > 0)) continue;
       const double v = (cmd[i + 1] - cmd[i - 1]) / dt;
       if (!(std::abs(v) >= kMinSpeedShare * info.speed_mm_s)) continue;
@@ -90,36 +99,36 @@ LagFit fit_axis_lag(const DiagnosisState& ds, int ax, const std::vector<double>&
 }
 
 // The largest G (least squares centre) of the runs at feed group G.
-std::optional<double> measured_g_of_group(const DiagnosisState& ds, int g) {
+std::optional<double> measured_g_of_group(const Evaluation& ev, const Samples& S, int g) {
   std::optional<double> best;
-  for (std::size_t k = 0; k < ds.S.runs.size() && k < ds.ev.runs.size(); ++k) {
-    if (ds.S.runs[k].group != g) continue;
-    const double v = ds.ev.runs[k].g_lsc_mm;
+  for (std::size_t k = 0; k < S.runs.size() && k < ev.runs.size(); ++k) {
+    if (S.runs[k].group != g) continue;
+    const double v = ev.runs[k].g_lsc_mm;
     if (!best || v > *best) best = v;
   }
   return best;
 }
 
 // Per axis from the commanded column against the motor feedback (else the instrument).
-void lags_from_columns(DiagnosisState& ds) {
-  Diagnosis& D = ds.D;
-  const Trace& trace = ds.trace;
-  const char letters[2] = {ds.la, ds.lb};
-  const std::vector<double>* cmds[2] = {trace.column(column_name::commanded(ds.la)),
-                                        trace.column(column_name::commanded(ds.lb))};
+void lags_from_columns(const LagContext& ctx, Diagnosis& D) {
+  const Trace& trace = ctx.in.trace;
+  const TraceDescription& td = ctx.td;
+  const char letters[2] = {td.la, td.lb};
+  const std::vector<double>* cmds[2] = {trace.column(column_name::commanded(td.la)),
+                                        trace.column(column_name::commanded(td.lb))};
   for (int ax = 0; ax < 2; ++ax) {
     if (!cmds[ax]) continue;
     const std::vector<double>* fb = trace.column(column_name::feedback(letters[ax]));
     AxisLag& al = D.axis_lag[ax];
     LagFit f;
     if (fb) {
-      f = fit_axis_lag(ds, ax, *cmds[ax], *fb, nullptr);
+      f = fit_axis_lag(ctx, ax, *cmds[ax], *fb, nullptr);
       if (f.lag_s) al.source = "feedback";
     } else {
-      const auto& col = trace.values[ax == 0 ? ds.ev.columns.a : ds.ev.columns.b];
+      const auto& col = ax == 0 ? td.col_a : td.col_b;
       // The plane's first axis carries the squareness (a_actual = a + alpha b): the other
       // axis' position is a column of its fit.
-      f = fit_axis_lag(ds, ax, *cmds[ax], col, ax == 0 ? cmds[1] : nullptr);
+      f = fit_axis_lag(ctx, ax, *cmds[ax], col, ax == 0 ? cmds[1] : nullptr);
       if (f.lag_s) al.source = "instrument";
     }
     if (!f.lag_s) continue;
@@ -134,20 +143,19 @@ void lags_from_columns(DiagnosisState& ds) {
   if (!cmds[0] || !cmds[1]) {
     D.notes.push_back(fmt::format(
         "servo per axis: no {} column: the lag of {} cannot be measured against its command",
-        !cmds[0] ? column_name::commanded(ds.la) : column_name::commanded(ds.lb),
-        !cmds[0] ? ds.A : ds.B));
+        !cmds[0] ? column_name::commanded(td.la) : column_name::commanded(td.lb),
+        !cmds[0] ? td.A : td.B));
   } else if (D.axis_lag[0].source == "instrument" || D.axis_lag[1].source == "instrument") {
     D.notes.push_back(fmt::format(
         "servo per axis: no motor feedback column ({}, {}): the lag is measured against the "
         "instrument, with play, scale and squareness fitted out; a cyclic error stays in it",
-        column_name::feedback(ds.la), column_name::feedback(ds.lb)));
+        column_name::feedback(td.la), column_name::feedback(td.lb)));
   }
 }
 
 // Without commanded columns: the mean lag of a feed sweep (the radius change, Kv) split by the
 // fitted mismatch.
-void lags_from_feeds(DiagnosisState& ds) {
-  Diagnosis& D = ds.D;
+void lags_from_feeds(const SampleSet& ss, Diagnosis& D) {
   if (D.kv_source == "feeds" && D.kv_per_s.value && *D.kv_per_s.value > 0 &&
       D.servo_mismatch_ms.value) {
     const double mean_ms = 1e3 / *D.kv_per_s.value;
@@ -165,7 +173,7 @@ void lags_from_feeds(DiagnosisState& ds) {
     return;
   }
   D.notes.push_back(
-      ds.group_feed.size() > 1
+      ss.group_feed.size() > 1
           ? "servo per axis: not measured (no commanded columns, and the radius change over the "
             "feeds gives no position-loop gain)"
           : "servo per axis: not measured (no commanded columns and one feed only: the mean lag "
@@ -174,23 +182,23 @@ void lags_from_feeds(DiagnosisState& ds) {
 
 }  // namespace
 
-void measure_axis_lags(DiagnosisState& ds) {
-  Diagnosis& D = ds.D;
-  if (!ds.speed_known) {
+void measure_axis_lags(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                       const FollowingLag& lag, Diagnosis& D) {
+  if (!ss.speed_known) {
     D.notes.push_back("servo per axis: the feed is unknown, no lag can be measured");
     return;
   }
-  const Trace& trace = ds.trace;
-  if (ds.radial) {
+  const Trace& trace = in.trace;
+  if (td.radial) {
     D.notes.push_back(
         "servo per axis: a radial trace's commanded columns give each length reading's angle, "
         "not a command the axes follow: no lag is measured against them");
-    lags_from_feeds(ds);
-  } else if (trace.column(column_name::commanded(ds.la)) ||
-             trace.column(column_name::commanded(ds.lb))) {
-    lags_from_columns(ds);
+    lags_from_feeds(ss, D);
+  } else if (trace.column(column_name::commanded(td.la)) ||
+             trace.column(column_name::commanded(td.lb))) {
+    lags_from_columns({in, td, ss, lag}, D);
   } else {
-    lags_from_feeds(ds);
+    lags_from_feeds(ss, D);
   }
   const AxisLag &a = D.axis_lag[0], &b = D.axis_lag[1];
   std::optional<double> dtau_ms;
@@ -202,18 +210,18 @@ void measure_axis_lags(DiagnosisState& ds) {
   } else if (D.servo_mismatch_ms.value) {
     // From the instrument alone: the fitted ellipse, which grows with the feed.
     dtau_ms = D.servo_mismatch_ms.value;
-    if (ds.group_feed.size() < 2 && D.squareness_urad.value) {
+    if (ss.group_feed.size() < 2 && D.squareness_urad.value) {
       D.notes.push_back(
           "servo per axis: one feed only: the mismatch ellipse and squareness are told apart by "
           "the run directions alone; a feed sweep separates them by how they grow with feed");
     }
   }
   if (!dtau_ms) return;
-  for (std::size_t g = 0; g < ds.group_feed.size(); ++g) {
+  for (std::size_t g = 0; g < ss.group_feed.size(); ++g) {
     ServoShare share;
-    share.feed_mm_per_min = ds.group_feed[g];
-    share.g_mm = ds.group_feed[g] / 60.0 * std::abs(*dtau_ms) * 1e-3;
-    share.measured_g_mm = measured_g_of_group(ds, static_cast<int>(g));
+    share.feed_mm_per_min = ss.group_feed[g];
+    share.g_mm = ss.group_feed[g] / 60.0 * std::abs(*dtau_ms) * 1e-3;
+    share.measured_g_mm = measured_g_of_group(in.ev, ss.S, static_cast<int>(g));
     if (share.measured_g_mm && *share.measured_g_mm > 0) {
       share.percent = share.g_mm / *share.measured_g_mm * 100.0;
     }

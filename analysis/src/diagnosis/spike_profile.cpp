@@ -80,13 +80,12 @@ struct WindowResidual {
   std::array<std::vector<ReversalEvent>, 2> events;
 };
 
-WindowResidual window_residual(const DiagnosisState& ds) {
-  const Samples& S = ds.S;
-  const std::vector<Column>& cols = ds.cols;
-  const State& st = ds.st;
+WindowResidual window_residual(const Samples& S, const Model& m) {
+  const std::vector<Column>& cols = m.cols;
+  const State& st = m.st;
   const Reversals rev(S, st.servo_mismatch_s);
   std::vector<double> xs(cols.size());
-  for (std::size_t j = 0; j < cols.size(); ++j) xs[j] = ds.sol.x[static_cast<Eigen::Index>(j)];
+  for (std::size_t j = 0; j < cols.size(); ++j) xs[j] = m.sol.x[static_cast<Eigen::Index>(j)];
   WindowResidual out;
   out.resid.assign(S.size(), std::numeric_limits<double>::quiet_NaN());
   const std::size_t nblocks = (S.size() + kBlockSamples - 1) / kBlockSamples;
@@ -118,9 +117,8 @@ WindowResidual window_residual(const DiagnosisState& ds) {
 // The residual plus the fitted spike of axis ax, divided by the spike's direction factor
 // (-dir cos for A, -dir sin for B): the axis' deviation after each reversal, averaged (only
 // the reversals to +axis or -axis with only_dir).
-SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const WindowResidual& w,
+SpikeProfile spike_profile(const Samples& S, const Model& m, int ax, const WindowResidual& w,
                            int only_dir = 0) {
-  const Samples& S = ds.S;
   SpikeProfile p;
   const double period_s = sample_period_s(S);
   if (!(period_s > 0)) return p;
@@ -131,9 +129,9 @@ SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const WindowResidua
   p.sum2.assign(nbins, 0.0);
   p.sum_t.assign(nbins, 0.0);
   p.n.assign(nbins, 0);
-  const auto j = find(ds.cols, ax == 0 ? Kind::spike_a : Kind::spike_b);
-  const double h = j ? ds.sol.x[static_cast<Eigen::Index>(*j)] : 0.0;
-  const Reversals rev(S, ds.st.servo_mismatch_s);
+  const auto j = find(m.cols, ax == 0 ? Kind::spike_a : Kind::spike_b);
+  const double h = j ? m.sol.x[static_cast<Eigen::Index>(*j)] : 0.0;
+  const Reversals rev(S, m.st.servo_mismatch_s);
   for (const ReversalEvent& ev : w.events[static_cast<std::size_t>(ax)]) {
     if (only_dir != 0 && ev.dir != only_dir) continue;
     const RunInfo& r = S.runs[S.run[ev.sample]];
@@ -150,7 +148,7 @@ SpikeProfile spike_profile(const DiagnosisState& ds, int ax, const WindowResidua
       if (k >= nbins) break;
       const double factor = -static_cast<double>(ev.dir) * (ax == 0 ? S.c[i] : S.s[i]);
       if (std::abs(factor) < 0.5) continue;
-      const double y = w.resid[i] / factor + h * spike_unit(ds.st, ax, dt);
+      const double y = w.resid[i] / factor + h * spike_unit(m.st, ax, dt);
       p.sum[k] += y;
       p.sum2[k] += y * y;
       p.sum_t[k] += dt;
@@ -258,8 +256,9 @@ struct Measured {
 
 // None when the profile does not fall to 1/e of its peak inside the window (nothing to take
 // its shape from), or the height comes out zero.
-std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const WindowResidual& w) {
-  SpikeProfile p = spike_profile(ds, ax, w);
+std::optional<Measured> measure_axis(const DiagnosisOptions& options, const Samples& S,
+                                     const Model& m, int ax, const WindowResidual& w) {
+  SpikeProfile p = spike_profile(S, m, ax, w);
   if (p.n.empty()) return std::nullopt;
   auto kp = peak_bin(p);
   if (!kp) return std::nullopt;
@@ -289,10 +288,10 @@ std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const Win
   // after that rises after the reversal when it stands out of the reversals' scatter, and
   // above the first bins past the reversal (on a noisy decaying step a later bin can top them
   // by chance).
-  const double t = ds.options.spike_detection_t;
+  const double t = options.spike_detection_t;
   bool rises = *kp >= 3 && t_peak >= 0.25 * fall->first &&
                std::abs(out.peak_mm) > t * out.peak_se_mm &&
-               std::abs(out.peak_mm) >= ds.options.min_spike_mm;
+               std::abs(out.peak_mm) >= options.min_spike_mm;
   if (rises) {
     const auto [early_mm, early_se_mm] = first_bins(p, *kp);
     rises = (out.peak_mm - early_mm) * (out.peak_mm > 0 ? 1.0 : -1.0) >
@@ -317,7 +316,7 @@ std::optional<Measured> measure_axis(const DiagnosisState& ds, int ax, const Win
   double height = out.peak_mm;
   if (!out.measure.rises) {
     // The decay search's decay; where it found no spike, the profile's fall.
-    double tau = ax == 0 ? ds.st.tau_a : ds.st.tau_b;
+    double tau = ax == 0 ? m.st.tau_a : m.st.tau_b;
     if (!(tau > 0)) tau = fall->first;
     double se = 0.0, ee = 0.0;
     for (std::size_t k = 0; k < v.size(); ++k) {
@@ -350,13 +349,13 @@ double shape_change(const SpikeShape* a, const SpikeShape& b) {
 // The note on a spike that rises after the reversal: its profile, each direction of reversal
 // on its own at the peak's time (circfric has one amplitude per joint; a large difference says
 // the friction is not symmetric), and what the decaying step made of it.
-std::string rising_note(const DiagnosisState& ds, int ax, const WindowResidual& w,
-                        const Measured& m, const std::optional<std::pair<double, double>>& step) {
-  const std::string& axis = ax == 0 ? ds.A : ds.B;
+std::string rising_note(const std::string& axis, const Samples& S, const Model& model, int ax,
+                        const WindowResidual& w, const Measured& m,
+                        const std::optional<std::pair<double, double>>& step) {
   const SpikeMeasure& sm = m.measure;
   std::string per_direction;
   for (const int dir : {1, -1}) {
-    SpikeProfile q = spike_profile(ds, ax, w, dir);
+    SpikeProfile q = spike_profile(S, model, ax, w, dir);
     if (q.n.empty()) continue;
     const auto k = static_cast<std::size_t>(sm.peak_s / q.bin_s);
     if (k >= q.n.size() || !q.valid(k)) continue;
@@ -386,57 +385,61 @@ std::string rising_note(const DiagnosisState& ds, int ax, const WindowResidual& 
 // its amplitude fitted; the profile is measured again on the new residual until it holds still
 // (the other terms, backlash above all, move with it). An axis whose decaying step did not
 // stand out gets a spike when its profile's peak does.
-void fit_spike_profiles(DiagnosisState& ds) {
-  if (!ds.speed_known) return;
+SpikeMeasures fit_spike_profiles(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                                 Model& m, Diagnosis& D) {
+  SpikeMeasures measures;
+  if (!ss.speed_known) return measures;
+  const Samples& S = ss.S;
+  const DiagnosisOptions& options = in.options;
   const std::array<Kind, 2> kinds{Kind::spike_a, Kind::spike_b};
   std::array<bool, 2> on{};
   // The decaying step's height and decay, for the note; none where it did not stand out.
   std::array<std::optional<std::pair<double, double>>, 2> step;
   for (int ax = 0; ax < 2; ++ax) {
     const auto axs = static_cast<std::size_t>(ax);
-    const auto j = find(ds.cols, kinds[axs]);
-    on[axs] = (ax == 0 ? ds.reversal_a : ds.reversal_b) &&
-              find(ds.cols, ax == 0 ? Kind::backlash_a : Kind::backlash_b).has_value();
+    const auto j = find(m.cols, kinds[axs]);
+    on[axs] = (ax == 0 ? ss.reversal_a : ss.reversal_b) &&
+              find(m.cols, ax == 0 ? Kind::backlash_a : Kind::backlash_b).has_value();
     if (j) {
-      step[axs] = {ds.sol.x[static_cast<Eigen::Index>(*j)], ax == 0 ? ds.st.tau_a : ds.st.tau_b};
+      step[axs] = {m.sol.x[static_cast<Eigen::Index>(*j)], ax == 0 ? m.st.tau_a : m.st.tau_b};
     }
   }
-  const double t = ds.options.spike_detection_t;
+  const double t = options.spike_detection_t;
   for (int round = 0;; ++round) {
-    const WindowResidual w = window_residual(ds);
+    const WindowResidual w = window_residual(S, m);
     std::array<std::optional<Measured>, 2> got;
     double change = 0.0;
     for (int ax = 0; ax < 2; ++ax) {
       const auto axs = static_cast<std::size_t>(ax);
       if (!on[axs]) continue;
-      got[axs] = measure_axis(ds, ax, w);
+      got[axs] = measure_axis(options, S, m, ax, w);
       if (!got[axs]) continue;
       // A spike not in the fit yet: when its profile's peak stands out of the reversals'
       // scatter.
-      if (!find(ds.cols, kinds[axs]) && !(std::abs(got[axs]->peak_mm) > t * got[axs]->peak_se_mm &&
-                                          std::abs(got[axs]->peak_mm) >= ds.options.min_spike_mm)) {
+      if (!find(m.cols, kinds[axs]) && !(std::abs(got[axs]->peak_mm) > t * got[axs]->peak_se_mm &&
+                                         std::abs(got[axs]->peak_mm) >= options.min_spike_mm)) {
         got[axs].reset();
         continue;
       }
-      change = std::max(change, shape_change(ds.st.spike_shape[axs].get(), *got[axs]->shape));
+      change = std::max(change, shape_change(m.st.spike_shape[axs].get(), *got[axs]->shape));
     }
     if (round == kMaxRounds || change < kShapeTolerance) {
       // The profiles the fit holds: what they show goes into the report.
       for (int ax = 0; ax < 2; ++ax) {
         const auto axs = static_cast<std::size_t>(ax);
-        if (!got[axs] || !ds.st.spike_shape[axs]) continue;
-        ds.spike_measure[axs] = got[axs]->measure;
+        if (!got[axs] || !m.st.spike_shape[axs]) continue;
+        measures[axs] = got[axs]->measure;
         if (got[axs]->measure.rises)
-          ds.D.notes.push_back(rising_note(ds, ax, w, *got[axs], step[axs]));
+          D.notes.push_back(rising_note(ax == 0 ? td.A : td.B, S, m, ax, w, *got[axs], step[axs]));
       }
-      return;
+      return measures;
     }
     for (std::size_t axs = 0; axs < 2; ++axs) {
       if (!got[axs]) continue;
-      ds.st.spike_shape[axs] = got[axs]->shape;
-      if (!find(ds.cols, kinds[axs])) ds.cols.push_back({kinds[axs]});
+      m.st.spike_shape[axs] = got[axs]->shape;
+      if (!find(m.cols, kinds[axs])) m.cols.push_back({kinds[axs]});
     }
-    fit(ds);
+    fit(S, m);
   }
 }
 

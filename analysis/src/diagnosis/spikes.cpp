@@ -13,15 +13,14 @@ namespace circtest::diagnosis_detail {
 
 // Reversal spikes: the decay is profiled over a log grid, then refined. The decays found
 // are the next search's starting points.
-void search_spikes(DiagnosisState& ds) {
-  const DiagnosisOptions& options = ds.options;
-  const Samples& S = ds.S;
-  std::vector<Column>& cols = ds.cols;
-  State& st = ds.st;
-  Solution& sol = ds.sol;
-  std::array<double, 2>& hints = ds.spike_hints;
-  const bool speed_known = ds.speed_known, reversal_a = ds.reversal_a, reversal_b = ds.reversal_b;
-  auto fit = [&] { diagnosis_detail::fit(ds); };
+void search_spikes(const Inputs& in, const SampleSet& ss, Model& m, SpikeHints& hints) {
+  const DiagnosisOptions& options = in.options;
+  const Samples& S = ss.S;
+  std::vector<Column>& cols = m.cols;
+  State& st = m.st;
+  Solution& sol = m.sol;
+  const bool speed_known = ss.speed_known, reversal_a = ss.reversal_a, reversal_b = ss.reversal_b;
+  auto fit = [&] { diagnosis_detail::fit(S, m); };
   if (!speed_known || !(reversal_a || reversal_b)) return;
   for (Kind k : {Kind::spike_a, Kind::spike_b}) {
     if (auto j = find(cols, k)) cols.erase(cols.begin() + static_cast<std::ptrdiff_t>(*j));

@@ -11,14 +11,22 @@ namespace circtest::diagnosis_detail {
 
 namespace {
 
+// What choose_terms works on: the candidate columns, those the trace identifies, the others
+// with how much of them is left unexplained, and a rejected reported term with a kept one its
+// effect goes into.
+struct Selection {
+  std::vector<Column> cand;
+  std::vector<std::pair<Column, double>> rejected;
+  std::vector<std::pair<Kind, Kind>> confounded;
+};
+
 // Candidate columns in order of priority: a later one that the earlier ones already explain
 // is not identifiable and is left out.
-void candidates(DiagnosisState& ds) {
-  Diagnosis& D = ds.D;
-  std::vector<Column>& cand = ds.cand;
-  const std::vector<double>& group_feed = ds.group_feed;
-  const bool reversal_a = ds.reversal_a, reversal_b = ds.reversal_b;
-  const std::string &A = ds.A, &B = ds.B;
+void candidates(const TraceDescription& td, const SampleSet& ss, std::vector<Column>& cand,
+                Diagnosis& D) {
+  const std::vector<double>& group_feed = ss.group_feed;
+  const bool reversal_a = ss.reversal_a, reversal_b = ss.reversal_b;
+  const std::string &A = td.A, &B = td.B;
   cand.push_back({Kind::centre_a});
   cand.push_back({Kind::centre_b});
   for (std::size_t g = 0; g < group_feed.size(); ++g)
@@ -51,11 +59,9 @@ void candidates(DiagnosisState& ds) {
 // A fit of p terms on a handful of samples has no residual left to judge it by: its
 // standard errors and identifiability test mean nothing and the later stages (periodogram,
 // decay search) work on noise. Refused up front, naming what it needs.
-void refuse_too_few_samples(const DiagnosisState& ds) {
-  const Trace& trace = ds.trace;
-  const Evaluation& ev = ds.ev;
-  const Samples& S = ds.S;
-  const std::vector<Column>& cand = ds.cand;
+void refuse_too_few_samples(const Inputs& in, const Samples& S, const std::vector<Column>& cand) {
+  const Trace& trace = in.trace;
+  const Evaluation& ev = in.ev;
   const std::size_t needed = kSamplesPerTerm * cand.size();
   if (S.size() < needed) {
     const Run& first = ev.runs.front().run;
@@ -89,12 +95,11 @@ std::vector<Kind> partners(const Eigen::MatrixXd& C, const std::vector<Eigen::In
 }
 
 // Identifiability: forward selection on the normalised normal matrix.
-void select(DiagnosisState& ds) {
-  const std::vector<Column>& in = ds.cand;
-  std::vector<Column>& out = ds.cols;
-  std::vector<std::pair<Column, double>>& rejected = ds.rejected;
-  const double vif_floor = ds.vif_floor;
-  const Normal N = accumulate(ds.S, ds.st, in, ds.stride, ds.memo);
+void select(const Samples& S, double vif_floor, Selection& sel, Model& m) {
+  const std::vector<Column>& in = sel.cand;
+  std::vector<Column>& out = m.cols;
+  std::vector<std::pair<Column, double>>& rejected = sel.rejected;
+  const Normal N = accumulate(S, m.st, in, m.stride, m.memo);
   Eigen::VectorXd d = N.M.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
   const Eigen::MatrixXd C = d.asDiagonal() * N.M * d.asDiagonal();
   std::vector<Eigen::Index> kept;
@@ -107,29 +112,29 @@ void select(DiagnosisState& ds) {
     } else {
       rejected.emplace_back(in[j], u);
       if (!term_key(in[j].kind, {'A', 'B'}).empty()) {
-        for (const Kind p : partners(C, kept, in, ji)) ds.confounded.emplace_back(in[j].kind, p);
+        for (const Kind p : partners(C, kept, in, ji)) sel.confounded.emplace_back(in[j].kind, p);
       }
     }
   }
 }
 
 // What the trace does not identify, and why.
-void rejected_notes(DiagnosisState& ds) {
-  Diagnosis& D = ds.D;
-  const std::vector<Column>& cols = ds.cols;
-  const bool reversal_a = ds.reversal_a, reversal_b = ds.reversal_b;
-  const std::vector<double>& group_feed = ds.group_feed;
-  bool& squareness_servo_confounded = ds.squareness_servo_confounded;
-  const std::vector<std::pair<Column, double>>& rejected = ds.rejected;
-  const auto unseparable = [&ds](Kind k) {
-    if (std::find(ds.unseparable.begin(), ds.unseparable.end(), k) != ds.unseparable.end()) return;
-    ds.unseparable.push_back(k);
-    ds.D.unseparable.push_back(term_key(k, ds.D.axes));
+void rejected_notes(const SampleSet& ss, const Selection& sel, const std::vector<Column>& cols,
+                    TermSet& terms, Diagnosis& D) {
+  const bool reversal_a = ss.reversal_a, reversal_b = ss.reversal_b;
+  const std::vector<double>& group_feed = ss.group_feed;
+  bool& squareness_servo_confounded = terms.squareness_servo_confounded;
+  const std::vector<std::pair<Column, double>>& rejected = sel.rejected;
+  const auto unseparable = [&terms, &D](Kind k) {
+    if (std::find(terms.unseparable.begin(), terms.unseparable.end(), k) != terms.unseparable.end())
+      return;
+    terms.unseparable.push_back(k);
+    D.unseparable.push_back(term_key(k, D.axes));
   };
   for (const auto& [col, u] : rejected) {
     const std::string name = kind_name(col.kind, D.axes);
     std::vector<Kind> with;
-    for (const auto& [k, p] : ds.confounded) {
+    for (const auto& [k, p] : sel.confounded) {
       if (k == col.kind) with.push_back(p);
     }
     if ((col.kind == Kind::backlash_a && !reversal_a) ||
@@ -168,16 +173,20 @@ void rejected_notes(DiagnosisState& ds) {
 
 }  // namespace
 
-void choose_terms(DiagnosisState& ds) {
-  candidates(ds);
-  refuse_too_few_samples(ds);
-  const DiagnosisOptions& options = ds.options;
-  const Samples& S = ds.S;
-  ds.stride =
+ChosenTerms choose_terms(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                         Diagnosis& D) {
+  Selection sel;
+  candidates(td, ss, sel.cand, D);
+  refuse_too_few_samples(in, ss.S, sel.cand);
+  const DiagnosisOptions& options = in.options;
+  const Samples& S = ss.S;
+  ChosenTerms out;
+  out.model.stride =
       std::max<std::size_t>(1, (S.size() + options.max_fit_samples - 1) / options.max_fit_samples);
-  ds.vif_floor = 1.0 / options.max_variance_inflation;
-  select(ds);
-  rejected_notes(ds);
+  const double vif_floor = 1.0 / options.max_variance_inflation;
+  select(S, vif_floor, sel, out.model);
+  rejected_notes(ss, sel, out.model.cols, out.terms, D);
+  return out;
 }
 
 }  // namespace circtest::diagnosis_detail

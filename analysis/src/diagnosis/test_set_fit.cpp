@@ -5,7 +5,6 @@
 // one unknown shared by every plane the axis is in, and solved once.
 #include <algorithm>
 #include <cmath>
-#include <memory>
 
 #include "circtest/analysis/test_set.hpp"
 #include "stages.hpp"
@@ -40,29 +39,29 @@ struct Part {
 // reverse in the plane is a shift between the directions there, the plane's own. The servo
 // mismatch column is lag_A - lag_B, the scale mismatch column s_A - s_B less the servo's
 // cos 2theta part w^2 lag (lag_A - lag_B); each the plane's own when not shared.
-std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, Sharing sh) {
+std::vector<Part> shared_parts(const PlaneFit& pl, Kind k, Sharing sh) {
   switch (k) {
     case Kind::backlash_a:
-      if (ds.reversal_a) return {{kBacklash, 0, 1.0}};
+      if (pl.samples.reversal_a) return {{kBacklash, 0, 1.0}};
       break;
     case Kind::backlash_b:
-      if (ds.reversal_b) return {{kBacklash, 1, 1.0}};
+      if (pl.samples.reversal_b) return {{kBacklash, 1, 1.0}};
       break;
     case Kind::spike_a:
       return {{kSpike, 0, 1.0}};
     case Kind::spike_b:
       return {{kSpike, 1, 1.0}};
     case Kind::scale_mismatch:
-      if (sh.scale && sh.lag && ds.scale_servo_per_s != 0.0 && find(ds.cols, Kind::servo))
+      if (sh.scale && sh.lag && pl.lag.scale_servo_per_s != 0.0 && find(pl.model.cols, Kind::servo))
         return {{kScale, 0, 1.0},
                 {kScale, 1, -1.0},
-                {kLag, 0, -ds.scale_servo_per_s},
-                {kLag, 1, ds.scale_servo_per_s}};
+                {kLag, 0, -pl.lag.scale_servo_per_s},
+                {kLag, 1, pl.lag.scale_servo_per_s}};
       if (sh.scale) return {{kScale, 0, 1.0}, {kScale, 1, -1.0}};
       break;
     case Kind::servo:
       // Without the feed the column's coefficient is a phase, not a lag (runs.cpp).
-      if (sh.lag && ds.speed_known) return {{kLag, 0, 1.0}, {kLag, 1, -1.0}};
+      if (sh.lag && pl.samples.speed_known) return {{kLag, 0, 1.0}, {kLag, 1, -1.0}};
       break;
     default:
       break;
@@ -70,8 +69,8 @@ std::vector<Part> shared_parts(const DiagnosisState& ds, Kind k, Sharing sh) {
   return {};
 }
 
-int axis_of(const DiagnosisState& ds, int ax) {
-  return ds.D.axes[static_cast<std::size_t>(ax)] - 'X';
+int axis_of(const PlaneFit& pl, int ax) {
+  return pl.D.axes[static_cast<std::size_t>(ax)] - 'X';
 }
 
 // The standard error given to a plane's mean following lag as an observation of the mean of
@@ -91,46 +90,46 @@ struct Layout {
   Eigen::Index size = 0;
 };
 
-int shared_index(const Layout& L, const DiagnosisState& ds, int ax, int param) {
-  return L.shared[static_cast<std::size_t>(axis_of(ds, ax))][static_cast<std::size_t>(param)];
+int shared_index(const Layout& L, const PlaneFit& pl, int ax, int param) {
+  return L.shared[static_cast<std::size_t>(axis_of(pl, ax))][static_cast<std::size_t>(param)];
 }
 
-Layout lay_out(const std::vector<std::unique_ptr<DiagnosisState>>& planes, Sharing sh) {
+Layout lay_out(const std::vector<PlaneFit>& planes, Sharing sh) {
   Layout L;
   L.sharing = sh;
   for (auto& a : L.shared) a.fill(-1);
-  for (const auto& ds : planes) {
-    for (const Column& c : ds->cols) {
-      for (const Part& p : shared_parts(*ds, c.kind, sh)) {
-        int& g = L.shared[static_cast<std::size_t>(axis_of(*ds, p.ax))]
+  for (const auto& pl : planes) {
+    for (const Column& c : pl.model.cols) {
+      for (const Part& p : shared_parts(pl, c.kind, sh)) {
+        int& g = L.shared[static_cast<std::size_t>(axis_of(pl, p.ax))]
                          [static_cast<std::size_t>(p.param)];
         if (g < 0) g = static_cast<int>(L.size++);
       }
     }
   }
   std::vector<Eigen::Index> first_local;
-  for (const auto& ds : planes) {
+  for (const auto& pl : planes) {
     first_local.push_back(L.size);
-    for (const Column& c : ds->cols) {
-      if (shared_parts(*ds, c.kind, sh).empty()) ++L.size;
+    for (const Column& c : pl.model.cols) {
+      if (shared_parts(pl, c.kind, sh).empty()) ++L.size;
     }
   }
   for (std::size_t q = 0; q < planes.size(); ++q) {
-    const DiagnosisState& ds = *planes[q];
-    const auto p = static_cast<Eigen::Index>(ds.cols.size());
+    const PlaneFit& pl = planes[q];
+    const auto p = static_cast<Eigen::Index>(pl.model.cols.size());
     Eigen::MatrixXd T = Eigen::MatrixXd::Zero(p, L.size);
     Eigen::VectorXd o = Eigen::VectorXd::Zero(p);
     Eigen::Index local = first_local[q];
-    const auto servo = find(ds.cols, Kind::servo);
+    const auto servo = find(pl.model.cols, Kind::servo);
     for (Eigen::Index j = 0; j < p; ++j) {
-      const Column& c = ds.cols[static_cast<std::size_t>(j)];
-      const std::vector<Part> parts = shared_parts(ds, c.kind, sh);
+      const Column& c = pl.model.cols[static_cast<std::size_t>(j)];
+      const std::vector<Part> parts = shared_parts(pl, c.kind, sh);
       if (parts.empty()) T(j, local++) = 1.0;
-      for (const Part& part : parts) T(j, shared_index(L, ds, part.ax, part.param)) += part.factor;
+      for (const Part& part : parts) T(j, shared_index(L, pl, part.ax, part.param)) += part.factor;
       const bool lag_in_parts = std::any_of(parts.begin(), parts.end(),
                                             [](const Part& part) { return part.param == kLag; });
       if (c.kind == Kind::scale_mismatch && !parts.empty() && !lag_in_parts && servo)
-        o[j] = -ds.scale_servo_per_s * ds.sol.x[static_cast<Eigen::Index>(*servo)];
+        o[j] = -pl.lag.scale_servo_per_s * pl.model.sol.x[static_cast<Eigen::Index>(*servo)];
     }
     L.T.push_back(std::move(T));
     L.o.push_back(std::move(o));
@@ -151,14 +150,14 @@ void observe(Normal& J, const Eigen::VectorXd& a, double y, double se) {
 // noisier plane counts less), and as further observations each plane's mean scale of its two
 // axes from its radius change ((s_A + s_B) / 2, with its standard error) and its mean
 // following lag ((lag_A + lag_B) / 2).
-Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
-             const std::vector<double>& weight) {
+Normal stack(std::vector<PlaneFit>& planes, const Layout& L, const std::vector<double>& weight) {
   Normal J;
   J.M = Eigen::MatrixXd::Zero(L.size, L.size);
   J.v = Eigen::VectorXd::Zero(L.size);
   for (std::size_t q = 0; q < planes.size(); ++q) {
-    DiagnosisState& ds = *planes[q];
-    const Normal N = accumulate(ds.S, ds.st, ds.cols, ds.stride, ds.memo);
+    PlaneFit& pl = planes[q];
+    const Normal N =
+        accumulate(pl.samples.S, pl.model.st, pl.model.cols, pl.model.stride, pl.model.memo);
     const Eigen::MatrixXd& T = L.T[q];
     const Eigen::VectorXd& o = L.o[q];
     const Eigen::VectorXd v = N.v - N.M * o;
@@ -166,20 +165,20 @@ Normal stack(const std::vector<std::unique_ptr<DiagnosisState>>& planes, const L
     J.v += weight[q] * T.transpose() * v;
     J.yy += weight[q] * (N.yy - 2.0 * o.dot(N.v) + o.dot(N.M * o));
     J.n += N.n;
-    const int sa = shared_index(L, ds, 0, kScale), sb = shared_index(L, ds, 1, kScale);
-    if (ds.mean_scale && sa >= 0 && sb >= 0) {
+    const int sa = shared_index(L, pl, 0, kScale), sb = shared_index(L, pl, 1, kScale);
+    if (pl.mean_scale.value && sa >= 0 && sb >= 0) {
       Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
       a[sa] = a[sb] = 0.5;
-      observe(J, a, *ds.mean_scale, ds.mean_scale_se.value_or(0.0));
+      observe(J, a, *pl.mean_scale.value, pl.mean_scale.se);
     }
-    const int la = shared_index(L, ds, 0, kLag), lb = shared_index(L, ds, 1, kLag);
-    if (ds.lag_s && la >= 0 && lb >= 0) {
+    const int la = shared_index(L, pl, 0, kLag), lb = shared_index(L, pl, 1, kLag);
+    if (pl.lag.lag_s && la >= 0 && lb >= 0) {
       // In the convention of each plane's own axis lag (servo_axes.cpp): the following error
       // over velocity as the trace logs it, without the half sample the continuous loop lags
       // more (servo.cpp adds it to the mean lag).
       Eigen::VectorXd a = Eigen::VectorXd::Zero(L.size);
       a[la] = a[lb] = 0.5;
-      observe(J, a, *ds.lag_s - ds.period / 2.0, kMeanLagSpreadS);
+      observe(J, a, *pl.lag.lag_s - pl.lag.period / 2.0, kMeanLagSpreadS);
     }
   }
   return J;
@@ -203,19 +202,19 @@ bool move_to(double& v, double b) {
 
 // The shared backlash (the play's take-up shape and its offset) and lag mismatch (where the
 // reversals fall) into each plane's nonlinear state; true when one moved.
-bool take_state(std::vector<std::unique_ptr<DiagnosisState>>& planes, const Layout& L,
-                const Solution& sol) {
+bool take_state(std::vector<PlaneFit>& planes, const Layout& L, const Solution& sol) {
   bool changed = false;
-  for (auto& ds : planes) {
+  for (auto& pl : planes) {
     for (int ax = 0; ax < 2; ++ax) {
-      const bool reverses = ax == 0 ? ds->reversal_a : ds->reversal_b;
-      const int g = shared_index(L, *ds, ax, kBacklash);
+      const bool reverses = ax == 0 ? pl.samples.reversal_a : pl.samples.reversal_b;
+      const int g = shared_index(L, pl, ax, kBacklash);
       if (!reverses || g < 0) continue;
-      changed = move_to(ax == 0 ? ds->st.backlash_a : ds->st.backlash_b, sol.x[g]) || changed;
+      changed =
+          move_to(ax == 0 ? pl.model.st.backlash_a : pl.model.st.backlash_b, sol.x[g]) || changed;
     }
-    const int la = shared_index(L, *ds, 0, kLag), lb = shared_index(L, *ds, 1, kLag);
-    if (L.sharing.lag && la >= 0 && lb >= 0 && find(ds->cols, Kind::servo))
-      changed = move_to(ds->st.servo_mismatch_s, sol.x[la] - sol.x[lb]) || changed;
+    const int la = shared_index(L, pl, 0, kLag), lb = shared_index(L, pl, 1, kLag);
+    if (L.sharing.lag && la >= 0 && lb >= 0 && find(pl.model.cols, Kind::servo))
+      changed = move_to(pl.model.st.servo_mismatch_s, sol.x[la] - sol.x[lb]) || changed;
   }
   return changed;
 }
@@ -230,12 +229,11 @@ void take_joint(const AxisJoint& a, JointEstimate& j, const Estimate& e, const c
 }  // namespace
 
 SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& inputs) {
-  std::vector<std::unique_ptr<DiagnosisState>> planes;
+  std::vector<PlaneFit> planes;
   std::vector<Diagnosis> own;
   for (const SetPlaneInput& in : inputs) {
-    planes.push_back(std::make_unique<DiagnosisState>(*in.trace, *in.evaluation, in.options));
-    run_stages(*planes.back());
-    own.push_back(planes.back()->D);
+    planes.push_back(run_stages({*in.trace, *in.evaluation, in.options}));
+    own.push_back(planes.back().D);
   }
   SetDiagnosis s = join_set_diagnoses(std::move(source), std::move(own));
   if (planes.size() < 2) return s;
@@ -244,16 +242,17 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   // plane gives both its lag mismatch (its servo column) and its mean lag: any other
   // plane shares an axis with it, so every one is then known; else they are the planes' own.
   Sharing sh;
-  sh.scale = std::any_of(planes.begin(), planes.end(), [](const auto& ds) {
-    return ds->mean_scale && find(ds->cols, Kind::scale_mismatch);
+  sh.scale = std::any_of(planes.begin(), planes.end(), [](const auto& pl) {
+    return pl.mean_scale.value && find(pl.model.cols, Kind::scale_mismatch);
   });
-  sh.lag = std::any_of(planes.begin(), planes.end(),
-                       [](const auto& ds) { return find(ds->cols, Kind::servo) && ds->lag_s; });
+  sh.lag = std::any_of(planes.begin(), planes.end(), [](const auto& pl) {
+    return find(pl.model.cols, Kind::servo) && pl.lag.lag_s;
+  });
   const Layout L = lay_out(planes, sh);
   // Weights 1 / sigma_p^2 from each plane's own fit; equal weights when a plane has no
   // residual left (noise-free data).
   std::vector<double> weight;
-  for (const auto& ds : planes) weight.push_back(ds->sol.sigma2);
+  for (const auto& pl : planes) weight.push_back(pl.model.sol.sigma2);
   const bool weighted = std::all_of(weight.begin(), weight.end(), [](double v) { return v > 0; });
   for (double& w : weight) w = weighted ? 1.0 / w : 1.0;
   // The play's take-up depends on the play: a few Gauss-Newton steps, as the plane fit takes.
@@ -290,10 +289,10 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
   for (const auto& a : L.shared)
     for (int g : a) first += g >= 0 ? 1 : 0;
   Eigen::Index local = first;
-  for (const auto& ds : planes) {
-    for (const Column& c : ds->cols) {
-      if (!shared_parts(*ds, c.kind, sh).empty()) continue;
-      auto& sq = s.squareness_urad[plane_index(ds->D.plane)];
+  for (const auto& pl : planes) {
+    for (const Column& c : pl.model.cols) {
+      if (!shared_parts(pl, c.kind, sh).empty()) continue;
+      auto& sq = s.squareness_urad[plane_index(pl.D.plane)];
       if (c.kind == Kind::squareness && sq && sq->value)
         sq = estimate_at(sol, static_cast<int>(local), 1e6);
       ++local;
