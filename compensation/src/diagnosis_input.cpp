@@ -15,34 +15,6 @@ namespace circtest::compensation {
 
 namespace {
 
-// The planner's fields of one plane's diagnosis.
-DiagnosisInput input_of(const Diagnosis& d, const std::string& source) {
-  DiagnosisInput in;
-  in.source = source;
-  in.plane = std::string(plane_name(d.plane));
-  in.axes = d.axes;
-  for (std::size_t k = 0; k < 2; ++k) {
-    in.backlash_mm[k] = d.backlash_mm[k];
-    in.reversal_spike_mm[k] = d.spike_mm[k];
-    in.reversal_spike_ms[k] = d.spike_ms[k].value;
-    in.reversal_spike_se_ms[k] = d.spike_ms[k].standard_error;
-    in.reversal_spike_peak_ms[k] = d.spike_peak_ms[k].value;
-    in.scale_ppm[k] = d.scale_ppm[k];
-    in.axis_lag_ms[k] = d.axis_lag[k].lag_ms;
-    in.axis_lag_source[k] = d.axis_lag[k].source;
-    if (const auto& c = d.cyclic[k]) {
-      in.cyclic[k] = *c;
-    }
-  }
-  in.scale_mismatch_ppm = d.scale_mismatch_ppm;
-  in.squareness_urad = d.squareness_urad;
-  in.servo_mismatch_ms = d.servo_mismatch_ms;
-  in.kv_per_s = d.kv_per_s.value;
-  in.ini_sha256 = d.ini_sha256;
-  in.unseparable = d.unseparable;
-  return in;
-}
-
 // A test set: each plane's own diagnosis with the per-axis values the set joined; an axis an
 // earlier plane carries has its per-axis values cleared in the later ones, so that each axis
 // is corrected once.
@@ -50,31 +22,30 @@ std::vector<DiagnosisInput> set_inputs(const DiagnosisDocument& doc, const std::
   std::vector<DiagnosisInput> out;
   std::set<char> carried;
   for (const Diagnosis& d : doc.planes) {
-    DiagnosisInput in = input_of(d, source);
+    DiagnosisInput in{source, d, {false, false}};
+    Diagnosis& p = in.diagnosis;
     for (std::size_t k = 0; k < 2; ++k) {
       if (!carried.insert(d.axes[k]).second) {
         in.axis_in_earlier_plane[k] = true;
-        in.backlash_mm[k] = {};
-        in.reversal_spike_mm[k] = {};
-        in.reversal_spike_ms[k] = std::nullopt;
-        in.reversal_spike_se_ms[k] = std::nullopt;
-        in.scale_ppm[k] = {};
-        in.cyclic[k] = std::nullopt;
+        p.backlash_mm[k] = {};
+        p.spike_mm[k] = {};
+        p.spike_ms[k] = {};
+        p.scale_ppm[k] = {};
+        p.cyclic[k] = std::nullopt;
         continue;
       }
       const JointAxisValues& j = doc.joint.at(d.axes[k]);
-      in.backlash_mm[k] = j.backlash_mm;
-      in.reversal_spike_mm[k] = j.spike_mm;
-      in.reversal_spike_ms[k] = j.spike_ms.value;
-      in.reversal_spike_se_ms[k] = j.spike_ms.standard_error;
-      in.scale_ppm[k] = j.scale_ppm;
+      p.backlash_mm[k] = j.backlash_mm;
+      p.spike_mm[k] = j.spike_mm;
+      p.spike_ms[k] = j.spike_ms;
+      p.scale_ppm[k] = j.scale_ppm;
     }
     // The plane's squareness from the set's joint fit where the document has a value.
     if (const auto it = doc.joint_squareness_urad.find(d.plane);
         it != doc.joint_squareness_urad.end() && it->second.value) {
-      in.squareness_urad = it->second;
+      p.squareness_urad = it->second;
     }
-    in.ini_sha256 = doc.ini_sha256;
+    p.ini_sha256 = doc.ini_sha256;
     out.push_back(std::move(in));
   }
   return out;
@@ -96,7 +67,7 @@ std::vector<DiagnosisInput> parse_diagnosis_planes(const std::string& text,
                                                    const std::string& source) {
   const DiagnosisDocument doc = parse_diagnosis_document(text, source, "circcomp");
   if (doc.test_set) return set_inputs(doc, source);
-  return {input_of(doc.planes.front(), source)};
+  return {DiagnosisInput{source, doc.planes.front(), {false, false}}};
 }
 
 DiagnosisInput read_diagnosis(const std::string& path) {

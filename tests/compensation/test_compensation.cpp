@@ -51,11 +51,11 @@ std::string machine(const std::string& kins = "trivkins coordinates=XYZ",
 DiagnosisInput diag(double backlash_x, const std::string& ini_path = "") {
   DiagnosisInput d;
   d.source = "d.json";
-  d.plane = "XY";
-  d.axes = {'X', 'Y'};
-  d.backlash_mm[0] = {backlash_x, 1e-5};
-  d.backlash_mm[1] = {0.0, 1e-5};
-  if (!ini_path.empty()) d.ini_sha256 = sha256_hex(read_file(ini_path));
+  d.diagnosis.plane = Plane::XY;
+  d.diagnosis.axes = {'X', 'Y'};
+  d.diagnosis.backlash_mm[0] = {backlash_x, 1e-5};
+  d.diagnosis.backlash_mm[1] = {0.0, 1e-5};
+  if (!ini_path.empty()) d.diagnosis.ini_sha256 = sha256_hex(read_file(ini_path));
   return d;
 }
 
@@ -121,7 +121,7 @@ TEST(Compensation, ManifestNamesRelativeFilesWithTheirChecksums) {
   Scratch s;
   const std::string ini = s.write("m.ini", machine());
   DiagnosisInput d = diag(0.002, ini);
-  d.scale_ppm[0] = {20.0, 0.5};
+  d.diagnosis.scale_ppm[0] = {20.0, 0.5};
   apply_plan(make_plan(ini, d, PlanOptions{}));
   const std::string text = s.read(".circcomp/manifest");
   const ConfigDir dir(ini);
@@ -145,8 +145,8 @@ TEST(Compensation, ScaleCreatesATableWithBacklashMovedIntoIt) {
   const std::string text = machine();
   const std::string ini = s.write("m.ini", text);
   DiagnosisInput d = diag(0.002, ini);
-  d.scale_ppm[0] = {20.0, 0.5};
-  d.scale_ppm[1] = {0.0, 0.5};
+  d.diagnosis.scale_ppm[0] = {20.0, 0.5};
+  d.diagnosis.scale_ppm[1] = {0.0, 0.5};
   apply_plan(make_plan(ini, d, PlanOptions{}));
   const IniDocument doc = IniDocument::load(ini);
   EXPECT_EQ(doc.get("JOINT_0", "COMP_FILE"), "circtest-joint0.comp");
@@ -244,7 +244,7 @@ TEST(Compensation, GantryCorrectsBothJoints) {
   text.replace(text.find("JOINTS = 3"), 10, "JOINTS = 4");
   const std::string ini = s.write("m.ini", text);
   DiagnosisInput d = diag(0.0);
-  d.backlash_mm[1] = {0.003, 1e-5};
+  d.diagnosis.backlash_mm[1] = {0.003, 1e-5};
   const IniDocument after =
       IniDocument::parse(make_plan(ini, d, only(Correction::backlash)).files[0].after);
   EXPECT_EQ(after.get("JOINT_1", "BACKLASH"), "0.003");
@@ -279,7 +279,7 @@ TEST(Compensation, CrlfStaysCrlf) {
   for (char c : text) crlf += c == '\n' ? std::string("\r\n") : std::string(1, c);
   const std::string ini = s.write("m.ini", crlf);
   DiagnosisInput d = diag(0.002);
-  d.scale_ppm[0] = {10.0, 0.5};
+  d.diagnosis.scale_ppm[0] = {10.0, 0.5};
   const Plan plan = make_plan(ini, d, PlanOptions{});
   int inis = 0;
   for (const auto& f : plan.files) {
@@ -298,7 +298,7 @@ TEST(Compensation, CrlfStaysCrlf) {
 TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   Scratch s;
   DiagnosisInput d = diag(0.0);
-  d.cyclic[0] = Cyclic{0.002, 5.0, 0.3, 1e-4};
+  d.diagnosis.cyclic[0] = Cyclic{0.002, 5.0, 0.3, 1e-4};
   // 600 mm of travel at 5/16 mm spacing is 1921 points: not written, said why.
   const std::string wide = s.write("w.ini", machine("trivkins", ""));
   const Plan refused = make_plan(wide, d, only(Correction::cyclic));
@@ -369,10 +369,10 @@ TEST(Compensation, Refusals) {
   };
   expect_data(diag(0.3), "X backlash = 0.3 mm is implausible");
   DiagnosisInput uncertain = diag(0.002);
-  uncertain.backlash_mm[0].standard_error = 0.003;
+  uncertain.diagnosis.backlash_mm[0].standard_error = 0.003;
   expect_data(uncertain, "has a standard error of 0.003 mm, larger than the value");
   DiagnosisInput skewed = diag(0.0);
-  skewed.scale_ppm[0] = {1500.0, 1.0};
+  skewed.diagnosis.scale_ppm[0] = {1500.0, 1.0};
   expect_data(skewed, "X scale = 1500.0 ppm is implausible");
   PlanOptions force;
   force.force = true;
@@ -405,11 +405,11 @@ TEST(Compensation, LibraryRefusalsNameNoOption) {
     return "no error";
   };
   DiagnosisInput uncertain = diag(0.002);
-  uncertain.backlash_mm[0].standard_error = 0.003;
+  uncertain.diagnosis.backlash_mm[0].standard_error = 0.003;
   PlanOptions half;
   half.gain = 1.5;
   DiagnosisInput stale = diag(0.002);
-  stale.ini_sha256 = std::string(64, '0');
+  stale.diagnosis.ini_sha256 = std::string(64, '0');
   Plan needs_kins;
   needs_kins.needs_kins_module = true;
   ::setenv("CIRCTEST_KINS_MODULE", (s.dir() / "missing" / "circtest_kins.so").c_str(), 1);
@@ -478,11 +478,11 @@ std::string hal_machine(const std::string& kins, const std::string& extra = "") 
 DiagnosisInput square(double urad, const std::string& plane = "XY") {
   DiagnosisInput d;
   d.source = "d.json";
-  d.plane = plane;
-  d.axes = plane == "XY"   ? std::array<char, 2>{'X', 'Y'}
-           : plane == "YZ" ? std::array<char, 2>{'Y', 'Z'}
-                           : std::array<char, 2>{'Z', 'X'};
-  d.squareness_urad = {urad, 0.5};
+  d.diagnosis.plane = *parse_plane(plane);
+  d.diagnosis.axes = plane == "XY"   ? std::array<char, 2>{'X', 'Y'}
+                     : plane == "YZ" ? std::array<char, 2>{'Y', 'Z'}
+                                     : std::array<char, 2>{'Z', 'X'};
+  d.diagnosis.squareness_urad = {urad, 0.5};
   return d;
 }
 
@@ -649,7 +649,7 @@ TEST(Compensation, LargeIniIsPlannedInBoundedMemoryAndItsDiffApplies) {
   const std::string ini = s.write("m.ini", text);
   s.write("circtest_kins.so", "");
   DiagnosisInput d = diag(0.002, ini);
-  d.squareness_urad = {100.0, 0.5};
+  d.diagnosis.squareness_urad = {100.0, 0.5};
   PlanOptions o;
   o.only = {Correction::backlash, Correction::squareness};
   const Plan plan = make_plan(ini, d, o);

@@ -90,30 +90,32 @@ TEST_P(DiagnosisJson, EveryFieldCirccompReadsComesBackAsCircanaWroteIt) {
   ASSERT_TRUE(d.ini_sha256);
 
   EXPECT_EQ(in.source, "diagnosis.json");
-  EXPECT_EQ(in.plane, plane_name(d.plane));
-  EXPECT_EQ(in.axes, d.axes);
+  EXPECT_EQ(in.diagnosis.plane, d.plane);
+  EXPECT_EQ(in.diagnosis.axes, d.axes);
   for (std::size_t k = 0; k < 2; ++k) {
     const std::string axis(1, d.axes[k]);
-    expect_same(d.backlash_mm[k], in.backlash_mm[k], "backlash " + axis);
-    expect_same(d.spike_mm[k], in.reversal_spike_mm[k], "spike " + axis);
-    expect_same(d.spike_ms[k].value, in.reversal_spike_ms[k], "spike time " + axis);
-    expect_same(d.spike_ms[k].standard_error, in.reversal_spike_se_ms[k], "spike time se " + axis);
-    expect_same(d.spike_peak_ms[k].value, in.reversal_spike_peak_ms[k], "spike peak " + axis);
-    expect_same(d.scale_ppm[k], in.scale_ppm[k], "scale " + axis);
-    ASSERT_EQ(d.cyclic[k].has_value(), in.cyclic[k].has_value()) << "cyclic " << axis;
+    expect_same(d.backlash_mm[k], in.diagnosis.backlash_mm[k], "backlash " + axis);
+    expect_same(d.spike_mm[k], in.diagnosis.spike_mm[k], "spike " + axis);
+    expect_same(d.spike_ms[k].value, in.diagnosis.spike_ms[k].value, "spike time " + axis);
+    expect_same(d.spike_ms[k].standard_error, in.diagnosis.spike_ms[k].standard_error,
+                "spike time se " + axis);
+    expect_same(d.spike_peak_ms[k].value, in.diagnosis.spike_peak_ms[k].value,
+                "spike peak " + axis);
+    expect_same(d.scale_ppm[k], in.diagnosis.scale_ppm[k], "scale " + axis);
+    ASSERT_EQ(d.cyclic[k].has_value(), in.diagnosis.cyclic[k].has_value()) << "cyclic " << axis;
     if (d.cyclic[k]) {
-      EXPECT_EQ(d.cyclic[k]->amplitude_mm, in.cyclic[k]->amplitude_mm);
-      EXPECT_EQ(d.cyclic[k]->pitch_mm, in.cyclic[k]->pitch_mm);
-      EXPECT_EQ(d.cyclic[k]->phase_rad, in.cyclic[k]->phase_rad);
-      expect_same(d.cyclic[k]->amplitude_se_mm, in.cyclic[k]->amplitude_se_mm,
+      EXPECT_EQ(d.cyclic[k]->amplitude_mm, in.diagnosis.cyclic[k]->amplitude_mm);
+      EXPECT_EQ(d.cyclic[k]->pitch_mm, in.diagnosis.cyclic[k]->pitch_mm);
+      EXPECT_EQ(d.cyclic[k]->phase_rad, in.diagnosis.cyclic[k]->phase_rad);
+      expect_same(d.cyclic[k]->amplitude_se_mm, in.diagnosis.cyclic[k]->amplitude_se_mm,
                   "cyclic amplitude se " + axis);
     }
   }
-  expect_same(d.scale_mismatch_ppm, in.scale_mismatch_ppm, "scale mismatch");
-  expect_same(d.squareness_urad, in.squareness_urad, "squareness");
-  expect_same(d.servo_mismatch_ms, in.servo_mismatch_ms, "servo mismatch");
-  expect_same(d.kv_per_s.value, in.kv_per_s, "kv");
-  EXPECT_EQ(d.ini_sha256, in.ini_sha256);
+  expect_same(d.scale_mismatch_ppm, in.diagnosis.scale_mismatch_ppm, "scale mismatch");
+  expect_same(d.squareness_urad, in.diagnosis.squareness_urad, "squareness");
+  expect_same(d.servo_mismatch_ms, in.diagnosis.servo_mismatch_ms, "servo mismatch");
+  expect_same(d.kv_per_s.value, in.diagnosis.kv_per_s.value, "kv");
+  EXPECT_EQ(d.ini_sha256, in.diagnosis.ini_sha256);
 }
 
 // Every reader of the document goes through one reader (core/diagnosis_document.hpp): read back,
@@ -148,7 +150,8 @@ TEST_P(DiagnosisJson, TheOneReaderGivesBackTheWholeDocument) {
   const DiagnosisDocument u = parse_diagnosis_document(listed.dump(), "d.json", "circana");
   EXPECT_FALSE(u.planes.front().squareness_urad.value);
   EXPECT_FALSE(diagnosis_chart_from_document(u, "d.json").squareness_urad);
-  EXPECT_FALSE(compensation::parse_diagnosis(listed.dump(), "d.json").squareness_urad.value);
+  EXPECT_FALSE(
+      compensation::parse_diagnosis(listed.dump(), "d.json").diagnosis.squareness_urad.value);
 }
 
 INSTANTIATE_TEST_SUITE_P(Planes, DiagnosisJson, ::testing::Values(Plane::XY, Plane::YZ, Plane::ZX));
@@ -160,10 +163,11 @@ TEST(DiagnosisJsonSpikePeak, ReadAsWrittenAbsentWhenOlderRefusedWhenNotANumber) 
   d.spike_peak_ms[0].value = 61.5;
   json doc = to_json(d);
   const auto in = compensation::parse_diagnosis(doc.dump(), "d.json");
-  EXPECT_EQ(in.reversal_spike_peak_ms[0], 61.5);
-  EXPECT_FALSE(in.reversal_spike_peak_ms[1]);
+  EXPECT_EQ(in.diagnosis.spike_peak_ms[0].value, 61.5);
+  EXPECT_FALSE(in.diagnosis.spike_peak_ms[1].value);
   doc.erase("reversal_spike_peak_ms");
-  EXPECT_FALSE(compensation::parse_diagnosis(doc.dump(), "d.json").reversal_spike_peak_ms[0]);
+  EXPECT_FALSE(
+      compensation::parse_diagnosis(doc.dump(), "d.json").diagnosis.spike_peak_ms[0].value);
   doc["reversal_spike_peak_ms"] = {{"X", "61 ms"}, {"Y", nullptr}};
   EXPECT_ERROR(compensation::parse_diagnosis(doc.dump(), "d.json"), ExitCode::parse,
                "\"reversal_spike_peak_ms.X\": expected a number or null");
@@ -177,12 +181,13 @@ TEST(DiagnosisJsonUnseparable, AListedTermHasNoValue) {
   ASSERT_TRUE(d.backlash_mm[0].value && d.servo_mismatch_ms.value);
   doc["unseparable"] = {"backlash_mm.X", "servo_mismatch_ms"};
   const auto in = compensation::parse_diagnosis(doc.dump(), "d.json");
-  EXPECT_FALSE(in.backlash_mm[0].value);
-  EXPECT_FALSE(in.backlash_mm[0].standard_error);
-  EXPECT_FALSE(in.servo_mismatch_ms.value);
-  expect_same(d.backlash_mm[1], in.backlash_mm[1], "backlash Y");
-  expect_same(d.squareness_urad, in.squareness_urad, "squareness");
-  EXPECT_EQ(in.unseparable, (std::vector<std::string>{"backlash_mm.X", "servo_mismatch_ms"}));
+  EXPECT_FALSE(in.diagnosis.backlash_mm[0].value);
+  EXPECT_FALSE(in.diagnosis.backlash_mm[0].standard_error);
+  EXPECT_FALSE(in.diagnosis.servo_mismatch_ms.value);
+  expect_same(d.backlash_mm[1], in.diagnosis.backlash_mm[1], "backlash Y");
+  expect_same(d.squareness_urad, in.diagnosis.squareness_urad, "squareness");
+  EXPECT_EQ(in.diagnosis.unseparable,
+            (std::vector<std::string>{"backlash_mm.X", "servo_mismatch_ms"}));
   doc["unseparable"] = "backlash_mm.X";
   EXPECT_ERROR(compensation::parse_diagnosis(doc.dump(), "d.json"), ExitCode::parse,
                "\"unseparable\": expected an array");
@@ -197,13 +202,13 @@ TEST(DiagnosisJsonNulls, WhatTheTraceCannotSeparateStaysAbsent) {
   const Diagnosis d = diagnose(sim::simulate(sim::MachineModel{}, p));
   const auto in = compensation::parse_diagnosis(to_json(d).dump(), "ideal.json");
   for (std::size_t k = 0; k < 2; ++k) {
-    expect_same(d.spike_mm[k], in.reversal_spike_mm[k], "spike");
-    expect_same(d.spike_ms[k].value, in.reversal_spike_ms[k], "spike time");
-    EXPECT_FALSE(in.reversal_spike_peak_ms[k]);
-    EXPECT_EQ(d.cyclic[k].has_value(), in.cyclic[k].has_value());
+    expect_same(d.spike_mm[k], in.diagnosis.spike_mm[k], "spike");
+    expect_same(d.spike_ms[k].value, in.diagnosis.spike_ms[k].value, "spike time");
+    EXPECT_FALSE(in.diagnosis.spike_peak_ms[k].value);
+    EXPECT_EQ(d.cyclic[k].has_value(), in.diagnosis.cyclic[k].has_value());
   }
-  expect_same(d.kv_per_s.value, in.kv_per_s, "kv");
-  EXPECT_FALSE(in.ini_sha256);
+  expect_same(d.kv_per_s.value, in.diagnosis.kv_per_s.value, "kv");
+  EXPECT_FALSE(in.diagnosis.ini_sha256);
 }
 
 // The version: written by circana, and a document of a newer major refused by the reader with

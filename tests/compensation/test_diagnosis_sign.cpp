@@ -50,8 +50,8 @@ TEST_P(ServoSign, DiagnoseAndCirccompNameTheAxisWithTheLowerGain) {
                         "300\n[JOINT_2]\nTYPE = LINEAR\nMIN_LIMIT = -300\nMAX_LIMIT = 300\n";
   const compensation::DiagnosisInput in =
       compensation::parse_diagnosis(to_json(d).dump(), "diagnosis.json");
-  ASSERT_TRUE(in.servo_mismatch_ms.value);
-  EXPECT_DOUBLE_EQ(*in.servo_mismatch_ms.value, *d.servo_mismatch_ms.value);
+  ASSERT_TRUE(in.diagnosis.servo_mismatch_ms.value);
+  EXPECT_DOUBLE_EQ(*in.diagnosis.servo_mismatch_ms.value, *d.servo_mismatch_ms.value);
   compensation::PlanOptions o;
   o.only = {};     // the servo advice only: no table or BACKLASH written
   o.force = true;  // no provenance in a simulated trace

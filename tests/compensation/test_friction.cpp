@@ -41,12 +41,12 @@ DiagnosisInput spikes(std::optional<double> x_mm, std::optional<double> y_mm, do
                       double y_ms = 22.0) {
   DiagnosisInput d;
   d.source = "d.json";
-  d.plane = "XY";
-  d.axes = {'X', 'Y'};
-  d.reversal_spike_mm[0] = {x_mm, 1e-4};
-  d.reversal_spike_mm[1] = {y_mm, 1e-4};
-  d.reversal_spike_ms[0] = x_ms;
-  d.reversal_spike_ms[1] = y_ms;
+  d.diagnosis.plane = Plane::XY;
+  d.diagnosis.axes = {'X', 'Y'};
+  d.diagnosis.spike_mm[0] = {x_mm, 1e-4};
+  d.diagnosis.spike_mm[1] = {y_mm, 1e-4};
+  d.diagnosis.spike_ms[0].value = x_ms;
+  d.diagnosis.spike_ms[1].value = y_ms;
   return d;
 }
 
@@ -190,7 +190,7 @@ TEST(Friction, InchMachineSaysInchAndMm) {
   Config c("servo-mill");
   in_inch(c);
   DiagnosisInput d = spikes(0.0015, 0.003);
-  d.reversal_spike_mm[1].standard_error = 0.002;
+  d.diagnosis.spike_mm[1].standard_error = 0.002;
   Plan plan = make_plan(c.ini, d, friction_only());
   EXPECT_TRUE(plan.files.empty());
   EXPECT_TRUE(has_text(plan.notes,
@@ -256,7 +256,7 @@ TEST(Friction, NoSpikeNoFrictionChange) {
   Config c("servo-mill");
   // Below 2 um, not significant against its standard error, null, inwards, decay unknown.
   DiagnosisInput d = spikes(0.0015, 0.003);
-  d.reversal_spike_mm[1].standard_error = 0.002;
+  d.diagnosis.spike_mm[1].standard_error = 0.002;
   Plan plan = make_plan(c.ini, d, friction_only());
   EXPECT_TRUE(plan.files.empty());
   EXPECT_TRUE(has_text(plan.notes, "X reversal spike of 1.50 um is below 2 um"));
@@ -266,7 +266,7 @@ TEST(Friction, NoSpikeNoFrictionChange) {
   EXPECT_TRUE(has_text(plan.notes, "X reversal spike: not in the diagnosis"));
   EXPECT_TRUE(has_text(plan.notes, "points inwards"));
   DiagnosisInput no_decay = spikes(0.004, 0.0);
-  no_decay.reversal_spike_ms[0].reset();
+  no_decay.diagnosis.spike_ms[0].value.reset();
   plan = make_plan(c.ini, no_decay, friction_only());
   EXPECT_TRUE(plan.files.empty());
   EXPECT_TRUE(has_text(plan.notes, "its decay was not measured"));
@@ -525,7 +525,7 @@ TEST(Friction, StepOneDividesByTheShareOfThePulseTheLagPasses) {
   auto amplitude = [](std::optional<double> kv, Plan* out = nullptr) {
     Config c("servo-mill");
     DiagnosisInput d = spikes(0.0047, std::nullopt);
-    d.kv_per_s = kv;
+    d.diagnosis.kv_per_s.value = kv;
     Plan plan = make_plan(c.ini, d, friction_only());
     const IniDocument after = IniDocument::parse(file_of(plan, "servo-mill.ini")->after);
     EXPECT_EQ(after.get("FRICTION_X", "AMPLITUDE_MAX"), "0.0094");
@@ -574,7 +574,7 @@ TEST(Friction, StepTwoLengthensTheDecayWhereTheAmplitudeIsBounded) {
 TEST(Friction, StepOneBoundIsTwiceTheSpikeAsWritten) {
   Config c("servo-mill");
   DiagnosisInput d = spikes(0.010498736, std::nullopt);
-  d.kv_per_s = 30.0;
+  d.diagnosis.kv_per_s.value = 30.0;
   apply_plan(make_plan(c.ini, d, friction_only()));
   const IniDocument ini = IniDocument::load(c.ini);
   EXPECT_EQ(std::stod(*ini.get("FRICTION_X", "AMPLITUDE_MAX")),
@@ -589,8 +589,8 @@ TEST(Friction, StepOneBoundIsTwiceTheSpikeAsWritten) {
 TEST(Friction, NoPulseWhereTheAxisFollowsWithinAFewMs) {
   Config c("servo-mill");
   DiagnosisInput d = spikes(0.010, 0.008);
-  d.axis_lag_ms[0] = {0.7, 0.01};   // X: FF1 about 1
-  d.axis_lag_ms[1] = {33.0, 0.01};  // Y: FF1 0
+  d.diagnosis.axis_lag[0].lag_ms = {0.7, 0.01};   // X: FF1 about 1
+  d.diagnosis.axis_lag[1].lag_ms = {33.0, 0.01};  // Y: FF1 0
   const Plan plan = make_plan(c.ini, d, friction_only());
   const FileChange* ini = file_of(plan, "servo-mill.ini");
   ASSERT_NE(ini, nullptr);
@@ -610,10 +610,10 @@ TEST(Friction, NoPulseWhereTheAxisFollowsWithinAFewMs) {
 TEST(Friction, RisingPulseWhereTheAxisFollowsAndTheSpikePeaksLate) {
   Config c("servo-mill");
   DiagnosisInput d = spikes(0.010, 0.008, 38.0, 22.0);
-  d.axis_lag_ms[0] = {0.7, 0.01};   // X: FF1 about 1
-  d.axis_lag_ms[1] = {33.0, 0.01};  // Y: FF1 0
-  d.reversal_spike_peak_ms[0] = 76.0;
-  d.reversal_spike_peak_ms[1] = 40.0;  // a lagging axis: the plain pulse whatever the peak
+  d.diagnosis.axis_lag[0].lag_ms = {0.7, 0.01};   // X: FF1 about 1
+  d.diagnosis.axis_lag[1].lag_ms = {33.0, 0.01};  // Y: FF1 0
+  d.diagnosis.spike_peak_ms[0].value = 76.0;
+  d.diagnosis.spike_peak_ms[1].value = 40.0;  // a lagging axis: the plain pulse whatever the peak
   const Plan plan = make_plan(c.ini, d, friction_only());
   const FileChange* ini = file_of(plan, "servo-mill.ini");
   ASSERT_NE(ini, nullptr);
@@ -639,7 +639,7 @@ TEST(Friction, RisingPulseWhereTheAxisFollowsAndTheSpikePeaksLate) {
   EXPECT_TRUE(has_text(plan.changes, "a rising pulse: the axis follows within 0.7 ms"));
 
   // A peak later than a rise below the decay can make: the latest peak, said so.
-  d.reversal_spike_peak_ms[0] = 200.0;
+  d.diagnosis.spike_peak_ms[0].value = 200.0;
   const Plan late = make_plan(c.ini, d, friction_only());
   const IniDocument late_ini = IniDocument::parse(file_of(late, "servo-mill.ini")->after);
   EXPECT_NEAR(std::stod(*late_ini.get("FRICTION_X", "RISE_MS")), 0.95 * 38.0, 1e-3);

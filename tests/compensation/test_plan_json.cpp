@@ -35,12 +35,12 @@ std::string machine() {
 DiagnosisInput diagnosis(const std::string& ini) {
   DiagnosisInput d;
   d.source = "d.json";
-  d.plane = "XY";
-  d.axes = {'X', 'Y'};
-  d.backlash_mm[0] = {0.0022, 1e-5};
-  d.backlash_mm[1] = {0.0, 1e-5};
-  d.squareness_urad = {100.0, 0.5};
-  d.ini_sha256 = sha256_hex(read_file(ini));
+  d.diagnosis.plane = Plane::XY;
+  d.diagnosis.axes = {'X', 'Y'};
+  d.diagnosis.backlash_mm[0] = {0.0022, 1e-5};
+  d.diagnosis.backlash_mm[1] = {0.0, 1e-5};
+  d.diagnosis.squareness_urad = {100.0, 0.5};
+  d.diagnosis.ini_sha256 = sha256_hex(read_file(ini));
   return d;
 }
 
@@ -101,8 +101,8 @@ TEST(PlanJson, ACompensationTableIsReadAsBacklashAndScale) {
   circtest::testing::ScratchDir s("plan-json");
   const std::string ini = s.write("m.ini", machine());
   DiagnosisInput d = diagnosis(ini);
-  d.scale_ppm[0] = {20.0, 0.5};
-  d.scale_ppm[1] = {0.0, 0.5};
+  d.diagnosis.scale_ppm[0] = {20.0, 0.5};
+  d.diagnosis.scale_ppm[1] = {0.0, 0.5};
   PlanOptions o;
   o.only = {Correction::backlash, Correction::scale};
   const ojson j = plan_json(make_plan(ini, d, o));

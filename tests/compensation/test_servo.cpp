@@ -55,12 +55,13 @@ struct Config : circtest::testing::ConfigCopy {
 DiagnosisInput lags(std::optional<double> x_ms, std::optional<double> y_ms) {
   DiagnosisInput d;
   d.source = "d.json";
-  d.plane = "XY";
-  d.axes = {'X', 'Y'};
-  d.axis_lag_ms[0] = {x_ms, 0.01};
-  d.axis_lag_ms[1] = {y_ms, 0.01};
-  d.axis_lag_source = {x_ms ? "feedback" : "", y_ms ? "feedback" : ""};
-  if (x_ms && y_ms) d.servo_mismatch_ms = {*x_ms - *y_ms, 0.01};
+  d.diagnosis.plane = Plane::XY;
+  d.diagnosis.axes = {'X', 'Y'};
+  d.diagnosis.axis_lag[0].lag_ms = {x_ms, 0.01};
+  d.diagnosis.axis_lag[1].lag_ms = {y_ms, 0.01};
+  d.diagnosis.axis_lag[0].source = x_ms ? "feedback" : "";
+  d.diagnosis.axis_lag[1].source = y_ms ? "feedback" : "";
+  if (x_ms && y_ms) d.diagnosis.servo_mismatch_ms = {*x_ms - *y_ms, 0.01};
   return d;
 }
 
@@ -301,7 +302,7 @@ TEST(Servo, ImplausibleLagIsRefusedAndNothingNonFiniteIsWritten) {
 TEST(Servo, NoPerAxisLagKeepsTheMismatchAdvice) {
   Config c("pncconf-servo");
   DiagnosisInput d = lags(std::nullopt, std::nullopt);
-  d.servo_mismatch_ms = {1.0, 0.01};
+  d.diagnosis.servo_mismatch_ms = {1.0, 0.01};
   const Plan plan = make_plan(c.ini, d, PlanOptions{});
   EXPECT_TRUE(plan.files.empty());
   EXPECT_TRUE(has_text(plan.notes, "the diagnosis has no lag of axis X")) << all(plan.notes);
@@ -375,8 +376,8 @@ TEST(Servo, CirccompPlanRefusalExitsWithFive) {
 TEST(Servo, FrictionWaitsForTheRerunWhenTheGainsChange) {
   Config c("pncconf-servo");
   DiagnosisInput d = lags(kLagX, kLagY);
-  d.reversal_spike_mm[0] = {0.010, 0.0002};
-  d.reversal_spike_ms[0] = 40.0;
+  d.diagnosis.spike_mm[0] = {0.010, 0.0002};
+  d.diagnosis.spike_ms[0].value = 40.0;
   const Plan plan = make_plan(c.ini, d, PlanOptions{});
   const FileChange* ini = file_of(plan, "pncconf-servo.ini");
   ASSERT_NE(ini, nullptr) << all(plan.notes);
@@ -512,6 +513,6 @@ TEST(ServoForms, LagOfAboutZeroIsAlreadyMatched) {
   EXPECT_TRUE(plan.files.empty());
   // A lag as uncertain but large enough to matter is still measured again.
   DiagnosisInput d = lags(1.0, 1.0);
-  d.axis_lag_ms[0].standard_error = 0.5;
+  d.diagnosis.axis_lag[0].lag_ms.standard_error = 0.5;
   EXPECT_TRUE(has_text(make_plan(c.ini, d, servo_only()).notes, "measure again"));
 }

@@ -69,18 +69,19 @@ const FileChange* change_of(const Plan& plan, const std::string& suffix) {
 TEST(TestSetPlan, ReadsEachPlaneWithTheJointValuesEachAxisOnce) {
   const auto planes = parse_diagnosis_planes(set_doc().dump(), "set.json");
   ASSERT_EQ(planes.size(), 3u);
-  EXPECT_EQ(planes[0].plane, "XY");
-  EXPECT_EQ(*planes[0].backlash_mm[0].value, 0.010);  // the joint value, not the plane's 0.5
-  EXPECT_EQ(*planes[0].backlash_mm[1].value, 0.006);
-  EXPECT_EQ(*planes[0].backlash_mm[1].standard_error, 1e-4);
+  EXPECT_EQ(planes[0].diagnosis.plane, Plane::XY);
+  EXPECT_EQ(*planes[0].diagnosis.backlash_mm[0].value,
+            0.010);  // the joint value, not the plane's 0.5
+  EXPECT_EQ(*planes[0].diagnosis.backlash_mm[1].value, 0.006);
+  EXPECT_EQ(*planes[0].diagnosis.backlash_mm[1].standard_error, 1e-4);
   // YZ: Y is XY's, Z is new.
   EXPECT_TRUE(planes[1].axis_in_earlier_plane[0]);
-  EXPECT_FALSE(planes[1].backlash_mm[0].value);
-  EXPECT_EQ(*planes[1].backlash_mm[1].value, 0.008);
+  EXPECT_FALSE(planes[1].diagnosis.backlash_mm[0].value);
+  EXPECT_EQ(*planes[1].diagnosis.backlash_mm[1].value, 0.008);
   // ZX: both axes carried already.
   EXPECT_TRUE(planes[2].axis_in_earlier_plane[0]);
   EXPECT_TRUE(planes[2].axis_in_earlier_plane[1]);
-  EXPECT_EQ(*planes[2].squareness_urad.value, 45.0);
+  EXPECT_EQ(*planes[2].diagnosis.squareness_urad.value, 45.0);
 }
 
 TEST(TestSetPlan, SquarenessFromTheSetsJointFit) {
@@ -88,10 +89,10 @@ TEST(TestSetPlan, SquarenessFromTheSetsJointFit) {
   // The joint fit's squareness of YZ beside the plane's own -60: the joint one is planned.
   doc[K::test_set][K::squareness_urad] = {{"YZ", {{K::value, -59.7}, {K::standard_error, 0.17}}}};
   const auto planes = parse_diagnosis_planes(doc.dump(), "set.json");
-  EXPECT_EQ(*planes[1].squareness_urad.value, -59.7);
-  EXPECT_EQ(*planes[1].squareness_urad.standard_error, 0.17);
+  EXPECT_EQ(*planes[1].diagnosis.squareness_urad.value, -59.7);
+  EXPECT_EQ(*planes[1].diagnosis.squareness_urad.standard_error, 0.17);
   // A plane the object does not name keeps its own.
-  EXPECT_EQ(*planes[0].squareness_urad.value, 100.0);
+  EXPECT_EQ(*planes[0].diagnosis.squareness_urad.value, 100.0);
   doc[K::test_set][K::squareness_urad]["YZ"] = 12.0;
   EXPECT_ERROR(parse_diagnosis_planes(doc.dump(), "set.json"), ExitCode::parse,
                "set.json: \"test_set.squareness_urad.YZ\": expected an object with value and "

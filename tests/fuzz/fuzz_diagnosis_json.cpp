@@ -33,13 +33,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace circtest::compensation;
   const std::string text(reinterpret_cast<const char*>(data), size);
   circtest::fuzz::expect_documented_outcome([&] {
-    const DiagnosisInput d = parse_diagnosis(text, "fuzz.json");
-    check(d.plane == "XY" || d.plane == "YZ" || d.plane == "ZX");
+    const DiagnosisInput in = parse_diagnosis(text, "fuzz.json");
+    const circtest::Diagnosis& d = in.diagnosis;
+    check(d.plane == circtest::Plane::XY || d.plane == circtest::Plane::YZ ||
+          d.plane == circtest::Plane::ZX);
     for (int k = 0; k < 2; ++k) {
       check_measured(d.backlash_mm[k]);
-      check_measured(d.reversal_spike_mm[k]);
+      check_measured(d.spike_mm[k]);
       check_measured(d.scale_ppm[k]);
-      check_finite(d.reversal_spike_ms[k]);
+      check_finite(d.spike_ms[k].value);
       if (d.cyclic[k]) {
         const Cyclic& c = *d.cyclic[k];
         check(std::isfinite(c.amplitude_mm) && std::isfinite(c.phase_rad));
@@ -50,7 +52,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check_measured(d.scale_mismatch_ppm);
     check_measured(d.squareness_urad);
     check_measured(d.servo_mismatch_ms);
-    check_finite(d.kv_per_s);
+    check_finite(d.kv_per_s.value);
   });
   return 0;
 }

@@ -116,7 +116,7 @@ AxisCorrection accepted_correction(PlanContext& c, int k) {
       }
     }
   } catch (const DataError& e) {
-    throw DataError(c.d().source, 0, e.detail());
+    throw DataError(c.source(), 0, e.detail());
   }
   return corr;
 }
@@ -176,7 +176,7 @@ void plan_backlash_key(PlanContext& c, const std::string& section, char letter, 
     next = 0;
   }
   if (!std::isfinite(next)) {
-    throw DataError(c.d().source, 0,
+    throw DataError(c.source(), 0,
                     fmt::format("[{}] BACKLASH {} + {} is not a finite number", section,
                                 number_text(backlash_now), number_text(add)));
   }
@@ -345,7 +345,7 @@ void plan_joint(PlanContext& c, char letter, const AxisCorrection& corr, int j) 
 // set's earlier plane carries.
 void plan_axes(PlanContext& c) {
   for (int k = 0; k < 2; ++k) {
-    if (c.d().axis_in_earlier_plane[k]) continue;
+    if (c.input().axis_in_earlier_plane[k]) continue;
     const AxisCorrection corr = accepted_correction(c, k);
     if (!corr.backlash_mm && !corr.scale_ppm && !corr.cyclic) continue;
     for (const int j : joints_of(c.ini, c.d().axes[k])) plan_joint(c, c.d().axes[k], corr, j);

@@ -37,7 +37,10 @@ struct PlanContext {
   // Takes TRIED's configuration texts and adds its plan's lines and files to this plan.
   void merge(PlanContext&& tried);
 
-  const DiagnosisInput& d() const { return *diagnosis; }
+  // The plane's diagnosis, and the JSON file it was read from (for messages).
+  const DiagnosisInput& input() const { return *diagnosis; }
+  const Diagnosis& d() const { return diagnosis->diagnosis; }
+  const std::string& source() const { return diagnosis->source; }
   bool wants(Correction c) const { return o.only.count(c) > 0; }
 
   std::string ini_path;

@@ -208,11 +208,11 @@ std::string spike_text(double mm, double upm, int decimals = 2) {
 }
 
 // The measured spike of one axis, when it is one circfric should answer; else a note.
-std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const char* what,
+std::optional<double> spike_to_compensate(const DiagnosisInput& in, int k, const char* what,
                                           double upm, const PlanOptions& o,
                                           std::vector<std::string>& notes) {
-  const char axis = d.axes[k];
-  const Measured& m = d.reversal_spike_mm[k];
+  const char axis = in.diagnosis.axes[k];
+  const Measured& m = in.diagnosis.spike_mm[k];
   if (!m.value) {
     notes.push_back(
         fmt::format("{} {}: not in the diagnosis (null), friction not changed", axis, what));
@@ -233,7 +233,7 @@ std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const 
   }
   if (!o.force && std::fabs(v) > kMaxFrictionSpikeMm) {
     throw DataError(
-        d.source, 0,
+        in.source, 0,
         fmt::format("{} {} = {} is implausible for friction (more than {}); check "
                     "the measurement, or {}",
                     axis, what, spike_text(v, upm, 1), spike_text(kMaxFrictionSpikeMm, upm, 0),
@@ -243,8 +243,8 @@ std::optional<double> spike_to_compensate(const DiagnosisInput& d, int k, const 
 }
 
 // Whether the axis follows its command within kFrictionMinLagMs (feed-forward, a stepgen).
-bool follows_closely(const DiagnosisInput& d, int k) {
-  const std::optional<double> lag_ms = d.axis_lag_ms[k].value;
+bool follows_closely(const Diagnosis& d, int k) {
+  const std::optional<double> lag_ms = d.axis_lag[k].lag_ms.value;
   return lag_ms && *lag_ms < kFrictionMinLagMs;
 }
 
@@ -284,9 +284,9 @@ struct PulseShape {
   std::string how;  // how the amplitude and the rise were found, for the plan's line
 };
 
-PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double decay_ms,
-                        double upm, double amplitude_max, const PlanOptions& o) {
-  const double peak_ms = *d.reversal_spike_peak_ms[k];
+PulseShape rising_pulse(const Diagnosis& d, int k, double spike_mm, double decay_ms, double upm,
+                        double amplitude_max, const PlanOptions& o) {
+  const double peak_ms = *d.spike_peak_ms[k].value;
   const double want_ms = kFrictionRisePeakShare * peak_ms;
   const double rise =
       parse_finite(number_text(std::max(rise_for_peak_ms(decay_ms, want_ms), fric::kMinDecayMs)))
@@ -295,7 +295,7 @@ PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double 
   return {std::min(o.gain * spike_mm * upm, amplitude_max), rise,
           fmt::format(", a rising pulse: the axis follows within {:.2g} ms and the spike peaks "
                       "{:.0f} ms after the reversal (the drive sticks), the pulse's at {:.0f} ms{}",
-                      *d.axis_lag_ms[k].value, peak_ms, at_ms,
+                      *d.axis_lag[k].lag_ms.value, peak_ms, at_ms,
                       at_ms < 0.99 * want_ms
                           ? fmt::format(" (the latest a decay of {} ms allows; {:.0f} ms wanted)",
                                         number_text(decay_ms), want_ms)
@@ -304,24 +304,25 @@ PulseShape rising_pulse(const DiagnosisInput& d, int k, double spike_mm, double 
 
 // A plain pulse at the reversal: through a loop with the lag 1 / Kv the table sees only the
 // share loop_pass of it, so the amplitude is raised by that share (within AMPLITUDE_MAX).
-PulseShape plain_pulse(const DiagnosisInput& d, double spike_mm, double decay_ms, double upm,
+PulseShape plain_pulse(const Diagnosis& d, double spike_mm, double decay_ms, double upm,
                        double amplitude_max, const PlanOptions& o) {
-  const double pass = loop_pass(decay_ms * 1e-3, d.kv_per_s);
+  const double pass = loop_pass(decay_ms * 1e-3, d.kv_per_s.value);
   const double amplitude = std::min(o.gain * spike_mm * upm / pass, amplitude_max);
   return {amplitude, 0,
           pass < 1.0 ? fmt::format(" / {:.2f}, the share of the pulse the {:.1f} ms lag (1 / Kv) "
                                    "passes{}",
-                                   pass, 1e3 / *d.kv_per_s,
+                                   pass, 1e3 / *d.kv_per_s.value,
                                    amplitude == amplitude_max ? ", bounded by AMPLITUDE_MAX" : "")
                      : ""};
 }
 
 // Step 1 of one axis: the INI values from the measured spike and decay. Returns false when
 // the axis is skipped (a note says why).
-bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
+bool first_tuning(IniDocument& ini, const DiagnosisInput& in, int k, double upm,
                   const PlanOptions& o, Plan& plan) {
+  const Diagnosis& d = in.diagnosis;
   const char axis = d.axes[k];
-  const auto spike = spike_to_compensate(d, k, "reversal spike", upm, o, plan.notes);
+  const auto spike = spike_to_compensate(in, k, "reversal spike", upm, o, plan.notes);
   if (!spike) return false;
   if (*spike < 0) {
     plan.notes.push_back(
@@ -330,7 +331,7 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
                     axis, spike_text(*spike, upm)));
     return false;
   }
-  const auto decay = d.reversal_spike_ms[k];
+  const auto decay = d.spike_ms[k].value;
   if (!decay || !(*decay >= fric::kMinDecayMs && *decay <= fric::kMaxDecayMs)) {
     plan.notes.push_back(
         fmt::format("{} reversal spike of {}: its decay {} is not within circfric's {} to {} ms, "
@@ -342,12 +343,12 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
   }
   // From the spike as SPIKE_MM holds it, so that step 2's bound (2 x SPIKE_MM) is this one.
   const double amplitude_max = 2.0 * parse_finite(number_text(*spike)).value_or(*spike) * upm;
-  const bool rising = follows_closely(d, k) && d.reversal_spike_peak_ms[k];
+  const bool rising = follows_closely(d, k) && d.spike_peak_ms[k].value;
   const PulseShape pulse = rising ? rising_pulse(d, k, *spike, *decay, upm, amplitude_max, o)
                                   : plain_pulse(d, *spike, *decay, upm, amplitude_max, o);
   const double amplitude = pulse.amplitude;
   if (amplitude_max > fric::kMaxAmplitude) {
-    throw DataError(d.source, 0,
+    throw DataError(in.source, 0,
                     fmt::format("{} reversal spike {}: twice it is beyond circfric's "
                                 "bound of 1 machine unit",
                                 axis, spike_text(*spike, upm, 1)));
@@ -380,15 +381,15 @@ bool first_tuning(IniDocument& ini, const DiagnosisInput& d, int k, double upm,
 }
 
 // Step 2 of one axis: the amplitude refined from the residual spike.
-void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, const PlanOptions& o,
+void refinement(IniDocument& ini, const DiagnosisInput& in, int k, double upm, const PlanOptions& o,
                 Plan& plan) {
-  const char axis = d.axes[k];
+  const char axis = in.diagnosis.axes[k];
   const std::string sec = std::string("FRICTION_") + axis;
   const double first_mm = friction_value(ini, sec, "SPIKE_MM", "the spike first measured, mm");
   const double amplitude = friction_value(ini, sec, "AMPLITUDE", "a length in machine units");
   const double max_now = friction_value(ini, sec, "AMPLITUDE_MAX", "a length in machine units");
   const double bound = 2.0 * first_mm * upm;
-  const auto residual = spike_to_compensate(d, k, "residual reversal spike", upm, o, plan.notes);
+  const auto residual = spike_to_compensate(in, k, "residual reversal spike", upm, o, plan.notes);
   if (!residual) return;
   if (std::fabs(*residual) <= kFrictionRefineShare * first_mm) {
     plan.notes.push_back(
@@ -443,16 +444,15 @@ void refinement(IniDocument& ini, const DiagnosisInput& d, int k, double upm, co
 // The reversal spikes' advice: friction, not play.
 void spike_advice(PlanContext& c) {
   for (int k = 0; k < 2; ++k) {
-    const auto& s = c.d().reversal_spike_mm[k];
+    const auto& s = c.d().spike_mm[k];
     if (!s.value || std::fabs(*s.value) < 1e-3) continue;
     c.plan.advice.push_back(fmt::format(
         "{} reversal spikes of {}{}: friction (stick-slip at the reversal), not play; "
         "compensating them as backlash makes parts worse: check gibs and lubrication, or "
         "let circcomp plan friction compensation (circfric)",
         c.d().axes[k], spike_text(*s.value, c.upm, 1),
-        c.d().reversal_spike_ms[k]
-            ? fmt::format(" decaying in {:.0f} ms", *c.d().reversal_spike_ms[k])
-            : ""));
+        c.d().spike_ms[k].value ? fmt::format(" decaying in {:.0f} ms", *c.d().spike_ms[k].value)
+                                : ""));
   }
 }
 
@@ -461,7 +461,8 @@ void spike_advice(PlanContext& c) {
 void plan_friction(PlanContext& c) {
   IniDocument& ini = c.ini;
   const ConfigDir& config = c.config;
-  const DiagnosisInput& d = c.d();
+  const DiagnosisInput& in = c.input();
+  const Diagnosis& d = in.diagnosis;
   const PlanOptions& o = c.o;
   Plan& plan = c.plan;
   PlanFiles& files = c.files;
@@ -477,20 +478,19 @@ void plan_friction(PlanContext& c) {
   }
   std::set<char> added;
   for (int k = 0; k < 2; ++k) {
-    if (follows_closely(d, k) && !d.reversal_spike_peak_ms[k] && d.reversal_spike_mm[k].value &&
-        std::fabs(*d.reversal_spike_mm[k].value) >= kMinFrictionSpikeMm &&
-        !wired.count(d.axes[k])) {
+    if (follows_closely(d, k) && !d.spike_peak_ms[k].value && d.spike_mm[k].value &&
+        std::fabs(*d.spike_mm[k].value) >= kMinFrictionSpikeMm && !wired.count(d.axes[k])) {
       plan.notes.push_back(fmt::format(
           "{} friction compensation not planned: the axis follows within {:.1f} ms (below "
           "{:.0f} ms: feed-forward or a stepgen) and its spike peaks at the reversal, not after "
           "it: a pulse would arrive before the table sticks and no rise to give it was "
           "measured; tune it by hand (docs/circfric.md, Halscope)",
-          d.axes[k], *d.axis_lag_ms[k].value, kFrictionMinLagMs));
+          d.axes[k], *d.axis_lag[k].lag_ms.value, kFrictionMinLagMs));
       continue;
     }
     if (wired.count(d.axes[k])) {
-      refinement(ini, d, k, upm, o, plan);
-    } else if (first_tuning(ini, d, k, upm, o, plan)) {
+      refinement(ini, in, k, upm, o, plan);
+    } else if (first_tuning(ini, in, k, upm, o, plan)) {
       added.insert(d.axes[k]);
     }
   }

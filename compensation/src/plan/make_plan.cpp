@@ -84,7 +84,7 @@ std::string_view library_setting_words(PlanSetting setting) noexcept {
 void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis, bool force,
                    PlanSettingWords words) {
   if (force) return;
-  if (!diagnosis.ini_sha256) {
+  if (!diagnosis.diagnosis.ini_sha256) {
     throw StaleError(
         fmt::format("{}: has no ini_sha256, so nothing shows it measured {} as it is now; record "
                     "{}, or {}",
@@ -92,12 +92,12 @@ void require_fresh(const std::string& ini_path, const DiagnosisInput& diagnosis,
                     words(PlanSetting::force)));
   }
   const std::string now = sha256_hex(ini_text(ini_path));
-  if (*diagnosis.ini_sha256 != now) {
+  if (*diagnosis.diagnosis.ini_sha256 != now) {
     throw StaleError(fmt::format(
         "{} changed since the measurement of {} (SHA-256 {} then, {} now): a correction "
         "applied twice doubles; measure again, or {}",
-        ini_path, diagnosis.source, diagnosis.ini_sha256->substr(0, 12), now.substr(0, 12),
-        words(PlanSetting::force)));
+        ini_path, diagnosis.source, diagnosis.diagnosis.ini_sha256->substr(0, 12),
+        now.substr(0, 12), words(PlanSetting::force)));
   }
 }
 
@@ -162,7 +162,8 @@ Plan make_plan(const std::string& ini_path, const DiagnosisInput& d, const PlanO
   check_plan_options(o);
   PlanContext c(ini_path, d, o);
   c.plan.ini_sha256 = sha256_hex(ini_text(ini_path));
-  c.plan.provenance_checked = d.ini_sha256 && *d.ini_sha256 == c.plan.ini_sha256;
+  c.plan.provenance_checked =
+      d.diagnosis.ini_sha256 && *d.diagnosis.ini_sha256 == c.plan.ini_sha256;
   for (const PlanStep step : kPlaneSteps) step(c);
   return std::move(c.plan);
 }
@@ -184,7 +185,8 @@ Plan make_plan(const std::string& ini_path, const std::vector<DiagnosisInput>& p
   const DiagnosisInput& first = planes.front();
   PlanContext c(ini_path, first, o);
   c.plan.ini_sha256 = sha256_hex(ini_text(ini_path));
-  c.plan.provenance_checked = first.ini_sha256 && *first.ini_sha256 == c.plan.ini_sha256;
+  c.plan.provenance_checked =
+      first.diagnosis.ini_sha256 && *first.diagnosis.ini_sha256 == c.plan.ini_sha256;
   for (const DiagnosisInput& d : planes) {
     c.diagnosis = &d;
     for (const PlanStep step : kSetPlaneSteps) step(c);

@@ -522,7 +522,7 @@ void check_shared_gains(const std::vector<JointServo>& joints) {
 
 // Advice: the servo mismatch, which no configuration value of circcomp's changes.
 void servo_advice(PlanContext& c) {
-  const DiagnosisInput& d = c.d();
+  const Diagnosis& d = c.d();
   if (!d.servo_mismatch_ms.value || std::fabs(*d.servo_mismatch_ms.value) < 0.05) return;
   const double m = *d.servo_mismatch_ms.value;
   const char slow = m > 0 ? d.axes[0] : d.axes[1];
@@ -530,8 +530,8 @@ void servo_advice(PlanContext& c) {
   std::string joints;
   for (int j : joints_of(c.ini, slow)) joints += fmt::format(" [JOINT_{}]", j);
   std::string how = "until their lag times 1/Kv agree";
-  if (d.kv_per_s && *d.kv_per_s > 0) {
-    const double kv = *d.kv_per_s;
+  if (d.kv_per_s.value && *d.kv_per_s.value > 0) {
+    const double kv = *d.kv_per_s.value;
     const double lag_slow = 1.0 / kv + std::fabs(m) * 1e-3 / 2;
     const double lag_fast = 1.0 / kv - std::fabs(m) * 1e-3 / 2;
     how = fmt::format("(about Kv {:.1f} 1/s now against {:.1f} 1/s: raise it by {:.1f} %)",
@@ -547,7 +547,7 @@ void servo_advice(PlanContext& c) {
 
 bool plan_servo(PlanContext& c) {
   IniDocument& ini = c.ini;
-  const DiagnosisInput& d = c.d();
+  const Diagnosis& d = c.d();
   const PlanOptions& o = c.o;
   Plan& plan = c.plan;
   PlanFiles& files = c.files;
@@ -567,7 +567,7 @@ bool plan_servo(PlanContext& c) {
         skipped.push_back(fmt::format("joint {}", j));
         continue;
       }
-      const Measured& lag = d.axis_lag_ms[k];
+      const Measured& lag = d.axis_lag[k].lag_ms;
       if (!lag.value) {
         plan.notes.push_back(fmt::format(
             "{} servo: the diagnosis has no lag of axis {} (it needs commanded columns or a feed "
@@ -577,7 +577,7 @@ bool plan_servo(PlanContext& c) {
       }
       if (!(std::abs(*lag.value) <= kMaxLagMs)) {
         throw MeasurementError(
-            d.source, 0,
+            c.source(), 0,
             fmt::format("{} servo lag = {:g} ms is implausible (more than {:g} ms); "
                         "check the measurement",
                         d.axes[k], *lag.value, kMaxLagMs));

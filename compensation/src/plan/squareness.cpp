@@ -197,10 +197,10 @@ std::optional<SquarenessChange> accepted_squareness(PlanContext& c) {
                  fmt::format("{}/{} squareness", c.d().axes[0], c.d().axes[1]), kMinSquarenessUrad,
                  kMaxSquarenessUrad, "urad", c.o, c.plan.notes);
   } catch (const DataError& e) {
-    throw DataError(c.d().source, 0, e.detail());
+    throw DataError(c.source(), 0, e.detail());
   }
   if (!v) return std::nullopt;
-  return SquarenessChange{c.d().plane, c.d().axes, c.o.gain * *v};
+  return SquarenessChange{std::string(plane_name(c.d().plane)), c.d().axes, c.o.gain * *v};
 }
 
 }  // namespace

@@ -1,8 +1,7 @@
 #pragma once
-// The part of a `circtest.diagnosis/1` document (circana diagnose --json) that the planner
-// reads, taken from the one reader of the document (core/diagnosis_document.hpp,
-// docs/diagnosis-json.md). Keys are the plane's axis letters; a null is a value the diagnosis
-// could not fit, or a term it lists as unseparable.
+// A `circtest.diagnosis/1` document (circana diagnose --json) as the planner reads it, through
+// the one reader of the document (core/diagnosis_document.hpp, docs/diagnosis-json.md). A
+// null is a value the diagnosis could not fit, or a term it lists as unseparable.
 #include <array>
 #include <cstddef>
 #include <optional>
@@ -17,32 +16,14 @@ namespace circtest::compensation {
 using Measured = Estimate;
 using Cyclic = CyclicEstimate;  // error = amplitude * sin(2 pi position / pitch + phase)
 
+// One plane's diagnosis as the planner takes it: core's Diagnosis itself, and what the planner
+// adds to it.
 struct DiagnosisInput {
   std::string source;  // the JSON file, for messages
-  std::string plane;   // "XY", "YZ", "ZX"
-  std::array<char, 2> axes{'X', 'Y'};
-  std::array<Measured, 2> backlash_mm;        // play: positive = lost motion
-  std::array<Measured, 2> reversal_spike_mm;  // friction transient, never compensated as play
-  std::array<std::optional<double>, 2> reversal_spike_ms;  // the spike's decay time
-  // From the reversal to the spike's peak when the table sticks; none: it peaks at the reversal.
-  std::array<std::optional<double>, 2> reversal_spike_peak_ms;
-  std::array<std::optional<double>, 2> reversal_spike_se_ms;  // its standard error
-  std::array<Measured, 2> scale_ppm;                          // actual = (1 + s) * commanded
-  Measured scale_mismatch_ppm;
-  Measured squareness_urad;    // a_actual = a + alpha * b
-  Measured servo_mismatch_ms;  // lag of the first axis minus lag of the second
-  std::optional<double> kv_per_s;
-  // Per axis: the following lag (ms) and how it was measured ("feedback", "instrument",
-  // "feeds"; empty when not measured).
-  std::array<Measured, 2> axis_lag_ms;
-  std::array<std::string, 2> axis_lag_source;
-  std::array<std::optional<Cyclic>, 2> cyclic;
-  std::optional<std::string> ini_sha256;
-  // The terms the diagnosis could not tell apart ("backlash_mm.X", "servo_mismatch_ms"): their
-  // values above are empty whatever the document holds beside them.
-  std::vector<std::string> unseparable;
-  // A test set's plane: its axis k is corrected from an earlier plane of the set (its
-  // per-axis values here are null).
+  // A test set's plane carries the set's joint per-axis values (backlash, spike, scale) and
+  // squareness; the per-axis values of an axis corrected from an earlier plane are cleared.
+  Diagnosis diagnosis;
+  // A test set's plane: its axis k is corrected from an earlier plane of the set.
   std::array<bool, 2> axis_in_earlier_plane{false, false};
 };
 
