@@ -112,7 +112,7 @@ if mode in ("abort", "estop", "quit"):
     # Mid-run: once the program runs, 3 s into it (LinuxCNC quitting: 0.3 s into its first run
     # when CIRCTEST_MARKER names the marker output), as an operator pressing Stop or E-stop, or
     # LinuxCNC quitting (its display ends).
-    end = time.time() + 60
+    end = time.time() + 180
     while time.time() < end:
         s.poll()
         if s.interp_state != linuxcnc.INTERP_IDLE: break
@@ -120,12 +120,16 @@ if mode in ("abort", "estop", "quit"):
     else:
         sys.exit("the program did not start")
     if mode == "quit" and os.environ.get("CIRCTEST_MARKER"):
-        # Inside a run, whatever the load: once the program's marker output is on.
+        # Inside a run, whatever the load: once the program's marker output is on (never at
+        # another moment: without the marker, no quit).
         marker = int(os.environ["CIRCTEST_MARKER"])
+        end = time.time() + 180
         while time.time() < end:
             s.poll()
             if s.dout[marker]: break
             time.sleep(0.005)
+        else:
+            sys.exit("the program's marker output did not come on")
         time.sleep(0.3)
     else:
         time.sleep(3)
