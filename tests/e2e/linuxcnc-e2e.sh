@@ -109,9 +109,9 @@ while True:
     time.sleep(0.5)
 mode = sys.argv[1]
 if mode in ("abort", "estop", "quit"):
-    # Mid-run: once the program runs, 3 s into it (LinuxCNC quitting: 0.3 s into its first run
-    # when CIRCTEST_MARKER names the marker output), as an operator pressing Stop or E-stop, or
-    # LinuxCNC quitting (its display ends).
+    # Mid-run: 0.3 s into the program's first run when CIRCTEST_MARKER names its marker output,
+    # else 3 s after it starts; as an operator pressing Stop or E-stop, or LinuxCNC quitting
+    # (its display ends).
     end = time.time() + 180
     while time.time() < end:
         s.poll()
@@ -119,14 +119,18 @@ if mode in ("abort", "estop", "quit"):
         time.sleep(0.02)
     else:
         sys.exit("the program did not start")
-    if mode == "quit" and os.environ.get("CIRCTEST_MARKER"):
+    if os.environ.get("CIRCTEST_MARKER"):
         # Inside a run, whatever the load: once the program's marker output is on (never at
         # another moment: without the marker, no quit).
+        # Its rising edge: an aborted program before this one may have left it on until circtest
+        # switches it off.
         marker = int(os.environ["CIRCTEST_MARKER"])
         end = time.time() + 180
+        seen_off = False
         while time.time() < end:
             s.poll()
-            if s.dout[marker]: break
+            seen_off = seen_off or not s.dout[marker]
+            if seen_off and s.dout[marker]: break
             time.sleep(0.005)
         else:
             sys.exit("the program's marker output did not come on")
