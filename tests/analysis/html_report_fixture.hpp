@@ -39,6 +39,17 @@ inline std::size_t count(const std::string& text, const std::string& what) {
   return n;
 }
 
+// Measures the right edge of the widest element and writes it, and which element it is, into
+// two attributes of <body>.
+inline constexpr const char* kWidthProbe =
+    "<script>let w = document.documentElement.scrollWidth, who = 'html';"
+    "for (const e of document.querySelectorAll('*')) {"
+    "  const r = e.getBoundingClientRect();"
+    "  if (r.right > w) { w = r.right; who = e.tagName + ' ' + e.getAttribute('class'); }"
+    "}"
+    "document.body.setAttribute('data-widest', Math.ceil(w));"
+    "document.body.setAttribute('data-widest-element', who);</script>";
+
 class HtmlReport : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -79,17 +90,56 @@ class HtmlReport : public ::testing::Test {
     argv.insert(argv.end(), args.begin(), args.end());
     return run_command(argv);
   }
-  std::string dom(const std::string& html) {
-    const CommandResult r = chromium({"--dump-dom", "file://" + html});
+  // A report as one Chromium run sees it, laid out in a window as wide as A4 portrait at 96
+  // dpi (794 px): its DOM, the right edge in CSS px of its widest element, and, when asked,
+  // its printed pages and a screenshot of the window.
+  struct Opened {
+    std::string dom;
+    double widest_px = 1e9;
+    std::string widest;  // that element: tag and class
+    int pages = -1;      // of the printed PDF
+  };
+  // One Chromium start does it all (each start costs seconds of CPU): it opens a copy of the
+  // report with a measuring script before </body>, dumps the DOM, prints and takes the
+  // screenshot. The script adds nothing but two attributes of <body>; both and the script are
+  // taken out of the DOM handed back, which is then the report's own.
+  Opened open(const std::string& html, const std::string& pdf = {}, const std::string& png = {}) {
+    std::string text = slurp(html);
+    const auto body = text.rfind("</body>");
+    EXPECT_NE(body, std::string::npos);
+    if (body == std::string::npos) return {};
+    text.insert(body, kWidthProbe);
+    const std::string probe = (dir_ / "probe.html").string();
+    circtest::testing::spit(probe, text);
+    std::vector<std::string> args{"--window-size=794,1123", "--dump-dom"};
+    if (!pdf.empty()) args.insert(args.end(), {"--no-pdf-header-footer", "--print-to-pdf=" + pdf});
+    if (!png.empty()) args.push_back("--screenshot=" + png);
+    args.push_back("file://" + probe);
+    const CommandResult r = chromium(args);
     EXPECT_EQ(r.exit_code, 0) << r.err;
     console_ = r.err;
-    return r.out;
+    Opened page;
+    page.dom = r.out;
+    std::smatch m;
+    static const std::regex widest(R"re( data-widest="(\d+)" data-widest-element="([^"]*)")re");
+    const auto script = page.dom.find(kWidthProbe);
+    if (!std::regex_search(page.dom, m, widest) || script == std::string::npos) {
+      ADD_FAILURE() << "the width probe did not run";
+      return page;
+    }
+    page.widest_px = std::stod(m[1]);
+    page.widest = m[2];
+    const auto attributes = static_cast<std::size_t>(m.position(0));
+    const auto attributes_size = static_cast<std::size_t>(m.length(0));
+    EXPECT_LT(attributes, script) << "the probe's attributes are those of <body>";
+    page.dom.erase(script, std::string(kWidthProbe).size());
+    page.dom.erase(attributes, attributes_size);
+    if (!pdf.empty()) page.pages = pdf_pages(pdf);
+    return page;
   }
-  // The pages of the printed PDF: pdfinfo when installed, else the /Type /Page objects.
-  int printed_pages(const std::string& html, const std::string& pdf) {
-    const CommandResult r =
-        chromium({"--no-pdf-header-footer", "--print-to-pdf=" + pdf, "file://" + html});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
+  // The pages of the printed PDF (A4 each): pdfinfo when installed, else the /Type /Page
+  // objects.
+  int pdf_pages(const std::string& pdf) {
     if (!std::string(PDFINFO_PATH).empty()) {
       const CommandResult info = run_command({PDFINFO_PATH, pdf});
       EXPECT_EQ(info.exit_code, 0) << info.err;
@@ -120,34 +170,6 @@ class HtmlReport : public ::testing::Test {
     const CommandResult r = run_command({PDFTOTEXT_PATH, "-f", n, "-l", n, pdf, "-"});
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return r.out;
-  }
-  // The right edge, in CSS px, of the widest element of the report laid out in a window as
-  // wide as A4 portrait at 96 dpi (794 px), measured by a script in a copy of the page.
-  double widest_px(const std::string& html, std::string& which) {
-    std::string text = slurp(html);
-    const auto body = text.rfind("</body>");
-    EXPECT_NE(body, std::string::npos);
-    text.insert(
-        body,
-        "<script>let w = document.documentElement.scrollWidth, who = 'html';"
-        "for (const e of document.querySelectorAll('*')) {"
-        "  const r = e.getBoundingClientRect();"
-        "  if (r.right > w) { w = r.right; who = e.tagName + ' ' + e.getAttribute('class'); }"
-        "}"
-        "document.body.setAttribute('data-widest', Math.ceil(w));"
-        "document.body.setAttribute('data-widest-element', who);</script>");
-    const std::string probe = (dir_ / "probe.html").string();
-    circtest::testing::spit(probe, text);
-    const CommandResult r = chromium({"--window-size=794,1123", "--dump-dom", "file://" + probe});
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    std::smatch m;
-    static const std::regex widest(R"re(data-widest="(\d+)" data-widest-element="([^"]*)")re");
-    if (!std::regex_search(r.out, m, widest)) {
-      ADD_FAILURE() << "the width probe did not run";
-      return 1e9;
-    }
-    which = m[2];
-    return std::stod(m[1]);
   }
   // The page's console lines in Chromium's log (errors, warnings, logs alike).
   std::string console_messages() const {

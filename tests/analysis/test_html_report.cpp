@@ -8,16 +8,23 @@
 
 using namespace circtest_html_report_test;
 
-// The detectors themselves: a page with a script error and an external image is caught.
+// The detectors themselves: a page with a script error, an external image and an element
+// wider than A4 is caught; the measuring script is gone from the DOM, the page's own kept.
 TEST_F(HtmlReport, TheConsoleAndReferenceChecksCatchABadPage) {
   const std::string bad = (dir_ / "bad.html").string();
   circtest::testing::spit(bad,
                           "<!DOCTYPE html><html><body><p>x</p><img "
                           "src=\"http://example.invalid/x.png\"><script>undefinedFn();</script>"
-                          "</body></html>\n");
-  const std::string d = dom(bad);
+                          "<div style=\"width: 900px\">wide</div></body></html>\n");
+  const Opened page = open(bad);
+  const std::string& d = page.dom;
   EXPECT_NE(console_messages().find("undefinedFn"), std::string::npos) << console_;
   EXPECT_NE(d.find("src="), std::string::npos);
+  EXPECT_EQ(count(d, "<script"), 1u) << d;
+  EXPECT_NE(d.find("<script>undefinedFn();</script>"), std::string::npos) << d;
+  EXPECT_EQ(d.find("data-widest"), std::string::npos) << d;
+  EXPECT_NE(d.find("<body><p>x</p>"), std::string::npos) << d;
+  EXPECT_GE(page.widest_px, 900.0) << page.widest;
 }
 
 TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
@@ -31,7 +38,10 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("3 plane page(s) (XY, YZ, ZX)"), std::string::npos) << r.out;
 
-  const std::string d = dom(html);
+  const std::string pdf = (dir_ / "report.pdf").string();
+  const std::string shot = (dir_ / "report.png").string();
+  const Opened page = open(html, pdf, shot);
+  const std::string& d = page.dom;
   EXPECT_EQ(console_messages(), "") << "the page logged to the console";
   // Self-contained: nothing loaded from anywhere (the only URL is the SVG namespace).
   for (const char* ref : {"src=", "href=", "<link", "<script", "@import", "url("}) {
@@ -118,8 +128,7 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
   EXPECT_GE(count(d, "class=\"contribution\""), diag["contributions"].size());
 
   // Summary, one page per plane, appendix.
-  const std::string pdf = (dir_ / "report.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), 6);
+  EXPECT_EQ(page.pages, 6);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: no limit set"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 2).find("Plane XY: the measurement"), std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 3).find("Plane YZ: the measurement"), std::string::npos);
@@ -127,23 +136,19 @@ TEST_F(HtmlReport, ThreePlanesPrintOnOneA4PageEachAndTheDomHoldsTheResults) {
   EXPECT_NE(pdf_page_text(pdf, 5).find("Appendix: the uncertainty of H, G and F"),
             std::string::npos);
   EXPECT_NE(pdf_page_text(pdf, 6).find("Appendix: for the service engineer"), std::string::npos);
-  std::string which;
-  EXPECT_LE(widest_px(html, which), 794.0) << which;
+  EXPECT_LE(page.widest_px, 794.0) << page.widest;
 
-  // Not blank: a screenshot of the report is far richer than one of an empty page.
+  // Not blank: the screenshot of the report is far richer than one of an empty page in a
+  // window of the same size.
   const std::string empty = (dir_ / "empty.html").string();
   circtest::testing::spit(empty, "<!DOCTYPE html><html><body></body></html>\n");
-  ASSERT_EQ(chromium({"--screenshot=" + (dir_ / "empty.png").string(), "--window-size=800,1200",
+  ASSERT_EQ(chromium({"--screenshot=" + (dir_ / "empty.png").string(), "--window-size=794,1123",
                       "file://" + empty})
                 .exit_code,
             0);
-  ASSERT_EQ(chromium({"--screenshot=" + (dir_ / "report.png").string(), "--window-size=800,1200",
-                      "file://" + html})
-                .exit_code,
-            0);
   const auto blank = fs::file_size(dir_ / "empty.png");
-  const auto shot = fs::file_size(dir_ / "report.png");
-  EXPECT_GT(shot, 10 * blank) << "screenshot " << shot << " bytes, empty page " << blank;
+  const auto size = fs::file_size(shot);
+  EXPECT_GT(size, 10 * blank) << "screenshot " << size << " bytes, empty page " << blank;
 }
 
 TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
@@ -172,7 +177,8 @@ TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
   r = circana({"report", after, before, "-o", html, "--machine", "VMC-3", "--db", db, "--diagnosis",
                diag_path, "--scale-um-per-div", "2"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string d = dom(html);
+  const Opened page = open(html, (dir_ / "report.pdf").string());
+  const std::string& d = page.dom;
   EXPECT_EQ(console_messages(), "");
   // Before and after: both traces drawn (the before dashed), H of both in the table.
   EXPECT_NE(d.find("<td>" + before + "</td>"), std::string::npos);  // in the appendix
@@ -197,7 +203,7 @@ TEST_F(HtmlReport, BeforeAfterDiagnosisFileAndTrend) {
   ASSERT_NE(h_panel, std::string::npos);
   const std::string panel = d.substr(h_panel, d.find("</g>", h_panel) - h_panel);
   EXPECT_EQ(count(panel, "class=\"point\""), 3u);
-  EXPECT_EQ(printed_pages(html, (dir_ / "report.pdf").string()), 4);
+  EXPECT_EQ(page.pages, 4);
 }
 
 // The hand-over of a before/after visit: the verdict against a limits file, what circcomp
@@ -222,7 +228,9 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
                              "--limits-file", limits, "--changes", plan, "--tested-by", "A. Sato",
                              "--accepted-by", "B. Kunde", "--instrument", "grid encoder KGM 182"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string d = dom(html);
+  const std::string pdf = (dir_ / "report.pdf").string();
+  const Opened page = open(html, pdf);
+  const std::string& d = page.dom;
   EXPECT_EQ(console_messages(), "");
 
   auto analyzed = [&](const std::string& trace) {
@@ -279,8 +287,7 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
         << trace;
   }
 
-  const std::string pdf = (dir_ / "report.pdf").string();
-  EXPECT_EQ(printed_pages(html, pdf), 4);
+  EXPECT_EQ(page.pages, 4);
   const std::string page1 = pdf_page_text(pdf, 1);
   for (const char* text : {"Verdict: not decided: within the uncertainty", "U (k = 2)", "VMC-3",
                            "grid encoder KGM 182", "XY", "1000 mm/min", "X backlash 0 → 10.2 µm",
@@ -294,8 +301,7 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
   ASSERT_EQ(sum.exit_code, 0);
   EXPECT_NE(pdf_page_text(pdf, 4).find(sum.out.substr(0, 64)), std::string::npos)
       << "the appendix holds the trace's SHA-256";
-  std::string which;
-  EXPECT_LE(widest_px(html, which), 794.0) << which;
+  EXPECT_LE(page.widest_px, 794.0) << page.widest;
 }
 
 // Any report, above all the one the README's demo writes (out/report.html): named by
@@ -309,7 +315,9 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
   }
   const std::string html = fs::absolute(given).string();
   ASSERT_TRUE(fs::is_regular_file(html)) << html;
-  const std::string d = dom(html);
+  const std::string pdf = (dir_ / "given.pdf").string();
+  const Opened opened = open(html, pdf);
+  const std::string& d = opened.dom;
   EXPECT_EQ(console_messages(), "");
   std::vector<std::string> planes;
   static const std::regex plane(R"re(<section class="plane" data-plane="(XY|YZ|ZX)")re");
@@ -317,11 +325,10 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
     planes.push_back((*it)[1]);
   }
   ASSERT_FALSE(planes.empty()) << "no plane page: not a circana report";
-  const std::string pdf = (dir_ / "given.pdf").string();
   // Page 1 the verdict; each plane's page in order (a plane's page may run onto a second
   // one: the demo's three-run plane page does since U and the residual's share joined it, a
   // layout to tighten); then the appendix and the budget appendix.
-  const int pages = printed_pages(html, pdf);
+  const int pages = opened.pages;
   EXPECT_GE(pages, static_cast<int>(planes.size()) + 3);
   EXPECT_LE(pages, 2 * static_cast<int>(planes.size()) + 3);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: "), std::string::npos);
@@ -337,8 +344,7 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
   EXPECT_NE(pdf_page_text(pdf, page).find("Appendix"), std::string::npos) << "page " << page;
   EXPECT_NE(pdf_page_text(pdf, pages).find("Appendix"), std::string::npos);
   EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
-  std::string which;
-  EXPECT_LE(widest_px(html, which), 794.0) << which;
+  EXPECT_LE(opened.widest_px, 794.0) << opened.widest;
 }
 
 // Backlash and squareness limits are judged from the plane's diagnosis, as circana history
@@ -348,7 +354,7 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
   const std::string html = (dir_ / "report.html").string();
   CommandResult r = circana({"report", xy, "-o", html, "--limits", "backlash=0.004,squareness=50"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  std::string d = dom(html);
+  std::string d = open(html).dom;
   r = circana({"diagnose", xy, "--json"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   auto diag = nlohmann::json::parse(r.out);
@@ -380,7 +386,7 @@ TEST_F(HtmlReport, BacklashAndSquarenessLimitsAreJudgedFromTheDiagnosis) {
   circtest::testing::spit(diag_path, diag.dump());
   r = circana({"report", xy, "-o", html, "--limits", "squareness=50", "--diagnosis", diag_path});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  d = dom(html);
+  d = open(html).dom;
   EXPECT_NE(row("squareness").find("<td class=\"result FAIL\">FAIL (not measured)</td>"),
             std::string::npos)
       << row("squareness");

@@ -29,7 +29,7 @@ TEST_F(HtmlReport, VerdictsFollowIso14253WithU) {
   const std::string html = (dir_ / "report.html").string();
   r = circana({"report", xy, "-o", html, "--limits", limits});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  std::string d = dom(html);
+  std::string d = open(html).dom;
   auto result = [&d](const std::string& q) {
     const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
     if (p == std::string::npos) return std::string("no line");
@@ -54,14 +54,14 @@ TEST_F(HtmlReport, VerdictsFollowIso14253WithU) {
   std::snprintf(limits, sizeof limits, "H=%.12g,G=%.12g", h + u_h + e, g + u_g - e);
   r = circana({"report", xy, "-o", html, "--limits", limits});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  d = dom(html);
+  d = open(html).dom;
   EXPECT_NE(d.find("data-verdict=\"OPEN\">Verdict: not decided: within the uncertainty"),
             std::string::npos);
   // G just above value + U: every limit passes.
   std::snprintf(limits, sizeof limits, "H=%.12g,G=%.12g", h + u_h + e, g + u_g + e);
   r = circana({"report", xy, "-o", html, "--limits", limits});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  d = dom(html);
+  d = open(html).dom;
   EXPECT_NE(d.find("data-verdict=\"PASS\""), std::string::npos);
   EXPECT_EQ(d.find("--limits"), std::string::npos) << "a command-line option in the report";
 }
@@ -123,7 +123,7 @@ TEST_F(HtmlReport, ChangedBetweenTheTestsIsOneNetLinePerItem) {
   const CommandResult r =
       circana({"report", after, before, "-o", html, "--changes", p1, "--changes", p2});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string d = dom(html);
+  const std::string d = open(html).dom;
   const auto p = d.find("<ul class=\"changes\">");
   ASSERT_NE(p, std::string::npos);
   const std::string list = d.substr(p, d.find("</ul>", p) - p);

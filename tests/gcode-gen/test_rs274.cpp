@@ -1017,6 +1017,11 @@ void check_through_rs274(const CircleTestSpec& spec, GridOutcome& outcome) {
 // The property over a grid of small and large leads, arcs, diameters, planes, directions,
 // units and instruments: whatever circgen accepts, the interpreter runs as intended. Leads
 // under 1 deg once passed and were written as full circles on a small circle.
+// Each direction runs alone with two feeds: a CCW sweep has CCW lead and measured arcs and a
+// CW way back, a CW one the reverse. Both directions back to back (one feed) would write
+// nothing new: the CCW run's arcs are the CCW sweep's first run, the CW run's the CW sweep's
+// (same start points, same words), the join between them no arc (and the acceptance does not
+// depend on the directions); the variants above run both back to back.
 TEST(Rs274Grid, EveryAcceptedLeadAndArcTurnsAsIntended) {
   if (!rs274_available()) GTEST_SKIP() << "rs274 not installed (linuxcnc-uspace)";
   GridOutcome outcome;
@@ -1028,7 +1033,9 @@ TEST(Rs274Grid, EveryAcceptedLeadAndArcTurnsAsIntended) {
       if (diameter > 100.0 && plane != Plane::XY) continue;
       for (double arc : {90.0, 180.0, 358.0, 360.0}) {
         for (double lead : leads) {
-          for (int dirs = 0; dirs < 3; ++dirs) {
+          for (int dirs = 1; dirs < 3; ++dirs) {
+            // The longest words in one sense: both senses of arc are in that sweep.
+            if (diameter > 100.0 && dirs == 2) continue;
             CircleTestSpec spec;
             spec.plane = plane;
             spec.radius_mm = diameter / 2.0;
@@ -1037,11 +1044,9 @@ TEST(Rs274Grid, EveryAcceptedLeadAndArcTurnsAsIntended) {
             spec.start_deg = default_start_deg(plane, arc);
             spec.centre_mm = {3.0, -2.0, 1.0};
             // A single direction with two feeds runs back to the lead-in start between them.
-            spec.directions = dirs == 0   ? std::vector<Direction>{Direction::CCW, Direction::CW}
-                              : dirs == 1 ? std::vector<Direction>{Direction::CCW}
-                                          : std::vector<Direction>{Direction::CW};
-            spec.feeds_mm_per_min =
-                dirs == 0 ? std::vector<double>{500.0} : std::vector<double>{300.0, 600.0};
+            spec.directions = dirs == 1 ? std::vector<Direction>{Direction::CCW}
+                                        : std::vector<Direction>{Direction::CW};
+            spec.feeds_mm_per_min = {300.0, 600.0};
             // Inch on the smallest circle, where the written digits are coarsest.
             spec.units = diameter == 1.0 && dirs == 1 ? LengthUnit::inch : LengthUnit::mm;
             SCOPED_TRACE(fmt_case(spec));
@@ -1093,7 +1098,7 @@ TEST(Rs274Grid, EveryAcceptedLeadAndArcTurnsAsIntended) {
   }
   // Both outcomes occur: the grid reaches past the limits on both sides.
   std::cout << outcome.accepted << " accepted, " << outcome.refused << " refused\n";
-  EXPECT_GT(outcome.accepted, 300);
+  EXPECT_GT(outcome.accepted, 200);
   EXPECT_GT(outcome.refused, 300);
 }
 
