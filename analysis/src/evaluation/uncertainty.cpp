@@ -230,6 +230,84 @@ void add_temperature(const Evaluation& ev, double radius_mm, const UncertaintyOp
   one("temperature of the instrument", t.instrument_C, a_i);
 }
 
+// Thermal drift: the temperature changing during the test moves the radius the instrument
+// reads by R (a_m dT_m + a_i dT_i) (each coefficient's magnitude: their signs are not known
+// to cancel). Within a run the run's end misses its start by it (G), over a CCW/CW pair the
+// two runs' radii differ by it (H), and F, corrected at one temperature, departs by it.
+void add_drift(const Evaluation& ev, double radius_mm, const UncertaintyOptions& o,
+               std::vector<UncertaintyContribution>& out) {
+  const BudgetMeasurements& m = ev.budget_inputs;
+  const double a_m = std::abs(ev.temperatures.machine_expansion_per_K);
+  const double a_i = std::abs(ev.temperatures.instrument_expansion_per_K);
+  struct Part {
+    const char* name;
+    const char* what;
+    double machine_K, instrument_K;
+    const std::optional<double>& duration_s;
+    double UncertaintyContribution::*coefficient;
+  };
+  const Part parts[] = {
+      {"thermal drift within a run", "within a run", m.machine_run_K, m.instrument_run_K, m.run_s,
+       &UncertaintyContribution::c_g},
+      {"thermal drift over a CCW/CW pair", "over a CCW/CW pair", m.machine_pair_K,
+       m.instrument_pair_K, m.pair_s, &UncertaintyContribution::c_h},
+      {"thermal drift from the temperature F is corrected at", "from the corrected temperature",
+       m.machine_from_corrected_K, m.instrument_from_corrected_K, m.test_s,
+       &UncertaintyContribution::c_f},
+  };
+  for (const Part& p : parts) {
+    UncertaintyContribution c;
+    c.name = p.name;
+    c.distribution = Distribution::rectangular;
+    c.*p.coefficient = 1.0;
+    if (!m.drift_source.empty()) {
+      c.value_mm = radius_mm * (a_m * p.machine_K + a_i * p.instrument_K);
+      c.source = "measured";
+      c.note = fmt::format(
+          "temperatures recorded over the test ({}): machine {:.3f} K, instrument {:.3f} K {} "
+          "(a straight line through the readings); R x (a_m dT_m + a_i dT_i)",
+          m.drift_source, p.machine_K, p.instrument_K, p.what);
+    } else if (p.duration_s) {
+      // Machine and instrument in one room: their difference drifts (as the stated 20 +- 2 K).
+      const double change_K = o.assumed_drift_K_per_h * *p.duration_s / 3600.0;
+      c.value_mm = radius_mm * std::abs(a_m - a_i) * change_K;
+      c.source = "stated assumption";
+      c.note = fmt::format(
+          "no temperatures recorded over the test (once or not at all): the drift is not "
+          "measured, taken as {:g} K/h over {:.1f} s {} ({:.4f} K), R x |a_m - a_i| x dT",
+          o.assumed_drift_K_per_h, *p.duration_s, p.what, change_K);
+    } else {
+      c.source = "not known";
+      c.note =
+          "no temperatures recorded over the test and no time column to time the runs: the "
+          "drift is not known and not included";
+    }
+    out.push_back(std::move(c));
+  }
+}
+
+// The readings' noise widens the zone: its largest values among the samples near each edge.
+void add_noise(const Evaluation& ev, std::vector<UncertaintyContribution>& out) {
+  const BudgetMeasurements& m = ev.budget_inputs;
+  UncertaintyContribution c;
+  c.name = "measurement noise";
+  c.distribution = Distribution::rectangular;
+  c.value_mm = m.noise_g_mm;
+  c.source = "measured";
+  c.c_g = 1.0;
+  if (m.noise_g_mm > 0.0) {
+    c.c_f = m.noise_f_mm / m.noise_g_mm;
+    c.c_h = m.noise_h_mm / m.noise_g_mm;
+  }
+  c.note = fmt::format(
+      "the readings scatter by {:.3f} um from sample to sample (standard deviation, from second "
+      "differences of the radius); G widens by the expected largest noise among the {} and {} "
+      "samples near the zone's edges, F_max or F_min by {:.3f} um, H by {:.3f} um",
+      m.noise_mm * 1000.0, m.noise_samples_top, m.noise_samples_bottom, m.noise_f_mm * 1000.0,
+      m.noise_h_mm * 1000.0);
+  out.push_back(std::move(c));
+}
+
 double sample_period_s(const Evaluation& ev) {
   if (const std::string* p = ev.conditions.find(meta_key::sample_period_s)) {
     try {
@@ -396,9 +474,11 @@ UncertaintyBudget uncertainty_budget(const Evaluation& ev, const UncertaintyOpti
   if (radius_mm <= 0 && !ev.runs.empty()) radius_mm = ev.runs.front().lsc.radius_mm;
   add_instrument(b.profile, d, o, b.contributions);
   add_temperature(ev, radius_mm, o, b.contributions);
+  add_drift(ev, radius_mm, o, b.contributions);
   add_centring(ev, b.profile, radius_mm, d, o, b.contributions);
   add_repeatability(ev, o, b.contributions);
   add_evaluation_terms(ev, radius_mm, b.contributions);
+  add_noise(ev, b.contributions);
   if (b.profile == InstrumentProfile::scales) {
     UncertaintyContribution u;
     u.name = "what the scales cannot see";
