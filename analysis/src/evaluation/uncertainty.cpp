@@ -261,11 +261,14 @@ void add_drift(const Evaluation& ev, double radius_mm, const UncertaintyOptions&
     c.distribution = Distribution::rectangular;
     c.*p.coefficient = 1.0;
     if (!m.drift_source.empty()) {
+      // Measured: an effect of this size, not corrected (a bias: added to U as it is).
+      c.distribution = Distribution::bias;
       c.value_mm = radius_mm * (a_m * p.machine_K + a_i * p.instrument_K);
       c.source = "measured";
       c.note = fmt::format(
           "temperatures recorded over the test ({}): machine {:.3f} K, instrument {:.3f} K {} "
-          "(a straight line through the readings); R x (a_m dT_m + a_i dT_i)",
+          "(a straight line through the readings); R x (a_m dT_m + a_i dT_i), not corrected: "
+          "added to U",
           m.drift_source, p.machine_K, p.instrument_K, p.what);
     } else if (p.duration_s) {
       // Machine and instrument in one room: their difference drifts (as the stated 20 +- 2 K).
@@ -291,7 +294,8 @@ void add_noise(const Evaluation& ev, std::vector<UncertaintyContribution>& out) 
   const BudgetMeasurements& m = ev.budget_inputs;
   UncertaintyContribution c;
   c.name = "measurement noise";
-  c.distribution = Distribution::rectangular;
+  // The zone only widens: a bias of the expected size, not corrected, added to U.
+  c.distribution = Distribution::bias;
   c.value_mm = m.noise_g_mm;
   c.source = "measured";
   c.c_g = 1.0;
@@ -302,7 +306,8 @@ void add_noise(const Evaluation& ev, std::vector<UncertaintyContribution>& out) 
   c.note = fmt::format(
       "the readings scatter by {:.3f} um from sample to sample (standard deviation, from second "
       "differences of the radius); G widens by the expected largest noise among the {} and {} "
-      "samples near the zone's edges, F_max or F_min by {:.3f} um, H by {:.3f} um",
+      "samples near the zone's edges, F_max or F_min by {:.3f} um, H by {:.3f} um; not "
+      "corrected: added to U",
       m.noise_mm * 1000.0, m.noise_samples_top, m.noise_samples_bottom, m.noise_f_mm * 1000.0,
       m.noise_h_mm * 1000.0);
   out.push_back(std::move(c));
@@ -319,17 +324,26 @@ double sample_period_s(const Evaluation& ev) {
   return 0.0;
 }
 
+// U = k sqrt(sum (c u)^2) + sum c b: the root sum of squares of the uncertainties, expanded,
+// and the uncorrected biases added as they are.
 void combine(UncertaintyBudget& b) {
   double g = 0.0, h = 0.0, f = 0.0;
+  double bias_g = 0.0, bias_h = 0.0, bias_f = 0.0;
   for (const auto& c : b.contributions) {
     const double u = c.standard_mm();
+    if (c.distribution == Distribution::bias) {
+      bias_g += std::abs(c.c_g) * u;
+      bias_h += std::abs(c.c_h) * u;
+      bias_f += std::abs(c.c_f) * u;
+      continue;
+    }
     g += c.c_g * c.c_g * u * u;
     h += c.c_h * c.c_h * u * u;
     f += c.c_f * c.c_f * u * u;
   }
-  b.u_g_mm = b.k * std::sqrt(g);
-  b.u_h_mm = b.k * std::sqrt(h);
-  b.u_f_mm = b.k * std::sqrt(f);
+  b.u_g_mm = b.k * std::sqrt(g) + bias_g;
+  b.u_h_mm = b.k * std::sqrt(h) + bias_h;
+  b.u_f_mm = b.k * std::sqrt(f) + bias_f;
 }
 
 void add_instrument(InstrumentProfile profile, const ProfileDefaults& d,
@@ -459,7 +473,15 @@ std::optional<InstrumentProfile> parse_instrument_profile(std::string_view name)
 }
 
 std::string_view distribution_name(Distribution d) noexcept {
-  return d == Distribution::normal ? "normal" : "rectangular";
+  switch (d) {
+    case Distribution::normal:
+      return "normal";
+    case Distribution::rectangular:
+      return "rectangular";
+    case Distribution::bias:
+      return "bias";
+  }
+  return "normal";
 }
 
 double UncertaintyContribution::standard_mm() const {

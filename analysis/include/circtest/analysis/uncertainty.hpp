@@ -68,7 +68,10 @@ struct BudgetMeasurements {
 // The default the budget takes for an unmeasured repeatability (a run's G and F).
 inline constexpr double kDefaultRepeatabilityMm = 0.0005;
 
-enum class Distribution { normal, rectangular };
+// normal: a standard uncertainty; rectangular: a half-width a (u = a / sqrt 3); bias: a
+// one-sided effect of at most the stated size that is not corrected (the noise's widening of
+// the zone, a measured drift): c x value is added to U as is, after k u (GUM F.2.4.5).
+enum class Distribution { normal, rectangular, bias };
 std::string_view distribution_name(Distribution d) noexcept;
 
 struct UncertaintyContribution {
@@ -81,7 +84,7 @@ struct UncertaintyContribution {
   double c_g = 0.0;
   double c_h = 0.0;
   double c_f = 0.0;
-  double standard_mm() const;  // value / sqrt(3) for a rectangular half-width
+  double standard_mm() const;  // value / sqrt(3) for a rectangular half-width; a bias as is
 };
 
 struct UncertaintyBudget {
