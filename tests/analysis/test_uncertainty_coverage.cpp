@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <numbers>
 #include <random>
 #include <string>
@@ -165,16 +164,6 @@ class UncertaintyCoverage : public ::testing::Test {
       const Errors m = largest(ev), t = largest(truth);
       coverage_.errors.push_back({m.g - t.g, m.h - t.h, m.f - t.f});
       coverage_.budgets.push_back(uncertainty_budget(ev, ev.uncertainty_options));
-      if (std::getenv("COVERAGE_DEBUG") && k < 6) {
-        const auto& b = coverage_.budgets.back();
-        const auto& e = coverage_.errors.back();
-        std::printf("rate %.4f K/s cal %.4f: err G %.3f H %.3f F %.3f um; U %.3f %.3f %.3f\n",
-                    p.rate_K_per_s, p.calibration_mm * 1e3, e.g * 1e3, e.h * 1e3, e.f * 1e3,
-                    b.u_g_mm * 1e3, b.u_h_mm * 1e3, b.u_f_mm * 1e3);
-        for (const auto& c : b.contributions)
-          std::printf("   %-50s %.4f %.3f %.3f %.3f\n", c.name.c_str(), c.value_mm * 1e3, c.c_g,
-                      c.c_h, c.c_f);
-      }
     }
   }
   static Coverage coverage_;

@@ -289,28 +289,55 @@ void add_drift(const Evaluation& ev, double radius_mm, const UncertaintyOptions&
   }
 }
 
-// The readings' noise widens the zone: its largest values among the samples near each edge.
+// The readings' noise widens the zone: its largest values among the samples near each edge
+// (a bias per quantity, with the sensitivity 1 so that tests alike share one table), and the
+// spread of those largest values about their expected size.
 void add_noise(const Evaluation& ev, std::vector<UncertaintyContribution>& out) {
   const BudgetMeasurements& m = ev.budget_inputs;
-  UncertaintyContribution c;
-  c.name = "measurement noise";
-  // The zone only widens: a bias of the expected size, not corrected, added to U.
-  c.distribution = Distribution::bias;
-  c.value_mm = m.noise_g_mm;
-  c.source = "measured";
-  c.c_g = 1.0;
-  if (m.noise_g_mm > 0.0) {
-    c.c_f = m.noise_f_mm / m.noise_g_mm;
-    c.c_h = m.noise_h_mm / m.noise_g_mm;
+  struct Part {
+    const char* name;
+    double value_mm;
+    double UncertaintyContribution::*coefficient;
+  };
+  const Part parts[] = {
+      {"measurement noise: widening of G", m.noise_g_mm, &UncertaintyContribution::c_g},
+      {"measurement noise: widening of F", m.noise_f_mm, &UncertaintyContribution::c_f},
+      {"measurement noise: widening of H", m.noise_h_mm, &UncertaintyContribution::c_h},
+  };
+  for (const Part& p : parts) {
+    UncertaintyContribution c;
+    c.name = p.name;
+    // The zone only widens: a bias of the expected size, not corrected, added to U.
+    c.distribution = Distribution::bias;
+    c.value_mm = p.value_mm;
+    c.source = "measured";
+    c.*p.coefficient = 1.0;
+    c.note = fmt::format(
+        "the readings scatter by {:.3f} um from sample to sample (standard deviation, from "
+        "second differences of the radius); the expected largest noise among the {} and {} "
+        "samples near the zone's edges (H: of two runs' difference); not corrected: added to U",
+        m.noise_mm * 1000.0, m.noise_samples_top, m.noise_samples_bottom);
+    out.push_back(std::move(c));
   }
-  c.note = fmt::format(
-      "the readings scatter by {:.3f} um from sample to sample (standard deviation, from second "
-      "differences of the radius); G widens by the expected largest noise among the {} and {} "
-      "samples near the zone's edges, F_max or F_min by {:.3f} um, H by {:.3f} um; not "
-      "corrected: added to U",
-      m.noise_mm * 1000.0, m.noise_samples_top, m.noise_samples_bottom, m.noise_f_mm * 1000.0,
-      m.noise_h_mm * 1000.0);
-  out.push_back(std::move(c));
+  // The largest of m noise values scatters about its expected value too (Gumbel: a standard
+  // deviation of pi / sqrt(6) / sqrt(2 ln m) of the noise, at most the noise itself).
+  auto spread = [](std::size_t count) {
+    if (count <= 2) return 1.0;
+    return std::min(1.0, 1.2825 / std::sqrt(2.0 * std::log(static_cast<double>(count))));
+  };
+  const double s = std::max(spread(m.noise_samples_top), spread(m.noise_samples_bottom));
+  UncertaintyContribution r;
+  r.name = "measurement noise: spread of its largest values";
+  r.value_mm = m.noise_mm * s;
+  r.source = "measured";
+  r.c_g = kSqrt2;  // two edges
+  r.c_f = 1.0;
+  r.c_h = kSqrt2;  // two runs
+  r.note = fmt::format(
+      "the noise's largest value among the samples near an edge varies from test to test by "
+      "{:.2f} of the noise's standard deviation",
+      s);
+  out.push_back(std::move(r));
 }
 
 double sample_period_s(const Evaluation& ev) {
