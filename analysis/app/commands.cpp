@@ -76,17 +76,14 @@ TraceReadOptions::KeepFor analysis_columns(const EvaluationOptions& options) {
       if (text) p = *parse_plane(*text);
     }
     const PlaneAxes axes = plane_axes(p);
-    std::vector<std::string> keep = {column_name::t,
-                                     column_name::marker,
-                                     column_name::segment,
-                                     column_name::actual(axes.first),
-                                     column_name::actual(axes.second),
-                                     column_name::actual(axes.normal),
-                                     column_name::commanded(axes.first),
-                                     column_name::commanded(axes.second),
-                                     column_name::feedback(axes.first),
-                                     column_name::feedback(axes.second),
-                                     std::string(kRadialColumn)};
+    std::vector<std::string> keep = {
+        column_name::t, column_name::marker, column_name::segment, column_name::actual(axes.first),
+        column_name::actual(axes.second), column_name::actual(axes.normal),
+        column_name::commanded(axes.first), column_name::commanded(axes.second),
+        column_name::feedback(axes.first), column_name::feedback(axes.second),
+        std::string(kRadialColumn),
+        // Temperatures recorded per sample: the budget's drift.
+        meta_key::temperature_machine_C, meta_key::temperature_instrument_C};
     if (!a.empty()) keep.push_back(a);
     if (!b.empty()) keep.push_back(b);
     // A plane option that contradicts the trace's own plane: its axes are kept too, so a

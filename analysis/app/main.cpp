@@ -209,11 +209,14 @@ void parse_uncertainty(const std::string& text, UncertaintyOptions& u) {
       u.thermometer_K = kelvin();
     } else if (key == "temperature-range") {
       u.assumed_temperature_half_width_K = kelvin();
+    } else if (key == "drift-rate") {
+      constexpr NumberRange kRate{0.0, 100.0, false, "a drift in K per hour from 0 to 100"};
+      u.assumed_drift_K_per_h = parse_option_number("--uncertainty " + key, value, kRate);
     } else {
       throw UsageError(
           "--uncertainty: expected KEY=VALUE items (calibration, resolution, "
           "centring, unseen, repeat-G, repeat-F, repeat-H in mm; thermometer, "
-          "temperature-range in K), got '" +
+          "temperature-range in K; drift-rate in K/h), got '" +
           item + "'");
     }
   }

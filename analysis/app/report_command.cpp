@@ -156,7 +156,10 @@ void add_verdict(const ReportPage& page, const history::Limits& limits,
     l.plane = plane_name(page.evaluation->plane);
     l.quantity = q;
     l.unit = std::string_view(v.unit) == "urad" ? "µrad" : "µm";
-    if (!before.empty()) l.before = before[i].value;
+    if (!before.empty()) {
+      l.before = before[i].value;
+      l.u_before = before[i].u;
+    }
     l.now = v.value;
     l.u = v.u;
     l.limit = v.limit;

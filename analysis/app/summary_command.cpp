@@ -76,6 +76,16 @@ std::vector<Row> rows(const std::vector<RunDocuments>& runs) {
       g = std::max(g.value_or(rr.g_mzc_mm), rr.g_mzc_mm);
     return g;
   }));
+  // The expanded uncertainty of each run's H and G above (one budget per trace, as circana
+  // analyze states it).
+  const auto u_row = [&](const char* label, double UncertaintyBudget::*field, bool h) {
+    out.push_back(row(runs, label, "um", 1e3, [=](const RunDocuments& r) -> std::optional<double> {
+      if (h ? r.evaluation.hysteresis.empty() : r.evaluation.runs.empty()) return std::nullopt;
+      return uncertainty_budget(r.evaluation, r.evaluation.uncertainty_options).*field;
+    }));
+  };
+  u_row("U of H (k = 2)", &UncertaintyBudget::u_h_mm, true);
+  u_row("U of G (k = 2)", &UncertaintyBudget::u_g_mm, false);
   const auto per_axis = [&](const char* what, const char* unit, double scale, auto field) {
     for (std::size_t k = 0; k < 2; ++k) {
       out.push_back(row(runs, fmt::format("{} {}", what, axes[k]), unit, scale,

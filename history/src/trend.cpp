@@ -397,13 +397,15 @@ std::string history_svg(const std::string& machine, const std::vector<TestRecord
       }
       fmt::format_to(out,
                      "<circle class=\"point\" cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\">"
-                     "<title>{} {}: {:.2f}{} {}{}</title></circle>\n",
+                     "<title>{} {}: {:.2f} {}{}{}</title></circle>\n",
                      vx, vy,
                      result == Verdict::Result::fail          ? "#c0392b"
                      : result == Verdict::Result::not_decided ? "#d68910"
                                                               : "#1f5fbf",
-                     xml_escape(tests[i].tested_at), q.name, std::abs(*v) * q.scale,
-                     u ? fmt::format(", U = {:.2f}", *u * q.scale) : std::string(), q.unit,
+                     xml_escape(tests[i].tested_at), q.name, std::abs(*v) * q.scale, q.unit,
+                     u     ? fmt::format(", U = {:.2f} {}", *u * q.scale, q.unit)
+                     : q.u ? std::string(", U not known (stored without it)")
+                           : std::string(),
                      lim ? std::string(": ") + decision_words(result) : std::string());
     }
     if (!pts.empty()) {

@@ -222,6 +222,13 @@ def _um(value_mm):
     return None if value_mm is None else value_mm * 1000.0
 
 
+def _u_um(value_mm, u_mm):
+    """U (k = 2) in µm beside a value; "not known" for a value whose document has no U."""
+    if value_mm is None:
+        return None
+    return "not known" if u_mm is None else u_mm * 1000.0
+
+
 def evaluations(document):
     """The evaluations in circana analyze --json: one, or a test set's planes."""
     if "planes" in document:
@@ -230,25 +237,30 @@ def evaluations(document):
 
 
 def result_rows(document):
-    """One row per run: plane, direction, feed, G and F (µm), and the H (µm) of its pair.
-    Straight from circana's JSON, converted from mm to µm."""
+    """One row per run: plane, direction, feed, G and F (µm), and the H (µm) of its pair, each
+    with its expanded uncertainty U (k = 2, µm). F is ISO 230-4's: the larger of |F_max| and
+    |F_min|. Straight from circana's JSON, converted from mm to µm."""
     rows = []
     for ev in evaluations(document):
         pair_h = {}
         for pair in ev.get("pairs", []):
             for run_index in pair["runs"]:
-                pair_h[run_index] = pair["H"]
+                pair_h[run_index] = pair
         for index, run_result in enumerate(ev.get("runs", [])):
-            f_span = None
+            f = None
             if run_result.get("F_max") is not None and run_result.get("F_min") is not None:
-                f_span = run_result["F_max"] - run_result["F_min"]
+                f = max(abs(run_result["F_max"]), abs(run_result["F_min"]))
+            pair = pair_h.get(index, {})
             rows.append({
                 "plane": ev.get("plane", ""),
                 "direction": run_result.get("direction", ""),
                 "feed_mm_per_min": run_result.get("feed_mm_per_min"),
                 "G_um": _um(run_result.get("G")),
-                "F_um": _um(f_span),
-                "H_um": _um(pair_h.get(index)),
+                "U_G_um": _u_um(run_result.get("G"), run_result.get("U_G")),
+                "F_um": _um(f),
+                "U_F_um": _u_um(f, run_result.get("U_F")),
+                "H_um": _um(pair.get("H")),
+                "U_H_um": _u_um(pair.get("H"), pair.get("U_H", ev.get("U_H"))),
             })
     return rows
 

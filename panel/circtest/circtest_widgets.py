@@ -313,9 +313,10 @@ class CircTestPanel(QWidget):
 
     def _build_results(self):
         page = QWidget()
-        self.results = QTableWidget(0, 7)
+        self.results = QTableWidget(0, 10)
         self.results.setHorizontalHeaderLabels(
-            ["Test", "Plane", "Direction", "Feed mm/min", "G µm", "F µm", "H µm"])
+            ["Test", "Plane", "Direction", "Feed mm/min", "G µm", "U(G) µm", "F µm", "U(F) µm",
+             "H µm", "U(H) µm"])
         self.sources = QTableWidget(0, 3)
         self.sources.setHorizontalHeaderLabels(["Source", "G µm", "Share of G %"])
         box = QVBoxLayout(page)
@@ -554,7 +555,8 @@ class CircTestPanel(QWidget):
         rows = [dict(row, test=label) for label, document in tests
                 for row in logic.result_rows(document)]
         self._fill(self.results, rows,
-                   ["test", "plane", "direction", "feed_mm_per_min", "G_um", "F_um", "H_um"])
+                   ["test", "plane", "direction", "feed_mm_per_min", "G_um", "U_G_um", "F_um",
+                    "U_F_um", "H_um", "U_H_um"])
 
     def show_sources(self, diagnosis):
         self._fill(self.sources, logic.contribution_rows(diagnosis), ["source", "G_um",

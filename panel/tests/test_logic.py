@@ -20,8 +20,12 @@ def test_results_are_circanas(programs, tmp_path):
     assert rows[0]["H_um"] == pytest.approx(10.0, abs=0.3)
     for row, run in zip(rows, document["runs"]):
         assert row["G_um"] == run["G"] * 1000.0
-        assert row["F_um"] == (run["F_max"] - run["F_min"]) * 1000.0
+        assert row["F_um"] == max(abs(run["F_max"]), abs(run["F_min"])) * 1000.0
         assert row["H_um"] == document["pairs"][0]["H"] * 1000.0
+        # each with its U (k = 2) as circana states it
+        assert row["U_G_um"] == run["U_G"] * 1000.0 and row["U_G_um"] > 0
+        assert row["U_F_um"] == run["U_F"] * 1000.0 and row["U_F_um"] > 0
+        assert row["U_H_um"] == document["U_H"] * 1000.0 and row["U_H_um"] > 0
 
 
 def test_diagnosis_shares(programs, tmp_path):
@@ -189,6 +193,9 @@ def test_test_set_rows():
     rows = logic.result_rows({"test_set": [], "planes": [ev, ev]})
     assert len(rows) == 4 and rows[2]["plane"] == "YZ"
     assert rows[1]["F_um"] is None and rows[1]["H_um"] == pytest.approx(2.0)
+    # a document without U: said, not left blank; no value, no U
+    assert rows[0]["U_G_um"] == "not known" and rows[0]["U_H_um"] == "not known"
+    assert rows[1]["U_F_um"] is None
     json.dumps(rows)
 
 

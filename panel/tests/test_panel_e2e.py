@@ -94,13 +94,13 @@ def cli_figures(programs, trace):
     F_min; H: the H of the run's pair), in the panel's one decimal."""
     doc = json.loads(logic.run([programs.path("circana"), "analyze", trace, "--json"]))
     h_of = {i: pair["H"] for pair in doc["pairs"] for i in pair["runs"]}
-    return [("%.1f" % (r["G"] * 1000), "%.1f" % ((r["F_max"] - r["F_min"]) * 1000),
+    return [("%.1f" % (r["G"] * 1000), "%.1f" % (max(abs(r["F_max"]), abs(r["F_min"])) * 1000),
              "%.1f" % (h_of[i] * 1000)) for i, r in enumerate(doc["runs"])]
 
 
 def panel_figures(panel, label):
     rows = [r for r in range(panel.results.rowCount()) if panel.results.item(r, 0).text() == label]
-    return [tuple(panel.results.item(r, c).text() for c in (4, 5, 6)) for r in rows]
+    return [tuple(panel.results.item(r, c).text() for c in (4, 6, 8)) for r in rows]
 
 
 def restart_linuxcnc(qtbot):

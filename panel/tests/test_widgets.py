@@ -159,7 +159,10 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     for i, r in enumerate(results["runs"]):
         assert panel.results.item(i, 0).text() == "run"
         assert panel.results.item(i, 4).text() == "%.1f" % (r["G"] * 1000.0)
-        assert panel.results.item(i, 6).text() == "%.1f" % (results["pairs"][0]["H"] * 1000)
+        assert panel.results.item(i, 5).text() == "%.1f" % (r["U_G"] * 1000.0)
+        assert panel.results.item(i, 7).text() == "%.1f" % (r["U_F"] * 1000.0)
+        assert panel.results.item(i, 8).text() == "%.1f" % (results["pairs"][0]["H"] * 1000)
+        assert panel.results.item(i, 9).text() == "%.1f" % (results["U_H"] * 1000)
     assert panel.sources.item(0, 0).text() == "backlash X"
     assert panel.plan_list.item(0).text() == "[JOINT_0] X backlash 0 → 10.0 µm"
     assert "+BACKLASH = 0.01" in panel.diff.toPlainText()
@@ -190,8 +193,8 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     after = logic.parse_json(["circana"], (d / "verify-results.json").read_text())
     assert [panel.results.item(i, 0).text() for i in range(4)] == ["run", "run", "verify",
                                                                    "verify"]
-    assert panel.results.item(2, 6).text() == "%.1f" % (after["pairs"][0]["H"] * 1000)
-    assert panel.results.item(2, 6).text() == "2.0"  # the 2 µm backlash left
+    assert panel.results.item(2, 8).text() == "%.1f" % (after["pairs"][0]["H"] * 1000)
+    assert panel.results.item(2, 8).text() == "2.0"  # the 2 µm backlash left
     assert not panel.apply_button.isEnabled()
     assert panel.plan_list.item(0).text().startswith("applied (apply.txt)")
     # the plot shows the verify's recording, not the run's trace.csv beside it

@@ -34,9 +34,13 @@ Figures read_figures(const std::string& results_json) {
   Figures f;
   const auto j = nlohmann::json::parse(read_file(results_json));
   if (j.contains("H") && j["H"].is_number()) f.h_mm = j["H"].get<double>();
+  if (j.contains("U_H") && j["U_H"].is_number()) f.u_h_mm = j["U_H"].get<double>();
   if (j.contains("runs")) {
     for (const auto& r : j["runs"]) {
-      if (r.contains("G") && r["G"].is_number()) f.g_mm = std::max(f.g_mm, r["G"].get<double>());
+      if (!r.contains("G") || !r["G"].is_number() || !(r["G"].get<double>() > f.g_mm)) continue;
+      f.g_mm = r["G"].get<double>();
+      f.u_g_mm.reset();
+      if (r.contains("U_G") && r["U_G"].is_number()) f.u_g_mm = r["U_G"].get<double>();
     }
   }
   return f;

@@ -171,12 +171,18 @@ class RunFigures {
 int analyse_and_apply(const SessionSetup& setup, const RunRequest& request, const std::string& dir,
                       const Console& console, bool& applied);
 
-// The G (largest of the runs, mm) and H (mm, or negative when none) of a circana result JSON.
+// The G (largest of the runs, mm) and H (mm, or negative when none) of a circana result JSON,
+// with their expanded uncertainties U (k = 2; empty when the document has none).
 struct Figures {
   double h_mm = -1;
   double g_mm = -1;
+  std::optional<double> u_h_mm;
+  std::optional<double> u_g_mm;
 };
 Figures read_figures(const std::string& results_json);
+// The verify's table: H and G before and after, each with its U (k = 2), "not known" where
+// the document has none, "-" where the value is missing.
+std::string verify_table(const Figures& before, const Figures& after);
 // Whether AFTER is worse than BEFORE in G or H by more than two runs of an unchanged machine
 // differ (5 % + 0.5 um).
 bool got_worse(const Figures& before, const Figures& after);

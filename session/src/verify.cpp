@@ -52,6 +52,19 @@ std::string um(double mm) {
 
 }  // namespace
 
+std::string verify_table(const Figures& before, const Figures& after) {
+  const auto u = [](double value_mm, const std::optional<double>& u_mm) {
+    if (value_mm < 0) return std::string("-");
+    return u_mm ? fmt::format("{:.1f}", *u_mm * 1000) : std::string("not known");
+  };
+  return fmt::format(
+      "            before  U (k = 2)      after  U (k = 2)\n"
+      "H       {:>10} {:>10} {:>10} {:>10}\n"
+      "G       {:>10} {:>10} {:>10} {:>10}\n",
+      um(before.h_mm), u(before.h_mm, before.u_h_mm), um(after.h_mm), u(after.h_mm, after.u_h_mm),
+      um(before.g_mm), u(before.g_mm, before.u_g_mm), um(after.g_mm), u(after.g_mm, after.u_g_mm));
+}
+
 bool got_worse(const Figures& before, const Figures& after) {
   const auto worse = [](double b, double a) { return b >= 0 && a > b * 1.05 + 0.0005; };
   return worse(before.g_mm, after.g_mm) || worse(before.h_mm, after.h_mm);
@@ -92,11 +105,7 @@ RunOutcome verify_session(const RunRequest& request, const Console& console) {
   }
   const Figures before = read_figures((dir / "results.json").string());
   const Figures now = read_figures((dir / "verify-results.json").string());
-  const std::string table = fmt::format(
-      "            before      after\n"
-      "H       {:>10} {:>10}\n"
-      "G       {:>10} {:>10}\n",
-      um(before.h_mm), um(now.h_mm), um(before.g_mm), um(now.g_mm));
+  const std::string table = verify_table(before, now);
   write_file_atomic((dir / "verify.txt").string(), table);
   out << table << "circtest: the hand-over report: " << (dir / "report.html").string() << "\n";
   outcome.worse = got_worse(before, now);

@@ -289,5 +289,11 @@ TEST_F(CircanaCli, SummaryReadsTheRunsDocuments) {
   EXPECT_EQ(row("H")[0].get<double>(),
             nlohmann::json::parse(analyzed.out)["H"].get<double>() * 1e3);
   EXPECT_EQ(row("H")[1], row("H")[0]);
+  // Each H and G with its U (k = 2), as analyze states it.
+  const auto doc = nlohmann::json::parse(analyzed.out);
+  EXPECT_NEAR(row("U of H (k = 2)")[0].get<double>(), doc["U_H"].get<double>() * 1e3, 1e-9);
+  EXPECT_NEAR(row("U of G (k = 2)")[1].get<double>(), doc["runs"][0]["U_G"].get<double>() * 1e3,
+              1e-9);
+  EXPECT_NE(r.out.find("U of G (k = 2) (um)"), std::string::npos) << r.out;
   EXPECT_EQ(run({"summary", "--name", "x", "--result", result}).exit_code, 2);
 }

@@ -245,15 +245,18 @@ TEST_F(HtmlReport, HandOverPageHoldsVerdictChangesAndSignatures) {
     EXPECT_NE(p, std::string::npos) << q;
     return p == std::string::npos ? std::string() : d.substr(p, d.find("</tr>", p) - p);
   };
-  char cells[200];
+  char cells[400];
   const double h_after = ja["pairs"][0]["H"].get<double>() * 1000.0;
   const double h_before = jb["pairs"][0]["H"].get<double>() * 1000.0;
-  const double u_h = ja["U_H"].get<double>();
+  const double u_h = ja["U_H"].get<double>(), u_h_before = jb["U_H"].get<double>();
   std::snprintf(cells, sizeof cells,
-                "<td class=\"num\">%.1f µm</td><td class=\"num\">%.1f µm</td>"
+                "<td class=\"num\">%.1f µm</td>"
+                "<td class=\"num u before\"><span class=\"u\" data-mm=\"%s\">%.1f</span> µm</td>"
+                "<td class=\"num\">%.1f µm</td>"
                 "<td class=\"num u\"><span class=\"u\" data-mm=\"%s\">%.1f</span> µm</td>"
                 "<td class=\"num\">4.0 µm</td><td class=\"result PASS\">PASS</td>",
-                h_before, h_after, mm(u_h).c_str(), u_h * 1000.0);
+                h_before, mm(u_h_before).c_str(), u_h_before * 1000.0, h_after, mm(u_h).c_str(),
+                u_h * 1000.0);
   EXPECT_NE(row("H").find(cells), std::string::npos) << row("H") << "\n" << cells;
   ASSERT_LE(h_after + u_h * 1000.0, 4.0) << "the case is no pass by ISO 14253-1";
   const double f_after = ja["runs"][0]["F_max"].get<double>(),

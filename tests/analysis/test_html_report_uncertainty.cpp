@@ -142,3 +142,40 @@ TEST_F(HtmlReport, ChangedBetweenTheTestsIsOneNetLinePerItem) {
   EXPECT_NE(d.find("servo mismatch: X lags Y by 1.08 ms"), std::string::npos);
   EXPECT_EQ(d.find("first advice"), std::string::npos) << "the last plan's advice only";
 }
+
+// A before/after report: page 1 gives the before test's H, G and F their U (k = 2) beside
+// them, as analyze --json states it for the before trace; the plane page names both tests'
+// U; the plot's legend carries each H, G and F with its U.
+TEST_F(HtmlReport, BeforeFiguresCarryTheirU) {
+  const std::string before = simtrace("before.csv", "--backlash-x 0.020 --seed 4");
+  const std::string after = simtrace("after.csv", "--backlash-x 0.002 --seed 5");
+  CommandResult r = circana({"analyze", before, "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const std::string html = (dir_ / "report.html").string();
+  r = circana({"report", after, before, "-o", html});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string d = dom(html);
+  auto line = [&d](const std::string& q) {
+    const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
+    if (p == std::string::npos) return std::string("no line");
+    return d.substr(p, d.find("</tr>", p) - p);
+  };
+  for (const auto& [q, u] : {std::pair{"H", j["U_H"].get<double>()},
+                             {"G", j["runs"][0]["U_G"].get<double>()},
+                             {"F", j["runs"][0]["U_F"].get<double>()}}) {
+    const std::string l = line(q);
+    const auto cell = l.find("<td class=\"num u before\">");
+    ASSERT_NE(cell, std::string::npos) << q << ": " << l;
+    const auto mm = l.find("data-mm=\"", cell);
+    ASSERT_LT(mm, l.find("</td>", cell)) << q << ": no U beside the before value: " << l;
+    EXPECT_NEAR(std::stod(l.substr(mm + 9)), u, 1e-12) << q << ": " << l;
+  }
+  EXPECT_NE(d.find("of each value of the before test: H"), std::string::npos);
+  const auto legend = d.find("before: run 1 CCW");
+  ASSERT_NE(legend, std::string::npos);
+  char u_g[40];
+  std::snprintf(u_g, sizeof u_g, "U = %.1f µm", j["runs"][0]["U_G"].get<double>() * 1000.0);
+  const std::string legend_line = d.substr(legend, d.find("</li>", legend) - legend);
+  EXPECT_NE(legend_line.find(u_g), std::string::npos) << legend_line;
+}

@@ -68,10 +68,32 @@ TEST_F(UncertaintyCli, StatedInputsEnterTheBudget) {
   EXPECT_NEAR(j["runs"][0]["U_G"].get<double>(), 0.004, 0.0002);
 }
 
+// Without temperatures recorded over the test the drift is the stated rate over the run's
+// time: a larger rate, a larger U_G (the note names the assumption).
+TEST_F(UncertaintyCli, AssumedDriftRateEntersTheBudget) {
+  const CommandResult r = circana("--json --uncertainty drift-rate=100,repeat-G=0");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const double run_s = j["uncertainty"]["measured"]["run_s"].get<double>();
+  bool found = false;
+  for (const auto& c : j["uncertainty"]["contributions"]) {
+    if (c["name"] != "thermal drift within a run") continue;
+    found = true;
+    EXPECT_EQ(c["source"], "stated assumption");
+    // R a dT: 50 mm x 11.5e-6/K x 100 K/h over the run.
+    EXPECT_NEAR(c["value_mm"].get<double>(), 50.0 * 11.5e-6 * 100.0 * run_s / 3600.0, 1e-9);
+    EXPECT_NE(c["note"].get<std::string>().find("100 K/h"), std::string::npos) << c["note"];
+  }
+  EXPECT_TRUE(found);
+  EXPECT_NEAR(run_s, 3.14159 * 100.0 / (2000.0 / 60.0), 0.05);
+}
+
 TEST_F(UncertaintyCli, BadInputsAreRefused) {
   for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
            {"--uncertainty foo=1", "--uncertainty: expected KEY=VALUE items"},
            {"--uncertainty calibration=5", "--uncertainty calibration: expected a length in mm"},
+           {"--uncertainty drift-rate=500",
+            "--uncertainty drift-rate: expected a drift in K per hour from 0 to 100"},
            {"--instrument-profile laser", "--instrument-profile: expected auto, ballbar"},
            {"--limits backlash=0.01", "--limits of circana analyze: H, G and F only"}}) {
     const CommandResult r = circana(args);

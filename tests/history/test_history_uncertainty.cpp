@@ -151,6 +151,11 @@ TEST_P(History, AnOldDatabaseIsMigratedAndItsTestsSayTheyHaveNoU) {
   r = run(circana("history --machine VMC-3 --limits H=0.011"), dir_);
   EXPECT_NE(r.out.find("FAIL: H 12.0 > 11.0 um (no U stored: value alone)"), std::string::npos)
       << r.out;
+  // The trend says of the old test's H that its U is not known, not nothing.
+  r = run(circana("history --machine VMC-3 --svg " + (dir_ / "trend.svg").string()), dir_);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string svg = slurp(dir_ / "trend.svg");
+  EXPECT_NE(svg.find("H: 12.00 um, U not known (stored without it)"), std::string::npos) << svg;
 }
 
 // Exactly at the boundaries (binary-exact numbers, so value + U and value - U are exact):

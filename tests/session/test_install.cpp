@@ -238,6 +238,28 @@ TEST(Verify, WorseMeansBeyondTheRepeatabilityOfTwoRuns) {
   EXPECT_FALSE(got_worse({-1, -1}, {0.01, 0.01}));              // nothing to compare
 }
 
+// The verify's table gives each H and G its U (k = 2) from circana's JSON, and says when a
+// document has none.
+TEST(Verify, TableCarriesTheUOfEachFigure) {
+  ScratchDir scratch("session-verify-u");
+  const std::string with_u = scratch.path() + "/with.json";
+  const std::string without_u = scratch.path() + "/without.json";
+  circtest::testing::spit(with_u,
+                          R"({"H": 0.0021, "U_H": 0.0014, "runs": [{"G": 0.0030, "U_G": 0.0011},
+                              {"G": 0.0042, "U_G": 0.0013}]})");
+  circtest::testing::spit(without_u, R"({"H": 0.0101, "runs": [{"G": 0.0202}]})");
+  const Figures before = read_figures(without_u);
+  const Figures after = read_figures(with_u);
+  EXPECT_FALSE(before.u_g_mm.has_value());
+  ASSERT_TRUE(after.u_g_mm.has_value());
+  EXPECT_DOUBLE_EQ(*after.u_g_mm, 0.0013);  // the U of the largest G
+  const std::string table = verify_table(before, after);
+  EXPECT_NE(table.find("H          10.1 um  not known     2.1 um        1.4"), std::string::npos)
+      << table;
+  EXPECT_NE(table.find("G          20.2 um  not known     4.2 um        1.3"), std::string::npos)
+      << table;
+}
+
 TEST(InstallCommand, WithoutYesAndWithoutATerminalNothingIsWritten) {
   ScratchDir scratch("session-install");
   const std::string ini = copy_config(scratch, "pncconf-servo", "servo.ini");

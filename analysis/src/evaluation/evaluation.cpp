@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "angle_constants.hpp"
+#include "budget_inputs.hpp"
 #include "circtest/analysis/radial.hpp"
 #include "circtest/analysis/remedy.hpp"
 #include "circtest/core/error.hpp"
@@ -131,8 +132,15 @@ void resolve_set_up(const Trace& trace, const EvaluationOptions& options, Evalua
   }
 
   ev.temperatures = options.temperatures;
+  // Recorded over the test (a column, or the key at the start and at the end): F is corrected
+  // at the mean; recorded once: at that value.
   auto meta_temp = [&](const char* key, std::optional<double>& dst) {
-    if (!dst) dst = trace.metadata.number(key, trace.source);
+    if (dst) return;
+    if (const auto series = detail::temperature_series(trace, key)) {
+      dst = series->mean_C;
+    } else {
+      dst = trace.metadata.number(key, trace.source);
+    }
   };
   meta_temp(meta_key::temperature_machine_C, ev.temperatures.machine_C);
   meta_temp(meta_key::temperature_instrument_C, ev.temperatures.instrument_C);
@@ -404,6 +412,7 @@ Evaluation evaluate(const Trace& trace, const EvaluationOptions& options) {
   if (pairs.empty()) {
     ev.notes.push_back("H not computed: no CCW run followed by a CW run (or the reverse)");
   }
+  ev.budget_inputs = detail::measure_budget_inputs(trace, ev);
   return ev;
 }
 

@@ -230,6 +230,116 @@ void add_temperature(const Evaluation& ev, double radius_mm, const UncertaintyOp
   one("temperature of the instrument", t.instrument_C, a_i);
 }
 
+// Thermal drift: the temperature changing during the test moves the radius the instrument
+// reads by R (a_m dT_m + a_i dT_i) (each coefficient's magnitude: their signs are not known
+// to cancel). Within a run the run's end misses its start by it (G), over a CCW/CW pair the
+// two runs' radii differ by it (H), and F, corrected at one temperature, departs by it.
+void add_drift(const Evaluation& ev, double radius_mm, const UncertaintyOptions& o,
+               std::vector<UncertaintyContribution>& out) {
+  const BudgetMeasurements& m = ev.budget_inputs;
+  const double a_m = std::abs(ev.temperatures.machine_expansion_per_K);
+  const double a_i = std::abs(ev.temperatures.instrument_expansion_per_K);
+  struct Part {
+    const char* name;
+    const char* what;
+    double machine_K, instrument_K;
+    const std::optional<double>& duration_s;
+    double UncertaintyContribution::*coefficient;
+  };
+  const Part parts[] = {
+      {"thermal drift within a run", "within a run", m.machine_run_K, m.instrument_run_K, m.run_s,
+       &UncertaintyContribution::c_g},
+      {"thermal drift over a CCW/CW pair", "over a CCW/CW pair", m.machine_pair_K,
+       m.instrument_pair_K, m.pair_s, &UncertaintyContribution::c_h},
+      {"thermal drift from the temperature F is corrected at", "from the corrected temperature",
+       m.machine_from_corrected_K, m.instrument_from_corrected_K, m.test_s,
+       &UncertaintyContribution::c_f},
+  };
+  for (const Part& p : parts) {
+    UncertaintyContribution c;
+    c.name = p.name;
+    c.distribution = Distribution::rectangular;
+    c.*p.coefficient = 1.0;
+    if (!m.drift_source.empty()) {
+      // Measured: an effect of this size, not corrected (a bias: added to U as it is).
+      c.distribution = Distribution::bias;
+      c.value_mm = radius_mm * (a_m * p.machine_K + a_i * p.instrument_K);
+      c.source = "measured";
+      c.note = fmt::format(
+          "temperatures recorded over the test ({}): machine {:.3f} K, instrument {:.3f} K {} "
+          "(a straight line through the readings); R x (a_m dT_m + a_i dT_i), not corrected: "
+          "added to U",
+          m.drift_source, p.machine_K, p.instrument_K, p.what);
+    } else if (p.duration_s) {
+      // Machine and instrument in one room: their difference drifts (as the stated 20 +- 2 K).
+      const double change_K = o.assumed_drift_K_per_h * *p.duration_s / 3600.0;
+      c.value_mm = radius_mm * std::abs(a_m - a_i) * change_K;
+      c.source = "stated assumption";
+      c.note = fmt::format(
+          "no temperatures recorded over the test (once or not at all): the drift is not "
+          "measured, taken as {:g} K/h over {:.1f} s {} ({:.4f} K), R x |a_m - a_i| x dT",
+          o.assumed_drift_K_per_h, *p.duration_s, p.what, change_K);
+    } else {
+      c.source = "not known";
+      c.note =
+          "no temperatures recorded over the test and no time column to time the runs: the "
+          "drift is not known and not included";
+    }
+    out.push_back(std::move(c));
+  }
+}
+
+// The readings' noise widens the zone: its largest values among the samples near each edge
+// (a bias per quantity, with the sensitivity 1 so that tests alike share one table), and the
+// spread of those largest values about their expected size.
+void add_noise(const Evaluation& ev, std::vector<UncertaintyContribution>& out) {
+  const BudgetMeasurements& m = ev.budget_inputs;
+  struct Part {
+    const char* name;
+    double value_mm;
+    double UncertaintyContribution::*coefficient;
+  };
+  const Part parts[] = {
+      {"measurement noise: widening of G", m.noise_g_mm, &UncertaintyContribution::c_g},
+      {"measurement noise: widening of F", m.noise_f_mm, &UncertaintyContribution::c_f},
+      {"measurement noise: widening of H", m.noise_h_mm, &UncertaintyContribution::c_h},
+  };
+  for (const Part& p : parts) {
+    UncertaintyContribution c;
+    c.name = p.name;
+    // The zone only widens: a bias of the expected size, not corrected, added to U.
+    c.distribution = Distribution::bias;
+    c.value_mm = p.value_mm;
+    c.source = "measured";
+    c.*p.coefficient = 1.0;
+    c.note = fmt::format(
+        "the readings scatter by {:.3f} um from sample to sample (standard deviation, from "
+        "second differences of the radius); the expected largest noise among the {} and {} "
+        "samples near the zone's edges (H: of two runs' difference); not corrected: added to U",
+        m.noise_mm * 1000.0, m.noise_samples_top, m.noise_samples_bottom);
+    out.push_back(std::move(c));
+  }
+  // The largest of m noise values scatters about its expected value too (Gumbel: a standard
+  // deviation of pi / sqrt(6) / sqrt(2 ln m) of the noise, at most the noise itself).
+  auto spread = [](std::size_t count) {
+    if (count <= 2) return 1.0;
+    return std::min(1.0, 1.2825 / std::sqrt(2.0 * std::log(static_cast<double>(count))));
+  };
+  const double s = std::max(spread(m.noise_samples_top), spread(m.noise_samples_bottom));
+  UncertaintyContribution r;
+  r.name = "measurement noise: spread of its largest values";
+  r.value_mm = m.noise_mm * s;
+  r.source = "measured";
+  r.c_g = kSqrt2;  // two edges
+  r.c_f = 1.0;
+  r.c_h = kSqrt2;  // two runs
+  r.note = fmt::format(
+      "the noise's largest value among the samples near an edge varies from test to test by "
+      "{:.2f} of the noise's standard deviation",
+      s);
+  out.push_back(std::move(r));
+}
+
 double sample_period_s(const Evaluation& ev) {
   if (const std::string* p = ev.conditions.find(meta_key::sample_period_s)) {
     try {
@@ -241,17 +351,26 @@ double sample_period_s(const Evaluation& ev) {
   return 0.0;
 }
 
+// U = k sqrt(sum (c u)^2) + sum c b: the root sum of squares of the uncertainties, expanded,
+// and the uncorrected biases added as they are.
 void combine(UncertaintyBudget& b) {
   double g = 0.0, h = 0.0, f = 0.0;
+  double bias_g = 0.0, bias_h = 0.0, bias_f = 0.0;
   for (const auto& c : b.contributions) {
     const double u = c.standard_mm();
+    if (c.distribution == Distribution::bias) {
+      bias_g += std::abs(c.c_g) * u;
+      bias_h += std::abs(c.c_h) * u;
+      bias_f += std::abs(c.c_f) * u;
+      continue;
+    }
     g += c.c_g * c.c_g * u * u;
     h += c.c_h * c.c_h * u * u;
     f += c.c_f * c.c_f * u * u;
   }
-  b.u_g_mm = b.k * std::sqrt(g);
-  b.u_h_mm = b.k * std::sqrt(h);
-  b.u_f_mm = b.k * std::sqrt(f);
+  b.u_g_mm = b.k * std::sqrt(g) + bias_g;
+  b.u_h_mm = b.k * std::sqrt(h) + bias_h;
+  b.u_f_mm = b.k * std::sqrt(f) + bias_f;
 }
 
 void add_instrument(InstrumentProfile profile, const ProfileDefaults& d,
@@ -381,7 +500,15 @@ std::optional<InstrumentProfile> parse_instrument_profile(std::string_view name)
 }
 
 std::string_view distribution_name(Distribution d) noexcept {
-  return d == Distribution::normal ? "normal" : "rectangular";
+  switch (d) {
+    case Distribution::normal:
+      return "normal";
+    case Distribution::rectangular:
+      return "rectangular";
+    case Distribution::bias:
+      return "bias";
+  }
+  return "normal";
 }
 
 double UncertaintyContribution::standard_mm() const {
@@ -396,9 +523,11 @@ UncertaintyBudget uncertainty_budget(const Evaluation& ev, const UncertaintyOpti
   if (radius_mm <= 0 && !ev.runs.empty()) radius_mm = ev.runs.front().lsc.radius_mm;
   add_instrument(b.profile, d, o, b.contributions);
   add_temperature(ev, radius_mm, o, b.contributions);
+  add_drift(ev, radius_mm, o, b.contributions);
   add_centring(ev, b.profile, radius_mm, d, o, b.contributions);
   add_repeatability(ev, o, b.contributions);
   add_evaluation_terms(ev, radius_mm, b.contributions);
+  add_noise(ev, b.contributions);
   if (b.profile == InstrumentProfile::scales) {
     UncertaintyContribution u;
     u.name = "what the scales cannot see";

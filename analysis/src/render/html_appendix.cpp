@@ -91,7 +91,9 @@ void budgets_html(std::string& s, const std::vector<ReportPage>& pages) {
        "<p>Each contribution's standard uncertainty u (a stated standard uncertainty, or the "
        "half-width a of a range: u = a/&#8730;3) enters G, H and F with its sensitivity c; the "
        "combined standard uncertainty is the root sum of squares of c&#160;u, and U = k u with "
-       "k = 2 (ISO/TR 230-9, GUM). Verdicts follow ISO 14253-1: pass when value + U &#8804; "
+       "k = 2 (ISO/TR 230-9, GUM); a bias (an effect of at most the stated size that is not "
+       "corrected: the noise's widening of the zone, a measured drift) is added to U as it is "
+       "(c&#160;b). Verdicts follow ISO 14253-1: pass when value + U &#8804; "
        "limit, fail when value &#8722; U &gt; limit, otherwise not decided.</p>\n";
   std::vector<BudgetGroup> groups;
   for (const auto& p : pages) {

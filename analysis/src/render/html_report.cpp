@@ -408,10 +408,16 @@ void page_html(std::string& s, const ReportPage& page, const PlotOptions& plot_o
       "runs", {"Run", "Direction", "Feed"}, {"G", "F<sub>max</sub>", "F<sub>min</sub>"},
       run_rows(ev), page.before ? &rb : nullptr);
   const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
+  std::string before_u;
+  if (page.before) {
+    const UncertaintyBudget b = uncertainty_budget(*page.before, page.before->uncertainty_options);
+    before_u = fmt::format("; of each value of the before test: H {} µm, G {} µm, F {} µm",
+                           u_span(b.u_h_mm), u_span(b.u_g_mm), u_span(b.u_f_mm));
+  }
   fmt::format_to(out,
                  "<p class=\"uncertainty\">Expanded uncertainty U (k = 2) of each value of this "
-                 "test: H {} µm, G {} µm, F {} µm (the budget is in the appendix).</p>\n",
-                 u_span(budget.u_h_mm), u_span(budget.u_g_mm), u_span(budget.u_f_mm));
+                 "test: H {} µm, G {} µm, F {} µm{} (the budgets are in the appendix).</p>\n",
+                 u_span(budget.u_h_mm), u_span(budget.u_g_mm), u_span(budget.u_f_mm), before_u);
 
   s += "<div class=\"figures\">\n<figure class=\"plot\">";
   std::vector<PlotLayer> layers{{page.evaluation, page.trace, page.before ? "after" : ""}};

@@ -36,6 +36,16 @@ std::string amount_cell(const std::optional<double>& v, const std::string& unit)
            : std::string("<td class=\"num\">&#8211;</td>");
 }
 
+// The U of a value: the exact millimetres as in the value cells of the plane pages; a dash
+// without a value or for a quantity the diagnosis states without U (backlash, squareness);
+// "not known" for an H, G or F without one (a test stored before U was kept).
+std::string u_cell(const std::optional<double>& u, bool has_value, const std::string& quantity,
+                   const std::string& unit, const char* css) {
+  if (u) return fmt::format("<td class=\"{}\">{} {}</td>", css, u_span(*u / 1000.0), unit);
+  const bool has_u = quantity == "H" || quantity == "G" || quantity == "F";
+  return fmt::format("<td class=\"{}\">{}</td>", css, has_value && has_u ? "not known" : "&#8211;");
+}
+
 // The overall verdict: FAIL when any quantity with a limit fails or was not measured, OPEN
 // when none fails but one is within the uncertainty of its limit (not shown to conform),
 // PASS when every one with a limit passes, NONE when no limit applies.
@@ -79,7 +89,7 @@ void verdict_table(std::string& s, const HandOver& h, bool with_before) {
   fmt::format_to(
       out, "<table class=\"verdict\"><caption>{}</caption>\n<tr><th>Plane</th><th>Quantity</th>",
       judged ? "Results against the agreed acceptance limits" : "Results");
-  if (with_before) s += "<th class=\"num\">before</th>";
+  if (with_before) s += "<th class=\"num\">before</th><th class=\"num\">U (k = 2)</th>";
   s += "<th class=\"num\">this test</th><th class=\"num\">U (k = 2)</th><th "
        "class=\"num\">limit</th><th>result</th></tr>\n";
   bool value_alone = false;
@@ -93,15 +103,13 @@ void verdict_table(std::string& s, const HandOver& h, bool with_before) {
         out,
         "<tr class=\"verdict-line\" data-plane=\"{}\" data-quantity=\"{}\"><td>{}</td><td>{}</td>",
         xml_escape(l.plane), xml_escape(l.quantity), xml_escape(l.plane), xml_escape(l.quantity));
-    if (with_before) s += amount_cell(l.before, l.unit);
-    s += amount_cell(l.now, l.unit);
-    if (l.u) {
-      // The exact millimetres of U as in the value cells of the plane pages.
-      fmt::format_to(out, "<td class=\"num u\">{} {}</td>", u_span(*l.u / 1000.0), l.unit);
-    } else {
-      s += "<td class=\"num u\">&#8211;</td>";
-      value_alone |= l.limit.has_value() && l.now.has_value();
+    if (with_before) {
+      s += amount_cell(l.before, l.unit);
+      s += u_cell(l.u_before, l.before.has_value(), l.quantity, l.unit, "num u before");
     }
+    s += amount_cell(l.now, l.unit);
+    s += u_cell(l.u, l.now.has_value(), l.quantity, l.unit, "num u");
+    value_alone |= !l.u && l.limit.has_value() && l.now.has_value();
     s += amount_cell(l.limit, l.unit);
     fmt::format_to(out, "<td class=\"result {}\">{}</td></tr>\n", css, word);
   }

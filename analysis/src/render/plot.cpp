@@ -203,22 +203,28 @@ Legend build_legend(const std::vector<Layer>& layers, const Frame& f, const Plot
     legend.emplace_back(fmt::format("{}channels evaluated {}{}", prefix, channels_text(ev),
                                     l > 0 ? " (dashed)" : ""),
                         "black");
+    // Each H, G and F with its expanded uncertainty, as circana analyze states them.
+    const UncertaintyBudget budget = uncertainty_budget(ev, ev.uncertainty_options);
     for (const auto& h : ev.hysteresis) {
       legend.emplace_back(
-          fmt::format("{}H_{} = {:.1f} um at {} (runs {}/{})", prefix, ev.runs[h.run_ccw].label,
-                      h.h_mm * 1000.0, feed_text(ev.runs[h.run_ccw].feed_mm_per_min), h.run_ccw + 1,
-                      h.run_cw + 1),
+          fmt::format("{}H_{} = {:.1f} um at {} (runs {}/{}), U = {:.1f} um (k = 2)", prefix,
+                      ev.runs[h.run_ccw].label, h.h_mm * 1000.0,
+                      feed_text(ev.runs[h.run_ccw].feed_mm_per_min), h.run_ccw + 1, h.run_cw + 1,
+                      budget.u_h_mm * 1000.0),
           "black");
     }
     for (std::size_t p = 0; p < ev.runs.size(); ++p, ++colour) {
       const RunResult& r = ev.runs[p];
-      std::string fm = r.f_max_mm ? fmt::format("F_max = {:+.1f} um, F_min = {:+.1f} um",
-                                                *r.f_max_mm * 1000.0, *r.f_min_mm * 1000.0)
-                                  : std::string("F: n/a");
+      std::string fm =
+          r.f_max_mm
+              ? fmt::format("F_max = {:+.1f} um, F_min = {:+.1f} um, U = {:.1f} um",
+                            *r.f_max_mm * 1000.0, *r.f_min_mm * 1000.0, budget.u_f_mm * 1000.0)
+              : std::string("F: n/a");
       legend.emplace_back(
-          fmt::format("{}run {} {} ({}) at {}: G = {:.1f} um ({}), {}", prefix, p + 1,
-                      direction_name(r.run.direction), r.label, feed_text(r.feed_mm_per_min),
-                      r.g_mm(ev.g_method) * 1000.0, g_method_name(ev.g_method), fm),
+          fmt::format("{}run {} {} ({}) at {}: G = {:.1f} um, U = {:.1f} um ({}), {} (k = 2)",
+                      prefix, p + 1, direction_name(r.run.direction), r.label,
+                      feed_text(r.feed_mm_per_min), r.g_mm(ev.g_method) * 1000.0,
+                      budget.u_g_mm * 1000.0, g_method_name(ev.g_method), fm),
           kColours[colour % kNColours]);
     }
   }

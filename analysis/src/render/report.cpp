@@ -176,7 +176,8 @@ std::string uncertainty_text(const UncertaintyBudget& b) {
   }
   fmt::format_to(out,
                  "   u = root sum of squares of c x (value, or value/sqrt(3) for a rectangular "
-                 "half-width); U = k u, k = {:g}\n   U(G) = {}, U(H) = {}, U(F) = {}\n",
+                 "half-width); U = k u + c x each bias, k = {:g}\n   U(G) = {}, U(H) = {}, U(F) = "
+                 "{}\n",
                  b.k, um_abs(b.u_g_mm), um_abs(b.u_h_mm), um_abs(b.u_f_mm));
   for (const auto& c : b.contributions) fmt::format_to(out, "   {}: {}\n", c.name, c.note);
   return s;

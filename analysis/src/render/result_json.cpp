@@ -51,6 +51,7 @@ json options_json(const UncertaintyOptions& o) {
           {"thermometer_K", o.thermometer_K},
           {"assumed_temperature_half_width_K", o.assumed_temperature_half_width_K},
           {"expansion_relative", o.expansion_relative},
+          {"assumed_drift_K_per_h", o.assumed_drift_K_per_h},
           {"repeatability_G_mm", json_number_or_null(o.repeatability_g_mm)},
           {"repeatability_F_mm", json_number_or_null(o.repeatability_f_mm)},
           {"repeatability_H_mm", json_number_or_null(o.repeatability_h_mm)}};
@@ -69,10 +70,56 @@ UncertaintyOptions options_from_json(const Reader& rd, const json& j) {
   o.thermometer_K = rd.number(j, "thermometer_K", path);
   o.assumed_temperature_half_width_K = rd.number(j, "assumed_temperature_half_width_K", path);
   o.expansion_relative = rd.number(j, "expansion_relative", path);
+  // A document written before the drift was in the budget: the default.
+  if (j.contains("assumed_drift_K_per_h")) {
+    o.assumed_drift_K_per_h = rd.number(j, "assumed_drift_K_per_h", path);
+  }
   o.repeatability_g_mm = rd.optional_number(j, "repeatability_G_mm", path);
   o.repeatability_f_mm = rd.optional_number(j, "repeatability_F_mm", path);
   o.repeatability_h_mm = rd.optional_number(j, "repeatability_H_mm", path);
   return o;
+}
+
+// What the budget measured in the trace (BudgetMeasurements).
+json measured_json(const BudgetMeasurements& m) {
+  return {{"drift_source", m.drift_source},
+          {"machine_run_K", m.machine_run_K},
+          {"machine_pair_K", m.machine_pair_K},
+          {"machine_from_corrected_K", m.machine_from_corrected_K},
+          {"instrument_run_K", m.instrument_run_K},
+          {"instrument_pair_K", m.instrument_pair_K},
+          {"instrument_from_corrected_K", m.instrument_from_corrected_K},
+          {"run_s", json_number_or_null(m.run_s)},
+          {"pair_s", json_number_or_null(m.pair_s)},
+          {"test_s", json_number_or_null(m.test_s)},
+          {"noise_mm", m.noise_mm},
+          {"noise_G_mm", m.noise_g_mm},
+          {"noise_F_mm", m.noise_f_mm},
+          {"noise_H_mm", m.noise_h_mm},
+          {"noise_samples_top", m.noise_samples_top},
+          {"noise_samples_bottom", m.noise_samples_bottom}};
+}
+
+BudgetMeasurements measured_from_json(const Reader& rd, const json& j) {
+  const std::string path = "uncertainty.measured";
+  BudgetMeasurements m;
+  m.drift_source = rd.text(j, "drift_source", path);
+  m.machine_run_K = rd.number(j, "machine_run_K", path);
+  m.machine_pair_K = rd.number(j, "machine_pair_K", path);
+  m.machine_from_corrected_K = rd.number(j, "machine_from_corrected_K", path);
+  m.instrument_run_K = rd.number(j, "instrument_run_K", path);
+  m.instrument_pair_K = rd.number(j, "instrument_pair_K", path);
+  m.instrument_from_corrected_K = rd.number(j, "instrument_from_corrected_K", path);
+  m.run_s = rd.optional_number(j, "run_s", path);
+  m.pair_s = rd.optional_number(j, "pair_s", path);
+  m.test_s = rd.optional_number(j, "test_s", path);
+  m.noise_mm = rd.number(j, "noise_mm", path);
+  m.noise_g_mm = rd.number(j, "noise_G_mm", path);
+  m.noise_f_mm = rd.number(j, "noise_F_mm", path);
+  m.noise_h_mm = rd.number(j, "noise_H_mm", path);
+  m.noise_samples_top = rd.count(j, "noise_samples_top", path);
+  m.noise_samples_bottom = rd.count(j, "noise_samples_bottom", path);
+  return m;
 }
 
 }  // namespace
@@ -186,6 +233,7 @@ json to_json(const Evaluation& ev) {
   for (auto& p : j["pairs"]) p["U_H"] = budget.u_h_mm;
   j["U_H"] = ev.hysteresis.empty() ? json(nullptr) : json(budget.u_h_mm);
   j["uncertainty"] = uncertainty_json(budget, ev.uncertainty_options);
+  j["uncertainty"]["measured"] = measured_json(ev.budget_inputs);
   return j;
 }
 
@@ -326,6 +374,10 @@ Evaluation evaluation_from_json(const json& j, const std::string& source) {
   if (j.contains("uncertainty")) {
     const json& u = rd.at(j, "uncertainty", "");
     ev.uncertainty_options = options_from_json(rd, rd.at(u, "options", "uncertainty"));
+    // Written before the budget measured drift and noise: none measured.
+    if (u.contains("measured")) {
+      ev.budget_inputs = measured_from_json(rd, rd.at(u, "measured", "uncertainty"));
+    }
   }
   return ev;
 }

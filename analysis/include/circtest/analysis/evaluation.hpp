@@ -108,6 +108,7 @@ struct Evaluation {
   std::vector<std::string> notes;            // warnings worth showing the user
   TraceMetadata conditions;                  // the trace's metadata: clause 4.4 conditions
   UncertaintyOptions uncertainty_options;    // as given; uncertainty_budget(*this, them)
+  BudgetMeasurements budget_inputs;          // the drift and noise the budget takes
 };
 
 // Runs the whole evaluation. Options left empty are taken from the trace's metadata

@@ -60,6 +60,7 @@ struct VerdictLine {
   std::string unit;                          // "µm", "µrad"
   std::optional<double> before, now, limit;  // |value| and limit in the unit
   std::optional<double> u;                   // U (k = 2) of `now` in the unit; empty: none
+  std::optional<double> u_before;            // U (k = 2) of `before` in the unit; empty: none
   Result result = Result::no_limit;
 };
 

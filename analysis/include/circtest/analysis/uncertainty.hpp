@@ -29,6 +29,9 @@ struct UncertaintyOptions {
   double thermometer_K = 0.2;                     // standard uncertainty of a recorded temperature
   double assumed_temperature_half_width_K = 2.0;  // without recorded temperatures: 20 +- this
   double expansion_relative = 0.1;  // relative standard uncertainty of the coefficients
+  // Without temperatures recorded over the test: the change of the temperature assumed during
+  // it (a workshop without climate control), K per hour.
+  double assumed_drift_K_per_h = 1.0;
   // Repeatability: standard deviations of a single run's G and F and of a pair's H; unset:
   // measured from repeated runs of one direction, else the stated default (not measured).
   std::optional<double> repeatability_g_mm;
@@ -37,10 +40,38 @@ struct UncertaintyOptions {
   bool operator==(const UncertaintyOptions&) const = default;
 };
 
+// What the budget measures in the trace beyond H, G and F (evaluate() fills it): how the
+// recorded temperatures changed during the test, how long it ran, and the readings' noise.
+struct BudgetMeasurements {
+  // How the temperatures were recorded over the test: "columns" (a temperature per sample),
+  // "start and end" (the metadata key given twice, at the start and at the end: taken as
+  // changing linearly in time), or "" (once or not at all: the drift is not measured).
+  std::string drift_source;
+  // The change of the machine's and the instrument's temperature (K, a straight line fitted
+  // to the recorded values): the largest within one run, over one CCW/CW pair (the first
+  // run's start to the second's end), and the largest departure over the measured runs from
+  // the temperature F is corrected at.
+  double machine_run_K = 0.0, machine_pair_K = 0.0, machine_from_corrected_K = 0.0;
+  double instrument_run_K = 0.0, instrument_pair_K = 0.0, instrument_from_corrected_K = 0.0;
+  // Durations from the time column, s: the longest run, the longest pair, the measured runs
+  // from the first's start to the last's end; empty without a time column.
+  std::optional<double> run_s, pair_s, test_s;
+  // The readings' noise: its standard deviation from sample to sample (mm, from second
+  // differences of the radius, a median so that a reversal's spike does not count), and how
+  // much it widens the largest run's zone (G), moves F_max or F_min and H (mm): the expected
+  // largest of the noise over the samples near each extreme.
+  double noise_mm = 0.0, noise_g_mm = 0.0, noise_f_mm = 0.0, noise_h_mm = 0.0;
+  std::size_t noise_samples_top = 0, noise_samples_bottom = 0;  // near the extremes
+  bool operator==(const BudgetMeasurements&) const = default;
+};
+
 // The default the budget takes for an unmeasured repeatability (a run's G and F).
 inline constexpr double kDefaultRepeatabilityMm = 0.0005;
 
-enum class Distribution { normal, rectangular };
+// normal: a standard uncertainty; rectangular: a half-width a (u = a / sqrt 3); bias: a
+// one-sided effect of at most the stated size that is not corrected (the noise's widening of
+// the zone, a measured drift): c x value is added to U as is, after k u (GUM F.2.4.5).
+enum class Distribution { normal, rectangular, bias };
 std::string_view distribution_name(Distribution d) noexcept;
 
 struct UncertaintyContribution {
@@ -53,7 +84,7 @@ struct UncertaintyContribution {
   double c_g = 0.0;
   double c_h = 0.0;
   double c_f = 0.0;
-  double standard_mm() const;  // value / sqrt(3) for a rectangular half-width
+  double standard_mm() const;  // value / sqrt(3) for a rectangular half-width; a bias as is
 };
 
 struct UncertaintyBudget {
