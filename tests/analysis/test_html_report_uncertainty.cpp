@@ -155,7 +155,7 @@ TEST_F(HtmlReport, BeforeFiguresCarryTheirU) {
   const std::string html = (dir_ / "report.html").string();
   r = circana({"report", after, before, "-o", html});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::string d = dom(html);
+  const std::string d = open(html).dom;
   auto line = [&d](const std::string& q) {
     const auto p = d.find("data-plane=\"XY\" data-quantity=\"" + q + "\"");
     if (p == std::string::npos) return std::string("no line");
