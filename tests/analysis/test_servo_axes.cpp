@@ -205,11 +205,11 @@ TEST(ServoAxes, JsonAndTextCarryThePerAxisLines) {
   EXPECT_NE(text.find("servo mismatch ellipse at 1000 mm/min"), std::string::npos) << text;
 }
 
-// A machine tested on its motor positions alone (the measured columns are what the loop
-// delivers), each axis a first-order loop of its own lag and no scale error, D150 F1000 as the
-// pncconf mill runs it: the servo's radius loss, R (1 - 1/sqrt(1 + (w tau)^2)) per axis (17 and
-// 11 ppm at 26 and 21 ms), is not scale. Each axis' scale within 3 ppm of the injected one, with
-// no scale and with +50 ppm on X.
+// An instrument on the table and the commanded columns, each axis a first-order loop of its
+// own lag (26 and 21 ms) and D150 F1000: the servo's radius loss, R (1 - 1/sqrt(1 + (w tau)^2))
+// per axis (17 and 11 ppm), is taken out by the lag measured against the command, not counted
+// as scale. Each axis' scale within 3 ppm of the injected one, with no scale and with +50 ppm on
+// X.
 Trace simulate_lagged_circle(double scale_x) {
   sim::MachineModel m;
   m.x.kv_per_s = 1.0 / 0.026;
