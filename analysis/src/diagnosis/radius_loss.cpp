@@ -5,13 +5,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "circtest/core/diagnosis_keys.hpp"
 #include "stages.hpp"
 
 namespace circtest::diagnosis_detail {
 
 // Absolute scale and Kv from the radius change: it is R (sA + sB) / 2 - v^2 lag^2 / (2 R).
-MeanScale split_radius_change(const Inputs& in, const SampleSet& ss, const FollowingLag& lag,
-                              Diagnosis& D) {
+MeanScale split_radius_change(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                              const FollowingLag& lag, Diagnosis& D) {
   const Evaluation& ev = in.ev;
   const double R = ss.R;
   const std::optional<double>& lag_s = lag.lag_s;
@@ -64,16 +65,32 @@ MeanScale split_radius_change(const Inputs& in, const SampleSet& ss, const Follo
       D.kv_per_s.value = 1.0 / *lag_s;
       D.kv_source = "lag";
     }
-    D.notes.push_back(fmt::format(
-        "one feed: the servo radius loss ({:.2f} um) is taken from the following lag against "
-        "the commanded columns ({:.3f} ms); the rest of the radius change is scale",
-        loss * 1e3, *lag_s * 1e3));
+    if (!td.feedback)
+      D.notes.push_back(fmt::format(
+          "one feed: the servo radius loss ({:.2f} um) is taken from the following lag against "
+          "the commanded columns ({:.3f} ms); the rest of the radius change is scale",
+          loss * 1e3, *lag_s * 1e3));
   } else if (ev.nominal_radius_mm) {
     D.notes.push_back(
         "one feed and no commanded columns: the radius change mixes the mean scale of the "
         "axes and the servo radius loss; absolute scale not reported (run two feeds)");
   }
-  if (!D.absolute_channels) {
+  if (td.feedback) {
+    // The loop drives its feedback to the command whatever the machine's scale: what the
+    // radius and the cos 2theta term show here is the loop's amplitude response (a first-order
+    // loss from the lag only where the loop is first order), never scale.
+    mean_scale.reset();
+    if (D.scale_mismatch_ppm.value) {
+      D.unseparable.emplace_back(diagnosis_json::key::scale_mismatch_ppm);
+      D.scale_mismatch_ppm = {};
+    }
+    D.unseparable.emplace_back(diagnosis_json::key::scale_ppm);
+    D.notes.push_back(fmt::format(
+        "the positions are the motor feedback ({}, {}): the loop drives them to the command "
+        "whatever the machine's scale, so their radius and ellipse are the servo's amplitude "
+        "response; scale and scale mismatch not reported (they need an instrument)",
+        in.ev.channel_a, in.ev.channel_b));
+  } else if (!D.absolute_channels) {
     mean_scale.reset();
     D.notes.push_back("instrument is not absolute (ballbar): only the scale mismatch is reported");
   }

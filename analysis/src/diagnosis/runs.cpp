@@ -232,6 +232,8 @@ TraceDescription describe_trace(const Inputs& in, Diagnosis& D) {
                       trace.values[ev.columns.b],
                       ev.channel_a == column_name::from_radial(pa.first) ||
                           ev.channel_b == column_name::from_radial(pa.second)};
+  td.feedback = ev.channel_a == column_name::feedback(pa.first) &&
+                ev.channel_b == column_name::feedback(pa.second);
   if (const std::string* h = trace.metadata.find(meta_key::ini_sha256)) D.ini_sha256 = *h;
   D.absolute_channels = options.absolute_channels;
   if (const std::string* ins = trace.metadata.find(meta_key::instrument)) {

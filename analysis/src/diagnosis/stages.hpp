@@ -48,6 +48,9 @@ struct TraceDescription {
   // The positions are a radial instrument's: its commanded columns give the angle of each
   // length reading (synthesised by an import), never a command to measure a lag against.
   bool radial = false;
+  // The positions are the axes' motor feedback (x_fb...): the loop drives them to the command,
+  // so they show the servo's response and no scale of the machine.
+  bool feedback = false;
 };
 
 // set_up_samples (runs.cpp): the runs turned into samples. The linearisation point:
@@ -165,9 +168,9 @@ void report_estimates(const Inputs& in, const TraceDescription& td, const Sample
 FollowingLag measure_following_lag(const Inputs& in, const TraceDescription& td,
                                    const SampleSet& ss, const Model& m, Diagnosis& D);
 // radius_loss.cpp: the radius change split into absolute scale and servo loss (Kv). D:
-// kv_per_s, kv_source, scale_ppm; notes.
-MeanScale split_radius_change(const Inputs& in, const SampleSet& ss, const FollowingLag& lag,
-                              Diagnosis& D);
+// kv_per_s, kv_source, scale_ppm; unseparable, notes.
+MeanScale split_radius_change(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                              const FollowingLag& lag, Diagnosis& D);
 // servo_axes.cpp: each axis' following lag and position gain (commanded against feedback or
 // instrument columns, else a feed sweep's radius change: D's Kv, after split_radius_change),
 // the lag mismatch, and the mismatch ellipse's part of G at each feed. D: axis_lag,
