@@ -204,7 +204,11 @@ def check_report(qtbot, panel, session, before, after):
     assert page.report_path == os.path.join(session, "report.html")
     assert page.open_button.isEnabled()
     table = page.verdict
-    rows = {table.item(r, 1).text(): [table.item(r, c).text() for c in range(2, 5)]
+    header = [table.horizontalHeaderItem(c).text() for c in range(table.columnCount())]
+    # before, U (k = 2) of before, this test, U (k = 2) of this test, ...: before, after, U after
+    cols = (header.index("before"), header.index("this test"), header.index("this test") + 1)
+    assert header[cols[2]] == "U (k = 2)", header
+    rows = {table.item(r, 1).text(): [table.item(r, c).text() for c in cols]
             for r in range(table.rowCount())}
     assert rows["H"][:2] == [before[0][2] + " µm", after[0][2] + " µm"], rows
     assert rows["G"][:2] == ["%.1f µm" % max(float(g) for g, _, _ in figures)
