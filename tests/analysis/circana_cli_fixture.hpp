@@ -3,6 +3,8 @@
 // circana and circtest-simtrace run as a user runs them, in a scratch folder.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -28,6 +30,13 @@ class CircanaCli : public ::testing::Test {
   }
 
   CommandResult run(const std::string& args) { return run(words(args)); }
+  // circana ARGS expected to succeed, its standard output as JSON (null, the failure reported,
+  // when it does not).
+  nlohmann::json run_json(const std::string& args) {
+    const CommandResult r = run(args);
+    EXPECT_EQ(r.exit_code, 0) << args << ": " << r.err;
+    return r.exit_code == 0 ? nlohmann::json::parse(r.out) : nlohmann::json();
+  }
   CommandResult run(const std::vector<std::string>& args) {
     std::vector<std::string> argv{CIRCANA_PATH};
     argv.insert(argv.end(), args.begin(), args.end());

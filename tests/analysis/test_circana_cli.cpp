@@ -129,12 +129,9 @@ TEST_F(CircanaCli, ARecordedTraceCirclesTheCentreInMachineCoordinates) {
   const std::string offset = edited_example(
       dir_, "offset.csv", 0, [](std::vector<std::string>&) {},
       "# centre_mm: 0,0,0\n# centre_machine_mm: 250,250,100\n");
-  const CommandResult a = run("analyze " + example + " --json");
-  const CommandResult b = run("analyze " + offset + " --json");
-  ASSERT_EQ(a.exit_code, 0) << a.err;
-  ASSERT_EQ(b.exit_code, 0) << b.err;
-  const auto ja = nlohmann::json::parse(a.out);
-  const auto jb = nlohmann::json::parse(b.out);
+  const auto ja = run_json("analyze " + example + " --json");
+  const auto jb = run_json("analyze " + offset + " --json");
+  ASSERT_FALSE(ja.is_null() || jb.is_null());
   ASSERT_EQ(jb["runs"].size(), 2u);
   for (std::size_t i = 0; i < 2; ++i) {
     EXPECT_DOUBLE_EQ(jb["runs"][i]["G"].get<double>(), ja["runs"][i]["G"].get<double>());
@@ -299,12 +296,9 @@ TEST_F(CircanaCli, RadialTraceGivesTheResultsOfItsXyForm) {
   ASSERT_EQ(
       simtrace("-o " + trace + " --squareness 50e-6 --backlash-x 0.01 --radial --bar-length 75"),
       0);
-  const CommandResult xy = run("analyze " + trace + " --json");
-  const CommandResult bar = run("analyze " + trace + " --json --radial");
-  ASSERT_EQ(xy.exit_code, 0) << xy.err;
-  ASSERT_EQ(bar.exit_code, 0) << bar.err;
-  const auto jx = nlohmann::json::parse(xy.out);
-  const auto jb = nlohmann::json::parse(bar.out);
+  const auto jx = run_json("analyze " + trace + " --json");
+  const auto jb = run_json("analyze " + trace + " --json --radial");
+  ASSERT_FALSE(jx.is_null() || jb.is_null());
   EXPECT_NEAR(jb["H"].get<double>(), jx["H"].get<double>(), 1e-4);
   for (std::size_t k = 0; k < 2; ++k) {
     for (const char* key : {"G", "F_max", "F_min"}) {
