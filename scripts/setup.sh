@@ -2,6 +2,8 @@
 # Installs what circtest needs on Debian 12 (idempotent: apt only runs when a package is
 # missing) and builds it in ./build. Run as root, or as a user with sudo.
 #   scripts/setup.sh [install|build]    (default: both; scripts/test.sh runs them apart)
+# install takes the packages of scripts/debian-packages.txt (the build's) and
+# scripts/debian-packages-test.txt (the tests'); CIRCTEST_PACKAGES=build or tests only one list.
 # CIRCTEST_UNIT_TESTS=OFF builds no unit-test programs; CIRCTEST_UNIT_TESTS_ELSEWHERE=LIST
 # leaves out those another build lists (scripts/test.sh: the sanitizer build's).
 set -euo pipefail
@@ -17,14 +19,27 @@ SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
 
 install_packages() {
-  mapfile -t packages < <(sed -e 's/#.*//' -e 's/[[:space:]]*$//' -e '/^[[:space:]]*$/d' scripts/debian-packages.txt)
+  local lists
+  case "${CIRCTEST_PACKAGES:-all}" in
+    all) lists=(scripts/debian-packages.txt scripts/debian-packages-test.txt) ;;
+    build) lists=(scripts/debian-packages.txt) ;;
+    tests) lists=(scripts/debian-packages-test.txt) ;;
+    *) echo "setup.sh: CIRCTEST_PACKAGES: expected all, build or tests, got '$CIRCTEST_PACKAGES'" >&2
+       exit 2 ;;
+  esac
+  mapfile -t packages < <(sed -e 's/#.*//' -e 's/[[:space:]]*$//' -e '/^[[:space:]]*$/d' "${lists[@]}")
   missing=()
   for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   if [ ${#missing[@]} -gt 0 ]; then
     echo "setup: installing ${missing[*]}"
-    $SUDO apt-get update -qq
+    # CIRCTEST_APT_STAMP: a file made after the update, whose presence skips it (scripts/test.sh
+    # installs in two steps, one update).
+    if [ -z "${CIRCTEST_APT_STAMP:-}" ] || [ ! -e "$CIRCTEST_APT_STAMP" ]; then
+      $SUDO apt-get update -qq
+      [ -z "${CIRCTEST_APT_STAMP:-}" ] || touch "$CIRCTEST_APT_STAMP"
+    fi
     # On a CI machine (CI set, as CI services and ../shared/tools/fresh-debian-check do) dpkg
     # unpacks without an fsync per file, as Debian's container images do: a machine that is
     # thrown away after the run loses nothing by it.

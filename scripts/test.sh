@@ -27,9 +27,15 @@ sanitize=0
 [ $full_run = 1 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ] && sanitize=1
 san_log=$BUILD_DIR/sanitize-build.log san_test_log=$BUILD_DIR/sanitize-test.log
 san_mark=$BUILD_DIR/sanitize-build.done san_test_mark=$BUILD_DIR/sanitize-test.done
+test_packages_mark=$BUILD_DIR/test-packages.done
 if [ $sanitize = 1 ]; then
-  scripts/setup.sh install
+  # The build's packages first; the tests' packages (Chromium, PostgreSQL, PyQt5...) install
+  # while the sanitizer build compiles, before the main build's configure step looks for them.
   mkdir -p "$BUILD_DIR"
+  export CIRCTEST_APT_STAMP=$BUILD_DIR/apt-updated
+  rm -f "$CIRCTEST_APT_STAMP" "$test_packages_mark"
+  CIRCTEST_PACKAGES=build scripts/setup.sh install
+  phase "install of the build's packages"
   # The unit-test programs the sanitizer build makes (its configure step lists them) run there,
   # under ASan and UBSan, and are left out of the main build.
   CIRCTEST_SANITIZE_SCOPE=${CIRCTEST_SANITIZE_SCOPE:-inputs} scripts/sanitize.sh configure \
@@ -43,6 +49,8 @@ if [ $sanitize = 1 ]; then
     export CIRCTEST_SANITIZE_SCOPE=${CIRCTEST_SANITIZE_SCOPE:-inputs}
     nice -n 10 scripts/sanitize.sh build >"$san_log" 2>&1 || { echo build >"$san_mark"; exit 1; }
     echo "$((SECONDS - start))" >"$san_mark"
+    # Its tests run once the tests' packages are in.
+    while [ ! -e "$test_packages_mark" ]; do sleep 1; done
     rc=0
     nice -n 10 scripts/sanitize.sh test >"$san_test_log" 2>&1 || rc=$?
     echo "$((SECONDS - start)) $rc" >"$san_test_mark"
@@ -50,6 +58,8 @@ if [ $sanitize = 1 ]; then
   san_pass=$!
   set +m
   trap 'kill -- -"$san_pass" 2>/dev/null || true' EXIT
+  CIRCTEST_PACKAGES=tests scripts/setup.sh install
+  touch "$test_packages_mark"
 else
   scripts/setup.sh install
 fi

@@ -122,7 +122,7 @@ class PostgresServer {
       if (fs::exists(e.path() / "bin/initdb")) return (e.path() / "bin").string();
     }
     throw std::runtime_error(
-        "PostgreSQL is not installed (the postgresql package of scripts/debian-packages.txt)");
+        "PostgreSQL is not installed (the postgresql package of scripts/debian-packages-test.txt)");
   }
   void sh(const std::string& cmd) {
     const std::string full = cmd + " >>'" + (dir_ / "setup.log").string() + "' 2>&1";
