@@ -6,36 +6,28 @@
 #include <string>
 #include <vector>
 
-#include "scratch.hpp"
+#include "circana_cli_fixture.hpp"
 
 namespace {
 
-using circtest::testing::CommandResult;
-using circtest::testing::run_command;
-using circtest::testing::words;
-
-class UncertaintyCli : public ::testing::Test {
+// circana analyze on one simulated trace (4 um of backlash on X).
+class UncertaintyCli : public CircanaCli {
  protected:
   void SetUp() override {
-    trace_ = (scratch_.dir() / "t.csv").string();
-    ASSERT_EQ(run_command({SIMTRACE_PATH, "-o", trace_, "--d", "100", "--f", "2000", "--backlash-x",
-                           "0.004", "--period", "0.004"})
-                  .exit_code,
-              0);
+    trace_ = (dir_ / "t.csv").string();
+    ASSERT_EQ(simtrace("-o " + trace_ + " --d 100 --f 2000 --backlash-x 0.004 --period 0.004"), 0);
   }
-  CommandResult circana(const std::string& args) {
-    std::vector<std::string> argv{CIRCANA_PATH, "analyze", trace_};
-    for (auto& w : words(args)) argv.push_back(std::move(w));
-    return run_command(argv);
+  CommandResult circana(const std::string& args) { return run("analyze " + trace_ + " " + args); }
+  // circana analyze ARGS --json expected to succeed, parsed (null when it does not).
+  nlohmann::json circana_json(const std::string& args) {
+    return run_json("analyze " + trace_ + " " + args + " --json");
   }
-  circtest::testing::ScratchDir scratch_;
   std::string trace_;
 };
 
 TEST_F(UncertaintyCli, LimitsAreJudgedWithTheUncertainty) {
-  const CommandResult doc = circana("--json");
-  ASSERT_EQ(doc.exit_code, 0) << doc.err;
-  const auto j = nlohmann::json::parse(doc.out);
+  const auto j = circana_json("");
+  ASSERT_FALSE(j.is_null());
   const double g = std::max(j["runs"][0]["G"].get<double>(), j["runs"][1]["G"].get<double>());
   const double u = j["runs"][0]["U_G"].get<double>();
   ASSERT_GT(u, 0.0);
@@ -59,10 +51,8 @@ TEST_F(UncertaintyCli, LimitsAreJudgedWithTheUncertainty) {
 }
 
 TEST_F(UncertaintyCli, StatedInputsEnterTheBudget) {
-  const CommandResult r =
-      circana("--json --instrument-profile ballbar --uncertainty repeat-G=0.002");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto j = nlohmann::json::parse(r.out);
+  const auto j = circana_json("--instrument-profile ballbar --uncertainty repeat-G=0.002");
+  ASSERT_FALSE(j.is_null());
   EXPECT_EQ(j["uncertainty"]["profile"], "ballbar");
   // 2 um of repeatability dominates U_G: 2 x 0.002 and a little more.
   EXPECT_NEAR(j["runs"][0]["U_G"].get<double>(), 0.004, 0.0002);
@@ -71,9 +61,8 @@ TEST_F(UncertaintyCli, StatedInputsEnterTheBudget) {
 // Without temperatures recorded over the test the drift is the stated rate over the run's
 // time: a larger rate, a larger U_G (the note names the assumption).
 TEST_F(UncertaintyCli, AssumedDriftRateEntersTheBudget) {
-  const CommandResult r = circana("--json --uncertainty drift-rate=100,repeat-G=0");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto j = nlohmann::json::parse(r.out);
+  const auto j = circana_json("--uncertainty drift-rate=100,repeat-G=0");
+  ASSERT_FALSE(j.is_null());
   const double run_s = j["uncertainty"]["measured"]["run_s"].get<double>();
   bool found = false;
   for (const auto& c : j["uncertainty"]["contributions"]) {
