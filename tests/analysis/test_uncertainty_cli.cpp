@@ -1,7 +1,9 @@
-// circana analyze's uncertainty and --limits as a user runs them: U beside each result, the
-// ISO 14253-1 verdicts and their exit code, and the refusals of bad budget inputs.
+// circana analyze's uncertainty and --limits as a user runs them: U beside each result (the
+// diagnosis' measured G too), the ISO 14253-1 verdicts and their exit code, and the refusals
+// of bad budget inputs.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -75,6 +77,44 @@ TEST_F(UncertaintyCli, AssumedDriftRateEntersTheBudget) {
   }
   EXPECT_TRUE(found);
   EXPECT_NEAR(run_s, 3.14159 * 100.0 / (2000.0 / 60.0), 0.05);
+}
+
+// The measured G the diagnosis gives the residual's share against carries the U_G that circana
+// analyze states for the same trace: in the diagnosis JSON, its text and analyze's summary.
+TEST_F(UncertaintyCli, TheDiagnosisMeasuredGCarriesTheEvaluationsU) {
+  const auto analyzed = circana_json("");
+  ASSERT_FALSE(analyzed.is_null());
+  const double u_g = analyzed["runs"][0]["U_G"].get<double>();
+  ASSERT_GT(u_g, 0.0);
+  const auto diagnosed = run_json("diagnose " + trace_ + " --json");
+  ASSERT_FALSE(diagnosed.is_null());
+  EXPECT_EQ(diagnosed["version"], "1.5");
+  EXPECT_NEAR(diagnosed["residual"]["measured_G_U_mm"].get<double>(), u_g, 1e-12);
+  char shown[64];
+  std::snprintf(shown, sizeof shown, ", U = %.2f um (k = 2))", u_g * 1e3);
+  const CommandResult text = run("diagnose " + trace_);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("of the measured G "), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find(shown), std::string::npos) << shown << "\n" << text.out;
+  const CommandResult summary = circana("");
+  EXPECT_NE(summary.out.find(shown), std::string::npos) << shown << "\n" << summary.out;
+}
+
+// A test set: each plane's measured G with its own plane's U_G.
+TEST_F(UncertaintyCli, EachPlaneOfASetCarriesItsOwnU) {
+  const std::string set = (dir_ / "set.csv").string();
+  ASSERT_EQ(simtrace("-o " + set + " --set XY,ZX --d 100 --backlash-x 0.004 --period 0.004"), 0);
+  const auto analyzed = run_json("analyze " + set + " --json");
+  const auto diagnosed = run_json("diagnose " + set + " --json");
+  ASSERT_FALSE(analyzed.is_null() || diagnosed.is_null());
+  ASSERT_EQ(analyzed["planes"].size(), 2u);
+  const auto& planes = diagnosed["test_set"]["diagnoses"];
+  ASSERT_EQ(planes.size(), 2u) << diagnosed.dump(1);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_NEAR(planes[k]["residual"]["measured_G_U_mm"].get<double>(),
+                analyzed["planes"][k]["runs"][0]["U_G"].get<double>(), 1e-12)
+        << k;
+  }
 }
 
 TEST_F(UncertaintyCli, BadInputsAreRefused) {
