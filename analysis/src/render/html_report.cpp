@@ -101,7 +101,16 @@ footer { color: #666; font-size: 80%; margin-top: 2mm; }
   section { width: auto; margin: 0; padding: 0; break-after: page; }
   section.plane { break-inside: avoid; }
   section:last-of-type { break-after: auto; }
-  ul.legend { font-size: 7.5pt; }
+  ul.legend { font-size: 6.5pt; }
+  ul.legend li { margin: 0; }
+  /* A plane page is one A4 page: before and after with four runs each, the diagnosis of both
+     and a dozen conditions leave about 20 mm to spare. */
+  section.plane .figures { grid-template-columns: 78mm minmax(0, 1fr); margin-top: 1mm; }
+  section.plane th, section.plane td { padding: 0.2mm 1mm; }
+  section.plane caption { padding: 1mm 0 0.3mm 0; }
+  section.plane table.conditions { font-size: 7pt; }
+  section.plane table.conditions th { width: 16%; }
+  table.diagnosis tr:first-child th:first-child { width: 22%; }
   .appendix .raw { font-size: 6.5pt; }
 }
 )";
