@@ -1,7 +1,7 @@
 #pragma once
 // The circgen variants the rs274 tests run through LinuxCNC's real interpreter, what each
 // variant's options imply (clearance, feed-in, approach feed), and the angle helpers the
-// rs274 tests share (test_rs274*.cpp, one test program).
+// rs274 tests share (test_rs274.cpp and its _structure, _set and _grid parts: one program).
 #include <gtest/gtest.h>
 
 #include <array>
