@@ -393,6 +393,21 @@ TEST_F(HtmlReport, AFullPlanePageIsOneA4Page) {
   EXPECT_NE(plane.find("Plane XY: the measurement, before and after"), std::string::npos);
   EXPECT_NE(plane.find("Values in µm"), std::string::npos) << "the page's footer on the page";
   EXPECT_NE(pdf_page_text(pdf, 3).find("Appendix: the uncertainty"), std::string::npos);
+  // The residual's share is of each test's measured G (the largest least-squares G of analyze
+  // --json), shown with that test's U_G (k = 2).
+  for (const std::string& trace : {report[1], report[2]}) {
+    const CommandResult a = circana({"analyze", trace, "--json"});
+    ASSERT_EQ(a.exit_code, 0) << a.err;
+    const auto j = nlohmann::json::parse(a.out);
+    double g_lsc = 0.0;
+    for (const auto& run : j["runs"]) g_lsc = std::max(g_lsc, run["G_lsc"].get<double>());
+    char shown[200];
+    std::snprintf(shown, sizeof shown,
+                  "of the measured G <span data-mm=\"%.12g\">%.1f</span> µm, U = <span "
+                  "class=\"u\" data-mm=\"%.12g\">",
+                  g_lsc, g_lsc * 1000.0, j["runs"][0]["U_G"].get<double>());
+    EXPECT_NE(page.dom.find(shown), std::string::npos) << trace << ": " << shown;
+  }
 }
 
 // Backlash and squareness limits are judged from the plane's diagnosis, as circana history
