@@ -135,6 +135,20 @@ auto naming_file(const std::string& path, const Fn& fn) -> decltype(fn()) {
   }
 }
 
+// The measured G a diagnosis gives its residual's share against carries the U_G (k = 2) of
+// the evaluation it was made on, as every G circana prints.
+void state_measured_g_u(Diagnosis& d, const Evaluation& ev) {
+  if (d.measured_g_mm) d.measured_g_u_mm = uncertainty_budget(ev, ev.uncertainty_options).u_g_mm;
+}
+
+// The diagnosis of an evaluated trace, its measured G with its U.
+Diagnosis diagnose_evaluated(const std::string& path, const Trace& trace, const Evaluation& ev,
+                             const DiagnosisOptions& options = {}) {
+  Diagnosis d = naming_file(path, [&] { return diagnose(trace, ev, options); });
+  state_measured_g_u(d, ev);
+  return d;
+}
+
 // Stores a test (its diagnosis too, when given); returns the line that says so.
 // `source`: the file the evaluation was read from (a trace or a result document), for messages.
 std::string store_result(const Evaluation& ev, const Diagnosis* diagnosis,
@@ -314,8 +328,7 @@ int analyze_set(const AnalyzeRequest& request, const std::vector<EvaluatedTrace>
     std::string diagnosis_error;
     if (!request.json || !request.svg_path.empty()) {
       try {
-        diagnosis =
-            naming_file(request.trace_path, [&] { return diagnose(p.trace, p.evaluation); });
+        diagnosis = diagnose_evaluated(request.trace_path, p.trace, p.evaluation);
       } catch (const Error& e) {
         diagnosis_error = e.what();
       }
@@ -378,7 +391,7 @@ int run_analyze(const AnalyzeRequest& request, std::ostream& out) {
   std::string diagnosis_error;
   if (!request.json || !request.svg_path.empty()) {
     try {
-      diagnosis = naming_file(request.trace_path, [&] { return diagnose(trace, ev); });
+      diagnosis = diagnose_evaluated(request.trace_path, trace, ev);
     } catch (const Error& e) {
       diagnosis_error = e.what();
     }
@@ -431,8 +444,8 @@ void lead_with_evaluation_notes(const EvaluatedTrace& evaluated, Diagnosis& d) {
 // The diagnosis of one evaluated plane, with the notes on what was evaluated leading.
 Diagnosis diagnose_plane(const DiagnoseRequest& request, const EvaluatedTrace& evaluated) {
   const DiagnosisOptions options = plane_options(request, evaluated);
-  Diagnosis d = naming_file(
-      request.trace_path, [&] { return diagnose(evaluated.trace, evaluated.evaluation, options); });
+  Diagnosis d =
+      diagnose_evaluated(request.trace_path, evaluated.trace, evaluated.evaluation, options);
   lead_with_evaluation_notes(evaluated, d);
   return d;
 }
@@ -462,8 +475,10 @@ int diagnose_set_command(const DiagnoseRequest& request, const std::vector<Evalu
     inputs.push_back({&p.trace, &p.evaluation, plane_options(request, p)});
   SetDiagnosis set =
       naming_file(request.trace_path, [&] { return diagnose_set(request.trace_path, inputs); });
-  for (std::size_t k = 0; k < planes.size(); ++k)
+  for (std::size_t k = 0; k < planes.size(); ++k) {
     lead_with_evaluation_notes(planes[k], set.plane_diagnoses[k]);
+    state_measured_g_u(set.plane_diagnoses[k], planes[k].evaluation);
+  }
   if (!request.svg_path.empty()) {
     std::vector<std::pair<std::string, std::string>> plots;
     for (std::size_t k = 0; k < planes.size(); ++k) {

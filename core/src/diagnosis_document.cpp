@@ -95,6 +95,7 @@ json to_json(const Diagnosis& d) {
   j[K::residual] = {{K::rms_mm, d.residual_rms_mm}, {K::g_mm, d.residual_g_mm}};
   if (d.measured_g_mm) {
     j[K::residual][K::measured_g_mm] = *d.measured_g_mm;
+    if (d.measured_g_u_mm) j[K::residual][K::measured_g_u_mm] = *d.measured_g_u_mm;
     j[K::residual][K::percent] = json_number_or_null(
         *d.measured_g_mm > 0 ? std::optional(d.residual_g_mm / *d.measured_g_mm * 100.0)
                              : std::nullopt);
@@ -398,6 +399,8 @@ void read_fit(const Reader& r, const pjson& doc, const pjson& se, Diagnosis& d) 
       r.number(r.member(residual, K::rms_mm, at), at + "." + K::rms_mm).value_or(0.0);
   d.residual_g_mm = r.number(r.member(residual, K::g_mm, at), at + "." + K::g_mm).value_or(0.0);
   d.measured_g_mm = r.number(r.member(residual, K::measured_g_mm, at), at + "." + K::measured_g_mm);
+  d.measured_g_u_mm =
+      r.number(r.member(residual, K::measured_g_u_mm, at), at + "." + K::measured_g_u_mm);
 }
 
 std::vector<std::string> texts(const Reader& r, const pjson& doc, const char* key) {

@@ -1,6 +1,7 @@
 #pragma once
-// The fixture of the circana CLI tests (test_circana_cli.cpp, test_circana_cli_inputs.cpp):
-// circana and circtest-simtrace run as a user runs them, in a scratch folder.
+// The fixture of the circana CLI tests (test_circana_cli.cpp, test_circana_cli_inputs.cpp,
+// test_uncertainty_cli.cpp): circana and circtest-simtrace run as a user runs them, in a
+// scratch folder.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>

@@ -328,26 +328,86 @@ TEST_F(HtmlReport, AGivenReportFitsA4WithTheVerdictOnPage1) {
     planes.push_back((*it)[1]);
   }
   ASSERT_FALSE(planes.empty()) << "no plane page: not a circana report";
-  // Page 1 the verdict; each plane's page in order (a plane's page may run onto a second
-  // one: the demo's three-run plane page does since U and the residual's share joined it, a
-  // layout to tighten); then the appendix and the budget appendix.
+  // Page 1 the verdict; each plane's page in order, one A4 page each; then the budget
+  // appendix and the appendix for the service engineer.
   const int pages = opened.pages;
-  EXPECT_GE(pages, static_cast<int>(planes.size()) + 3);
-  EXPECT_LE(pages, 2 * static_cast<int>(planes.size()) + 3);
+  EXPECT_EQ(pages, static_cast<int>(planes.size()) + 3);
   EXPECT_NE(pdf_page_text(pdf, 1).find("Verdict: "), std::string::npos);
   int page = 2;
   for (const std::string& p : planes) {
     EXPECT_NE(pdf_page_text(pdf, page).find("Plane " + p + ": "), std::string::npos) << p;
     ++page;
-    if (pdf_page_text(pdf, page).find("Appendix") == std::string::npos &&
-        pdf_page_text(pdf, page).find("Plane ") == std::string::npos) {
-      ++page;  // the plane's page continued
-    }
   }
-  EXPECT_NE(pdf_page_text(pdf, page).find("Appendix"), std::string::npos) << "page " << page;
-  EXPECT_NE(pdf_page_text(pdf, pages).find("Appendix"), std::string::npos);
+  EXPECT_NE(pdf_page_text(pdf, page).find("Appendix: the uncertainty"), std::string::npos)
+      << "page " << page;
+  EXPECT_NE(pdf_page_text(pdf, pages).find("Appendix: for the service engineer"),
+            std::string::npos);
   EXPECT_FALSE(std::regex_search(d, std::regex(R"(\b(um|urad)\b)"))) << "ASCII units left";
   EXPECT_LE(opened.widest_px, 794.0) << opened.widest;
+}
+
+// The fullest plane page a visit makes: before and after with four runs each (two feeds), every
+// error source of the demo's machine in both diagnoses, the program's conditions recorded
+// (as circgen writes them) and limits: one A4 page, the footer on it, the appendix next.
+TEST_F(HtmlReport, AFullPlanePageIsOneA4Page) {
+  const std::string errors =
+      "--set XY --feeds 500,1000 --d 100 --period 0.001 --cyclic-y 0.002 --pitch-y 5 "
+      "--spike-ms-x 15 --spike-ms-y 15 ";
+  const std::vector<std::pair<std::string, std::string>> tests{
+      {"before.csv", errors + "--backlash-x 0.010 --scale-x 50e-6 --squareness 100e-6 "
+                              "--spike-x 0.010 --spike-y 0.009 --kv-x 30 --kv-y 31 --seed 1"},
+      {"after.csv", errors + "--backlash-x 0.001 --spike-x 0.004 --spike-y 0.0014 --seed 2"}};
+  std::vector<std::string> report{"report"};
+  std::vector<std::string> diagnoses;
+  for (const auto& [name, args] : tests) {
+    const std::string trace = simtrace(name, args);
+    std::string recorded;
+    for (const char* line :
+         {"machine: sim-servo (simulated)", "operator: circtest demo", "temperature_air_C: 20.4",
+          "compensation: backlash comp X 0.010, pid FF1 0", "other_axes: Z clamped at 100 mm",
+          "arc_deg: 360", "start_deg: 0", "lead_deg: 10", "dwell_s: 0",
+          "motion_mode: G64 P0 exact path (G61 during the runs)",
+          "feed_override: off during the runs (M50 P0)", "work_offset: G54",
+          "tool_length_offset: none (G49)"}) {
+      recorded += std::string("# ") + line + "\n";
+    }
+    circtest::testing::spit(trace, recorded + slurp(trace));
+    const CommandResult d = circana({"diagnose", trace, "--json"});
+    ASSERT_EQ(d.exit_code, 0) << d.err;
+    const std::string json = (dir_ / (name + ".diagnosis.json")).string();
+    circtest::testing::spit(json, d.out);
+    report.push_back(trace);
+    diagnoses.insert(diagnoses.end(), {"--diagnosis", json});
+  }
+  std::swap(report[1], report[2]);  // after, then before
+  const std::string html = (dir_ / "report.html").string();
+  report.insert(report.end(), {"-o", html, "--limits", "H=0.012,G=0.020,F=0.015"});
+  report.insert(report.end(), diagnoses.begin(), diagnoses.end());
+  const CommandResult r = circana(report);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string pdf = (dir_ / "report.pdf").string();
+  const Opened page = open(html, pdf);
+  ASSERT_GE(count(page.dom, "<tr class=\"contribution\">"), 7u) << "the sources of both tests";
+  EXPECT_EQ(page.pages, 4);
+  const std::string plane = pdf_page_text(pdf, 2);
+  EXPECT_NE(plane.find("Plane XY: the measurement, before and after"), std::string::npos);
+  EXPECT_NE(plane.find("Values in µm"), std::string::npos) << "the page's footer on the page";
+  EXPECT_NE(pdf_page_text(pdf, 3).find("Appendix: the uncertainty"), std::string::npos);
+  // The residual's share is of each test's measured G (the largest least-squares G of analyze
+  // --json), shown with that test's U_G (k = 2).
+  for (const std::string& trace : {report[1], report[2]}) {
+    const CommandResult a = circana({"analyze", trace, "--json"});
+    ASSERT_EQ(a.exit_code, 0) << a.err;
+    const auto j = nlohmann::json::parse(a.out);
+    double g_lsc = 0.0;
+    for (const auto& run : j["runs"]) g_lsc = std::max(g_lsc, run["G_lsc"].get<double>());
+    char shown[200];
+    std::snprintf(shown, sizeof shown,
+                  "of the measured G <span data-mm=\"%.12g\">%.1f</span> µm, U = <span "
+                  "class=\"u\" data-mm=\"%.12g\">",
+                  g_lsc, g_lsc * 1000.0, j["runs"][0]["U_G"].get<double>());
+    EXPECT_NE(page.dom.find(shown), std::string::npos) << trace << ": " << shown;
+  }
 }
 
 // Backlash and squareness limits are judged from the plane's diagnosis, as circana history

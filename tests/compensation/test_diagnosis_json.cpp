@@ -173,6 +173,27 @@ TEST(DiagnosisJsonSpikePeak, ReadAsWrittenAbsentWhenOlderRefusedWhenNotANumber) 
                "\"reversal_spike_peak_ms.X\": expected a number or null");
 }
 
+// The measured G's U (k = 2), circana's evaluation's U_G: read back as written by the one
+// reader, absent in a document of an older circana, refused when it is not a number; circcomp
+// reads a document that holds it.
+TEST(DiagnosisJsonMeasuredGU, ReadAsWrittenAbsentWhenOlderRefusedWhenNotANumber) {
+  Diagnosis d = round_trip(Plane::XY).written;
+  ASSERT_TRUE(d.measured_g_mm);
+  d.measured_g_u_mm = 0.0044;
+  auto doc = to_json(d);
+  EXPECT_EQ(doc.at("residual").at("measured_G_U_mm"), 0.0044);
+  const DiagnosisDocument back = parse_diagnosis_document(doc.dump(), "d.json", "circana");
+  EXPECT_EQ(back.planes.front().measured_g_u_mm, 0.0044);
+  EXPECT_EQ(to_json(back.planes.front()), doc);
+  EXPECT_NO_THROW(compensation::parse_diagnosis(doc.dump(), "d.json"));
+  doc["residual"].erase("measured_G_U_mm");
+  EXPECT_FALSE(
+      parse_diagnosis_document(doc.dump(), "d.json", "circana").planes.front().measured_g_u_mm);
+  doc["residual"]["measured_G_U_mm"] = "4.4 um";
+  EXPECT_ERROR(parse_diagnosis_document(doc.dump(), "d.json", "circana"), ExitCode::parse,
+               "\"residual.measured_G_U_mm\": expected a number or null");
+}
+
 // A term the diagnosis lists as unseparable gives the planner no number, whatever value
 // stands beside it; the others are read as written.
 TEST(DiagnosisJsonUnseparable, AListedTermHasNoValue) {
@@ -235,7 +256,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   sim::CircleProgram p;
   p.radius_mm = 50.0;
   const auto j = to_json(diagnose(sim::simulate(sim::MachineModel{}, p)));
-  EXPECT_EQ(j.at("version"), "1.4");
+  EXPECT_EQ(j.at("version"), "1.5");
   EXPECT_EQ(j.at("schema"), "circtest.diagnosis/1");
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.0")), "d.json"));
   EXPECT_NO_THROW(compensation::parse_diagnosis(with_version(quoted("1.99")), "d.json"));
@@ -252,7 +273,7 @@ TEST(DiagnosisJsonVersion, WrittenAndNewerMajorsRefused) {
   for (const char* bad : {"2", "1.", ".1", "1.1.1", "v1.1", "-1.0", "1.x", "99999999.0", ""}) {
     EXPECT_ERROR(
         compensation::parse_diagnosis(with_version(quoted(bad)), "d.json"), ExitCode::parse,
-        "d.json: \"version\": expected MAJOR.MINOR (\"1.4\"), got '" + std::string(bad) + "'");
+        "d.json: \"version\": expected MAJOR.MINOR (\"1.5\"), got '" + std::string(bad) + "'");
   }
   EXPECT_ERROR(compensation::parse_diagnosis(with_version(quoted("\\u0001\\u00ff.1")), "d.json"),
                ExitCode::parse, "got '\\x01\\xc3\\xbf.1'");

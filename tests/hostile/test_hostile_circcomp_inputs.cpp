@@ -45,7 +45,7 @@ TEST_F(Hostile, ADiagnosisThatIsNotCircanasIsAnInputError) {
        "\"version\": 2.0 is newer than this circcomp reads (1.x): use the circcomp of the "
        "circana that wrote it"},
       {with("\"units\": \"mm\"", "\"units\": \"mm\", \"version\": \"1\\u0007\""), 4,
-       "\"version\": expected MAJOR.MINOR (\"1.4\"), got '1\\x07'"},
+       "\"version\": expected MAJOR.MINOR (\"1.5\"), got '1\\x07'"},
       {with("\"plane\": \"XY\"", "\"plane\": [1]"), 4, "\"plane\": expected a string"},
       {with("\"units\": \"mm\"", "\"units\": {}"), 4, "\"units\": expected a string"},
       {with("\"standard_error\": {", "\"standard_error\": 5, \"x\": {"), 4,

@@ -15,11 +15,14 @@ std::string um(double mm) {
   return fmt::format("{:.2f} um", mm * 1e3);
 }
 
-// The residual's G as a share of the measured G: the part of G the model does not explain.
+// The residual's G as a share of the measured G: the part of G the model does not explain;
+// the measured G with its U (k = 2) when the diagnosis holds it.
 std::string residual_share(const Diagnosis& d) {
   if (!d.measured_g_mm || !(*d.measured_g_mm > 0)) return {};
-  return fmt::format(" ({:.1f} % of the measured G {})", d.residual_g_mm / *d.measured_g_mm * 100.0,
-                     um(*d.measured_g_mm));
+  return fmt::format(
+      " ({:.1f} % of the measured G {}{})", d.residual_g_mm / *d.measured_g_mm * 100.0,
+      um(*d.measured_g_mm),
+      d.measured_g_u_mm ? fmt::format(", U = {} (k = 2)", um(*d.measured_g_u_mm)) : "");
 }
 
 std::string pm_um(const Estimate& e) {

@@ -101,7 +101,16 @@ footer { color: #666; font-size: 80%; margin-top: 2mm; }
   section { width: auto; margin: 0; padding: 0; break-after: page; }
   section.plane { break-inside: avoid; }
   section:last-of-type { break-after: auto; }
-  ul.legend { font-size: 7.5pt; }
+  ul.legend { font-size: 6.5pt; }
+  ul.legend li { margin: 0; }
+  /* A plane page is one A4 page: before and after with four runs each, the diagnosis of both
+     and a dozen conditions leave about 20 mm to spare. */
+  section.plane .figures { grid-template-columns: 78mm minmax(0, 1fr); margin-top: 1mm; }
+  section.plane th, section.plane td { padding: 0.2mm 1mm; }
+  section.plane caption { padding: 1mm 0 0.3mm 0; }
+  section.plane table.conditions { font-size: 7pt; }
+  section.plane table.conditions th { width: 16%; }
+  table.diagnosis tr:first-child th:first-child { width: 22%; }
   .appendix .raw { font-size: 6.5pt; }
 }
 )";
@@ -290,6 +299,33 @@ void contribution_cells(std::string& s, const DiagnosisChart* d, const std::stri
                  shown(c->share_mm * 1000.0, 0.1), shown(c->percent, 1.0), bar_mm);
 }
 
+// The residual's G of each diagnosis and its share of the measured G, that G with the U_G
+// (k = 2) of its test's evaluation, as every G of the report.
+void residual_row(std::string& s,
+                  const std::vector<std::pair<const DiagnosisChart*, const Evaluation*>>& tests) {
+  auto out = std::back_inserter(s);
+  s += "<tr class=\"total residual\"><th>Residual G (not explained)</th>";
+  for (const auto& [d, ev] : tests) {
+    if (!d) {
+      s += "<td class=\"num\" colspan=\"2\">&#8211;</td>";
+      continue;
+    }
+    fmt::format_to(out,
+                   "<td class=\"num\" colspan=\"2\"><span data-mm=\"{:.12g}\">{:.1f}</span> µm",
+                   d->residual_g_mm, d->residual_g_mm * 1000.0);
+    if (d->measured_g_mm && *d->measured_g_mm > 0 && ev) {
+      fmt::format_to(out,
+                     " ({:.0f} % of the measured G <span data-mm=\"{:.12g}\">{:.1f}</span> µm, "
+                     "U = {} µm (k = 2))",
+                     d->residual_g_mm / *d->measured_g_mm * 100.0, *d->measured_g_mm,
+                     *d->measured_g_mm * 1000.0,
+                     u_span(uncertainty_budget(*ev, ev->uncertainty_options).u_g_mm));
+    }
+    s += "</td>";
+  }
+  s += "</tr>\n";
+}
+
 // The diagnosis before and after side by side: each source's G alone and its share of the
 // modelled G.
 void diagnosis_table(std::string& s, const ReportPage& page) {
@@ -341,7 +377,9 @@ void diagnosis_table(std::string& s, const ReportPage& page) {
     s += "</tr>\n";
   };
   totals("Modelled G", &DiagnosisChart::model_g_mm);
-  totals("Residual G (not explained)", &DiagnosisChart::residual_g_mm);
+  residual_row(s,
+               two ? std::vector{std::pair{before, page.before}, std::pair{after, page.evaluation}}
+                   : std::vector{std::pair{after, page.evaluation}});
   s += "</table>\n";
   for (const auto& [d, note, which] :
        {std::tuple{before, &page.before_diagnosis_note, "before"},
@@ -565,6 +603,7 @@ DiagnosisChart diagnosis_chart(const Diagnosis& d) {
     if (b.value) c.backlash_mm = std::max(c.backlash_mm.value_or(0.0), std::abs(*b.value));
   }
   c.squareness_urad = d.squareness_urad.value;
+  c.measured_g_mm = d.measured_g_mm;
   return c;
 }
 

@@ -28,6 +28,8 @@ struct DiagnosisChart {
   double residual_g_mm = 0.0;
   std::optional<double> backlash_mm;      // the larger |backlash| of the plane's axes
   std::optional<double> squareness_urad;  // as measured (signed)
+  // The largest G of the runs (least squares centre): the residual's share is of it.
+  std::optional<double> measured_g_mm;
 };
 DiagnosisChart diagnosis_chart(const Diagnosis& diagnosis);
 // From a plane's diagnosis document (read_diagnosis_document: circana diagnose --json);

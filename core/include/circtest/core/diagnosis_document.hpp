@@ -106,6 +106,9 @@ struct Diagnosis {
   // The largest G (least squares centre) of the measured runs: residual_g_mm's share of it is
   // the part of G the model does not explain.
   std::optional<double> measured_g_mm;
+  // Its expanded uncertainty U (k = 2): the evaluation's U_G (uncertainty budget), when the
+  // diagnosis was made beside the evaluation (circana analyze, diagnose).
+  std::optional<double> measured_g_u_mm;
   std::optional<std::string> ini_sha256;  // from the trace's metadata, when recorded
   // The terms this trace cannot tell apart, by where their values would be in the document
   // ("backlash_mm.X", "servo_mismatch_ms"): their values are not reported.

@@ -18,8 +18,8 @@ inline constexpr const char* kSchemaFamily = "circtest.diagnosis/";
 // "MAJOR.MINOR": the major is the schema's; a minor adds keys, never renames or retypes one,
 // so a reader reads every minor of its major and refuses a newer major.
 inline constexpr int kVersionMajor = 1;
-inline constexpr int kVersionMinor = 4;
-inline constexpr const char* kVersion = "1.4";
+inline constexpr int kVersionMinor = 5;
+inline constexpr const char* kVersion = "1.5";
 
 namespace key {
 inline constexpr const char* units = "units";    // "mm"
@@ -74,6 +74,7 @@ inline constexpr const char* axis_lag_source = "axis_lag_source";
 inline constexpr const char* axis_lag_mismatch_ms = "axis_lag_mismatch_ms";
 inline constexpr const char* servo_share = "servo_share";
 inline constexpr const char* measured_g_mm = "measured_G_mm";
+inline constexpr const char* measured_g_u_mm = "measured_G_U_mm";  // its U (k = 2)
 inline constexpr const char* nominal_radius_mm = "nominal_radius_mm";
 inline constexpr const char* absolute_channels = "absolute_channels";
 inline constexpr const char* runs = "runs";
