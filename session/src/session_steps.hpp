@@ -135,8 +135,8 @@ std::string session_limits(const std::string& dir, const std::string& given);
 // The verdict of a test (circana analyze's result JSON text, circana diagnose's JSON text or
 // empty) against LIMITS, by ISO 14253-1 with U as the report decides it: "verdict against
 // H=0.015 (ISO 14253-1, U k = 2): within the limits: H 5.6 + U 1.2 <= 15.0 um"; OUT OF
-// TOLERANCE when one fails, NOT DECIDED when none fails but one is not decided or not
-// measured; a line saying there is none without limits.
+// TOLERANCE when one fails or is not measured (as the report's banner), NOT DECIDED when one
+// is not decided; a line saying there is none without limits.
 std::string verdict_line(const std::string& results_text, const std::string& diagnosis_text,
                          const std::string& limits);
 

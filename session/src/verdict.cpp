@@ -112,7 +112,8 @@ std::string verdict_line(const std::string& results_text, const std::string& dia
        history::verdicts(test_record(results_text, diagnosis_text), limits)) {
     if (v.result == R::no_limit) continue;
     items.push_back(item_words(v));
-    fail = fail || v.result == R::fail;
+    // As the report's banner: a limit that cannot be checked fails.
+    fail = fail || v.result == R::fail || v.result == R::not_measured;
     pass = pass && v.result == R::pass;
   }
   const char* word = pass ? "within the limits" : fail ? "OUT OF TOLERANCE" : "NOT DECIDED";

@@ -108,6 +108,18 @@ while True:
     elif s.task_state in (linuxcnc.STATE_ESTOP_RESET, linuxcnc.STATE_OFF): c.state(linuxcnc.STATE_ON)
     time.sleep(0.5)
 mode = sys.argv[1]
+if mode == "estop-at-start":
+    # An E-stop as soon as the program starts: before its operator pause, so before the
+    # marker output of its first run can come on.
+    end = time.time() + 180
+    while time.time() < end:
+        s.poll()
+        if s.interp_state != linuxcnc.INTERP_IDLE: break
+        time.sleep(0.005)
+    else:
+        sys.exit("the program did not start")
+    c.state(linuxcnc.STATE_ESTOP)
+    sys.exit(0)
 if mode in ("abort", "estop", "quit"):
     # Mid-run: 0.3 s into the program's first run when CIRCTEST_MARKER names its marker output,
     # else 3 s after it starts; as an operator pressing Stop or E-stop, or LinuxCNC quitting

@@ -52,14 +52,14 @@ TEST(SessionVerdict, DecidesEachLimitByIso14253WithU) {
 }
 
 // Backlash and squareness come from the diagnosis, judged on the value alone; without a
-// diagnosis they are not measured, which does not pass.
+// diagnosis they are not measured, which fails (as the report's banner says FAIL).
 TEST(SessionVerdict, BacklashAndSquarenessFromTheDiagnosis) {
   EXPECT_EQ(verdict_line(kResults, kDiagnosis, "backlash=0.005,squareness=40"),
             "verdict against backlash=0.005,squareness=40 (ISO 14253-1, U k = 2): OUT OF "
             "TOLERANCE: backlash 4.0 <= 5.0 um (no U); squareness 50.0 > 40.0 urad (no U)");
   EXPECT_EQ(verdict_line(kResults, "", "backlash=0.005"),
-            "verdict against backlash=0.005 (ISO 14253-1, U k = 2): NOT DECIDED: backlash not "
-            "measured");
+            "verdict against backlash=0.005 (ISO 14253-1, U k = 2): OUT OF TOLERANCE: backlash "
+            "not measured");
   EXPECT_EQ(verdict_line(kResults, kDiagnosis, ""),
             "no acceptance limits set (circtest run --limits H=MM,G=MM,F=MM): no verdict");
 }
