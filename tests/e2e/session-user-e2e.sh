@@ -12,6 +12,7 @@
 #                                     x-pos-fb); the marker output beside custom.hal's relay
 #   restart LinuxCNC, the operator homes and touches off (G10 L2 P1: the table's middle)
 #   circtest run, X jammed mid-run    a following error: said, incomplete, exit 5
+#   circtest run, X jammed at start   a following error before the first run: said, exit 5
 #   circtest run --start --yes        measured, diagnosed (each axis lags 1 / P), FF1 applied
 #   restart LinuxCNC
 #   circtest verify --start           the same program again: G well below G before
@@ -148,6 +149,20 @@ s=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
 [ -s "$s/trace.csv" ] || fail "following error: the trace is not kept"
 [ ! -e "$s/diagnosis.json" ] && [ ! -e "$s/apply.txt" ] || fail "following error: analysed or applied"
 rm -rf "$s"
+as_user halcmd setp pid.x.Pgain 40
+operator home
+# X jammed as the program starts: the following error trips before the first run's marker,
+# nothing is recorded; named from LinuxCNC's following error high mark of joint 0, exit 5.
+operator jam-at-start=pid.x.Pgain=0 &
+op=$!
+as_circtest "$work/ferror-early.out" run --ini "$ini" --start --yes --d 20 --f 1000
+cat "$work/ferror-early.out"
+wait $op || fail "X was not jammed at the start"
+[ $rc = 5 ] || fail "a following error before the first run: exit $rc, expected 5"
+grep -qF "circtest: the test is incomplete (joint 0 (X): a following error " "$work/ferror-early.out" &&
+  grep -qF "before its first run was recorded: its error reached" "$work/ferror-early.out" ||
+  fail "the following error before the first run is not said"
+rm -rf "$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)"
 as_user halcmd setp pid.x.Pgain 40
 operator home
 as_circtest "$work/run.out" run --ini "$ini" --start --yes
