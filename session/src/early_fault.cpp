@@ -63,9 +63,11 @@ EarlyFault early_fault(const EarlyEnd& e, const std::string& program,
                           f->ferror, kNothing),
               5};
     }
-    return {fmt::format("the test is incomplete (the machine was switched off {}, not by a "
-                        "following error of a logged joint: an amplifier fault, a limit "
-                        "switch or the operator; the machine's screen says which): {}",
+    return {fmt::format("the test is incomplete (the machine was switched off {}; no joint's "
+                        "following error high mark rose above its MIN_FERROR: an amplifier "
+                        "fault, a limit switch, the operator, or a following error no larger "
+                        "than an earlier one since LinuxCNC started; the machine's screen says "
+                        "which): {}",
                         at, kNothing),
             5};
   }

@@ -138,7 +138,9 @@ TEST(EarlyFault, AFollowingErrorFromTheLinksHighMark) {
   e.ferror = parse_ferror_event("0 0.009");
   f = early_fault(e, "program.ngc", limits);
   EXPECT_NE(f.line.find("the machine was switched off at line 9"), std::string::npos) << f.line;
-  EXPECT_NE(f.line.find("not by a following error"), std::string::npos) << f.line;
+  EXPECT_NE(f.line.find("no joint's following error high mark rose above its MIN_FERROR"),
+            std::string::npos)
+      << f.line;
   EXPECT_EQ(f.exit_code, 5);
   e.ferror.reset();
   EXPECT_EQ(early_fault(e, "program.ngc", limits).line, f.line);
