@@ -64,6 +64,14 @@ const std::set<std::string, std::less<>> kReservedKeys = {meta_key::sample_perio
                                                           kRunsAnnouncedKey,
                                                           kRunsMissingKey};
 
+}  // namespace
+
+bool recorder_key(std::string_view key) {
+  return kReservedKeys.count(key) > 0;
+}
+
+namespace {
+
 std::string format_seconds(double s) {
   return fmt::format("{:.9g}", s);
 }

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -73,6 +74,10 @@ struct RecordRequest {
 
 // How often the live copy (--live) gets the rows recorded since the last time.
 inline constexpr double kLiveFlush_s = 0.1;
+
+// Whether KEY is a metadata key the recorder writes itself (sample_period_s, rows, ...): a
+// program header or --condition may not state it.
+bool recorder_key(std::string_view key);
 
 // TEXT cut at each SEPARATOR, empty items kept ("a,,b," gives a, "", b, "").
 std::vector<std::string> split_on(const std::string& text, char separator);

@@ -25,8 +25,8 @@ constexpr const char* kUsage =
     "       circtest uninstall --ini MACHINE.ini\n"
     "       circtest run    --ini MACHINE.ini [--d MM] [--f F | --feeds F1,F2,...]\n"
     "                       [--plane XY|YZ|ZX|XY,YZ,ZX] [--centre X,Y,Z] [--clearance P]\n"
-    "                       [--start] [--yes] [--timeout S]\n"
-    "       circtest verify --ini MACHINE.ini [--start] [--timeout S]\n";
+    "                       [--start] [--yes] [--timeout S] [--limits H=MM,G=MM,F=MM]\n"
+    "       circtest verify --ini MACHINE.ini [--start] [--timeout S] [--limits ...]\n";
 
 std::string_view install_option_words(InstallSetting setting) noexcept {
   switch (setting) {
@@ -108,7 +108,8 @@ int run(int argc, char** argv) {
       "plane", po::value(&run_request.program.planes))("centre",
                                                        po::value(&run_request.program.centre_mm))(
       "clearance", po::value(&run_request.program.clearance_mm))("start", po::bool_switch(&start))(
-      "panel", po::bool_switch(&panel))("timeout", po::value(&timeout_text))("help,h", "");
+      "panel", po::bool_switch(&panel))("timeout", po::value(&timeout_text))(
+      "limits", po::value(&run_request.limits))("help,h", "");
   po::variables_map vm;
   try {
     refuse_option_placeholders(argc, argv);
@@ -129,6 +130,9 @@ int run(int argc, char** argv) {
     if (!feedback.empty() || !commanded.empty() || !instruments.empty()) {
       throw UsageError("--feedback, --command and --instrument are install's options");
     }
+    if (vm.count("limits") && run_request.limits.empty()) {
+      throw UsageError("--limits: expected H=MM,G=MM,F=MM (circana report's --limits)");
+    }
     run_request.ini_path = ini;
     run_request.start = start;
     if (!d_text.empty()) run_request.program.diameter_mm = parse_option_number("--d", d_text);
@@ -138,9 +142,10 @@ int run(int argc, char** argv) {
     return run_or_verify(command, run_request, console);
   }
   if (!d_text.empty() || !f_text.empty() || start || !timeout_text.empty() ||
-      !run_request.program.feeds_mm_per_min.empty() || !run_request.program.planes.empty()) {
+      !run_request.program.feeds_mm_per_min.empty() || !run_request.program.planes.empty() ||
+      vm.count("limits")) {
     throw UsageError(
-        "the program's options (--d, --f, --feeds, --plane, --start, --timeout) are "
+        "the program's options (--d, --f, --feeds, --plane, --start, --timeout, --limits) are "
         "run's and verify's");
   }
   if (command == "uninstall") {

@@ -30,6 +30,11 @@ std::vector<std::string> with(std::vector<std::string> a, const std::vector<std:
 
 }  // namespace
 
+std::vector<std::string> limits_args(const std::string& limits) {
+  if (limits.empty()) return {};
+  return {"--limits", limits};
+}
+
 Figures read_figures(const std::string& results_json) {
   Figures f;
   const auto j = nlohmann::json::parse(read_file(results_json));
@@ -78,7 +83,8 @@ int analyse_and_apply(const SessionSetup& setup, const RunRequest& request,
       rc != 0) {
     return rc;
   }
-  step(with({circana, "report", trace, "-o", (dir / "report.html").string()}, columns),
+  step(with(with({circana, "report", trace, "-o", (dir / "report.html").string()}, columns),
+            limits_args(request.limits)),
        dir / "report.txt", out, false);
   // Into the machine's history (circana's database): a failure there is said, not fatal.
   if (const int rc = step(with({circana, "diagnose", trace, "--store"}, columns),

@@ -91,11 +91,33 @@ bool said_following_error(const SessionSetup& setup, const std::string& trace, s
   }
 }
 
+// A fault before the first run was recorded (no run event, and the trace's trailer says no
+// run, or there is no trace): said in one line; its exit code, none when a run was recorded.
+std::optional<int> said_early_fault(const SessionSetup& setup, const std::string& program,
+                                    const std::string& trace, const std::optional<int>& segment,
+                                    const EarlyEnd& early, std::ostream& out) {
+  std::error_code ec;
+  const bool traced = std::filesystem::exists(trace, ec);
+  const std::string runs = traced ? trace_trailer(trace, "runs") : std::string();
+  if (segment || !(runs == "0" || !traced)) {
+    return std::nullopt;
+  }
+  std::vector<FerrorLimit> limits;
+  try {
+    limits = ferror_limits(IniDocument::load(setup.ini_path), setup.ini_path);
+  } catch (const Error&) {
+    // Without the limits a following error is said as the machine switched off.
+  }
+  const EarlyFault fault = early_fault(early, program, limits);
+  out << "circtest: " << fault.line << "\n";
+  return fault.exit_code;
+}
+
 }  // namespace
 
 RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
                             const std::string& program, const std::string& trace,
-                            const Console& console) {
+                            const std::string& step, const Console& console) {
   std::ostream& out = console.print();
   if (clear_markers(setup.marker_output, setup.segment_output)) {
     out << "circtest: the marker output was on (an aborted program): switched off (M65 P"
@@ -116,10 +138,12 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   } else {
     live += ".live.csv";
   }
-  Child recorder({tool_path("circlog-record"), "-o", trace, "--live", live, "--columns",
-                  join(setup.columns, ","), "--program", program, "--ini", setup.ini_path,
-                  "--until-idle", "2", "--machine", setup.machine_title},
-                 "-");
+  Child recorder(
+      {tool_path("circlog-record"), "-o", trace, "--live", live, "--columns",
+       join(setup.columns, ","), "--program", program, "--ini", setup.ini_path, "--until-idle", "2",
+       "--machine", setup.machine_title, "--condition", "circtest_step=" + step, "--condition",
+       "circtest_session=" + std::filesystem::path(trace).parent_path().filename().string()},
+      "-");
   if (terminal) {
     if (delay) {
       ::setenv("CIRCTEST_PROGRESS_AFTER_S", delay->c_str(), 1);
@@ -147,6 +171,7 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
       (std::filesystem::path(trace).parent_path() / ".run-figures.csv").string());
   std::string line, end;
   std::optional<int> segment;  // the run the marker is on for
+  EarlyEnd early;              // what the link said, for a fault before the first run
   bool override_changed = false;
   bool recorder_done = false;  // it ended by itself: every announced run recorded, then idle
   for (;;) {
@@ -154,6 +179,8 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
     if (got && !*got) break;
     if (got) {
       if (line.rfind("run ", 0) == 0) segment = std::atoi(line.c_str() + 4);
+      if (line.rfind("line ", 0) == 0) early.line = std::atoi(line.c_str() + 5);
+      if (line.rfind("ferror ", 0) == 0) early.ferror = parse_ferror_event(line.substr(7));
       show_event(line, request, out, progress, end, override_changed);
       if (line == "run-end" && segment) {
         if (const auto said = figures.finished(*segment)) {
@@ -171,6 +198,10 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
       linuxcnc.signal(SIGTERM);
       linuxcnc.wait();
       progress.clear();
+      early.servo_stopped = true;
+      if (const auto said = said_early_fault(setup, program, trace, segment, early, out)) {
+        return {*said};
+      }
       out << "circtest: the test is incomplete (the servo thread stopped: LinuxCNC quit?): "
           << trace << " keeps what was recorded; nothing analysed or applied\n";
       return {7};
@@ -178,6 +209,16 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   }
   const int link_rc = linuxcnc.wait();
   progress.clear();
+  early.end = end;
+  if (end == "idle" && !segment) {
+    // The program ended before the marker came on: an abort before the first run (nothing
+    // for the recorder to wait for).
+    recorder.signal(SIGINT);
+    recorder.wait();
+    if (const auto said = said_early_fault(setup, program, trace, segment, early, out)) {
+      return {*said};
+    }
+  }
   if (end == "idle" && !override_changed) {
     // The recorder ends by itself once every announced run is in and the marker stays off.
     int rc = recorder.wait_for(10);
@@ -206,6 +247,11 @@ RecordResult record_program(const SessionSetup& setup, const RunRequest& request
   }
   recorder.signal(SIGINT);
   recorder.wait();
+  if (!override_changed) {
+    if (const auto said = said_early_fault(setup, program, trace, segment, early, out)) {
+      return {*said};
+    }
+  }
   if (end == "off" && said_following_error(setup, trace, out)) return {5};
   const std::string why = end.empty() ? "the LinuxCNC link stopped" : end;
   out << "circtest: the test is incomplete ("

@@ -117,6 +117,7 @@ std::vector<std::string> evaluated_columns(const SessionSetup& setup, const std:
 
 RunOutcome run_session(const RunRequest& request, const Console& console) {
   std::ostream& out = console.print();
+  if (!request.limits.empty()) check_limits(request.limits);
   const SessionSetup setup = read_setup(request.ini_path);
   const MachineState state = machine_state();
   require_ready(state, request.ini_path);
@@ -142,15 +143,22 @@ RunOutcome run_session(const RunRequest& request, const Console& console) {
   write_file_atomic((dir / "work-origin.txt").string(),
                     fmt::format("{} {} {}\n", state.work_origin_machine_mm[0],
                                 state.work_origin_machine_mm[1], state.work_origin_machine_mm[2]));
+  if (!request.limits.empty()) session_limits(dir.string(), request.limits);
   out << "circtest: program " << program << " (checked against the soft limits from the work "
       << "offset in use)\n";
   const RecordResult rec =
-      record_program(setup, request, program, (dir / "trace.csv").string(), console);
+      record_program(setup, request, program, (dir / "trace.csv").string(), "run", console);
   if (rec.exit_code != 0) {
     outcome.exit_code = rec.exit_code;
     return outcome;
   }
   outcome.exit_code = analyse_and_apply(setup, request, dir.string(), console, outcome.applied);
+  if (outcome.exit_code == 0) {
+    out << "circtest: "
+        << verdict_line(read_file((dir / "results.json").string()),
+                        read_file((dir / "diagnosis.json").string()), request.limits)
+        << "\n";
+  }
   return outcome;
 }
 

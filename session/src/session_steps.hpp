@@ -1,5 +1,6 @@
 #pragma once
 // The steps of a session, shared by run and verify (internal to the session library).
+#include <array>
 #include <cstddef>
 #include <iosfwd>
 #include <optional>
@@ -49,9 +50,11 @@ struct RecordResult {
 // Opens PROGRAM in LinuxCNC, records it into TRACE while it runs (the operator's cycle start,
 // or request.start), and says what happened; a run that ends otherwise (abort, E-stop,
 // feed override changed, LinuxCNC gone, samples lost) keeps the trace and returns non-zero.
+// STEP ("run", "verify") and the session folder's name go into the trace's metadata
+// (circtest_step, circtest_session), and so into the history's conditions.
 RecordResult record_program(const SessionSetup& setup, const RunRequest& request,
                             const std::string& program, const std::string& trace,
-                            const Console& console);
+                            const std::string& step, const Console& console);
 
 // A joint's following-error limit as LinuxCNC's motion applies it ([JOINT_n] FERROR at
 // MAX_VELOCITY, never below MIN_FERROR; machine units, [TRAJ] LINEAR_UNITS).
@@ -82,6 +85,60 @@ std::optional<FollowingError> find_following_error(const Trace& trace,
                                                    const std::vector<FerrorLimit>& limits);
 // What the session says of it, in one line (without the "circtest: " prefix).
 std::string following_error_line(const FollowingError& error, const std::string& trace);
+
+// The LinuxCNC link's `ferror JOINT ERROR` event: a joint whose following error high mark
+// (LinuxCNC's ferror_highmark) rose during the program above its MIN_FERROR, said before
+// `end off`.
+struct LinkFerror {
+  int joint = 0;
+  double error = 0;  // machine units
+};
+// None when REST is not "JOINT ERROR".
+std::optional<LinkFerror> parse_ferror_event(const std::string& rest);
+// How a program ended before its first run was recorded (the trace's runs: 0).
+struct EarlyEnd {
+  std::string end;             // the link's end event: idle, estop, off, gone, timeout, error ...
+  bool servo_stopped = false;  // the recorder stopped with the servo thread: LinuxCNC quit
+  int line = 0;                // the program's line LinuxCNC last reported, 0 none
+  std::optional<LinkFerror> ferror;
+};
+struct EarlyFault {
+  std::string line;   // what the session says, without the "circtest: " prefix
+  int exit_code = 5;  // as the same fault mid-run: 7 LinuxCNC quit, else 5
+};
+// Names the fault in one line: an abort (idle), an E-stop, a following error (off with the
+// link's ferror over the joint's MIN_FERROR of LIMITS), the machine off otherwise, LinuxCNC
+// quitting, a timeout.
+EarlyFault early_fault(const EarlyEnd& end, const std::string& program,
+                       const std::vector<FerrorLimit>& limits);
+
+// verify's refusal when the work offset is not the session's (per axis more than
+// kSameOriginMm apart): which axes moved, that LinuxCNC may not have saved its offsets at the
+// last shutdown (PARAMETER_FILE: [RS274NGC] PARAMETER_FILE), what to do, and the session's
+// offset (ORIGIN_FILE: work-origin.txt).
+inline constexpr double kSameOriginMm = 1e-6;
+std::string offset_moved_message(const std::array<double, 3>& recorded_mm,
+                                 const std::array<double, 3>& now_mm,
+                                 const std::string& origin_file, const std::string& parameter_file);
+
+// circana report's options for LIMITS: none when empty.
+std::vector<std::string> limits_args(const std::string& limits);
+
+// The session's acceptance limits: `--limits` as circana report takes them
+// (H=MM,G=MM,F=MM,backlash=MM,squareness=URAD), kept as limits.txt in the session folder.
+inline constexpr const char* kLimitsFile = "limits.txt";
+// Throws UsageError (exit 2) naming --limits for text circana report would refuse.
+void check_limits(const std::string& text);
+// GIVEN not empty: written to DIR/limits.txt (run's, or verify's override) and returned;
+// else the limits kept there, empty when none.
+std::string session_limits(const std::string& dir, const std::string& given);
+// The verdict of a test (circana analyze's result JSON text, circana diagnose's JSON text or
+// empty) against LIMITS, by ISO 14253-1 with U as the report decides it: "verdict against
+// H=0.015 (ISO 14253-1, U k = 2): within the limits: H 5.6 + U 1.2 <= 15.0 um"; OUT OF
+// TOLERANCE when one fails or is not measured (as the report's banner), NOT DECIDED when one
+// is not decided; a line saying there is none without limits.
+std::string verdict_line(const std::string& results_text, const std::string& diagnosis_text,
+                         const std::string& limits);
 
 // The servo thread's periods in a trace: the servo_period channel (circtest install:
 // motion.servo.last-period, CPU clocks in LinuxCNC 2.9, ns later) against the thread's own

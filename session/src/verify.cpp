@@ -1,10 +1,13 @@
 #include <fmt/format.h>
+#include <array>
+#include <cmath>
 #include <filesystem>
 #include <ostream>
 #include <sstream>
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
+#include "circtest/core/ini.hpp"
 #include "circtest/session/linuxcnc.hpp"
 #include "circtest/session/process.hpp"
 #include "session_steps.hpp"
@@ -32,18 +35,57 @@ fs::path latest_applied(const SessionSetup& setup) {
 }
 
 // The same work offset as the session's run: the program's soft-limit check holds for it.
-void require_same_origin(const fs::path& dir, const MachineState& state) {
-  std::istringstream in(read_file((dir / "work-origin.txt").string()));
+void require_same_origin(const fs::path& dir, const MachineState& state,
+                         const SessionSetup& setup) {
+  const fs::path file = dir / "work-origin.txt";
+  std::istringstream in(read_file(file.string()));
+  std::array<double, 3> recorded{};
+  for (double& v : recorded) {
+    if (!(in >> v)) throw ParseError(file.string(), 1, "expected the X, Y and Z of the offset");
+  }
   for (std::size_t i = 0; i < 3; ++i) {
-    double v = 0;
-    in >> v;
-    if (std::abs(v - state.work_origin_machine_mm[i]) > 1e-6) {
-      throw HalError(
-          fmt::format("the work offset moved since the session's run ({} of axis {} "
-                      "was {:.4f} mm, is {:.4f} mm): set it back",
-                      "origin", "XYZ"[i], v, state.work_origin_machine_mm[i]));
+    if (std::abs(recorded[i] - state.work_origin_machine_mm[i]) > kSameOriginMm) {
+      const IniDocument ini = IniDocument::load(setup.ini_path);
+      throw HalError(offset_moved_message(recorded, state.work_origin_machine_mm, file.string(),
+                                          ini.get("RS274NGC", "PARAMETER_FILE").value_or("")));
     }
   }
+}
+
+// verify-trace.csv evaluated (verify-results.json), diagnosed (verify-diagnosis.json),
+// stored in the history as run's test is (verify-history.txt; a failure there is a note),
+// and the hand-over report of after and before with LIMITS.
+int evaluate_verify(const SessionSetup& setup, const RunRequest& request, const fs::path& dir,
+                    const std::string& limits, std::ostream& out) {
+  const std::string after = (dir / "verify-trace.csv").string();
+  std::vector<std::string> columns = evaluated_columns(setup, request.program.planes);
+  const std::string circana = tool_path("circana");
+  const auto with_columns = [&columns](std::vector<std::string> argv) {
+    argv.insert(argv.end(), columns.begin(), columns.end());
+    return argv;
+  };
+  if (const int rc = run_program(with_columns({circana, "analyze", after, "--json"}),
+                                 (dir / "verify-results.json").string());
+      rc != 0) {
+    return rc;
+  }
+  if (const int rc = run_program(with_columns({circana, "diagnose", after, "--json"}),
+                                 (dir / "verify-diagnosis.json").string());
+      rc != 0) {
+    return rc;
+  }
+  if (const int rc = run_program(with_columns({circana, "diagnose", after, "--store"}),
+                                 (dir / "verify-history.txt").string());
+      rc != 0) {
+    out << "circtest: note: the verify test is not stored in the history (circana exit " << rc
+        << ", see above)\n";
+  }
+  std::vector<std::string> report =
+      with_columns({circana, "report", after, (dir / "trace.csv").string(), "-o",
+                    (dir / "report.html").string()});
+  const auto l = limits_args(limits);
+  report.insert(report.end(), l.begin(), l.end());
+  return run_program(report, (dir / "report.txt").string());
 }
 
 std::string um(double mm) {
@@ -72,34 +114,28 @@ bool got_worse(const Figures& before, const Figures& after) {
 
 RunOutcome verify_session(const RunRequest& request, const Console& console) {
   std::ostream& out = console.print();
+  if (!request.limits.empty()) check_limits(request.limits);
   const SessionSetup setup = read_setup(request.ini_path);
   const fs::path dir = latest_applied(setup);
+  // The session's limits (limits.txt) unless given again: checked before any motion.
+  const std::string limits =
+      request.limits.empty() ? session_limits(dir.string(), "") : request.limits;
   const MachineState state = machine_state();
   require_ready(state, request.ini_path);
   require_circlog(setup.columns.size());
-  require_same_origin(dir, state);
+  require_same_origin(dir, state, setup);
   out << "circtest: verifying session " << dir.string() << ": its program again\n";
   RunOutcome outcome;
   outcome.session_dir = dir.string();
   const std::string after = (dir / "verify-trace.csv").string();
   const RecordResult rec =
-      record_program(setup, request, (dir / "program.ngc").string(), after, console);
+      record_program(setup, request, (dir / "program.ngc").string(), after, "verify", console);
   if (rec.exit_code != 0) {
     outcome.exit_code = rec.exit_code;
     return outcome;
   }
-  std::vector<std::string> columns = evaluated_columns(setup, request.program.planes);
-  const std::string circana = tool_path("circana");
-  std::vector<std::string> analyze = {circana, "analyze", after, "--json"};
-  analyze.insert(analyze.end(), columns.begin(), columns.end());
-  if (const int rc = run_program(analyze, (dir / "verify-results.json").string()); rc != 0) {
-    outcome.exit_code = rc;
-    return outcome;
-  }
-  std::vector<std::string> report = {
-      circana, "report", after, (dir / "trace.csv").string(), "-o", (dir / "report.html").string()};
-  report.insert(report.end(), columns.begin(), columns.end());
-  if (const int rc = run_program(report, (dir / "report.txt").string()); rc != 0) {
+  if (!request.limits.empty()) session_limits(dir.string(), request.limits);
+  if (const int rc = evaluate_verify(setup, request, dir, limits, out); rc != 0) {
     outcome.exit_code = rc;
     return outcome;
   }
@@ -108,6 +144,10 @@ RunOutcome verify_session(const RunRequest& request, const Console& console) {
   const std::string table = verify_table(before, now);
   write_file_atomic((dir / "verify.txt").string(), table);
   out << table << "circtest: the hand-over report: " << (dir / "report.html").string() << "\n";
+  out << "circtest: "
+      << verdict_line(read_file((dir / "verify-results.json").string()),
+                      read_file((dir / "verify-diagnosis.json").string()), limits)
+      << "\n";
   outcome.worse = got_worse(before, now);
   if (outcome.worse) {
     out << fmt::format(

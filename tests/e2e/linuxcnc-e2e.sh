@@ -82,7 +82,8 @@ stop_linuxcnc() {
 }
 
 # The operator: E-stop released, machine on, and (with `home`) homed, through LinuxCNC's
-# Python interface; `mdi=LINE` runs LINE by MDI (a touch-off); `jam=PIN=VALUE` (below). As the command prefix e2e_as
+# Python interface; `mdi=LINE` runs LINE by MDI (a touch-off); `jam=PIN=VALUE`,
+# `jam-at-start=PIN=VALUE`, `estop-at-start` (below). As the command prefix e2e_as
 # (an array) when it is set: a script's own user.
 operator() {
   ${e2e_as[@]+"${e2e_as[@]}"} /usr/bin/python3 - "$1" <<'PY'
@@ -108,6 +109,18 @@ while True:
     elif s.task_state in (linuxcnc.STATE_ESTOP_RESET, linuxcnc.STATE_OFF): c.state(linuxcnc.STATE_ON)
     time.sleep(0.5)
 mode = sys.argv[1]
+if mode == "estop-at-start":
+    # An E-stop as soon as the program starts: before its operator pause, so before the
+    # marker output of its first run can come on.
+    end = time.time() + 180
+    while time.time() < end:
+        s.poll()
+        if s.interp_state != linuxcnc.INTERP_IDLE: break
+        time.sleep(0.005)
+    else:
+        sys.exit("the program did not start")
+    c.state(linuxcnc.STATE_ESTOP)
+    sys.exit(0)
 if mode in ("abort", "estop", "quit"):
     # Mid-run: 0.3 s into the program's first run when CIRCTEST_MARKER names its marker output,
     # else 3 s after it starts; as an operator pressing Stop or E-stop, or LinuxCNC quitting
@@ -192,6 +205,14 @@ if mode == "latency":
             children.append(pid)
         for pid in children: os.waitpid(pid, 0)
         time.sleep(0.2)
+    sys.exit(0)
+if mode.startswith("jam-at-start="):
+    # A jammed axis as the program starts (`jam-at-start=PIN=VALUE`): before its first run's
+    # marker, so its first move trips the following error.
+    import subprocess
+    pin, value = mode[len("jam-at-start="):].split("=")
+    wait(lambda: s.interp_state != linuxcnc.INTERP_IDLE, "the program's start")
+    subprocess.run(["halcmd", "setp", pin, value], check=True)
     sys.exit(0)
 if mode.startswith("jam="):
     # A jammed axis mid-run (`jam=PIN=VALUE`, e.g. a pid's Pgain to 0: its drive stops while

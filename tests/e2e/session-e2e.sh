@@ -8,10 +8,13 @@
 #   circtest run (feed override 80 %) refused, exit 7
 #   circtest run --d 700              beyond the soft limits: circgen refuses, exit 6
 #   circtest run, aborted / E-stop    incomplete, exit 5: the trace kept, nothing applied
-#   circtest run --start --yes        measured, diagnosed, corrections applied
+#   circtest run, E-stop at its start named (before the first run), exit 5
+#   circtest run --start --yes --limits  measured, diagnosed, corrections applied, verdict
 #   restart LinuxCNC
+#   circtest verify, work offset moved   refused, exit 7, the session's offset said
 #   circtest verify                   the same program again (the operator's cycle start):
-#                                     before/after
+#                                     before/after, verdict by the session's limits, stored
+#                                     in the history as the session's verify
 #   LinuxCNC quitting mid-run         incomplete, exit 7
 # Checked against the injected errors (the diagnosis's backlash, squareness, scale of X) and
 # the corrections' effect (G after well below G before).
@@ -97,14 +100,18 @@ expect_refusal 6 "MIN_LIMIT" run --ini "$ini" --start --yes --d 700
 # The operator's faults come inside a run, whatever the load: once the marker output is on.
 CIRCTEST_MARKER=$(sed -n 's/^MARKER_OUTPUT *= *//p' "$ini")
 export CIRCTEST_MARKER
-# An abort and an E-stop mid-run (a short program): incomplete, nothing analysed or applied.
-for fault in abort estop; do
+# An abort and an E-stop mid-run (a short program): incomplete, nothing analysed or applied;
+# an E-stop as the program starts, before its first run's marker: named as such, exit 5 too.
+for fault in abort estop estop-at-start; do
   operator "$fault" &
   op=$!
-  expect_refusal 5 "the test is incomplete" run --ini "$ini" --start --yes --d 20 --f 2000
+  said="the test is incomplete"
+  [ "$fault" != estop-at-start ] ||
+    said="the test is incomplete (E-stop in program.ngc, before its first run was recorded)"
+  expect_refusal 5 "$said" run --ini "$ini" --start --yes --d 20 --f 2000
   wait $op || fail "the $fault did not happen"
   s=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
-  [ -s "$s/trace.csv" ] || fail "$fault: the trace is not kept"
+  [ "$fault" = estop-at-start ] || [ -s "$s/trace.csv" ] || fail "$fault: the trace is not kept"
   [ ! -e "$s/diagnosis.json" ] && [ ! -e "$s/apply.txt" ] || fail "$fault: analysed or applied"
   rm -rf "$s"
   operator home
@@ -132,7 +139,8 @@ rm -rf "$s"
 # late periods (this PC under load; with the build beside it the servo thread stalled 100 ms)
 # are said and the session goes on.
 "$ini_tool" set "$ini" CIRCTEST LATE_SERVO_PERIODS note
-"$circtest" run --ini "$ini" --start --yes --d 100 --f 1000 >"$work/run.out" ||
+limits=H=0.015,G=0.020
+"$circtest" run --ini "$ini" --start --yes --d 100 --f 1000 --limits $limits >"$work/run.out" ||
   { rc=$?; cat "$work/run.out"; fail "circtest run (exit $rc)"; }
 cat "$work/run.out"
 # The progress without a terminal: plain lines per run and quarter; the servo thread's line.
@@ -142,12 +150,35 @@ for text in "XY run 1 of 2 (CCW F1000): recording" "XY run 2 of 2 (CW F1000): 75
 done
 session=$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)
 grep -q "^Stored as test 1 of machine" "$session/history.txt" || fail "not stored in the history"
-for f in program.ngc trace.csv results.json diagnosis.json plan.diff apply.txt report.html; do
+for f in program.ngc trace.csv results.json diagnosis.json plan.diff apply.txt report.html \
+  limits.txt; do
   [ -s "$session/$f" ] || fail "the session folder has no $f"
 done
+# The verdict against the limits, said as the report states it (its banner).
+check_verdict() {
+  local said
+  said=$(grep -o "^circtest: verdict against $limits (ISO 14253-1, U k = 2): [A-Za-z ]*" "$1" |
+    sed 's/.*: //') || fail "$1: no verdict against $limits"
+  echo "verdict: $said"
+  case "$said" in
+  "within the limits") grep -q 'data-verdict="PASS"' "$session/report.html" ;;
+  "OUT OF TOLERANCE") grep -q 'data-verdict="FAIL"' "$session/report.html" ;;
+  "NOT DECIDED") grep -q 'data-verdict="OPEN"' "$session/report.html" ;;
+  *) false ;;
+  esac || fail "the report's verdict is not the one said ($said)"
+}
+check_verdict "$work/run.out"
 stop_linuxcnc
 start_linuxcnc
 operator home
+# The work offset is not the session's (LinuxCNC did not save a touch-off at its shutdown, or
+# it was changed): refused before any motion, with the session's offset and what to do.
+read -r x0 _ <"$session/work-origin.txt"
+operator "mdi=G10 L2 P1 X$(/usr/bin/python3 -c "print('%.6f' % ($x0 + 5))")"
+expect_refusal 7 "LinuxCNC may not have saved its work offsets at the last shutdown" \
+  verify --ini "$ini"
+grep -qF "work-origin.txt): X " "$work/refusal.out" || fail "the session's offset is not said"
+operator "mdi=G10 L2 P1 X$(/usr/bin/python3 -c "print('%.6f' % $x0)")"
 # verify as an operator runs it: circtest opens the program, the operator presses cycle start.
 operator cycle-start &
 op=$!
@@ -156,6 +187,23 @@ op=$!
 cat "$work/verify.out"
 wait $op || fail "the operator's cycle start"
 grep -q "press cycle start on the machine" "$work/verify.out" || fail "verify did not ask for cycle start"
+# verify judged by the session's limits (not given again), its test stored in the history
+# beside the run's, marked as the verify of that session.
+check_verdict "$work/verify.out"
+grep -q "^Stored as test 2 of machine" "$session/verify-history.txt" ||
+  fail "verify's test not stored in the history"
+title=$(sed -n 's/^MACHINE *= *//p' "$ini" | head -n 1)
+"$build/analysis/circana" history --machine "$title" --json >"$work/history.json" ||
+  fail "circana history (exit $?)"
+/usr/bin/python3 - "$work/history.json" "$(basename "$session")" <<'PY' || fail "the history"
+import json, sys
+tests = json.load(open(sys.argv[1]))["tests"]
+steps = [(t["conditions"].get("circtest_step"), t["conditions"].get("circtest_session"))
+         for t in tests]
+print("history: %s" % steps)
+if steps != [("run", sys.argv[2]), ("verify", sys.argv[2])]:
+    sys.exit("FAIL: expected the session's run and verify tests")
+PY
 # LinuxCNC quitting mid-run: said, the trace kept, exit 7 (F600: each run 6 s, so that LinuxCNC,
 # slow to shut down beside a build, stops inside the program).
 operator quit &

@@ -12,6 +12,7 @@
 #                                     x-pos-fb); the marker output beside custom.hal's relay
 #   restart LinuxCNC, the operator homes and touches off (G10 L2 P1: the table's middle)
 #   circtest run, X jammed mid-run    a following error: said, incomplete, exit 5
+#   circtest run, X jammed at start   a following error before the first run: said, exit 5
 #   circtest run --start --yes        measured, diagnosed (each axis lags 1 / P), FF1 applied
 #   restart LinuxCNC
 #   circtest verify --start           the same program again: G well below G before
@@ -132,10 +133,25 @@ for p in milltask halui io; do
 done
 operator home
 operator "mdi=G10 L2 P1 X200 Y150 Z-50"
+CIRCTEST_MARKER=$(sed -n 's/^MARKER_OUTPUT *= *//p' "$ini")
+# X jammed as the program starts: its move to the start trips the following error before the
+# first run's marker, nothing is recorded; named from LinuxCNC's following error high mark of
+# joint 0 (first: a later following error must go beyond an earlier one to raise it), exit 5.
+operator jam-at-start=pid.x.Pgain=0 &
+op=$!
+as_circtest "$work/ferror-early.out" run --ini "$ini" --start --yes --d 20 --f 1000
+cat "$work/ferror-early.out"
+wait $op || fail "X was not jammed at the start"
+[ $rc = 5 ] || fail "a following error before the first run: exit $rc, expected 5"
+grep -qF "circtest: the test is incomplete (joint 0 (X): a following error " "$work/ferror-early.out" &&
+  grep -qF "before its first run was recorded: its error reached" "$work/ferror-early.out" ||
+  fail "the following error before the first run is not said"
+rm -rf "$(ls -d "$machine"/circtest-sessions/*/ | tail -n 1)"
+as_user halcmd setp pid.x.Pgain 40
+operator home
 # A following error mid-run (X jammed: its pid's gain 0 once the run records, so the motor
 # stops while the command goes on): said in one line, the trace kept, nothing analysed or
 # applied, exit 5.
-CIRCTEST_MARKER=$(sed -n 's/^MARKER_OUTPUT *= *//p' "$ini")
 operator jam=pid.x.Pgain=0 &
 op=$!
 as_circtest "$work/ferror.out" run --ini "$ini" --start --yes --d 20 --f 1000

@@ -81,6 +81,23 @@ TEST(CirclogRecordOptions, TestConditionsBecomeMetadataKeys) {
   EXPECT_THROW(parse({"-o", "a", "--notes", "two\nlines"}), circtest::UsageError);
 }
 
+// --condition KEY=VALUE: any other condition as a metadata key (circtest verify marks its
+// trace so); the recorder's own keys, a channel's description, a named condition refused.
+TEST(CirclogRecordOptions, AnotherConditionBecomesAMetadataKey) {
+  const auto o = parse({"-o", "a.csv", "--condition", "circtest_step=verify", "--operator", "A",
+                        "--condition", "coolant= off "});
+  ASSERT_TRUE(o);
+  using KV = std::pair<std::string, std::string>;
+  EXPECT_EQ(o->conditions,
+            (std::vector<KV>{{"operator", "A"}, {"circtest_step", "verify"}, {"coolant", "off"}}));
+  for (const char* bad : {"novalue", "=verify", "circtest_step=", "two words=x", "rows=3",
+                          "sample_period_s=0.001", "channel.x=grid", "machine=VMC"}) {
+    EXPECT_THROW(parse({"-o", "a", "--condition", bad}), circtest::UsageError) << bad;
+  }
+  EXPECT_THROW(parse({"-o", "a", "--condition", "k=1", "--condition", "k=2"}),
+               circtest::UsageError);
+}
+
 TEST(CirclogRecordOptions, RefusesBadValues) {
   EXPECT_THROW(parse({}), circtest::UsageError);
   EXPECT_THROW(parse({"-o", "a", "--columns", "x,x"}), circtest::UsageError);

@@ -36,12 +36,38 @@ bool valid_name(const std::string& name) {
   });
 }
 
+// --condition KEY=VALUE: a key the recorder writes itself, a channel's description or one of
+// the named condition options (--machine, ...) is refused; the value as those take theirs.
+void add_condition(const std::string& item, std::vector<std::pair<std::string, std::string>>& out) {
+  const auto eq = item.find('=');
+  const std::string key = item.substr(0, eq);
+  if (eq == std::string::npos || !valid_name(key)) {
+    throw UsageError(fmt::format(
+        "--condition '{}': expected KEY=VALUE, KEY of letters, digits, '_', '-', '.'", item));
+  }
+  if (recorder_key(key) || key.rfind(meta_key::channel_prefix, 0) == 0) {
+    throw UsageError(fmt::format("--condition {}: a key circlog-record writes itself", key));
+  }
+  for (const auto& c : condition_options()) {
+    if (key == c.key) {
+      throw UsageError(fmt::format("--condition {}: give it as --{}", key, c.option));
+    }
+  }
+  const ConditionOption option{"condition", key.c_str(), "VALUE", "", false};
+  const std::string value = condition_value(option, item.substr(eq + 1));
+  if (std::any_of(out.begin(), out.end(), [&](const auto& kv) { return kv.first == key; })) {
+    throw UsageError(fmt::format("--condition {}: given twice", key));
+  }
+  out.emplace_back(key, value);
+}
+
 }  // namespace
 
 std::optional<RecordRequest> parse_options(int argc, const char* const* argv, std::FILE* out) {
   RecordRequest o;
   std::string columns;
   std::vector<std::string> describe;
+  std::vector<std::string> conditions;
   double duration = 0.0;
   double idle = 0.0;
   po::options_description desc(
@@ -54,7 +80,10 @@ std::optional<RecordRequest> parse_options(int argc, const char* const* argv, st
       "positions are x,y,z, commanded positions x_cmd,y_cmd,z_cmd")(
       "describe", po::value(&describe)->value_name("NAME=TEXT")->composing(),
       "a description of a channel, written as metadata channel.NAME (repeatable)")(
-      "duration", po::value(&duration)->value_name("S"), "stop after S seconds of servo time")(
+      "condition", po::value(&conditions)->value_name("KEY=VALUE")->composing(),
+      "another condition of the test (clause 4.4), written as metadata KEY (repeatable; "
+      "circtest verify: circtest_step=verify)")("duration", po::value(&duration)->value_name("S"),
+                                                "stop after S seconds of servo time")(
       "until-idle", po::value(&idle)->value_name("S"),
       "stop once a run was recorded and enable has then stayed false for S seconds (the "
       "program has finished); with --program, only once every run the program announces "
@@ -148,6 +177,7 @@ std::optional<RecordRequest> parse_options(int argc, const char* const* argv, st
     if (vm.count(c.option))
       o.conditions.emplace_back(c.key, condition_value(c, condition_values[i]));
   }
+  for (const auto& c : conditions) add_condition(c, o.conditions);
   for (const auto& d : describe) {
     const auto eq = d.find('=');
     if (eq == std::string::npos || eq == 0) {

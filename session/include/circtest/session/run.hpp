@@ -24,6 +24,9 @@ struct RunRequest {
   TestProgram program;
   bool start = false;         // start the program and answer its operator pauses
   double timeout_s = 3600.0;  // the longest the program may take from cycle start
+  // Acceptance limits, "H=0.015,G=0.02" as circana report --limits takes them; empty: run
+  // sets none, verify takes the session's (limits.txt).
+  std::string limits;
 };
 
 struct RunOutcome {
