@@ -13,7 +13,7 @@ BUILD_DIR=${CIRCTEST_BUILD_DIR:-build}
 full_run=0
 # The full run leaves out the label soak (circlog for 10 minutes: `scripts/test.sh -L soak`).
 if [ $# -eq 0 ]; then full_run=1; set -- -LE soak; fi
-# The full run (CI) builds twice: the main build (Release, gcc: the programs, the realtime
+# The full run (CI) builds twice: the main build (Release, clang -O2: the programs, the realtime
 # modules and the tests) and the sanitizer build (scripts/sanitize.sh: clang, ASan/UBSan,
 # libFuzzer) of the parts that read users' files and write the configuration
 # (CIRCTEST_SANITIZE_SCOPE=inputs: core, compensation, session, the HAL kernels and the
