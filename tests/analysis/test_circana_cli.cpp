@@ -291,6 +291,29 @@ TEST_F(CircanaCli, DiagnoseOfASimulatedMachine) {
                "got 'X=-1'");
 }
 
+// An axis that follows its command (no lag: FF1 1, a stepgen) with measurement noise: its lag
+// is zero within its standard error, and 1 / lag is no position gain to print.
+TEST_F(CircanaCli, ALagWithinItsUncertaintyOfZeroGivesNoPositionGain) {
+  const std::string trace = (dir_ / "nolag.csv").string();
+  ASSERT_EQ(simtrace("-o " + trace + " --noise 0.0002 --seed 3 --period 0.002"), 0);
+  const CommandResult text = run("diagnose " + trace);
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  std::istringstream lines(text.out);
+  int axes = 0;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find(" servo lag ") == std::string::npos || line.find("mismatch") != std::string::npos)
+      continue;
+    ++axes;
+    EXPECT_TRUE(line.find("position gain not measurable") != std::string::npos ||
+                line.find("position gain not positive") != std::string::npos)
+        << line;
+  }
+  EXPECT_EQ(axes, 2) << text.out;
+  EXPECT_NE(text.out.find("position gain not measurable (the lag is within its uncertainty"),
+            std::string::npos)
+      << text.out;
+}
+
 TEST_F(CircanaCli, RadialTraceGivesTheResultsOfItsXyForm) {
   const std::string trace = (dir_ / "bar.csv").string();
   ASSERT_EQ(

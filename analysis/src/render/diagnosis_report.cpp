@@ -39,9 +39,14 @@ void servo_axis_lines(const Diagnosis& d, std::string& s) {
       fmt::format_to(out, "  {} servo lag: not measured\n", d.axes[k]);
       continue;
     }
+    // A lag within twice its standard error of zero gives no gain worth a number (1 / lag).
+    const double lag_se_ms = al.lag_ms.standard_error.value_or(0);
+    const std::string gain = !al.kv_per_s ? "not positive"
+                             : *al.lag_ms.value <= 2 * lag_se_ms
+                                 ? "not measurable (the lag is within its uncertainty of 0)"
+                                 : fmt::format("{:.2f} 1/s", *al.kv_per_s);
     fmt::format_to(out, "  {} servo lag {:.3f} ms (+- {:.3f}), position gain {} (from the {})\n",
-                   d.axes[k], *al.lag_ms.value, al.lag_ms.standard_error.value_or(0),
-                   al.kv_per_s ? fmt::format("{:.2f} 1/s", *al.kv_per_s) : "not positive",
+                   d.axes[k], *al.lag_ms.value, lag_se_ms, gain,
                    al.source == "feedback"     ? "motor feedback"
                    : al.source == "instrument" ? "instrument"
                                                : "radius change over the feeds");

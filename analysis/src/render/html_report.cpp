@@ -598,7 +598,7 @@ bool html::internal_item(const ReportItem& item) {
 }
 
 DiagnosisChart diagnosis_chart(const Diagnosis& d) {
-  DiagnosisChart c{d.source, d.plane, d.contributions, d.model_g_mm, d.residual_g_mm, {}, {}};
+  DiagnosisChart c{d.source, d.plane, d.contributions, d.model_g_mm, d.residual_g_mm, {}, {}, {}};
   for (const Estimate& b : d.backlash_mm) {
     if (b.value) c.backlash_mm = std::max(c.backlash_mm.value_or(0.0), std::abs(*b.value));
   }
