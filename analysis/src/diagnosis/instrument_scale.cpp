@@ -1,0 +1,267 @@
+// The axes' absolute scale where the circle alone cannot give it without a loop model: from the
+// instrument against the motor feedback when the trace has both, else the circle's figure
+// with the amplitude response a loop the trace cannot see may add at the test's angular speed
+// (docs/diagnosis.md, "Scale against the feedback").
+#include <fmt/format.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "circtest/core/diagnosis_keys.hpp"
+#include "circtest/core/trace_keys.hpp"
+#include "stages.hpp"
+
+namespace circtest::diagnosis_detail {
+
+namespace {
+
+// A sample enters the feedback fit only where its axis moves at least this share of the path
+// speed: around a reversal the motor crosses the play window while the table stands.
+constexpr double kMinSpeedShare = 0.3;
+// The trace's instrument columns are the feedback themselves when they never differ by more.
+constexpr double kSameColumnMm = 1e-9;
+// Robust refit: samples further from the first fit than this many robust standard deviations
+// (1.4826 MAD) are left out of the second.
+constexpr double kOutlierSigmas = 5.0;
+// What a position loop may add to the axes' amplitude beyond the first-order loss of its lag,
+// relative, per (rad/s)^2 of angular speed: a loop with a drive of time constant tau_v under a
+// position gain P (and any FF1) has |H(jw)| = 1 - w^2 / (2 P^2) + w^2 tau_v / P + O(w^4); the
+// lag the trace measures shows the first part only (none at FF1 = 1). Bound: tau_v / P of a
+// 6 ms drive under P = 30 1/s (configs/sim-servo's slowest axis is 6 ms / 31 1/s); servo
+// drives with velocity loops of 1-3 ms and P of 20-60 1/s stay below it.
+constexpr double kLoopSecondOrderS2 = 2e-4;
+// A bound on the scale above this cannot tell a scale from the servo at all: circcomp's own
+// plausibility bound on a scale correction (compensation/src/plan/axis_tables.cpp).
+constexpr double kMaxLoopBoundPpm = 500.0;
+
+constexpr std::size_t kColumns = 4;  // offset, position, direction of motion, other axis
+
+struct AxisScale {
+  double scale = 0.0, se = 0.0;
+  std::size_t samples = 0;
+};
+
+using Row = Eigen::Matrix<double, kColumns, 1>;
+
+struct LinearFit {
+  Row x;
+  AxisScale scale;
+};
+
+// Least squares of d = instrument - feedback on the columns X over the samples KEEP marks.
+std::optional<LinearFit> solve(const std::vector<Row>& x, const std::vector<double>& d,
+                               const std::vector<char>& keep) {
+  Eigen::Matrix<double, kColumns, kColumns> ata = Eigen::Matrix<double, kColumns, kColumns>::Zero();
+  Row atb = Row::Zero();
+  double btb = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    if (!keep[i]) continue;
+    ata += x[i] * x[i].transpose();
+    atb += x[i] * d[i];
+    btb += d[i] * d[i];
+    ++n;
+  }
+  if (n < 4 * kColumns) return std::nullopt;
+  const Eigen::LDLT<Eigen::Matrix<double, kColumns, kColumns>> ldlt(ata);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
+  const Row sol = ldlt.solve(atb);
+  const double rss = std::max(0.0, btb - sol.dot(atb));
+  const double sigma2 = rss / static_cast<double>(n - kColumns);
+  const double var = ldlt.solve(Row::Unit(1))(1);
+  if (!sol.allFinite() || !(var > 0)) return std::nullopt;
+  return LinearFit{sol, {sol(1), std::sqrt(sigma2 * var), n}};
+}
+
+// Axis AX's scale from its instrument column against its feedback column: d = s (fb - centre)
+// + offset + play / 2 (direction of motion) + a squareness-like term in the other axis; a
+// second fit without the first's outliers (a glitch of one channel).
+std::optional<AxisScale> fit_axis(const TraceDescription& td, const SampleSet& ss, int ax,
+                                  const std::vector<double>& fb,
+                                  const std::vector<double>& other_fb) {
+  const Samples& S = ss.S;
+  const std::vector<double>& col = ax == 0 ? td.col_a : td.col_b;
+  const double centre = ax == 0 ? ss.ca : ss.cb, other_centre = ax == 0 ? ss.cb : ss.ca;
+  std::vector<Row> x;
+  std::vector<double> d;
+  for (std::size_t i = 0; i < S.size(); ++i) {
+    const RunInfo& r = S.runs[S.run[i]];
+    // The axis' speed over the path speed is |sin| for A, |cos| for B; its direction
+    // -dir sgn(sin) for A, dir sgn(cos) for B.
+    const double share = ax == 0 ? S.s[i] : S.c[i];
+    if (!(std::abs(share) >= kMinSpeedShare)) continue;
+    const double dir = ax == 0 ? -r.dir * sgn(share) : r.dir * sgn(share);
+    const std::size_t row = r.trace_begin + (i - r.begin);
+    x.emplace_back(1.0, fb[row] - centre, dir, other_fb[row] - other_centre);
+    d.push_back(col[row] - fb[row]);
+  }
+  std::vector<char> keep(d.size(), 1);
+  const auto first = solve(x, d, keep);
+  if (!first) return std::nullopt;
+  std::vector<double> res(d.size());
+  for (std::size_t i = 0; i < d.size(); ++i) res[i] = std::abs(d[i] - first->x.dot(x[i]));
+  std::vector<double> sorted = res;
+  const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), mid, sorted.end());
+  const double sigma = 1.4826 * *mid;
+  if (sigma > 0) {
+    for (std::size_t i = 0; i < d.size(); ++i) keep[i] = res[i] <= kOutlierSigmas * sigma ? 1 : 0;
+    if (const auto second = solve(x, d, keep)) return second->scale;
+  }
+  return first->scale;
+}
+
+// The mean squared angular speed of the samples, (rad/s)^2.
+double mean_w2(const SampleSet& ss) {
+  const Samples& S = ss.S;
+  double w2 = 0.0;
+  for (const RunInfo& r : S.runs) {
+    const double w = r.speed_mm_s / ss.R;
+    w2 += w * w * static_cast<double>(r.end - r.begin);
+  }
+  return S.size() > 0 ? w2 / static_cast<double>(S.size()) : 0.0;
+}
+
+void mark_unseparable(Diagnosis& D, const std::string& key) {
+  if (std::find(D.unseparable.begin(), D.unseparable.end(), key) == D.unseparable.end())
+    D.unseparable.push_back(key);
+}
+
+void drop_unseparable(Diagnosis& D, const std::string& key) {
+  D.unseparable.erase(std::remove(D.unseparable.begin(), D.unseparable.end(), key),
+                      D.unseparable.end());
+}
+
+// The scales from the feedback fit in place of the circle's, with a note where they disagree.
+void take_feedback_scales(const Inputs& in, const TraceDescription& td,
+                          const std::array<AxisScale, 2>& fit,
+                          const std::array<std::string, 2>& fb_names, Diagnosis& D) {
+  const std::string letters[2] = {td.A, td.B};
+  for (std::size_t k = 0; k < 2; ++k) {
+    const Estimate& circle = D.scale_ppm[k];
+    const double v = fit[k].scale * 1e6, se = fit[k].se * 1e6;
+    if (circle.value) {
+      const double u = std::hypot(se, circle.standard_error.value_or(0.0));
+      if (std::abs(*circle.value - v) > 3.0 * u)
+        D.notes.push_back(fmt::format(
+            "scale {}: the circle gives {:.1f} +- {:.1f} ppm, the instrument against the "
+            "feedback {:.1f} +- {:.1f} ppm: the loop's amplitude response is in the circle's "
+            "figure; the feedback's is reported",
+            letters[k], *circle.value, circle.standard_error.value_or(0.0), v, se));
+    }
+    D.scale_ppm[k] = {v, se};
+  }
+  const double dm = (fit[0].scale - fit[1].scale) * 1e6;
+  const double dm_se = std::hypot(fit[0].se, fit[1].se) * 1e6;
+  if (D.scale_mismatch_ppm.value) {
+    const double u = std::hypot(dm_se, D.scale_mismatch_ppm.standard_error.value_or(0.0));
+    if (std::abs(*D.scale_mismatch_ppm.value - dm) > 3.0 * u)
+      D.notes.push_back(fmt::format(
+          "scale mismatch: the circle's cos 2theta term gives {:.1f} ppm, the instrument against "
+          "the feedback {:.1f} +- {:.1f} ppm: the loops' amplitude responses differ; the "
+          "feedback's is reported",
+          *D.scale_mismatch_ppm.value, dm, dm_se));
+  }
+  D.scale_mismatch_ppm = {dm, dm_se};
+  drop_unseparable(D, diagnosis_json::key::scale_ppm);
+  drop_unseparable(D, diagnosis_json::key::scale_mismatch_ppm);
+  D.notes.push_back(fmt::format(
+      "scale from the instrument against the motor feedback ({} - {}, {} - {}; {} and {} "
+      "samples away from the reversals): independent of the servo",
+      in.ev.channel_a, fb_names[0], in.ev.channel_b, fb_names[1], fit[0].samples, fit[1].samples));
+}
+
+// Without feedback columns: the circle's scale holds a loop's amplitude response beyond the
+// first-order loss its lag explains, up to w^2 kLoopSecondOrderS2. Negligible against the
+// standard error: nothing; up to kMaxLoopBoundPpm: the standard errors widened by it (a
+// rectangular bound); beyond: not reported.
+void bound_circle_scale(const TraceDescription& td, const SampleSet& ss, MeanScale& mean_scale,
+                        Diagnosis& D) {
+  if (!ss.speed_known || (!D.scale_mismatch_ppm.value && !D.scale_ppm[0].value)) return;
+  const double w2 = mean_w2(ss);
+  const double bound_ppm = w2 * kLoopSecondOrderS2 * 1e6;
+  // The mean scale from one feed leans on the loop model; a feed sweep's intercept does not.
+  const bool one_feed = ss.group_feed.size() < 2;
+  const double mean_bound = one_feed ? bound_ppm : 0.0;
+  const double se_mismatch = D.scale_mismatch_ppm.standard_error.value_or(0.0);
+  if (bound_ppm <= std::max(se_mismatch, D.scale_ppm[0].standard_error.value_or(0.0))) return;
+  const double w = std::sqrt(w2);
+  if (bound_ppm > kMaxLoopBoundPpm) {
+    if (D.scale_mismatch_ppm.value) {
+      D.scale_mismatch_ppm = {};
+      mark_unseparable(D, diagnosis_json::key::scale_mismatch_ppm);
+    }
+    if (D.scale_ppm[0].value || D.scale_ppm[1].value) {
+      D.scale_ppm = {};
+      mark_unseparable(D, diagnosis_json::key::scale_ppm);
+    }
+    if (one_feed) mean_scale = {};
+    D.notes.push_back(fmt::format(
+        "scale and scale mismatch not reported: at {:.2f} rad/s the position loop may change "
+        "the axes' amplitudes by up to {:.0f} ppm beyond the first-order loss of its lag, which "
+        "the instrument alone cannot tell from scale; record the feedback columns ({}, {}) or "
+        "run a larger diameter or a lower feed",
+        w, bound_ppm, column_name::feedback(td.la), column_name::feedback(td.lb)));
+    return;
+  }
+  const double u = 1.0 / std::sqrt(3.0);  // a rectangular bound's standard deviation
+  if (D.scale_mismatch_ppm.value)
+    D.scale_mismatch_ppm.standard_error = std::hypot(se_mismatch, bound_ppm * u);
+  for (Estimate& e : D.scale_ppm) {
+    if (e.value)
+      e.standard_error =
+          std::hypot(e.standard_error.value_or(0.0), std::hypot(mean_bound, bound_ppm / 2) * u);
+  }
+  if (one_feed && mean_scale.value)
+    mean_scale.se = std::hypot(mean_scale.se, mean_bound * 1e-6 * u);
+  D.notes.push_back(fmt::format(
+      "scale from the circle alone: at {:.2f} rad/s the position loop may change the axes' "
+      "amplitudes by up to {:.1f} ppm beyond the first-order loss of its lag; the standard "
+      "errors include it (the feedback columns {}, {} would remove it)",
+      w, bound_ppm, column_name::feedback(td.la), column_name::feedback(td.lb)));
+}
+
+}  // namespace
+
+void scale_from_instrument(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                           MeanScale& mean_scale, Diagnosis& D) {
+  if (td.feedback || td.radial || !in.ev.nominal_radius_mm) return;
+  const Trace& trace = in.trace;
+  const std::array<std::string, 2> fb_names = {column_name::feedback(td.la),
+                                               column_name::feedback(td.lb)};
+  const std::vector<double>* fb[2] = {trace.column(fb_names[0]), trace.column(fb_names[1])};
+  if (!fb[0] || !fb[1] || !D.absolute_channels) {
+    bound_circle_scale(td, ss, mean_scale, D);
+    return;
+  }
+  double most = 0.0;
+  for (const RunResult& rr : in.ev.runs)
+    for (std::size_t i = rr.run.begin; i < rr.run.end; ++i)
+      most = std::max(
+          {most, std::abs(td.col_a[i] - (*fb[0])[i]), std::abs(td.col_b[i] - (*fb[1])[i])});
+  if (most <= kSameColumnMm) {
+    // The measured columns are the feedback under other names: as radius_loss.cpp says for
+    // the feedback itself, they show the servo, never scale.
+    D.scale_ppm = {};
+    D.scale_mismatch_ppm = {};
+    mean_scale = {};
+    mark_unseparable(D, diagnosis_json::key::scale_ppm);
+    mark_unseparable(D, diagnosis_json::key::scale_mismatch_ppm);
+    D.notes.push_back(fmt::format(
+        "the measured columns ({}, {}) equal the motor feedback ({}, {}): scale and scale "
+        "mismatch not reported (they need an instrument)",
+        in.ev.channel_a, in.ev.channel_b, fb_names[0], fb_names[1]));
+    return;
+  }
+  const auto a = fit_axis(td, ss, 0, *fb[0], *fb[1]);
+  const auto b = fit_axis(td, ss, 1, *fb[1], *fb[0]);
+  if (!a || !b) {
+    D.notes.push_back("scale against the feedback: too few samples away from the reversals");
+    bound_circle_scale(td, ss, mean_scale, D);
+    return;
+  }
+  take_feedback_scales(in, td, {*a, *b}, fb_names, D);
+}
+
+}  // namespace circtest::diagnosis_detail
