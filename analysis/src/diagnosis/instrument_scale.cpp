@@ -7,6 +7,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numeric>
 
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/trace_keys.hpp"
@@ -35,56 +37,128 @@ constexpr double kLoopSecondOrderS2 = 2e-4;
 // plausibility bound on a scale correction (compensation/src/plan/axis_tables.cpp).
 constexpr double kMaxLoopBoundPpm = 500.0;
 
-constexpr std::size_t kColumns = 4;  // offset, position, direction of motion, other axis
+// Columns: offset, position, direction of motion, the other axis' position, and the cyclic
+// error's sine and cosine when the circle's fit found one on the axis.
+constexpr int kMaxColumns = 6;
 
 struct AxisScale {
   double scale = 0.0, se = 0.0;
   std::size_t samples = 0;
 };
 
-using Row = Eigen::Matrix<double, kColumns, 1>;
+using Row = Eigen::Matrix<double, kMaxColumns, 1>;
 
 struct LinearFit {
-  Row x;
+  Eigen::VectorXd x;
   AxisScale scale;
+  double rss = 0.0;
 };
 
-// Least squares of d = instrument - feedback on the columns X over the samples KEEP marks.
+// Least squares of d = instrument - feedback on the first NCOLS columns of X over the samples
+// KEEP marks.
 std::optional<LinearFit> solve(const std::vector<Row>& x, const std::vector<double>& d,
-                               const std::vector<char>& keep) {
-  Eigen::Matrix<double, kColumns, kColumns> ata = Eigen::Matrix<double, kColumns, kColumns>::Zero();
-  Row atb = Row::Zero();
+                               const std::vector<char>& keep, int ncols) {
+  Eigen::Matrix<double, kMaxColumns, kMaxColumns> full =
+      Eigen::Matrix<double, kMaxColumns, kMaxColumns>::Zero();
+  Row atb_full = Row::Zero();
   double btb = 0.0;
   std::size_t n = 0;
   for (std::size_t i = 0; i < d.size(); ++i) {
     if (!keep[i]) continue;
-    ata += x[i] * x[i].transpose();
-    atb += x[i] * d[i];
+    full.selfadjointView<Eigen::Lower>().rankUpdate(x[i]);
+    atb_full += x[i] * d[i];
     btb += d[i] * d[i];
     ++n;
   }
-  if (n < 4 * kColumns) return std::nullopt;
-  const Eigen::LDLT<Eigen::Matrix<double, kColumns, kColumns>> ldlt(ata);
+  if (n < static_cast<std::size_t>(4 * ncols)) return std::nullopt;
+  const Eigen::MatrixXd ata =
+      full.topLeftCorner(ncols, ncols).selfadjointView<Eigen::Lower>().toDenseMatrix();
+  const Eigen::VectorXd atb = atb_full.head(ncols);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(ata);
   if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return std::nullopt;
-  const Row sol = ldlt.solve(atb);
+  const Eigen::VectorXd sol = ldlt.solve(atb);
   const double rss = std::max(0.0, btb - sol.dot(atb));
-  const double sigma2 = rss / static_cast<double>(n - kColumns);
-  const double var = ldlt.solve(Row::Unit(1))(1);
+  const double sigma2 = rss / static_cast<double>(n - static_cast<std::size_t>(ncols));
+  const double var = ldlt.solve(Eigen::VectorXd::Unit(ncols, 1))(1);
   if (!sol.allFinite() || !(var > 0)) return std::nullopt;
-  return LinearFit{sol, {sol(1), std::sqrt(sigma2 * var), n}};
+  return LinearFit{sol, {sol(1), std::sqrt(sigma2 * var), n}, rss};
+}
+
+// The pitch of a cyclic error left in RES (d less the fit without one), over the feedback
+// positions POS: a periodogram of the residual binned over the position (bins of an eighth of
+// the shortest pitch), over screw-like pitches from kMinPitchMm to half the travel in steps
+// that keep the phase over the travel within a quarter turn; the peak counts when its power is
+// the diagnosis's cyclic_detection_factor times the median and its amplitude at least
+// min_cyclic_amplitude_mm (docs/diagnosis.md).
+constexpr double kMinPitchMm = 1.0, kMaxPitchMm = 40.0;
+
+std::optional<double> residual_pitch(const std::vector<double>& pos, const std::vector<double>& res,
+                                     const DiagnosisOptions& o) {
+  if (pos.empty()) return std::nullopt;
+  const auto [lo_it, hi_it] = std::minmax_element(pos.begin(), pos.end());
+  const double lo = *lo_it, span = *hi_it - lo, h = kMinPitchMm / 8.0;
+  const double top = std::min(kMaxPitchMm, span / 2.0);
+  if (!(top > kMinPitchMm)) return std::nullopt;
+  const auto nbins = static_cast<std::size_t>(span / h) + 1;
+  std::vector<double> sum(nbins, 0.0), count(nbins, 0.0);
+  for (std::size_t i = 0; i < pos.size(); ++i) {
+    const auto b = std::min(nbins - 1, static_cast<std::size_t>((pos[i] - lo) / h));
+    sum[b] += res[i];
+    count[b] += 1.0;
+  }
+  std::vector<double> centre, mean, weight;
+  for (std::size_t b = 0; b < nbins; ++b) {
+    if (count[b] == 0.0) continue;
+    centre.push_back(lo + (static_cast<double>(b) + 0.5) * h);
+    mean.push_back(sum[b] / count[b]);
+    weight.push_back(count[b]);
+  }
+  const double total = std::accumulate(weight.begin(), weight.end(), 0.0);
+  const auto power_at = [&](double p) {
+    const double k = 2.0 * kPi / p;
+    double sc = 0.0, sn = 0.0;
+    for (std::size_t b = 0; b < centre.size(); ++b) {
+      sc += weight[b] * mean[b] * std::cos(k * centre[b]);
+      sn += weight[b] * mean[b] * std::sin(k * centre[b]);
+    }
+    return sc * sc + sn * sn;
+  };
+  std::vector<double> power;
+  double best = 0.0, best_pitch = 0.0;
+  for (double p = kMinPitchMm; p <= top; p *= 1.0 + p / (4.0 * span)) {
+    power.push_back(power_at(p));
+    if (power.back() > best) {
+      best = power.back();
+      best_pitch = p;
+    }
+  }
+  if (power.size() < 8) return std::nullopt;
+  const auto mid = power.begin() + static_cast<std::ptrdiff_t>(power.size() / 2);
+  std::nth_element(power.begin(), mid, power.end());
+  // The peak between its grid neighbours.
+  const double step = 1.0 + best_pitch / (4.0 * span);
+  best_pitch =
+      golden([&](double p) { return -power_at(p); }, best_pitch / step, best_pitch * step, 40);
+  best = power_at(best_pitch);
+  const double amplitude = 2.0 * std::sqrt(best) / total;
+  if (!(best > o.cyclic_detection_factor * *mid) || amplitude < o.min_cyclic_amplitude_mm)
+    return std::nullopt;
+  return best_pitch;
 }
 
 // Axis AX's scale from its instrument column against its feedback column: d = s (fb - centre)
-// + offset + play / 2 (direction of motion) + a squareness-like term in the other axis; a
-// second fit without the first's outliers (a glitch of one channel).
-std::optional<AxisScale> fit_axis(const TraceDescription& td, const SampleSet& ss, int ax,
-                                  const std::vector<double>& fb,
-                                  const std::vector<double>& other_fb) {
+// + offset + play / 2 (direction of motion) + a squareness-like term in the other axis, + the
+// cyclic error at PITCH (the option's, the circle's, else one the residual shows); a second
+// fit without the first's outliers (a glitch of one channel).
+std::optional<AxisScale> fit_axis(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                                  int ax, const std::vector<double>& fb,
+                                  const std::vector<double>& other_fb,
+                                  std::optional<double> pitch) {
   const Samples& S = ss.S;
   const std::vector<double>& col = ax == 0 ? td.col_a : td.col_b;
   const double centre = ax == 0 ? ss.ca : ss.cb, other_centre = ax == 0 ? ss.cb : ss.ca;
   std::vector<Row> x;
-  std::vector<double> d;
+  std::vector<double> d, pos;
   for (std::size_t i = 0; i < S.size(); ++i) {
     const RunInfo& r = S.runs[S.run[i]];
     // The axis' speed over the path speed is |sin| for A, |cos| for B; its direction
@@ -93,23 +167,63 @@ std::optional<AxisScale> fit_axis(const TraceDescription& td, const SampleSet& s
     if (!(std::abs(share) >= kMinSpeedShare)) continue;
     const double dir = ax == 0 ? -r.dir * sgn(share) : r.dir * sgn(share);
     const std::size_t row = r.trace_begin + (i - r.begin);
-    x.emplace_back(1.0, fb[row] - centre, dir, other_fb[row] - other_centre);
+    Row v = Row::Zero();
+    v.head(4) << 1.0, fb[row] - centre, dir, other_fb[row] - other_centre;
+    x.push_back(v);
     d.push_back(col[row] - fb[row]);
+    pos.push_back(fb[row]);
   }
   std::vector<char> keep(d.size(), 1);
-  const auto first = solve(x, d, keep);
+  const auto residual = [&](const LinearFit& f, int ncols) {
+    std::vector<double> res(d.size());
+    for (std::size_t i = 0; i < d.size(); ++i) res[i] = d[i] - f.x.dot(x[i].head(ncols));
+    return res;
+  };
+  auto first = solve(x, d, keep, 4);
   if (!first) return std::nullopt;
-  std::vector<double> res(d.size());
-  for (std::size_t i = 0; i < d.size(); ++i) res[i] = std::abs(d[i] - first->x.dot(x[i]));
+  const auto with_pitch = [&](double p) {
+    const double k = 2.0 * kPi / p;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      x[i](4) = std::sin(k * pos[i]);
+      x[i](5) = std::cos(k * pos[i]);
+    }
+    return solve(x, d, keep, 6);
+  };
+  if (!pitch) {
+    // The residual's peak, then the pitch where the whole fit (scale with it) leaves least.
+    if (const auto peak = residual_pitch(pos, residual(*first, 4), in.options)) {
+      const auto rss = [&](double p) {
+        const auto f = with_pitch(p);
+        return f ? f->rss : std::numeric_limits<double>::infinity();
+      };
+      pitch = golden(rss, *peak * 0.9, *peak * 1.1, 40);
+    }
+  }
+  const int ncols = pitch ? 6 : 4;
+  if (pitch) {
+    first = with_pitch(*pitch);
+    if (!first) return std::nullopt;
+  }
+  std::vector<double> res = residual(*first, ncols);
+  for (double& r : res) r = std::abs(r);
   std::vector<double> sorted = res;
   const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
   std::nth_element(sorted.begin(), mid, sorted.end());
   const double sigma = 1.4826 * *mid;
   if (sigma > 0) {
     for (std::size_t i = 0; i < d.size(); ++i) keep[i] = res[i] <= kOutlierSigmas * sigma ? 1 : 0;
-    if (const auto second = solve(x, d, keep)) return second->scale;
+    if (const auto second = solve(x, d, keep, ncols)) return second->scale;
   }
   return first->scale;
+}
+
+// The cyclic pitch of axis AX the diagnosis already knows: the option's, else the circle's.
+std::optional<double> known_pitch(const Inputs& in, const TraceDescription& td, int ax,
+                                  const Diagnosis& D) {
+  const auto it = in.options.pitch_mm.find(ax == 0 ? td.la : td.lb);
+  if (it != in.options.pitch_mm.end()) return it->second;
+  if (const auto& c = D.cyclic[static_cast<std::size_t>(ax)]) return c->pitch_mm;
+  return std::nullopt;
 }
 
 // The mean squared angular speed of the samples, (rad/s)^2.
@@ -254,14 +368,17 @@ void scale_from_instrument(const Inputs& in, const TraceDescription& td, const S
         in.ev.channel_a, in.ev.channel_b, fb_names[0], fb_names[1]));
     return;
   }
-  const auto a = fit_axis(td, ss, 0, *fb[0], *fb[1]);
-  const auto b = fit_axis(td, ss, 1, *fb[1], *fb[0]);
+  const auto a = fit_axis(in, td, ss, 0, *fb[0], *fb[1], known_pitch(in, td, 0, D));
+  const auto b = fit_axis(in, td, ss, 1, *fb[1], *fb[0], known_pitch(in, td, 1, D));
   if (!a || !b) {
     D.notes.push_back("scale against the feedback: too few samples away from the reversals");
     bound_circle_scale(td, ss, mean_scale, D);
     return;
   }
   take_feedback_scales(in, td, {*a, *b}, fb_names, D);
+  // A test set's joint fit takes the planes' mean scale: this one, not the circle's.
+  mean_scale.value = (a->scale + b->scale) / 2;
+  mean_scale.se = std::hypot(a->se, b->se) / 2;
 }
 
 }  // namespace circtest::diagnosis_detail
