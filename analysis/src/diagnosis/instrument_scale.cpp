@@ -322,11 +322,11 @@ void bound_circle_scale(const TraceDescription& td, const SampleSet& ss, MeanSca
   const double u = 1.0 / std::sqrt(3.0);  // a rectangular bound's standard deviation
   if (D.scale_mismatch_ppm.value)
     D.scale_mismatch_ppm.standard_error = std::hypot(se_mismatch, bound_ppm * u);
+  const double axis_se_ppm = std::hypot(mean_bound, bound_ppm / 2) * u;
   for (Estimate& e : D.scale_ppm) {
-    if (e.value)
-      e.standard_error =
-          std::hypot(e.standard_error.value_or(0.0), std::hypot(mean_bound, bound_ppm / 2) * u);
+    if (e.value) e.standard_error = std::hypot(e.standard_error.value_or(0.0), axis_se_ppm);
   }
+  mean_scale.loop_se = axis_se_ppm * 1e-6;
   if (one_feed && mean_scale.value)
     mean_scale.se = std::hypot(mean_scale.se, mean_bound * 1e-6 * u);
   D.notes.push_back(fmt::format(

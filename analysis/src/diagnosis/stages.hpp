@@ -110,6 +110,9 @@ struct FollowingLag {
 struct MeanScale {
   std::optional<double> value;
   double se = 0.0;
+  // scale_from_instrument: the standard deviation a loop beyond first order may add to each
+  // axis' scale from the circle (relative; 0 when none), which no joint fit averages down.
+  double loop_se = 0.0;
 };
 
 // run_stages: a plane's diagnosis and the parts of its fit a test set's joint fit
