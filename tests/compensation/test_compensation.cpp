@@ -327,9 +327,8 @@ TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   EXPECT_LT(worst, 0.002 * 0.03);  // under 3 % of the amplitude left
 }
 
-// A scale beyond what machines show (docs/compensation.md: 500 ppm) is refused without --force,
-// naming the axis and the value: configs/sim-servo's D20 F2000 trace once read Y -646 ppm of
-// servo as scale; 450 ppm (a C10 screw) is written.
+// A scale beyond 500 ppm (docs/compensation.md) is refused without --force, naming the axis and
+// value (sim-servo's D20 F2000 servo read as Y -646 ppm); 450 ppm is written.
 TEST(Compensation, ScaleBeyondWhatMachinesShowIsRefused) {
   Scratch s;
   const std::string ini = s.write("m.ini", machine());
