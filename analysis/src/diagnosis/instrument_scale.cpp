@@ -26,6 +26,10 @@ constexpr double kSameColumnMm = 1e-9;
 // Robust refit: samples further from the first fit than this many robust standard deviations
 // (1.4826 MAD) are left out of the second.
 constexpr double kOutlierSigmas = 5.0;
+// The circle's figure and the feedback's are said to disagree beyond three combined standard
+// errors and this much (half of it is the least scale circcomp writes; a noise-free simulated
+// machine has standard errors of nanoppm).
+constexpr double kDisagreePpm = 1.0;
 // What a position loop may add to the axes' amplitude beyond the first-order loss of its lag,
 // relative, per (rad/s)^2 of angular speed: a loop with a drive of time constant tau_v under a
 // position gain P (and any FF1) has |H(jw)| = 1 - w^2 / (2 P^2) + w^2 tau_v / P + O(w^4); the
@@ -257,7 +261,7 @@ void take_feedback_scales(const Inputs& in, const TraceDescription& td,
     const double v = fit[k].scale * 1e6, se = fit[k].se * 1e6;
     if (circle.value) {
       const double u = std::hypot(se, circle.standard_error.value_or(0.0));
-      if (std::abs(*circle.value - v) > 3.0 * u)
+      if (std::abs(*circle.value - v) > std::max(3.0 * u, kDisagreePpm))
         D.notes.push_back(fmt::format(
             "scale {}: the circle gives {:.1f} +- {:.1f} ppm, the instrument against the "
             "feedback {:.1f} +- {:.1f} ppm: the loop's amplitude response is in the circle's "
@@ -270,7 +274,7 @@ void take_feedback_scales(const Inputs& in, const TraceDescription& td,
   const double dm_se = std::hypot(fit[0].se, fit[1].se) * 1e6;
   if (D.scale_mismatch_ppm.value) {
     const double u = std::hypot(dm_se, D.scale_mismatch_ppm.standard_error.value_or(0.0));
-    if (std::abs(*D.scale_mismatch_ppm.value - dm) > 3.0 * u)
+    if (std::abs(*D.scale_mismatch_ppm.value - dm) > std::max(3.0 * u, kDisagreePpm))
       D.notes.push_back(fmt::format(
           "scale mismatch: the circle's cos 2theta term gives {:.1f} ppm, the instrument against "
           "the feedback {:.1f} +- {:.1f} ppm: the loops' amplitude responses differ; the "
