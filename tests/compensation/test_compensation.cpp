@@ -327,6 +327,33 @@ TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   EXPECT_LT(worst, 0.002 * 0.03);  // under 3 % of the amplitude left
 }
 
+// A scale beyond 500 ppm (docs/compensation.md) is refused without --force, naming the axis and
+// value (sim-servo's D20 F2000 servo read as Y -646 ppm); 450 ppm is written.
+TEST(Compensation, ScaleBeyondWhatMachinesShowIsRefused) {
+  Scratch s;
+  const std::string ini = s.write("m.ini", machine());
+  DiagnosisInput servo = diag(0.0);
+  servo.diagnosis.scale_ppm[1] = {-646.0, 5.0};
+  EXPECT_THROW(
+      {
+        try {
+          make_plan(ini, servo, only(Correction::scale));
+        } catch (const DataError& e) {
+          EXPECT_NE(std::string(e.what()).find("Y scale = -646.0 ppm is implausible (more than "
+                                               "500.0 ppm)"),
+                    std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      DataError);
+  PlanOptions force = only(Correction::scale);
+  force.force = true;
+  EXPECT_NO_THROW(make_plan(ini, servo, force));
+  servo.diagnosis.scale_ppm[1] = {450.0, 5.0};
+  EXPECT_NO_THROW(make_plan(ini, servo, only(Correction::scale)));
+}
+
 // On an inch machine a length is said in inch too (the diagnosis is in mm): the refusal and the
 // note name both (0.3 mm = 0.011811 in; the note's bound 0.0001 mm = 0.0000039 in).
 TEST(Compensation, RefusalsOnAnInchMachineSayInch) {

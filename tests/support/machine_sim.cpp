@@ -23,6 +23,9 @@ struct AxisState {
   double direction = 0.0;   // sign of the motor's last motion
   double spike = 0.0;       // friction error not yet removed by the servo
   double motor_prev = 0.0;  // motor position one period before `before`
+  double velocity = 0.0;    // the motor's, with a drive (AxisModel::drive_tau_s)
+  double cmd_prev = 0.0;    // the last period's command, with a drive
+  double feedback = 0.0;    // what the motor encoder reads after the last step
   bool initialised = false;
 };
 
@@ -37,10 +40,18 @@ double step_axis(const AxisModel& m, AxisState& s, double cmd, double T) {
     s.motor = cmd;
     s.table = cmd;
     s.motor_prev = cmd;
+    s.cmd_prev = cmd;
     s.initialised = true;
   }
   const double before = s.motor;
-  if (m.kv_per_s > 0.0) {
+  if (m.kv_per_s > 0.0 && m.drive_tau_s > 0.0) {
+    // pid with error-previous-target: last period's command against the motor, plus the
+    // command's velocity times FF1; the motor's velocity follows it with the drive's time
+    // constant (semi-implicit Euler, as circdrive steps).
+    const double u = m.kv_per_s * (s.cmd_prev - s.motor) + m.ff1 * (cmd - s.cmd_prev) / T;
+    s.velocity += (u - s.velocity) * std::min(1.0, T / m.drive_tau_s);
+    s.motor += s.velocity * T;
+  } else if (m.kv_per_s > 0.0) {
     s.motor += (1.0 - std::exp(-m.kv_per_s * T)) * (cmd - s.motor);
   } else {
     s.motor = cmd;
@@ -66,6 +77,8 @@ double step_axis(const AxisModel& m, AxisState& s, double cmd, double T) {
   if (s.motor - s.table > half) s.table = s.motor - half;
   if (s.motor - s.table < -half) s.table = s.motor + half;
   s.motor_prev = before;
+  s.cmd_prev = cmd;
+  s.feedback = s.motor + s.spike;
   double p = (s.table + s.spike) * (1.0 + m.scale);
   if (m.cyclic_pitch_mm > 0.0) {
     p += m.cyclic_amplitude_mm *
@@ -99,6 +112,10 @@ class Simulator {
                       column_name::marker,
                       column_name::segment};
     if (radial_.radial) trace_.columns.push_back(column_name::r);
+    if (radial_.feedback_columns) {
+      fb_column_ = trace_.columns.size();
+      for (char a : {'x', 'y', 'z'}) trace_.columns.push_back(column_name::feedback(a));
+    }
     if (radial_.radial && radial_.bar_length_mm) {
       trace_.metadata.set(meta_key::bar_length_mm, fmt::format("{}", *radial_.bar_length_mm));
     }
@@ -129,6 +146,10 @@ class Simulator {
           std::hypot(table[0] - radial_.centre_mm[0], table[1] - radial_.centre_mm[1],
                      table[2] - radial_.centre_mm[2]);
       trace_.values[9].push_back(length - radial_.bar_length_mm.value_or(0.0));
+    }
+    if (fb_column_ > 0) {
+      for (std::size_t i = 0; i < 3; ++i)
+        trace_.values[fb_column_ + i].push_back(state_[i].feedback);
     }
     trace_.line_of_row.push_back(static_cast<std::uint32_t>(k_ + 2));
     ++k_;
@@ -175,6 +196,7 @@ class Simulator {
   std::normal_distribution<double> noise_;
   AxisState state_[3];
   std::size_t k_ = 0;
+  std::size_t fb_column_ = 0;
 };
 
 // The commanded point at ANGLE_RAD on the program's circle.

@@ -14,9 +14,14 @@
 namespace circtest::sim {
 
 struct AxisModel {
-  double kv_per_s = 0.0;             // position-loop gain; 0 = ideal (no lag)
-  double backlash_mm = 0.0;          // play between motor and table
-  double scale = 0.0;                // relative scale error: table = motor * (1 + scale)
+  double kv_per_s = 0.0;  // position-loop gain; 0 = ideal (no lag)
+  // A velocity-mode drive under the position loop (sim-servo's pid and circdrive without
+  // friction): the velocity command kv e + ff1 v_cmd, followed by the motor with the time
+  // constant drive_tau_s. 0: the first-order loop above (the motor follows kv e at once).
+  double drive_tau_s = 0.0;
+  double ff1 = 0.0;          // velocity feed-forward (1 cancels the lag), with drive_tau_s only
+  double backlash_mm = 0.0;  // play between motor and table
+  double scale = 0.0;        // relative scale error: table = motor * (1 + scale)
   double cyclic_amplitude_mm = 0.0;  // waviness tied to axis position
   double cyclic_pitch_mm = 0.0;
   double cyclic_phase_rad = 0.0;
@@ -60,6 +65,9 @@ struct CircleProgram {
   // change from that length instead (and a bar_length_mm metadata line).
   bool radial = false;
   std::optional<double> bar_length_mm;
+  // Adds the motor feedback columns x_fb, y_fb, z_fb (the motor and the friction spike, which
+  // the encoder sees; no play, scale, squareness or cyclic error).
+  bool feedback_columns = false;
 };
 
 // A test set: the planes' circles one after another in one trace, as circgen's set program
@@ -71,7 +79,7 @@ struct TestSetProgram {
 };
 
 // Columns: t, x, y, z (measured), x_cmd, y_cmd, z_cmd, marker, segment (1, 2, ... per run),
-// and r with `radial`.
+// r with `radial`, x_fb, y_fb, z_fb with `feedback_columns`.
 // Metadata: plane, radius, centre, feed.
 Trace simulate(const MachineModel& machine, const CircleProgram& program);
 

@@ -32,7 +32,8 @@ PlaneFit run_stages(const Inputs& in) {
   const SpikeMeasures spikes = fit_spike_profiles(in, td, ss, model, D);
   report_estimates(in, td, ss, terms, model, cyclic, spikes, D);
   const FollowingLag lag = measure_following_lag(in, td, ss, model, D);
-  const MeanScale mean_scale = split_radius_change(in, td, ss, lag, D);
+  MeanScale mean_scale = split_radius_change(in, td, ss, lag, D);
+  scale_from_instrument(in, td, ss, mean_scale, D);
   measure_axis_lags(in, td, ss, lag, D);
   residual_and_contributions(in, ss, model, D);
   check_finite(in, ss, D);

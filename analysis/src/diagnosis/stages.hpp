@@ -110,6 +110,9 @@ struct FollowingLag {
 struct MeanScale {
   std::optional<double> value;
   double se = 0.0;
+  // scale_from_instrument: the standard deviation a loop beyond first order may add to each
+  // axis' scale from the circle (relative; 0 when none), which no joint fit averages down.
+  double loop_se = 0.0;
 };
 
 // run_stages: a plane's diagnosis and the parts of its fit a test set's joint fit
@@ -171,6 +174,14 @@ FollowingLag measure_following_lag(const Inputs& in, const TraceDescription& td,
 // kv_per_s, kv_source, scale_ppm; unseparable, notes.
 MeanScale split_radius_change(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
                               const FollowingLag& lag, Diagnosis& D);
+// instrument_scale.cpp: with the motor feedback columns (x_fb...) beside the instrument's, each
+// axis' scale from instrument minus feedback (independent of the servo) in place of the
+// circle's, and their mean as MEAN_SCALE; without them, the circle's scale and scale mismatch
+// bounded by the amplitude response a loop beyond first order may add at the test's angular speed
+// (standard errors widened, or not reported and MEAN_SCALE reset). D: scale_ppm,
+// scale_mismatch_ppm; unseparable, notes.
+void scale_from_instrument(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
+                           MeanScale& mean_scale, Diagnosis& D);
 // servo_axes.cpp: each axis' following lag and position gain (commanded against feedback or
 // instrument columns, else a feed sweep's radius change: D's Kv, after split_radius_change),
 // the lag mismatch, and the mismatch ellipse's part of G at each feed. D: axis_lag,

@@ -228,6 +228,16 @@ void take_joint(const AxisJoint& a, JointEstimate& j, const Estimate& e, const c
 
 }  // namespace
 
+// A joint scale with the planes' largest loop bound (instrument_scale.cpp) in its standard
+// error: the same servo in every plane, so no joint fit averages it down.
+Estimate with_loop_bound(const std::vector<PlaneFit>& planes, Estimate e) {
+  double loop_se = 0.0;
+  for (const PlaneFit& pl : planes) loop_se = std::max(loop_se, pl.mean_scale.loop_se);
+  if (e.value && loop_se > 0)
+    e.standard_error = std::hypot(e.standard_error.value_or(0.0), loop_se * 1e6);
+  return e;
+}
+
 SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& inputs) {
   std::vector<PlaneFit> planes;
   std::vector<Diagnosis> own;
@@ -277,7 +287,8 @@ SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& 
                s.notes);
     take_joint(a, a.spike_mm, estimate_at(sol, g[kSpike], 1.0), "reversal spike", "um", 1e3,
                s.notes);
-    take_joint(a, a.scale_ppm, estimate_at(sol, g[kScale], 1e6), "scale", "ppm", 1.0, s.notes);
+    take_joint(a, a.scale_ppm, with_loop_bound(planes, estimate_at(sol, g[kScale], 1e6)), "scale",
+               "ppm", 1.0, s.notes);
     if (g[kLag] >= 0) {
       take_joint(a, a.lag_ms, Estimate{sol.x[g[kLag]] * 1e3, std::nullopt}, "following lag", "ms",
                  1.0, s.notes);
