@@ -193,7 +193,7 @@ def test_the_whole_flow_by_the_panels_buttons(qtbot, programs):
     print("G, F, H (um) per run: before %s, after %s" % (before, after))
     check_report(qtbot, panel, session, before, after)
     steps.shot("9-report", "report")
-    check_history(qtbot, panel, before)
+    check_history(qtbot, panel, before, after)
     steps.shot("10-history", "history")
 
 
@@ -222,13 +222,15 @@ def check_report(qtbot, panel, session, before, after):
         ", ".join(g for g, _, _ in before), ", ".join(g for g, _, _ in after))
 
 
-def check_history(qtbot, panel, before):
-    """The machine's history (circtest run stored the test): its latest test is the run's."""
+def check_history(qtbot, panel, before, after):
+    """The machine's history: circtest run stored the test before the corrections, circtest
+    verify the one after; the latest two rows are those, in that order."""
     page = panel.history_page
-    qtbot.waitUntil(lambda: page.table.rowCount() > 0 or bool(page.problem.text()),
+    qtbot.waitUntil(lambda: page.table.rowCount() > 1 or bool(page.problem.text()),
                     timeout=60000)
     assert page.problem.text() == ""
     latest = page.table.rowCount() - 1
-    assert page.table.item(latest, 3).text().startswith(before[0][2] + " ± ")
-    assert page.table.item(latest, 4).text().startswith(
-        "%.1f ± " % max(float(g) for g, _, _ in before))
+    for row, figures in ((latest - 1, before), (latest, after)):
+        assert page.table.item(row, 3).text().startswith(figures[0][2] + " ± ")
+        assert page.table.item(row, 4).text().startswith(
+            "%.1f ± " % max(float(g) for g, _, _ in figures))
