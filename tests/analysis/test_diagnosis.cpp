@@ -458,7 +458,9 @@ TEST(DiagnoseBadInput, WithoutTheFeedTheServoEllipseStaysOutOfTheBacklash) {
     EXPECT_NE(std::find(d.unseparable.begin(), d.unseparable.end(), "backlash_mm.X"),
               d.unseparable.end());
   }
-  if (d.backlash_mm[1].value) EXPECT_NEAR(*d.backlash_mm[1].value, 0.0, 0.4 * kUm);
+  if (d.backlash_mm[1].value) {
+    EXPECT_NEAR(*d.backlash_mm[1].value, 0.0, 0.4 * kUm);
+  }
   // The ellipse needs the feed for a lag: no number in ms, a note with its phase.
   EXPECT_FALSE(d.servo_mismatch_ms.value);
   bool said = false;

@@ -1,7 +1,7 @@
-// The axes' absolute scale where the circle alone cannot give it without a loop model: from the
-// instrument against the motor feedback when the trace has both, else the circle's figure
-// with the amplitude response a loop the trace cannot see may add at the test's angular speed
-// (docs/diagnosis.md, "Scale against the feedback").
+// The circle's scale bounded by the amplitude response a loop the trace cannot see may add at
+// the test's angular speed, and, where the trace has the motor feedback, the screws' scale
+// from the instrument against it, said beside it (docs/diagnosis.md, "Scale against the
+// feedback").
 #include <fmt/format.h>
 
 #include <Eigen/Dense>
@@ -26,10 +26,6 @@ constexpr double kSameColumnMm = 1e-9;
 // Robust refit: samples further from the first fit than this many robust standard deviations
 // (1.4826 MAD) are left out of the second.
 constexpr double kOutlierSigmas = 5.0;
-// The circle's figure and the feedback's are said to disagree beyond three combined standard
-// errors and this much (half of it is the least scale circcomp writes; a noise-free simulated
-// machine has standard errors of nanoppm).
-constexpr double kDisagreePpm = 1.0;
 // What a position loop may add to the axes' amplitude beyond the first-order loss of its lag,
 // relative, per (rad/s)^2 of angular speed: a loop with a drive of time constant tau_v under a
 // position gain P (and any FF1) has |H(jw)| = 1 - w^2 / (2 P^2) + w^2 tau_v / P + O(w^4); the
@@ -246,48 +242,20 @@ void mark_unseparable(Diagnosis& D, const std::string& key) {
     D.unseparable.push_back(key);
 }
 
-void drop_unseparable(Diagnosis& D, const std::string& key) {
-  D.unseparable.erase(std::remove(D.unseparable.begin(), D.unseparable.end(), key),
-                      D.unseparable.end());
-}
-
-// The scales from the feedback fit in place of the circle's, with a note where they disagree.
-void take_feedback_scales(const Inputs& in, const TraceDescription& td,
+// The scales from the feedback fit, said in a note beside the circle's. They are the screws'
+// scale as the motor sees it: a comp table in effect moves the motor with it, so after a
+// correction they still show the scale before it, and the circle's figure (what the
+// correction changes) stays the one reported.
+void note_feedback_scales(const Inputs& in, const TraceDescription& td,
                           const std::array<AxisScale, 2>& fit,
                           const std::array<std::string, 2>& fb_names, Diagnosis& D) {
-  const std::string letters[2] = {td.A, td.B};
-  for (std::size_t k = 0; k < 2; ++k) {
-    const Estimate& circle = D.scale_ppm[k];
-    const double v = fit[k].scale * 1e6, se = fit[k].se * 1e6;
-    if (circle.value) {
-      const double u = std::hypot(se, circle.standard_error.value_or(0.0));
-      if (std::abs(*circle.value - v) > std::max(3.0 * u, kDisagreePpm))
-        D.notes.push_back(fmt::format(
-            "scale {}: the circle gives {:.1f} +- {:.1f} ppm, the instrument against the "
-            "feedback {:.1f} +- {:.1f} ppm: the loop's amplitude response is in the circle's "
-            "figure; the feedback's is reported",
-            letters[k], *circle.value, circle.standard_error.value_or(0.0), v, se));
-    }
-    D.scale_ppm[k] = {v, se};
-  }
-  const double dm = (fit[0].scale - fit[1].scale) * 1e6;
-  const double dm_se = std::hypot(fit[0].se, fit[1].se) * 1e6;
-  if (D.scale_mismatch_ppm.value) {
-    const double u = std::hypot(dm_se, D.scale_mismatch_ppm.standard_error.value_or(0.0));
-    if (std::abs(*D.scale_mismatch_ppm.value - dm) > std::max(3.0 * u, kDisagreePpm))
-      D.notes.push_back(fmt::format(
-          "scale mismatch: the circle's cos 2theta term gives {:.1f} ppm, the instrument against "
-          "the feedback {:.1f} +- {:.1f} ppm: the loops' amplitude responses differ; the "
-          "feedback's is reported",
-          *D.scale_mismatch_ppm.value, dm, dm_se));
-  }
-  D.scale_mismatch_ppm = {dm, dm_se};
-  drop_unseparable(D, diagnosis_json::key::scale_ppm);
-  drop_unseparable(D, diagnosis_json::key::scale_mismatch_ppm);
   D.notes.push_back(fmt::format(
-      "scale from the instrument against the motor feedback ({} - {}, {} - {}; {} and {} "
-      "samples away from the reversals): independent of the servo",
-      in.ev.channel_a, fb_names[0], in.ev.channel_b, fb_names[1], fit[0].samples, fit[1].samples));
+      "scale against the motor feedback ({} - {}, {} - {}; {} and {} samples away from the "
+      "reversals, free of the servo): {} {:+.1f} +- {:.1f} ppm, {} {:+.1f} +- {:.1f} ppm; the "
+      "screws as the motor sees them, before any comp table in effect (the motor moves with "
+      "it), so the scale reported is the circle's",
+      in.ev.channel_a, fb_names[0], in.ev.channel_b, fb_names[1], fit[0].samples, fit[1].samples,
+      td.A, fit[0].scale * 1e6, fit[0].se * 1e6, td.B, fit[1].scale * 1e6, fit[1].se * 1e6));
 }
 
 // Without feedback columns: the circle's scale holds a loop's amplitude response beyond the
@@ -379,10 +347,8 @@ void scale_from_instrument(const Inputs& in, const TraceDescription& td, const S
     bound_circle_scale(td, ss, mean_scale, D);
     return;
   }
-  take_feedback_scales(in, td, {*a, *b}, fb_names, D);
-  // A test set's joint fit takes the planes' mean scale: this one, not the circle's.
-  mean_scale.value = (a->scale + b->scale) / 2;
-  mean_scale.se = std::hypot(a->se, b->se) / 2;
+  note_feedback_scales(in, td, {*a, *b}, fb_names, D);
+  bound_circle_scale(td, ss, mean_scale, D);
 }
 
 }  // namespace circtest::diagnosis_detail

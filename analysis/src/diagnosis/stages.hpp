@@ -174,12 +174,12 @@ FollowingLag measure_following_lag(const Inputs& in, const TraceDescription& td,
 // kv_per_s, kv_source, scale_ppm; unseparable, notes.
 MeanScale split_radius_change(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
                               const FollowingLag& lag, Diagnosis& D);
-// instrument_scale.cpp: with the motor feedback columns (x_fb...) beside the instrument's, each
-// axis' scale from instrument minus feedback (independent of the servo) in place of the
-// circle's, and their mean as MEAN_SCALE; without them, the circle's scale and scale mismatch
-// bounded by the amplitude response a loop beyond first order may add at the test's angular speed
-// (standard errors widened, or not reported and MEAN_SCALE reset). D: scale_ppm,
-// scale_mismatch_ppm; unseparable, notes.
+// instrument_scale.cpp: the circle's scale and scale mismatch bounded by the amplitude response
+// a loop beyond first order may add at the test's angular speed (standard errors widened, or
+// not reported and MEAN_SCALE reset); with the motor feedback columns (x_fb...) beside the
+// instrument's, each axis' scale from instrument minus feedback (the screws, independent of the
+// servo, before any comp table in effect) in a note. D: scale_ppm, scale_mismatch_ppm;
+// unseparable, notes.
 void scale_from_instrument(const Inputs& in, const TraceDescription& td, const SampleSet& ss,
                            MeanScale& mean_scale, Diagnosis& D);
 // servo_axes.cpp: each axis' following lag and position gain (commanded against feedback or
