@@ -60,14 +60,16 @@ fi
 # The libraries compile a batch of sources at a time (CIRCTEST_UNITY_BUILD): their compile
 # commands name the batch file (.../Unity/unity_N_cxx.cxx, a list of #include "source.cpp").
 # clang-tidy gets one command per source, the batch's command with the source in its place.
-# The test programs' precompiled header (GCC's .gch, tests/CMakeLists.txt) is left out of
-# their commands: clang cannot read it, and each test file includes what it uses.
+# The test programs' precompiled header (tests/CMakeLists.txt) is left out of their commands:
+# clang-tidy need not read the compiler's, and each test file includes what it uses.
 db_dir=$(mktemp -d)
 trap 'rm -rf "$db_dir"' EXIT
 python3 - "$build/compile_commands.json" "$db_dir/compile_commands.json" <<'PY'
 import json, re, sys
 entries = []
-pch = re.compile(r" -include \S*cmake_pch\.hxx| -Winvalid-pch")
+pch = re.compile(r" -include \S*cmake_pch\.hxx| -Winvalid-pch"
+                 r"| -Xclang -include-pch -Xclang \S*cmake_pch\.hxx\.pch"
+                 r"| -Xclang -include -Xclang \S*cmake_pch\.hxx")
 for e in json.load(open(sys.argv[1])):
     e["command"] = pch.sub("", e["command"])
     if re.search(r"/Unity/unity_[0-9]+_cxx\.cxx$", e["file"]):

@@ -85,8 +85,7 @@ TEST(InstrumentScale, AtHighAngularSpeedNoScaleAndTheFeedbackNoteGivesTheInjecte
     EXPECT_NEAR(ppm[k], truth[k], std::max(3.0 * se[k], 1.0)) << "axis " << k;
     EXPECT_LT(se[k], 5.0) << "axis " << k;
   }
-  std::printf("D20 F2000 against the feedback: X %.1f +- %.1f ppm, Y %.1f +- %.1f ppm\n", ppm[0],
-              se[0], ppm[1], se[1]);
+  std::printf("%s", notes(d).c_str());
 }
 
 TEST(InstrumentScale, InstrumentOnlyAtHighAngularSpeedReportsNoScale) {
@@ -96,8 +95,8 @@ TEST(InstrumentScale, InstrumentOnlyAtHighAngularSpeedReportsNoScale) {
   EXPECT_FALSE(d.scale_mismatch_ppm.value);
   EXPECT_TRUE(listed(d, "scale_ppm"));
   EXPECT_TRUE(listed(d, "scale_mismatch_ppm"));
-  EXPECT_NE(notes(d).find("record the feedback columns (x_fb, y_fb) or run a larger diameter or "
-                          "a lower feed"),
+  EXPECT_NE(notes(d).find("run a larger diameter or a lower feed, or record the feedback "
+                          "columns (x_fb, y_fb) for the screws' scale"),
             std::string::npos)
       << notes(d);
 }

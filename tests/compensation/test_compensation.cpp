@@ -298,7 +298,7 @@ TEST(Compensation, CrlfStaysCrlf) {
 TEST(Compensation, CyclicNeedsSixteenPointsAPitchWithin256) {
   Scratch s;
   DiagnosisInput d = diag(0.0);
-  d.diagnosis.cyclic[0] = Cyclic{0.002, 5.0, 0.3, 1e-4};
+  d.diagnosis.cyclic[0] = Cyclic{0.002, 5.0, 0.3, 1e-4, {}, {}};
   // 600 mm of travel at 5/16 mm spacing is 1921 points: not written, said why.
   const std::string wide = s.write("w.ini", machine("trivkins", ""));
   const Plan refused = make_plan(wide, d, only(Correction::cyclic));

@@ -263,7 +263,7 @@ void note_feedback_scales(const Inputs& in, const TraceDescription& td,
 // standard error: nothing; up to kMaxLoopBoundPpm: the standard errors widened by it (a
 // rectangular bound); beyond: not reported.
 void bound_circle_scale(const TraceDescription& td, const SampleSet& ss, MeanScale& mean_scale,
-                        Diagnosis& D) {
+                        Diagnosis& D, bool feedback_noted = false) {
   if (!ss.speed_known || (!D.scale_mismatch_ppm.value && !D.scale_ppm[0].value)) return;
   const double w2 = mean_w2(ss);
   const double bound_ppm = w2 * kLoopSecondOrderS2 * 1e6;
@@ -286,9 +286,12 @@ void bound_circle_scale(const TraceDescription& td, const SampleSet& ss, MeanSca
     D.notes.push_back(fmt::format(
         "scale and scale mismatch not reported: at {:.2f} rad/s the position loop may change "
         "the axes' amplitudes by up to {:.0f} ppm beyond the first-order loss of its lag, which "
-        "the instrument alone cannot tell from scale; record the feedback columns ({}, {}) or "
-        "run a larger diameter or a lower feed",
-        w, bound_ppm, column_name::feedback(td.la), column_name::feedback(td.lb)));
+        "the circle cannot tell from scale; run a larger diameter or a lower feed{}",
+        w, bound_ppm,
+        feedback_noted ? " (the note against the motor feedback gives the screws' scale)"
+                       : fmt::format(", or record the feedback columns ({}, {}) for the screws' "
+                                     "scale",
+                                     column_name::feedback(td.la), column_name::feedback(td.lb))));
     return;
   }
   const double u = 1.0 / std::sqrt(3.0);  // a rectangular bound's standard deviation
@@ -302,10 +305,10 @@ void bound_circle_scale(const TraceDescription& td, const SampleSet& ss, MeanSca
   if (one_feed && mean_scale.value)
     mean_scale.se = std::hypot(mean_scale.se, mean_bound * 1e-6 * u);
   D.notes.push_back(fmt::format(
-      "scale from the circle alone: at {:.2f} rad/s the position loop may change the axes' "
+      "scale from the circle: at {:.2f} rad/s the position loop may change the axes' "
       "amplitudes by up to {:.1f} ppm beyond the first-order loss of its lag; the standard "
-      "errors include it (the feedback columns {}, {} would remove it)",
-      w, bound_ppm, column_name::feedback(td.la), column_name::feedback(td.lb)));
+      "errors include it",
+      w, bound_ppm));
 }
 
 }  // namespace
@@ -348,7 +351,7 @@ void scale_from_instrument(const Inputs& in, const TraceDescription& td, const S
     return;
   }
   note_feedback_scales(in, td, {*a, *b}, fb_names, D);
-  bound_circle_scale(td, ss, mean_scale, D);
+  bound_circle_scale(td, ss, mean_scale, D, true);
 }
 
 }  // namespace circtest::diagnosis_detail

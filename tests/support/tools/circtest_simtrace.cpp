@@ -71,13 +71,13 @@ int main(int argc, char** argv) {
       sim::TestSetProgram set;
       p.runs.clear();
       for (double f : feeds) {
-        for (Direction d : {Direction::CCW, Direction::CW}) {
-          p.runs.push_back(d);
+        for (Direction dir : {Direction::CCW, Direction::CW}) {
+          p.runs.push_back(dir);
           p.run_feeds_mm_per_min.push_back(f);
         }
       }
-      for (Plane plane : *planes) {
-        p.plane = plane;
+      for (Plane each : *planes) {
+        p.plane = each;
         set.planes.push_back(p);
       }
       write_trace(out, sim::simulate_set(m, set));
