@@ -352,6 +352,17 @@ TEST(Compensation, ScaleBeyondWhatMachinesShowIsRefused) {
   EXPECT_NO_THROW(make_plan(ini, servo, force));
   servo.diagnosis.scale_ppm[1] = {450.0, 5.0};
   EXPECT_NO_THROW(make_plan(ini, servo, only(Correction::scale)));
+  // Within its standard error (the loop's bound at the test's speed): not changed, the plan
+  // goes on (backlash written), a note says why.
+  DiagnosisInput loose = diag(0.002);
+  loose.diagnosis.scale_ppm[0] = {-3.7, 14.3};
+  const Plan plan = make_plan(ini, loose, {});
+  EXPECT_FALSE(plan.files.empty());
+  EXPECT_TRUE(std::any_of(plan.notes.begin(), plan.notes.end(), [](const std::string& n) {
+    return n ==
+           "X scale: -3.7 ppm is within its standard error of 14.3 ppm: not changed (a "
+           "larger diameter or a lower feed measures it closer)";
+  }));
 }
 
 // On an inch machine a length is said in inch too (the diagnosis is in mm): the refusal and the

@@ -106,9 +106,19 @@ AxisCorrection accepted_correction(PlanContext& c, int k) {
             "{} scale: only the mismatch of the plane's axes is known (relative channels); "
             "no absolute scale to write",
             letter));
+      } else if (const Measured& s = c.d().scale_ppm[k];
+                 s.value && s.standard_error && std::fabs(*s.value) >= kMinScalePpm &&
+                 std::fabs(*s.value) <= kMaxScalePpm && *s.standard_error > std::fabs(*s.value)) {
+        // A scale's standard error holds the loop's possible amplitude response at the test's
+        // speed (docs/diagnosis.md), which measuring again does not shrink: no correction, and
+        // the rest of the plan goes on.
+        c.plan.notes.push_back(fmt::format(
+            "{} scale: {:.1f} ppm is within its standard error of {:.1f} ppm: not changed (a "
+            "larger diameter or a lower feed measures it closer)",
+            letter, *s.value, *s.standard_error));
       } else {
-        corr.scale_ppm = accepted(c.d().scale_ppm[k], fmt::format("{} scale", letter), kMinScalePpm,
-                                  kMaxScalePpm, "ppm", c.o, c.plan.notes);
+        corr.scale_ppm = accepted(s, fmt::format("{} scale", letter), kMinScalePpm, kMaxScalePpm,
+                                  "ppm", c.o, c.plan.notes);
       }
     }
     if (c.wants(Correction::cyclic) && c.d().cyclic[k]) {
