@@ -34,7 +34,7 @@ struct Seen {
 using Snapshot = std::map<std::string, Seen>;
 
 // Everything below TOP but the folders SKIP and TOP/diagnoses (the tests' inputs).
-Snapshot snapshot(const fs::path& top, const fs::path& skip) {
+inline Snapshot snapshot(const fs::path& top, const fs::path& skip) {
   Snapshot out;
   for (auto it = fs::recursive_directory_iterator(top); it != fs::recursive_directory_iterator();
        ++it) {
@@ -64,7 +64,7 @@ Snapshot snapshot(const fs::path& top, const fs::path& skip) {
 }
 
 // The paths whose kind, content or mtime differ; "" when none.
-std::string changes(const Snapshot& before, const Snapshot& after) {
+inline std::string changes(const Snapshot& before, const Snapshot& after) {
   std::string out;
   for (const auto& [path, seen] : before) {
     const auto it = after.find(path);
@@ -80,7 +80,7 @@ std::string changes(const Snapshot& before, const Snapshot& after) {
   return out;
 }
 
-const char* kMachineIni =
+inline const char* kMachineIni =
     "[TRAJ]\nCOORDINATES = X Y Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
     "coordinates=XYZ\nJOINTS = 3\n\n[HAL]\nHALFILE = mill.hal\n\n"
     "[JOINT_0]\nMIN_LIMIT = -300\nMAX_LIMIT = 300\nBACKLASH = 0.008\n\n"

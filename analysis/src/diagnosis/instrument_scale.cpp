@@ -70,7 +70,7 @@ std::optional<LinearFit> solve(const std::vector<Row>& x, const std::vector<doub
     btb += d[i] * d[i];
     ++n;
   }
-  if (n < static_cast<std::size_t>(4 * ncols)) return std::nullopt;
+  if (n < 4 * static_cast<std::size_t>(ncols)) return std::nullopt;
   const Eigen::MatrixXd ata =
       full.topLeftCorner(ncols, ncols).selfadjointView<Eigen::Lower>().toDenseMatrix();
   const Eigen::VectorXd atb = atb_full.head(ncols);

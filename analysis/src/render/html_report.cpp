@@ -499,7 +499,7 @@ std::string instrument_of(const Evaluation& ev) {
 void facts_table(std::string& s, const std::vector<ReportPage>& pages, const HandOver& h) {
   auto out = std::back_inserter(s);
   const Evaluation& ev = *pages.front().evaluation;
-  auto or_blank = [](std::string v) { return v.empty() ? std::string(kNotRecorded) : v; };
+  auto or_blank = [](const std::string& v) { return v.empty() ? std::string(kNotRecorded) : v; };
   std::string machine = or_blank(machine_of(ev));
   if (const auto serial = condition(ev, meta_key::machine_serial); !serial.empty())
     machine += ", serial " + serial;
