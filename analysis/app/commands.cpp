@@ -135,18 +135,10 @@ auto naming_file(const std::string& path, const Fn& fn) -> decltype(fn()) {
   }
 }
 
-// The measured G a diagnosis gives its residual's share against carries the U_G (k = 2) of
-// the evaluation it was made on, as every G circana prints.
-void state_measured_g_u(Diagnosis& d, const Evaluation& ev) {
-  if (d.measured_g_mm) d.measured_g_u_mm = uncertainty_budget(ev, ev.uncertainty_options).u_g_mm;
-}
-
-// The diagnosis of an evaluated trace, its measured G with its U.
+// The diagnosis of an evaluated trace, errors naming its file.
 Diagnosis diagnose_evaluated(const std::string& path, const Trace& trace, const Evaluation& ev,
                              const DiagnosisOptions& options = {}) {
-  Diagnosis d = naming_file(path, [&] { return diagnose(trace, ev, options); });
-  state_measured_g_u(d, ev);
-  return d;
+  return naming_file(path, [&] { return diagnose(trace, ev, options); });
 }
 
 // Stores a test (its diagnosis too, when given); returns the line that says so.
@@ -477,7 +469,6 @@ int diagnose_set_command(const DiagnoseRequest& request, const std::vector<Evalu
       naming_file(request.trace_path, [&] { return diagnose_set(request.trace_path, inputs); });
   for (std::size_t k = 0; k < planes.size(); ++k) {
     lead_with_evaluation_notes(planes[k], set.plane_diagnoses[k]);
-    state_measured_g_u(set.plane_diagnoses[k], planes[k].evaluation);
   }
   if (!request.svg_path.empty()) {
     std::vector<std::pair<std::string, std::string>> plots;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "circtest/analysis/uncertainty.hpp"
 #include "circtest/core/memory.hpp"
 #include "stages.hpp"
 
@@ -272,6 +273,9 @@ void residual_and_contributions(const Inputs& in, const SampleSet& ss, const Mod
   for (const RunResult& rr : in.ev.runs) {
     if (!D.measured_g_mm || rr.g_lsc_mm > *D.measured_g_mm) D.measured_g_mm = rr.g_lsc_mm;
   }
+  // With its U (k = 2), as every G circtest states.
+  if (D.measured_g_mm)
+    D.measured_g_u_mm = uncertainty_budget(in.ev, in.ev.uncertainty_options).u_g_mm;
 }
 
 }  // namespace circtest::diagnosis_detail
