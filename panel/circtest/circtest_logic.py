@@ -183,9 +183,32 @@ def circcomp_apply_command(programs, ini, diagnosis):
 
 # ---- running ------------------------------------------------------------------------------
 
+# `circtest verify` exits 9 (tolerance) when its test is not within the session's limits (OUT
+# OF TOLERANCE, NOT DECIDED): its verdict, a result, printed after everything was written
+# (docs/session.md), as `circana history --limits` exits 9.
+TOLERANCE_EXIT = 9
+
+
+def is_result_exit(argv, exit_code):
+    """Whether ARGV's non-zero EXIT_CODE is a result: circtest verify's verdict."""
+    return (exit_code == TOLERANCE_EXIT and os.path.basename(argv[0]) == "circtest"
+            and argv[1:2] == ["verify"])
+
+
+def verdict_line(stdout):
+    """The verdict circtest run or verify printed (`circtest: verdict against LIMITS ...`,
+    without `circtest: `), else None."""
+    prefix = "circtest: verdict against "
+    for line in stdout.splitlines():
+        if line.startswith(prefix):
+            return line[len("circtest: "):]
+    return None
+
+
 def finish(argv, exit_code, stdout, stderr):
-    """A program's end: its stdout when it exited 0, else ProgramError with its one line."""
-    if exit_code != 0:
+    """A program's end: its stdout when it exited 0 (or with a result's exit code: circtest
+    verify's 9), else ProgramError with its one line."""
+    if exit_code != 0 and not is_result_exit(argv, exit_code):
         raise ProgramError(one_line_error(os.path.basename(argv[0]), exit_code, stderr),
                            exit_code)
     return stdout

@@ -463,11 +463,15 @@ class CircTestPanel(QWidget):
             self.session_dir = folder
             self.live_timer.start()
 
-    def _session_done(self, _stdout):
+    def _session_done(self, stdout):
+        """The test ended with its results (verify's verdict OUT OF TOLERANCE or NOT DECIDED,
+        exit 9, too): its verdict, when it has one, on the status line."""
         self.session_running = False  # the timer reads on until the trace is read whole
         self.live_timer.start()
         self._idle()
-        self.say("the test ended: results below")
+        verdict = logic.verdict_line(stdout)
+        self.say("the test ended, %s: results below" % verdict if verdict
+                 else "the test ended: results below")
         self.load_session()
 
     def _session_failed(self):

@@ -150,6 +150,22 @@ def test_one_line_error():
     assert logic.one_line_error("x", 3, "") == "x: failed with exit code 3 and no message"
 
 
+def test_verify_out_of_tolerance_is_a_result():
+    # circtest verify's exit 9 (its verdict against the limits: README's exit codes) returns
+    # its output as exit 0 does; another program's 9, run's, or verify's other exits fail.
+    verdict = ("circtest: verdict against G=0.0125 (ISO 14253-1, U k = 2): NOT DECIDED: G 12.0 "
+               "+ U 1.0 > 12.5 um: within the uncertainty")
+    out = "circtest: verifying session /a/s: its program again\n%s\n" % verdict
+    assert logic.finish(["/bin/circtest", "verify", "--ini", "m.ini"], 9, out, "") == out
+    assert logic.verdict_line(out) == verdict[len("circtest: "):]
+    assert logic.verdict_line("circtest: no acceptance limits set (...): no verdict\n") is None
+    for argv, code in ((["/bin/circtest", "verify"], 7), (["/bin/circtest", "run"], 9),
+                       (["/bin/circana", "history"], 9)):
+        with pytest.raises(logic.ProgramError) as caught:
+            logic.finish(argv, code, out, "x: error: refused\n")
+        assert (caught.value.exit_code, caught.value.message) == (code, "x: error: refused")
+
+
 def test_missing_program():
     with pytest.raises(logic.ProgramError) as caught:
         logic.Programs({}).path("circtest")

@@ -208,6 +208,40 @@ def test_the_flow_shows_the_programs_numbers(qtbot, programs, tmp_path, sim_serv
     qtbot.waitUntil(lambda: panel.status.text().startswith("circcomp: "), timeout=15000)
 
 
+def test_verify_out_of_tolerance_shows_its_results(qtbot, programs, tmp_path, sim_servo):
+    # circtest verify against the session's limits, not within them: exit 9 after the session
+    # folder is complete (docs/session.md). The panel shows the verify's results and its
+    # verdict, not an error.
+    d = session_folder(tmp_path, programs, sim_servo)
+    (d / "apply.txt").write_text("applied\n")
+    trace = simulate(d / "verify-trace.csv", "--d", "100", "--f", "1000", "--backlash-x", "0.002")
+    (d / "verify-results.json").write_text(
+        logic.run([programs.path("circana"), "analyze", trace, "--json"]))
+    verdict = ("verdict against H=0.001 (ISO 14253-1, U k = 2): OUT OF TOLERANCE: H 2.0 - U 0.1 "
+               "> 1.0 um")
+    verify = script(tmp_path / "circtest",
+                    "echo 'circtest: verifying session {0}: its program again'\n"
+                    "echo 'circtest: {1}' && echo 'circtest: session folder {0}'\n"
+                    "exit 9\n".format(d, verdict))
+    panel = panel_with(qtbot, programs, verify, ini=sim_servo)
+    qtbot.mouseClick(panel.verify_button, widgets.Qt.LeftButton)
+    qtbot.waitUntil(lambda: panel.results.rowCount() == 4, timeout=15000)
+    assert [panel.results.item(i, 0).text() for i in range(4)] == ["run", "run", "verify",
+                                                                   "verify"]
+    assert panel.results.item(2, 8).text() == "2.0"  # the verify's H, the 2 µm backlash left
+    assert panel.status.text() == "the test ended, %s: results below" % verdict
+    assert panel.verify_button.isEnabled() and panel.run_button.isEnabled()
+    # Any other exit of verify is its error line, nothing loaded.
+    (d / "verify-results.json").unlink()
+    panel.results.setRowCount(0)
+    failing = script(tmp_path / "circtest",
+                     "echo 'circtest: error: m.ini: LinuxCNC is not running' >&2\nexit 7\n")
+    panel = panel_with(qtbot, programs, failing, ini=sim_servo)
+    qtbot.mouseClick(panel.verify_button, widgets.Qt.LeftButton)
+    qtbot.waitUntil(lambda: panel.status.text().startswith("circtest: error:"), timeout=15000)
+    assert panel.results.rowCount() == 0
+
+
 def test_plot_paints_offscreen(qtbot, programs, tmp_path):
     trace = simulate(tmp_path / "t.csv", "--d", "100", "--f", "1000", "--backlash-x", "0.01")
     plot = widgets.PolarPlot()

@@ -139,6 +139,19 @@ std::string session_limits(const std::string& dir, const std::string& given);
 // is not decided; a line saying there is none without limits.
 std::string verdict_line(const std::string& results_text, const std::string& diagnosis_text,
                          const std::string& limits);
+// The same verdict with its word: none (no limits), within the limits, NOT DECIDED, OUT OF
+// TOLERANCE; LINE is verdict_line's.
+struct SessionVerdict {
+  enum class Word { none, within, not_decided, out_of_tolerance };
+  Word word = Word::none;
+  std::string line;
+};
+SessionVerdict session_verdict(const std::string& results_text, const std::string& diagnosis_text,
+                               const std::string& limits);
+// verify's exit status by its verdict, by circana history --limits' rule: 9 (tolerance) unless
+// every limit passes (NOT DECIDED and a limit not measured fail too); 0 within the limits and
+// without limits. run's verdict (of the machine before any correction) leaves its exit at 0.
+int verify_exit_code(SessionVerdict::Word word);
 
 // The servo thread's periods in a trace: the servo_period channel (circtest install:
 // motion.servo.last-period, CPU clocks in LinuxCNC 2.9, ns later) against the thread's own
@@ -243,5 +256,10 @@ std::string verify_table(const Figures& before, const Figures& after);
 // Whether AFTER is worse than BEFORE in G or H by more than two runs of an unchanged machine
 // differ (5 % + 0.5 um).
 bool got_worse(const Figures& before, const Figures& after);
+// verify's end, its test evaluated in the session folder SESSION_DIR (results.json,
+// verify-results.json, verify-diagnosis.json, report.html): prints the before/after table
+// (written to verify.txt), the report's path, the verdict line against LIMITS and whether the
+// machine got worse; exit code by the verdict (verify_exit_code).
+RunOutcome verify_end(const std::string& session_dir, const std::string& limits, std::ostream& out);
 
 }  // namespace circtest::session

@@ -99,10 +99,11 @@ std::string session_limits(const std::string& dir, const std::string& given) {
   return text;
 }
 
-std::string verdict_line(const std::string& results_text, const std::string& diagnosis_text,
-                         const std::string& limits_text) {
+SessionVerdict session_verdict(const std::string& results_text, const std::string& diagnosis_text,
+                               const std::string& limits_text) {
+  using W = SessionVerdict::Word;
   if (limits_text.empty()) {
-    return "no acceptance limits set (circtest run --limits H=MM,G=MM,F=MM): no verdict";
+    return {W::none, "no acceptance limits set (circtest run --limits H=MM,G=MM,F=MM): no verdict"};
   }
   const history::Limits limits = history::parse_limits(limits_text, "--limits");
   using R = history::Verdict::Result;
@@ -116,11 +117,22 @@ std::string verdict_line(const std::string& results_text, const std::string& dia
     fail = fail || v.result == R::fail || v.result == R::not_measured;
     pass = pass && v.result == R::pass;
   }
-  const char* word = pass ? "within the limits" : fail ? "OUT OF TOLERANCE" : "NOT DECIDED";
+  const W word = pass ? W::within : fail ? W::out_of_tolerance : W::not_decided;
+  const char* words = pass ? "within the limits" : fail ? "OUT OF TOLERANCE" : "NOT DECIDED";
   std::string line =
-      fmt::format("verdict against {} (ISO 14253-1, U k = 2): {}: ", limits_text, word);
+      fmt::format("verdict against {} (ISO 14253-1, U k = 2): {}: ", limits_text, words);
   for (std::size_t i = 0; i < items.size(); ++i) line += (i ? "; " : "") + items[i];
-  return line;
+  return {word, line};
+}
+
+std::string verdict_line(const std::string& results_text, const std::string& diagnosis_text,
+                         const std::string& limits_text) {
+  return session_verdict(results_text, diagnosis_text, limits_text).line;
+}
+
+int verify_exit_code(SessionVerdict::Word word) {
+  using W = SessionVerdict::Word;
+  return word == W::none || word == W::within ? 0 : static_cast<int>(ExitCode::tolerance);
 }
 
 }  // namespace circtest::session

@@ -112,6 +112,31 @@ bool got_worse(const Figures& before, const Figures& after) {
   return worse(before.g_mm, after.g_mm) || worse(before.h_mm, after.h_mm);
 }
 
+RunOutcome verify_end(const std::string& session_dir, const std::string& limits,
+                      std::ostream& out) {
+  const fs::path dir(session_dir);
+  const Figures before = read_figures((dir / "results.json").string());
+  const Figures now = read_figures((dir / "verify-results.json").string());
+  const std::string table = verify_table(before, now);
+  write_file_atomic((dir / "verify.txt").string(), table);
+  out << table << "circtest: the hand-over report: " << (dir / "report.html").string() << "\n";
+  const SessionVerdict verdict =
+      session_verdict(read_file((dir / "verify-results.json").string()),
+                      read_file((dir / "verify-diagnosis.json").string()), limits);
+  out << "circtest: " << verdict.line << "\n";
+  RunOutcome outcome;
+  outcome.session_dir = session_dir;
+  outcome.worse = got_worse(before, now);
+  if (outcome.worse) {
+    out << fmt::format(
+        "circtest: the machine got worse with the corrections (G {} -> {}, H {} "
+        "-> {})\n",
+        um(before.g_mm), um(now.g_mm), um(before.h_mm), um(now.h_mm));
+  }
+  outcome.exit_code = verify_exit_code(verdict.word);
+  return outcome;
+}
+
 RunOutcome verify_session(const RunRequest& request, const Console& console) {
   std::ostream& out = console.print();
   if (!request.limits.empty()) check_limits(request.limits);
@@ -139,23 +164,7 @@ RunOutcome verify_session(const RunRequest& request, const Console& console) {
     outcome.exit_code = rc;
     return outcome;
   }
-  const Figures before = read_figures((dir / "results.json").string());
-  const Figures now = read_figures((dir / "verify-results.json").string());
-  const std::string table = verify_table(before, now);
-  write_file_atomic((dir / "verify.txt").string(), table);
-  out << table << "circtest: the hand-over report: " << (dir / "report.html").string() << "\n";
-  out << "circtest: "
-      << verdict_line(read_file((dir / "verify-results.json").string()),
-                      read_file((dir / "verify-diagnosis.json").string()), limits)
-      << "\n";
-  outcome.worse = got_worse(before, now);
-  if (outcome.worse) {
-    out << fmt::format(
-        "circtest: the machine got worse with the corrections (G {} -> {}, H {} "
-        "-> {})\n",
-        um(before.g_mm), um(now.g_mm), um(before.h_mm), um(now.h_mm));
-  }
-  return outcome;
+  return verify_end(dir.string(), limits, out);
 }
 
 }  // namespace circtest::session

@@ -3,6 +3,7 @@
 // recorded (the LinuxCNC link's events), and verify's refusal of a moved work offset.
 #include <gtest/gtest.h>
 
+#include <sstream>
 #include <string>
 
 #include "circtest/core/error.hpp"
@@ -80,6 +81,64 @@ TEST(SessionVerdict, TheLimitsAreKeptInTheSessionFolder) {
   EXPECT_NO_THROW(check_limits("H=0.015,G=0.02,F=0.01,backlash=0.005,squareness=50"));
   for (const char* bad : {"H=abc", "X=0.01", "H=0", "H=0.015,", "G=20"}) {
     EXPECT_THROW(check_limits(bad), UsageError) << bad;
+  }
+}
+
+// verify's exit status is its verdict, by circana history --limits' rule (the README's exit
+// 9, tolerance): 9 unless every limit passes; 0 within them and without limits.
+TEST(SessionVerdict, VerifyExitsNineUnlessEveryLimitPasses) {
+  using W = SessionVerdict::Word;
+  const SessionVerdict out = session_verdict(kResults, "", "H=0.015,G=0.0125,F=0.005");
+  EXPECT_EQ(out.word, W::out_of_tolerance);
+  EXPECT_EQ(verify_exit_code(out.word), 9);
+  const SessionVerdict open = session_verdict(kResults, "", "G=0.0125");
+  EXPECT_EQ(open.word, W::not_decided);
+  EXPECT_EQ(verify_exit_code(open.word), 9);
+  const SessionVerdict unmeasured = session_verdict(kResults, "", "backlash=0.005");
+  EXPECT_EQ(unmeasured.word, W::out_of_tolerance);
+  EXPECT_EQ(verify_exit_code(unmeasured.word), 9);
+  const SessionVerdict within = session_verdict(kResults, "", "H=0.0069,G=0.0131");
+  EXPECT_EQ(within.word, W::within);
+  EXPECT_EQ(verify_exit_code(within.word), 0);
+  const SessionVerdict none = session_verdict(kResults, kDiagnosis, "");
+  EXPECT_EQ(none.word, W::none);
+  EXPECT_EQ(verify_exit_code(none.word), 0);
+  EXPECT_EQ(out.line, verdict_line(kResults, "", "H=0.015,G=0.0125,F=0.005"));
+}
+
+// verify's end in its session folder: the table (verify.txt), the report, the verdict line
+// printed, then the exit status of that verdict.
+TEST(SessionVerdict, VerifyEndsWithItsVerdictThenItsExitStatus) {
+  ScratchDir dir;
+  // Before the corrections: H 25.3 um, G 35.3 um; after: kResults (H 5.6, G 12.0 um).
+  dir.write("results.json", R"({"H": 0.0253, "U_H": 0.0012, "runs": [{"G": 0.0353}]})");
+  dir.write("verify-results.json", kResults);
+  dir.write("verify-diagnosis.json", kDiagnosis);
+  const std::string said_within =
+      "circtest: verdict against H=0.0069,G=0.0131 (ISO 14253-1, U k = 2): within the limits: H "
+      "5.6 + U 1.2 <= 6.9 um; G 12.0 + U 1.0 <= 13.1 um\n";
+  const struct {
+    const char* limits;
+    const char* word;
+    int exit_code;
+  } cases[] = {{"H=0.015,G=0.0125,F=0.005", ": OUT OF TOLERANCE: ", 9},
+               {"G=0.0125", ": NOT DECIDED: ", 9},
+               {"H=0.0069,G=0.0131", ": within the limits: ", 0},
+               {"", "no acceptance limits set", 0}};
+  for (const auto& c : cases) {
+    std::ostringstream out;
+    const RunOutcome end = verify_end(dir.path(), c.limits, out);
+    EXPECT_EQ(end.exit_code, c.exit_code) << c.limits;
+    EXPECT_EQ(end.session_dir, dir.path());
+    EXPECT_FALSE(end.worse);
+    // The verdict is the last line printed, after the table and the report's path.
+    const std::string text = out.str();
+    const std::size_t verdict = text.rfind("\ncirctest: ");
+    ASSERT_NE(verdict, std::string::npos) << text;
+    EXPECT_NE(text.find(c.word, verdict), std::string::npos) << text;
+    EXPECT_NE(text.find("circtest: the hand-over report: "), std::string::npos) << text;
+    EXPECT_EQ(text.substr(0, text.find("circtest: the hand-over report")), dir.read("verify.txt"));
+    if (c.exit_code == 0 && *c.limits) EXPECT_EQ(text.substr(verdict + 1), said_within);
   }
 }
 

@@ -42,7 +42,9 @@ struct RunOutcome {
 RunOutcome run_session(const RunRequest& request, const Console& console);
 
 // The latest session of the configuration with corrections applied, its program run again:
-// before/after, the hand-over report. Throws DataError when there is no such session.
+// before/after, the hand-over report. Throws DataError when there is no such session. With
+// limits its exit code is its verdict: 9 (tolerance) unless every limit passes, once
+// everything is written and printed.
 RunOutcome verify_session(const RunRequest& request, const Console& console);
 
 }  // namespace circtest::session
