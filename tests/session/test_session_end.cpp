@@ -88,22 +88,22 @@ TEST(SessionVerdict, TheLimitsAreKeptInTheSessionFolder) {
 // 9, tolerance): 9 unless every limit passes; 0 within them and without limits.
 TEST(SessionVerdict, VerifyExitsNineUnlessEveryLimitPasses) {
   using W = SessionVerdict::Word;
-  const SessionVerdict out = session_verdict(kResults, "", "H=0.015,G=0.0125,F=0.005");
-  EXPECT_EQ(out.word, W::out_of_tolerance);
-  EXPECT_EQ(verify_exit_code(out.word), 9);
-  const SessionVerdict open = session_verdict(kResults, "", "G=0.0125");
-  EXPECT_EQ(open.word, W::not_decided);
-  EXPECT_EQ(verify_exit_code(open.word), 9);
-  const SessionVerdict unmeasured = session_verdict(kResults, "", "backlash=0.005");
-  EXPECT_EQ(unmeasured.word, W::out_of_tolerance);
-  EXPECT_EQ(verify_exit_code(unmeasured.word), 9);
-  const SessionVerdict within = session_verdict(kResults, "", "H=0.0069,G=0.0131");
-  EXPECT_EQ(within.word, W::within);
-  EXPECT_EQ(verify_exit_code(within.word), 0);
-  const SessionVerdict none = session_verdict(kResults, kDiagnosis, "");
-  EXPECT_EQ(none.word, W::none);
-  EXPECT_EQ(verify_exit_code(none.word), 0);
-  EXPECT_EQ(out.line, verdict_line(kResults, "", "H=0.015,G=0.0125,F=0.005"));
+  const struct {
+    const char* diagnosis;
+    const char* limits;
+    W word;
+    int exit_code;
+  } cases[] = {{"", "H=0.015,G=0.0125,F=0.005", W::out_of_tolerance, 9},
+               {"", "G=0.0125", W::not_decided, 9},
+               {"", "backlash=0.005", W::out_of_tolerance, 9},  // not measured
+               {"", "H=0.0069,G=0.0131", W::within, 0},
+               {kDiagnosis, "", W::none, 0}};
+  for (const auto& c : cases) {
+    const SessionVerdict verdict = session_verdict(kResults, c.diagnosis, c.limits);
+    EXPECT_EQ(verdict.word, c.word) << c.limits;
+    EXPECT_EQ(verify_exit_code(verdict.word), c.exit_code) << c.limits;
+    EXPECT_EQ(verdict.line, verdict_line(kResults, c.diagnosis, c.limits));
+  }
 }
 
 // verify's end in its session folder: the table (verify.txt), the report, the verdict line
