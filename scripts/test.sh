@@ -21,21 +21,24 @@ if [ $# -eq 0 ]; then full_run=1; set -- -LE soak; fi
 # leaves out the programs the sanitizer build lists), with each fuzz harness for
 # CIRCTEST_FUZZ_SECONDS. CIRCTEST_SANITIZE_SCOPE=all sanitizes every part (analysis and circgen
 # too: about 10 minutes more on 2 cores); CIRCTEST_SANITIZE_PASS=0 leaves the sanitizer build
-# out (every unit test then runs in the main build). The sanitizer pass starts right after the
-# packages are in, at nice 10, beside the main build and the suite.
+# out (every unit test then runs in the main build). The sanitizer build starts once its own
+# packages are in, at nice 10, while the others install and beside the main build and the
+# suite.
 sanitize=0
 [ $full_run = 1 ] && [ "${CIRCTEST_SANITIZE_PASS:-1}" != 0 ] && sanitize=1
 san_log=$BUILD_DIR/sanitize-build.log san_test_log=$BUILD_DIR/sanitize-test.log
 san_mark=$BUILD_DIR/sanitize-build.done san_test_mark=$BUILD_DIR/sanitize-test.done
 test_packages_mark=$BUILD_DIR/test-packages.done
 if [ $sanitize = 1 ]; then
-  # The build's packages first; the tests' packages (Chromium, PostgreSQL, PyQt5...) install
-  # while the sanitizer build compiles, before the main build's configure step looks for them.
+  # The sanitizer build's packages first (the build's but LinuxCNC and the panel's:
+  # scripts/setup.sh); the rest of the build's (LinuxCNC) and the tests' (Chromium,
+  # PostgreSQL...) install while the sanitizer build compiles, before the main build's
+  # configure step looks for them.
   mkdir -p "$BUILD_DIR"
   export CIRCTEST_APT_STAMP=$BUILD_DIR/apt-updated
   rm -f "$CIRCTEST_APT_STAMP" "$test_packages_mark"
-  CIRCTEST_PACKAGES=build scripts/setup.sh install
-  phase "install of the build's packages"
+  CIRCTEST_PACKAGES=sanitize scripts/setup.sh install
+  phase "install of the sanitizer build's packages"
   # The unit-test programs the sanitizer build makes (its configure step lists them) run there,
   # under ASan and UBSan, and are left out of the main build.
   CIRCTEST_SANITIZE_SCOPE=${CIRCTEST_SANITIZE_SCOPE:-inputs} scripts/sanitize.sh configure \
@@ -58,7 +61,7 @@ if [ $sanitize = 1 ]; then
   san_pass=$!
   set +m
   trap 'kill -- -"$san_pass" 2>/dev/null || true' EXIT
-  CIRCTEST_PACKAGES=tests scripts/setup.sh install
+  CIRCTEST_PACKAGES=all scripts/setup.sh install
   touch "$test_packages_mark"
 else
   scripts/setup.sh install

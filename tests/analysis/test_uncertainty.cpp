@@ -22,14 +22,14 @@ using namespace circtest;
 
 namespace {
 
-constexpr double kR = 50.0;
+constexpr double kNominalR = 50.0;
 constexpr double kAlphaMachine = 11.5e-6;
 
 // A mill with an X scale error (a two-lobe r = R + A cos 2theta, A = R s / 2) and one CCW and
 // one CW run, 4 ms samples.
 sim::CircleProgram program(std::vector<Direction> runs = {Direction::CCW, Direction::CW}) {
   sim::CircleProgram p;
-  p.radius_mm = kR;
+  p.radius_mm = kNominalR;
   p.feed_mm_per_min = 2000.0;
   p.period_s = 0.004;
   p.runs = std::move(runs);
@@ -62,7 +62,7 @@ Trace perturbed(const Trace& base, const Draws& d, double resolution_mm) {
   auto& x = t.values[*t.column_index("x")];
   auto& y = t.values[*t.column_index("y")];
   const auto& segment = *t.column("segment");
-  const double scale = 1.0 + d.calibration_mm / kR + kAlphaMachine * d.temperature_K;
+  const double scale = 1.0 + d.calibration_mm / kNominalR + kAlphaMachine * d.temperature_K;
   for (std::size_t i = 0; i < t.rows(); ++i) {
     double a = x[i], b = y[i];
     const double th = std::atan2(b, a);
@@ -320,7 +320,7 @@ TEST(Uncertainty, RecordedTemperaturesEnterFOnly) {
   ASSERT_NE(machine, nullptr);
   EXPECT_EQ(machine->source, "measured");
   const double a = kAlphaMachine;
-  EXPECT_NEAR(machine->value_mm, kR * std::hypot(a * 0.2, 0.1 * a * 2.0), 1e-12);
+  EXPECT_NEAR(machine->value_mm, kNominalR * std::hypot(a * 0.2, 0.1 * a * 2.0), 1e-12);
   EXPECT_EQ(machine->c_g, 0.0);
   EXPECT_EQ(machine->c_f, 1.0);
 }

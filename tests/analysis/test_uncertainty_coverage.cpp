@@ -26,7 +26,7 @@ using namespace circtest;
 
 namespace {
 
-constexpr double kR = 100.0;               // mm
+constexpr double kCircleR = 100.0;         // mm
 constexpr double kFeed = 1000.0;           // mm/min
 constexpr double kPeriod = 0.01;           // s
 constexpr double kDwell = 2.0;             // s at rest before, between and after the runs
@@ -62,15 +62,15 @@ Trace simulate_test(const Perturbation& p) {
   t.values.assign(t.columns.size(), {});
   std::mt19937_64 rng(p.seed);
   std::normal_distribution<double> noise(0.0, 1.0);
-  const double omega = kFeed / 60.0 / kR;  // rad/s
+  const double omega = kFeed / 60.0 / kCircleR;  // rad/s
   const double run_s = 2.0 * std::numbers::pi / omega;
   const auto steps = static_cast<std::size_t>(std::ceil(run_s / kPeriod));
   const auto dwell = static_cast<std::size_t>(kDwell / kPeriod);
   double time = 0.0;
   auto sample = [&](double th, int dir, int marker, int segment) {
     const double temp = p.start_C + p.rate_K_per_s * time;
-    const double r = (kR + machine_error_mm(th, dir)) * (1.0 + kAlpha * (temp - 20.0)) *
-                     (1.0 + p.calibration_mm / kR);
+    const double r = (kCircleR + machine_error_mm(th, dir)) * (1.0 + kAlpha * (temp - 20.0)) *
+                     (1.0 + p.calibration_mm / kCircleR);
     const double row[] = {time,
                           r * std::cos(th) + p.noise_mm * noise(rng),
                           r * std::sin(th) + p.noise_mm * noise(rng),
@@ -219,7 +219,7 @@ TEST(UncertaintyDrift, StartAndEndOrOnce) {
   EXPECT_EQ(a.budget_inputs.drift_source, "columns");
   EXPECT_EQ(b.budget_inputs.drift_source, "start and end");
   // The truth of the run: 100 K/h over the run's time.
-  const double run_s = 2.0 * std::numbers::pi * kR / (kFeed / 60.0);
+  const double run_s = 2.0 * std::numbers::pi * kCircleR / (kFeed / 60.0);
   EXPECT_NEAR(a.budget_inputs.machine_run_K, kDriftMaxKPerS * run_s, 0.01);
   EXPECT_NEAR(b.budget_inputs.machine_run_K, kDriftMaxKPerS * run_s, 0.01);
   // F is corrected at the mean temperature of the recording.
@@ -237,7 +237,7 @@ TEST(UncertaintyDrift, StartAndEndOrOnce) {
     if (contribution.name != "thermal drift within a run") continue;
     EXPECT_EQ(contribution.source, "stated assumption");
     // 1 K/h over the run: R a dT.
-    EXPECT_NEAR(contribution.value_mm, kR * kAlpha * run_s / 3600.0, 1e-9);
+    EXPECT_NEAR(contribution.value_mm, kCircleR * kAlpha * run_s / 3600.0, 1e-9);
   }
 }
 

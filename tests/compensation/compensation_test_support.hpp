@@ -1,7 +1,8 @@
 #pragma once
 // What the circcomp library's tests on a fixture mill share (test_compensation.cpp,
-// test_compensation_tables.cpp): a scratch folder per test, the mill's INI, a diagnosis of X
-// backlash, a plan of one correction.
+// test_compensation_tables.cpp, and the INI sections of test_plan_json.cpp and
+// test_test_set_plan.cpp): a scratch folder per test, the mill's INI, a diagnosis of X
+// backlash, a plan of one correction, the change a plan makes to a file.
 #include <string>
 
 #include "circtest/compensation/diagnosis_input.hpp"
@@ -45,6 +46,15 @@ inline compensation::PlanOptions only(compensation::Correction what) {
   compensation::PlanOptions o;
   o.only = {what};
   return o;
+}
+
+// The plan's change to the file whose path ends with SUFFIX, or null.
+inline const compensation::FileChange* change_of(const compensation::Plan& plan,
+                                                 const std::string& suffix) {
+  for (const auto& f : plan.files) {
+    if (f.path.ends_with(suffix)) return &f;
+  }
+  return nullptr;
 }
 
 }  // namespace circtest::testing

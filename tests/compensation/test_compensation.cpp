@@ -320,13 +320,6 @@ DiagnosisInput square(double urad, const std::string& plane = "XY") {
   return d;
 }
 
-const FileChange* change_of(const Plan& plan, const std::string& suffix) {
-  for (const auto& f : plan.files) {
-    if (f.path.ends_with(suffix)) return &f;
-  }
-  return nullptr;
-}
-
 }  // namespace
 
 TEST(Compensation, SquarenessSwitchesToCircTestKins) {

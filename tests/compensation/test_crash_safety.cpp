@@ -17,9 +17,11 @@
 
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/sha256.hpp"
+#include "scratch.hpp"
 
 namespace fs = std::filesystem;
 using namespace circtest;
+using circtest::testing::spit;
 
 namespace {
 
@@ -34,10 +36,6 @@ Tree tree_of(const fs::path& dir) {
     if (e.is_regular_file()) t[rel] = read_file(e.path().string());
   }
   return t;
-}
-
-void spit(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
 }
 
 // A mill with a HAL file that loads trivkins by name: a backlash, a scale table and the

@@ -12,21 +12,18 @@
 #include "circtest/compensation/plan_json.hpp"
 #include "circtest/core/atomic_file.hpp"
 #include "circtest/core/sha256.hpp"
+#include "compensation_test_support.hpp"
 #include "scratch.hpp"
 
 using namespace circtest;
 using namespace circtest::compensation;
 using ojson = nlohmann::ordered_json;
+using circtest::testing::joint;
 
 namespace {
 
-std::string joint(int n, const std::string& extra = "") {
-  return "[JOINT_" + std::to_string(n) + "]\nTYPE = LINEAR\nMIN_LIMIT = -300\nMAX_LIMIT = 300\n" +
-         extra + "\n";
-}
-
 // X is joint 1 here, so that the words name the axis, not the joint.
-std::string machine() {
+std::string yxz_machine() {
   return "[TRAJ]\nCOORDINATES = Y X Z\nLINEAR_UNITS = mm\n\n[KINS]\nKINEMATICS = trivkins "
          "coordinates=YXZ\nJOINTS = 3\n\n[HAL]\nHALFILE = mill.hal\n\n" +
          joint(0) + joint(1, "BACKLASH = 0.008\nFF1 = 0\n") + joint(2);
@@ -61,7 +58,7 @@ std::string words(const ojson& j) {
 
 TEST(PlanJson, BacklashAndSquarenessInPlainWords) {
   circtest::testing::ScratchDir s("plan-json");
-  const std::string ini = s.write("m.ini", machine());
+  const std::string ini = s.write("m.ini", yxz_machine());
   s.write("mill.hal", "loadrt trivkins coordinates=YXZ\nloadrt motmod\n");
   PlanOptions o;
   o.only = {Correction::backlash, Correction::squareness};
@@ -99,7 +96,7 @@ TEST(PlanJson, BacklashAndSquarenessInPlainWords) {
 
 TEST(PlanJson, ACompensationTableIsReadAsBacklashAndScale) {
   circtest::testing::ScratchDir s("plan-json");
-  const std::string ini = s.write("m.ini", machine());
+  const std::string ini = s.write("m.ini", yxz_machine());
   DiagnosisInput d = diagnosis(ini);
   d.diagnosis.scale_ppm[0] = {20.0, 0.5};
   d.diagnosis.scale_ppm[1] = {0.0, 0.5};
@@ -125,7 +122,7 @@ TEST(PlanJson, ACompensationTableIsReadAsBacklashAndScale) {
 // --json is an output of plan only: apply and revert refuse it before touching anything.
 TEST(PlanJson, OnlyForPlan) {
   circtest::testing::ScratchDir s("plan-json");
-  const std::string ini = s.write("m.ini", machine());
+  const std::string ini = s.write("m.ini", yxz_machine());
   for (const char* command : {"apply", "revert"}) {
     const std::string cmd = std::string(CIRCCOMP_PATH) + " " + command + " --ini " + ini +
                             " --json 2>" + (s.dir() / "err").string();
@@ -133,6 +130,6 @@ TEST(PlanJson, OnlyForPlan) {
     EXPECT_EQ(WEXITSTATUS(rc), 2) << command;
     EXPECT_NE(s.read("err").find("--json: only for circcomp plan"), std::string::npos)
         << s.read("err");
-    EXPECT_EQ(read_file(ini), machine());
+    EXPECT_EQ(read_file(ini), yxz_machine());
   }
 }

@@ -11,12 +11,15 @@
 #include "circtest/compensation/plan.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/ini.hpp"
+#include "compensation_test_support.hpp"
 #include "expect_error.hpp"
 #include "scratch.hpp"
 
 using namespace circtest;
 using namespace circtest::compensation;
 using json = nlohmann::ordered_json;
+using circtest::testing::change_of;
+using circtest::testing::joint;
 namespace K = diagnosis_json::key;
 
 namespace {
@@ -51,17 +54,6 @@ json set_doc() {
                      {plane_doc("XY", "X", "Y", 100.0), plane_doc("YZ", "Y", "Z", -60.0),
                       plane_doc("ZX", "Z", "X", 45.0)}}};
   return d;
-}
-
-std::string joint(int n) {
-  return "[JOINT_" + std::to_string(n) + "]\nTYPE = LINEAR\nMIN_LIMIT = -300\nMAX_LIMIT = 300\n\n";
-}
-
-const FileChange* change_of(const Plan& plan, const std::string& suffix) {
-  for (const FileChange& f : plan.files) {
-    if (f.path.ends_with(suffix)) return &f;
-  }
-  return nullptr;
 }
 
 }  // namespace

@@ -12,7 +12,6 @@
 #include <string>
 #include <thread>
 
-#include "circtest/core/atomic_file.hpp"
 #include "circtest/core/error.hpp"
 #include "circtest/core/input_file.hpp"
 #include "circtest/core/trace.hpp"
@@ -319,24 +318,6 @@ TEST(TraceFile, UncommittedWriterLeavesNothing) {
   EXPECT_FALSE(std::filesystem::exists(path));
   EXPECT_FALSE(std::filesystem::exists(path + ".part"));
   std::filesystem::remove_all(dir);
-}
-
-TEST(AtomicFile, ReplacesAndKeepsBackup) {
-  const circtest::testing::ScratchDir scratch("circtest-core");
-  const auto dir = scratch.dir();
-  const std::string path = (dir / "machine.ini").string();
-  write_file_atomic(path, "old\n");
-  write_file_atomic(path, "new\n", {.keep_backup = true});
-  EXPECT_EQ(read_file(path), "new\n");
-  EXPECT_EQ(read_file(path + ".bak"), "old\n");
-  std::size_t entries = 0;
-  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++entries;
-  EXPECT_EQ(entries, 2u) << "a temporary file was left behind";
-  std::filesystem::remove_all(dir);
-}
-
-TEST(AtomicFile, FailureLeavesTheOriginalUntouched) {
-  EXPECT_THROW(write_file_atomic("/nonexistent-dir/x.ini", "x"), IoError);
 }
 
 TEST(TraceReaderErrors, LineLongerThanTheCap) {

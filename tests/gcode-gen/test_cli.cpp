@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "expect_refused.hpp"
 #include "support.hpp"
 
 namespace circtest::testing {
@@ -19,15 +20,6 @@ struct BadCase {
   int exit_code;
   std::string message;  // must appear in the error line
 };
-
-void expect_refused(const CommandResult& r, int exit_code, const std::string& message) {
-  EXPECT_EQ(r.exit_code, exit_code) << r.err;
-  EXPECT_TRUE(r.out.empty()) << "stdout: " << r.out.substr(0, 200);
-  EXPECT_TRUE(r.err.starts_with("circgen: error: ")) << r.err;
-  ASSERT_FALSE(r.err.empty());
-  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line expected: " << r.err;
-  EXPECT_NE(r.err.find(message), std::string::npos) << "expected '" << message << "' in " << r.err;
-}
 
 std::vector<BadCase> option_cases() {
   return {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "expect_refused.hpp"
 #include "support.hpp"
 
 namespace circtest::testing {
@@ -21,14 +22,6 @@ CommandResult run_bounded(const std::vector<std::string>& args) {
   std::vector<std::string> argv{"/usr/bin/timeout", "20", CIRCGEN_EXE};
   argv.insert(argv.end(), args.begin(), args.end());
   return run_command(argv, {"SOURCE_DATE_EPOCH=1700000000"});
-}
-
-void expect_refused(const CommandResult& r, int exit_code, const std::string& words) {
-  EXPECT_EQ(r.exit_code, exit_code) << r.err;
-  EXPECT_TRUE(r.out.empty());
-  EXPECT_TRUE(r.err.starts_with("circgen: error: ")) << r.err;
-  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
-  EXPECT_NE(r.err.find(words), std::string::npos) << "expected '" << words << "' in " << r.err;
 }
 
 const char* kIni =

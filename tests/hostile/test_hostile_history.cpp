@@ -9,13 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "hostile_example.hpp"
 #include "scratch.hpp"
 
 namespace {
 
-using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
-
-const std::string kExample = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command, kExample
 
 bool has(const std::string& text, const std::string& words) {
   return text.find(words) != std::string::npos;

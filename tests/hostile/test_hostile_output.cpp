@@ -7,13 +7,13 @@
 #include <string>
 #include <vector>
 
+#include "hostile_example.hpp"
 #include "scratch.hpp"
 
 namespace {
 
-using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command
+using namespace circtest::testing;  // ScratchDir, slurp, spit, run_command, kExample
 
-const std::string kExample = std::string(CIRCTEST_SOURCE_DIR) + "/examples/sim-d150-f1000.csv";
 const std::string kSimIni = std::string(CIRCTEST_SOURCE_DIR) + "/configs/sim-mill/sim-mill.ini";
 
 // Runs ARGV with standard output on /dev/full (every write fails with ENOSPC).
