@@ -61,12 +61,26 @@ if [ $sanitize = 1 ]; then
   san_pass=$!
   set +m
   trap 'kill -- -"$san_pass" 2>/dev/null || true' EXIT
-  CIRCTEST_PACKAGES=all scripts/setup.sh install
-  touch "$test_packages_mark"
+  CIRCTEST_PACKAGES=build scripts/setup.sh install
+  phase "install of the build's packages"
+  # The tests' packages install while the main build's configure step and its first targets
+  # run (the configure step needs none of them: tests/analysis/CMakeLists.txt).
+  tests_log=$BUILD_DIR/test-packages.log
+  (CIRCTEST_PACKAGES=tests scripts/setup.sh install >"$tests_log" 2>&1 &&
+    touch "$test_packages_mark") &
+  test_packages=$!
 else
   scripts/setup.sh install
+  phase "install"
 fi
-phase "install"
+# Waits for the tests' packages (installed in the background in the full run).
+wait_for_test_packages() {
+  [ -n "${test_packages:-}" ] || return 0
+  wait "$test_packages" ||
+    { cat "$tests_log"; echo "test.sh: the tests' packages did not install" >&2; exit 1; }
+  test_packages=""
+  phase "install of the tests' packages"
+}
 # The full run builds the e2e tests' programs first (tests/e2e: circtest_e2e_programs) and
 # starts those tests (label e2e) while the rest builds at nice 10: they wait on LinuxCNC's
 # real-time motion for most of their time, the build takes the CPU they leave.
@@ -75,21 +89,24 @@ e2e_bg=0
 if [ $e2e_bg = 1 ]; then
   CIRCTEST_BUILD_TARGET=circtest_e2e_programs scripts/setup.sh build
   phase "e2e programs build"
+  wait_for_test_packages
 else
   scripts/setup.sh build
   phase "main build"
+  wait_for_test_packages
 fi
 # The LinuxCNC runs of this suite that equal an earlier one (configuration, program, --set
 # values: configs/circtest-run) reuse its trace: a new, empty cache each time.
 CIRCTEST_RUN_CACHE=$(cd "$BUILD_DIR" && pwd)/run-cache
 rm -rf "$CIRCTEST_RUN_CACHE"
 export CIRCTEST_RUN_CACHE
-# Three LinuxCNC side by side (tests/e2e/CMakeLists.txt: each e2e test takes one slot of the
+# Four LinuxCNC side by side (tests/e2e/CMakeLists.txt: each e2e test takes one slot of the
 # resource linuxcnc for its whole time; configs/circtest-run then takes one of its own
-# CIRCTEST_RUN_SLOTS, each run in its own sandbox with its realtime threads SCHED_FIFO).
+# CIRCTEST_RUN_SLOTS, each run in its own sandbox with its realtime threads SCHED_FIFO): the
+# e2e tests (1,236 s one after the other, the demo 210 s of it) are the run's longest path.
 # Four times as many tests as cores: the LinuxCNC runs wait on the machine's motion, in real
 # time, most of their minute, and the other tests (the unit tests among them) use that CPU.
-export CIRCTEST_RUN_SLOTS=${CIRCTEST_RUN_SLOTS:-3}
+export CIRCTEST_RUN_SLOTS=${CIRCTEST_RUN_SLOTS:-4}
 slots_file=$(cd "$BUILD_DIR" && pwd)/linuxcnc-slots.json
 printf '{"version": {"major": 1, "minor": 0},\n "local": [{"linuxcnc": [{"id": "0", "slots": %d}]}]}\n' \
   "$CIRCTEST_RUN_SLOTS" >"$slots_file"

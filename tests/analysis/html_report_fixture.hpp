@@ -53,7 +53,7 @@ inline constexpr const char* kWidthProbe =
 class HtmlReport : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (std::string(CHROMIUM_PATH).empty() || !fs::exists(CHROMIUM_PATH)) {
+    if (!fs::exists(CHROMIUM_PATH)) {
       GTEST_SKIP() << "chromium not installed (Debian package chromium): the HTML report is "
                       "not checked";
     }
@@ -140,7 +140,7 @@ class HtmlReport : public ::testing::Test {
   // The pages of the printed PDF (A4 each): pdfinfo when installed, else the /Type /Page
   // objects.
   int pdf_pages(const std::string& pdf) {
-    if (!std::string(PDFINFO_PATH).empty()) {
+    if (fs::exists(PDFINFO_PATH)) {
       const CommandResult info = run_command({PDFINFO_PATH, pdf});
       EXPECT_EQ(info.exit_code, 0) << info.err;
       std::smatch m;
@@ -162,7 +162,7 @@ class HtmlReport : public ::testing::Test {
   }
   // The text of page K of the PDF (pdftotext).
   std::string pdf_page_text(const std::string& pdf, int k) {
-    if (std::string(PDFTOTEXT_PATH).empty()) {
+    if (!fs::exists(PDFTOTEXT_PATH)) {
       ADD_FAILURE() << "pdftotext (poppler-utils) is needed to read the printed pages";
       return {};
     }
