@@ -118,7 +118,9 @@ SessionVerdict session_verdict(const std::string& results_text, const std::strin
     pass = pass && v.result == R::pass;
   }
   const W word = pass ? W::within : fail ? W::out_of_tolerance : W::not_decided;
-  const char* words = pass ? "within the limits" : fail ? "OUT OF TOLERANCE" : "NOT DECIDED";
+  const char* words = word == W::within             ? "within the limits"
+                      : word == W::out_of_tolerance ? "OUT OF TOLERANCE"
+                                                    : "NOT DECIDED";
   std::string line =
       fmt::format("verdict against {} (ISO 14253-1, U k = 2): {}: ", limits_text, words);
   for (std::size_t i = 0; i < items.size(); ++i) line += (i ? "; " : "") + items[i];

@@ -10,6 +10,7 @@
 #include <limits>
 #include <numeric>
 
+#include "../evaluation/median.hpp"
 #include "circtest/core/diagnosis_keys.hpp"
 #include "circtest/core/trace_keys.hpp"
 #include "stages.hpp"
@@ -133,15 +134,14 @@ std::optional<double> residual_pitch(const std::vector<double>& pos, const std::
     }
   }
   if (power.size() < 8) return std::nullopt;
-  const auto mid = power.begin() + static_cast<std::ptrdiff_t>(power.size() / 2);
-  std::nth_element(power.begin(), mid, power.end());
+  const double median_power = detail::median_in_place(power);
   // The peak between its grid neighbours.
   const double step = 1.0 + best_pitch / (4.0 * span);
   best_pitch =
       golden([&](double p) { return -power_at(p); }, best_pitch / step, best_pitch * step, 40);
   best = power_at(best_pitch);
   const double amplitude = 2.0 * std::sqrt(best) / total;
-  if (!(best > o.cyclic_detection_factor * *mid) || amplitude < o.min_cyclic_amplitude_mm)
+  if (!(best > o.cyclic_detection_factor * median_power) || amplitude < o.min_cyclic_amplitude_mm)
     return std::nullopt;
   return best_pitch;
 }
@@ -206,10 +206,8 @@ std::optional<AxisScale> fit_axis(const Inputs& in, const TraceDescription& td, 
   }
   std::vector<double> res = residual(*first, ncols);
   for (double& r : res) r = std::abs(r);
-  std::vector<double> sorted = res;
-  const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
-  std::nth_element(sorted.begin(), mid, sorted.end());
-  const double sigma = 1.4826 * *mid;
+  std::vector<double> scratch = res;
+  const double sigma = 1.4826 * detail::median_in_place(scratch);
   if (sigma > 0) {
     for (std::size_t i = 0; i < d.size(); ++i) keep[i] = res[i] <= kOutlierSigmas * sigma ? 1 : 0;
     if (const auto second = solve(x, d, keep, ncols)) return second->scale;

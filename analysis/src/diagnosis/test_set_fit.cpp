@@ -226,8 +226,6 @@ void take_joint(const AxisJoint& a, JointEstimate& j, const Estimate& e, const c
   if (auto note = take_joint_value(a, j, e, what, unit, factor)) notes.push_back(std::move(*note));
 }
 
-}  // namespace
-
 // A joint scale with the planes' largest loop bound (instrument_scale.cpp) in its standard
 // error: the same servo in every plane, so no joint fit averages it down.
 Estimate with_loop_bound(const std::vector<PlaneFit>& planes, Estimate e) {
@@ -237,6 +235,8 @@ Estimate with_loop_bound(const std::vector<PlaneFit>& planes, Estimate e) {
     e.standard_error = std::hypot(e.standard_error.value_or(0.0), loop_se * 1e6);
   return e;
 }
+
+}  // namespace
 
 SetDiagnosis diagnose_set(std::string source, const std::vector<SetPlaneInput>& inputs) {
   std::vector<PlaneFit> planes;
